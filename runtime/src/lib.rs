@@ -1,0 +1,5 @@
+//! Lewis runtime: the service model (`Service`, `Context`), the clock, IPC over
+//! iceoryx2, typed clients that follow rebinding, the broker (a pure decision core and
+//! its live driver) and process supervision.
+//!
+//! It knows nothing of MCAP files, recording or replay.

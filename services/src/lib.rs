@@ -1,0 +1,8 @@
+//! Lewis services: device drivers (SICK laser, RFlex base, camera), the simulator,
+//! motion (VectorMover, ObstacleAvoider) and perception (BlobFinder, BlobFinder3D,
+//! SignDetector).
+//!
+//! Services see only the runtime's `Context`: they know nothing of recording or replay.
+
+pub mod drivers;
+pub mod perception;

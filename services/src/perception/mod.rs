@@ -1,0 +1,1 @@
+//! Perception: colour segmentation (CMVision) and what is built on it.
