@@ -4,3 +4,5 @@
 //!
 //! This crate is the only one that knows the wire encoding. It knows nothing of
 //! processes, shared memory or MCAP files.
+
+pub mod dynamic;

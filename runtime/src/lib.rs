@@ -3,3 +3,8 @@
 //! its live driver) and process supervision.
 //!
 //! It knows nothing of MCAP files, recording or replay.
+
+pub mod broker;
+pub mod ipc;
+pub mod robot;
+pub mod supervise;

@@ -1,0 +1,1 @@
+//! The robot description (`robots/*.toml`): services, providers, policies.

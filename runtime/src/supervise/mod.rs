@@ -1,0 +1,1 @@
+//! Process supervision: spawn, watch, restart with intensity and backoff, stop in reverse order.
