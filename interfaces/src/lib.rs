@@ -4,5 +4,30 @@
 //!
 //! This crate is the only one that knows the wire encoding. It knows nothing of
 //! processes, shared memory or MCAP files.
+//!
+//! A service writes `ctx.publish(&RangeFinder { ranges, ..Default::default() })` with the
+//! types of [`msg`] and never touches bytes; [`cdr`] turns them into the bytes that go,
+//! unchanged, into shared memory and into MCAP, under the schema [`Struct::SCHEMA_TEXT`].
 
+pub mod cdr;
 pub mod dynamic;
+pub mod idl;
+mod traits;
+
+pub use traits::{
+    Command, CommandDecodeError, CommandInfo, CommandSet, Interface, InterfaceInfo, Message,
+    SchemaInfo, SizeMismatch, Struct,
+};
+
+/// The types generated from `idl/*.xml`: one struct per compound type, publication,
+/// command and reply, and per interface an enum of its commands and one of their replies.
+#[allow(missing_docs, clippy::all, clippy::pedantic)]
+pub mod msg {
+    include!(concat!(env!("OUT_DIR"), "/generated.rs"));
+}
+
+/// The interface compiled into this crate with this name.
+#[must_use]
+pub fn interface_info(name: &str) -> Option<&'static InterfaceInfo> {
+    msg::INTERFACES.iter().find(|i| i.name == name)
+}

@@ -1,0 +1,88 @@
+//! ROS 2 CDR: plain CDR, little-endian, after the 4-byte encapsulation header
+//! `00 01 00 00`, every primitive aligned to its size relative to the end of that header;
+//! strings are a `u32` length that counts the terminating NUL, the bytes, then the NUL;
+//! sequences are a `u32` count, then the elements.
+//!
+//! Written once, generic over where the bytes go ([`Sink`]): a counter (to size a
+//! shared-memory loan), a caller's slice (to encode straight into shared memory), or a
+//! reusable `Vec`. Decoding never trusts a count: it is checked against the bytes left
+//! before anything is allocated.
+
+mod decode;
+mod encode;
+
+pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader};
+pub use encode::{Encode, EncodeError, Sink, SizeSink, SliceSink, VecSink};
+
+/// The encapsulation header of little-endian plain CDR.
+pub const ENCAPSULATION_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
+
+/// The number of bytes `value` takes encoded, header included.
+pub fn encoded_len<T: Encode + ?Sized>(value: &T) -> usize {
+    let mut sink = SizeSink::default();
+    value.encode(&mut sink);
+    ENCAPSULATION_LE.len() + sink.position()
+}
+
+/// Encodes `value` into `buffer` (header included), returning the bytes written.
+///
+/// # Errors
+/// [`EncodeError::BufferTooSmall`] when `buffer` is shorter than [`encoded_len`]; the
+/// buffer's contents are then unspecified.
+pub fn encode_into<T: Encode + ?Sized>(value: &T, buffer: &mut [u8]) -> Result<usize, EncodeError> {
+    let needed = encoded_len(value);
+    let Some((header, payload)) = buffer.split_at_mut_checked(ENCAPSULATION_LE.len()) else {
+        return Err(EncodeError::BufferTooSmall {
+            needed,
+            available: buffer.len(),
+        });
+    };
+    header.copy_from_slice(&ENCAPSULATION_LE);
+    let available = payload.len() + ENCAPSULATION_LE.len();
+    let mut sink = SliceSink::new(payload);
+    value.encode(&mut sink);
+    match sink.finish() {
+        Some(written) => Ok(written + ENCAPSULATION_LE.len()),
+        None => Err(EncodeError::BufferTooSmall { needed, available }),
+    }
+}
+
+/// Encodes `value` into `buffer`, replacing its contents (its allocation is reused).
+pub fn encode_to_vec<T: Encode + ?Sized>(value: &T, buffer: &mut Vec<u8>) {
+    buffer.clear();
+    buffer.extend_from_slice(&ENCAPSULATION_LE);
+    let mut sink = VecSink::new(buffer, ENCAPSULATION_LE.len());
+    value.encode(&mut sink);
+}
+
+/// Encodes `value` into a new `Vec`.
+pub fn to_vec<T: Encode + ?Sized>(value: &T) -> Vec<u8> {
+    let mut buffer = Vec::with_capacity(encoded_len(value));
+    encode_to_vec(value, &mut buffer);
+    buffer
+}
+
+/// Decodes a `T` from `bytes` (header included). Up to 3 trailing padding bytes are
+/// accepted, as some writers pad messages to a multiple of 4.
+///
+/// # Errors
+/// A [`DecodeError`] naming the field and offset when the bytes are not a valid `T`.
+pub fn from_bytes<T: Decode>(bytes: &[u8]) -> Result<T, DecodeError> {
+    let payload = match bytes.split_first_chunk::<4>() {
+        Some((header, payload)) if *header == ENCAPSULATION_LE => payload,
+        Some((header, _)) => {
+            return Err(DecodeError::at(0, DecodeErrorKind::Encapsulation(*header)));
+        }
+        None => return Err(DecodeError::at(0, DecodeErrorKind::Truncated { needed: 4, left: bytes.len() })),
+    };
+    let mut reader = Reader::new(payload);
+    let value = T::decode(&mut reader)?;
+    let trailing = reader.remaining();
+    if trailing > 3 {
+        return Err(DecodeError::at(
+            reader.position() + ENCAPSULATION_LE.len(),
+            DecodeErrorKind::TrailingBytes(trailing),
+        ));
+    }
+    Ok(value)
+}

@@ -1,0 +1,183 @@
+//! The traits that generated types implement, and the catalogue entries that describe
+//! them to tools.
+
+use std::fmt::Debug;
+
+use thiserror::Error;
+
+use crate::cdr::{Decode, DecodeError, Encode};
+use crate::msg::Header;
+
+/// Any generated struct: it has a CDR encoding and a ros2msg schema.
+pub trait Struct: Encode + Decode + Clone + Debug + PartialEq + Default + Send + Sync + 'static {
+    /// The schema name, `lewis_interfaces/msg/<Name>`.
+    const SCHEMA_NAME: &'static str;
+    /// The ros2msg schema text, dependencies appended as ROS 2 does.
+    const SCHEMA_TEXT: &'static str;
+
+    /// Checks that every array has the length its `array_size` field says.
+    ///
+    /// # Errors
+    /// The first array whose length disagrees.
+    fn check_sizes(&self) -> Result<(), SizeMismatch>;
+}
+
+/// A struct that travels on its own: a publication, a command or a reply. It starts with
+/// the common [`Header`].
+pub trait Message: Struct {
+    /// The header: provider, sequence number, publish time, provenance.
+    fn header(&self) -> &Header;
+    /// The header, to fill in before sending.
+    fn header_mut(&mut self) -> &mut Header;
+}
+
+/// An interface, named by the type of its publication: `Client<RangeFinder>`.
+pub trait Interface: Message {
+    /// Its name, as in the XML.
+    const NAME: &'static str;
+    /// Its version, `MAJOR.MINOR`.
+    const VERSION: &'static str;
+    /// The XML definition it was generated from.
+    const XML: &'static str;
+    /// Its commands, as one enum.
+    type Command: CommandSet;
+    /// The replies to its commands, as one enum.
+    type Reply: CommandSet;
+}
+
+/// A command of an interface, with the type of its reply.
+pub trait Command: Message {
+    /// Its name, as in the XML (`set_zoom`).
+    const NAME: &'static str;
+    /// The interface it belongs to.
+    type Interface: Interface;
+    /// What it answers.
+    type Reply: Message;
+}
+
+/// The commands (or the replies) of one interface as an enum, for a provider that
+/// dispatches on them.
+pub trait CommandSet: Sized + Debug + Clone + PartialEq + Send + 'static {
+    /// The interface.
+    const INTERFACE: &'static str;
+    /// Every command name, in definition order.
+    const NAMES: &'static [&'static str];
+    /// The command name of this value.
+    fn name(&self) -> &'static str;
+    /// The header of this value.
+    fn header(&self) -> &Header;
+    /// Encodes the message inside (not its name) into `buffer`, replacing its contents.
+    fn encode_to_vec(&self, buffer: &mut Vec<u8>);
+    /// Decodes the message of command `command` from CDR bytes.
+    ///
+    /// # Errors
+    /// When the command is not one of [`Self::NAMES`] or the bytes do not decode.
+    fn decode(command: &str, bytes: &[u8]) -> Result<Self, CommandDecodeError>;
+}
+
+/// Why a command could not be decoded.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum CommandDecodeError {
+    /// The interface has no command of that name.
+    #[error("interface `{interface}` has no command `{command}`; it has: {known}")]
+    Unknown {
+        /// The interface.
+        interface: &'static str,
+        /// The name asked for.
+        command: String,
+        /// The commands it has, comma-separated.
+        known: String,
+    },
+    /// The bytes are not a valid encoding of the command.
+    #[error("{0}")]
+    Decode(#[from] DecodeError),
+}
+
+impl CommandDecodeError {
+    /// The error for an unknown command of the set `S`.
+    #[must_use]
+    pub fn unknown<S: CommandSet>(command: &str) -> Self {
+        Self::Unknown {
+            interface: S::INTERFACE,
+            command: command.to_owned(),
+            known: S::NAMES.join(", "),
+        }
+    }
+}
+
+/// An array whose length disagrees with the field that gives its size.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("`{ty}.{array}` has {len} elements but `{ty}.{size_field}` says {size}")]
+pub struct SizeMismatch {
+    /// The struct.
+    pub ty: &'static str,
+    /// The array field.
+    pub array: &'static str,
+    /// Its length.
+    pub len: usize,
+    /// The field that gives its size.
+    pub size_field: &'static str,
+    /// What that field says.
+    pub size: i128,
+}
+
+impl SizeMismatch {
+    /// Checks one array against its size field (used by generated code).
+    ///
+    /// # Errors
+    /// When the two disagree.
+    pub fn check(
+        ty: &'static str,
+        array: &'static str,
+        len: usize,
+        size_field: &'static str,
+        size: i128,
+    ) -> Result<(), Self> {
+        if i128::try_from(len).ok() == Some(size) {
+            Ok(())
+        } else {
+            Err(Self {
+                ty,
+                array,
+                len,
+                size_field,
+                size,
+            })
+        }
+    }
+}
+
+/// A schema as MCAP stores it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SchemaInfo {
+    /// `lewis_interfaces/msg/<Name>`.
+    pub name: &'static str,
+    /// The ros2msg text.
+    pub text: &'static str,
+}
+
+/// One command of an interface in the catalogue.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CommandInfo {
+    /// Its name.
+    pub name: &'static str,
+    /// The request's schema.
+    pub request: SchemaInfo,
+    /// The reply's schema.
+    pub reply: SchemaInfo,
+}
+
+/// One interface in the catalogue: what a recorder stores and a tool shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InterfaceInfo {
+    /// Its name.
+    pub name: &'static str,
+    /// Its version.
+    pub version: &'static str,
+    /// The XML it was generated from.
+    pub xml: &'static str,
+    /// The publication's schema.
+    pub publication: SchemaInfo,
+    /// Its commands.
+    pub commands: &'static [CommandInfo],
+}
