@@ -1,2 +1,71 @@
 //! Lewis sequencer: the mission script language of the paper, the finite state machine
 //! of sub-task programs, and the supervisor's GUI.
+//!
+//! What lives here so far is pure: the script parser (`script`), the checker that turns a
+//! parsed script into a runnable [`Mission`] (`check`), and the FSM core (`fsm`) that maps
+//! events (a program exited, crashed, timed out; the supervisor chose) to decisions (run,
+//! restart, recover, ask the supervisor, finish). None of it starts processes or reads a
+//! clock; the live driver, which does, feeds the core.
+//!
+//! # The language
+//!
+//! ```text
+//! # The paper's Figure 3, unchanged, plus the extensions.
+//! start door
+//! restart 3
+//! recovery oops
+//! use gui
+//! env ROBOT=lewis              # for every program
+//!
+//! state door ./bin/door --speed 0.3 "a quoted arg\n"
+//!   action 0 trans sign
+//!   timeout 2m                 # 500ms, 30s, 1.5s, 2m, 1h
+//!   restart 5                  # this state's own restart limit
+//!   env LOG=debug              # this state's programs only
+//!
+//! include "common.seq"         # relative to this file
+//! ```
+//!
+//! Lines are independent and indentation is free. `restart` and `env` after a `state` line
+//! (and before the next `state` or `include` line of the same file) belong to that state;
+//! before any `state` line they are global. Programs with a `/` are paths relative to the
+//! folder of the file that names them; programs without one are looked up in `PATH`.
+//!
+//! # Choices the paper leaves open
+//!
+//! - Without `restart`, the limit is 0: a crash goes straight to recovery.
+//! - A crash is a signal, a timeout, a failure to start the program, or an exit code the
+//!   state does not list that is 101 (Rust's panic) or 128 and above (the shell's
+//!   "killed by signal" convention). Any other unlisted code goes straight to recovery
+//!   without restarting. A listed code is always a transition.
+//! - The restart count is per visit: a transition into a state (even the same one) starts
+//!   again from attempt 1.
+//! - The recovery state is restarted on a crash like any other. When it fails (beyond its
+//!   limit or on an unlisted code), recovery is not entered again: with `use gui` the
+//!   supervisor is asked, otherwise the mission aborts.
+//! - With `use gui`, whenever the recovery state exits with a listed code, the supervisor
+//!   is asked where to resume, the listed target (often `stop`) being the suggestion.
+//!   Without it, the listed transition is followed.
+//! - A missing `recovery` is a warning: failures then ask the supervisor (`use gui`) or
+//!   abort. States unreachable from `start` are warnings even with `use gui` (where the
+//!   supervisor could still choose them), and so are states with no chain of actions to
+//!   `stop`.
+
+pub mod check;
+pub mod diagnostic;
+pub mod fsm;
+pub mod location;
+pub mod mission;
+pub mod resolve;
+pub mod script;
+pub mod source;
+mod suggest;
+
+pub use check::{CheckedScript, check_file, check_script, check_with};
+pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
+pub use fsm::{Decision, Event, EventError, Sequencer};
+pub use location::{Location, Spanned};
+pub use mission::{Mission, MissionState, Target};
+pub use resolve::{ProgramResolver, ResolveError, SystemResolver, TrustingResolver};
+pub use script::{Script, parse};
+pub use source::{FileSystem, MemorySources, SourceLoader};

@@ -1,0 +1,10 @@
+//! The script language: its syntax tree and the parser that builds it.
+
+mod ast;
+mod duration;
+mod lexer;
+mod parser;
+
+pub use ast::{Action, EnvVar, Script, State};
+pub(crate) use duration::format_duration_ns;
+pub use parser::{MAX_INCLUDE_DEPTH, parse};
