@@ -1,19 +1,49 @@
 //! The `lewis` command line: clap definitions and the dispatch to the library crates.
+//! Every behaviour lives in a library crate; this one parses, calls, and prints.
+//!
+//! Exit codes: 0 success; 1 the command ran and found problems (invalid definitions,
+//! a failed check); 2 the command could not run (bad arguments, unreadable files).
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{Parser, Subcommand};
+
+mod idl;
+mod info;
 
 /// The `lewis` command line.
 #[derive(Debug, Parser)]
 #[command(
     name = "lewis",
     version,
-    about = "Fault-tolerant robot control, recorded and replayed"
+    about = "Fault-tolerant robot control, recorded and replayed",
+    long_about = "Lewis runs robot software as small services that implement interfaces \
+                  defined in XML, records every publication into MCAP, and replays \
+                  recordings deterministically."
 )]
-pub struct Cli {}
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Check and show interface definitions.
+    #[command(subcommand)]
+    Idl(idl::IdlCommand),
+    /// Describe an MCAP recording: channels, counts, rates, losses, and decoded messages.
+    Info(info::InfoArgs),
+}
 
 /// Runs the parsed command and returns the process exit code.
-pub fn run(_cli: Cli) -> anyhow::Result<ExitCode> {
-    Ok(ExitCode::SUCCESS)
+///
+/// # Errors
+/// When the command cannot run; the caller prints the error chain and exits with 2.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Idl(command) => idl::run(command),
+        Command::Info(args) => info::run(&args),
+    }
 }

@@ -26,6 +26,24 @@ pub mod msg {
     include!(concat!(env!("OUT_DIR"), "/generated.rs"));
 }
 
+/// The definitions compiled into this crate, validated again from their XML text: for
+/// tools that show them (as ros2msg, XML or Rust) without the source folder.
+///
+/// # Errors
+/// Never in practice: the same text was validated at build time.
+pub fn builtin_idl() -> Result<idl::Idl, idl::Diagnostics> {
+    let sources: Vec<(std::path::PathBuf, String)> = msg::TYPES_XML
+        .iter()
+        .map(|(file, xml)| (std::path::PathBuf::from(file), (*xml).to_owned()))
+        .chain(
+            msg::INTERFACES
+                .iter()
+                .map(|i| (std::path::PathBuf::from(format!("{}.xml", i.name)), i.xml.to_owned())),
+        )
+        .collect();
+    idl::load_sources(&sources)
+}
+
 /// The interface compiled into this crate with this name.
 #[must_use]
 pub fn interface_info(name: &str) -> Option<&'static InterfaceInfo> {

@@ -34,12 +34,12 @@ pub fn load_dir(dir: &Path) -> Result<Idl, Diagnostics> {
 /// # Errors
 /// Every problem found, each with its file, line and column.
 pub fn load_files(files: &[PathBuf]) -> Result<Idl, Diagnostics> {
-    let mut parsed = Vec::new();
+    let mut sources = Vec::new();
     let mut errors = Vec::new();
     for file in files {
-        let source = match std::fs::read(file) {
+        match std::fs::read(file) {
             Ok(bytes) => match String::from_utf8(bytes) {
-                Ok(text) => text,
+                Ok(text) => sources.push((file.clone(), text)),
                 Err(err) => {
                     let offset = err.utf8_error().valid_up_to();
                     let valid = String::from_utf8_lossy(err.as_bytes().get(..offset).unwrap_or_default()).into_owned();
@@ -48,24 +48,38 @@ pub fn load_files(files: &[PathBuf]) -> Result<Idl, Diagnostics> {
                         Position::of_offset(&valid, offset),
                         "the file is not valid UTF-8",
                     ));
-                    continue;
                 }
             },
             Err(err) => {
                 errors.push(Diagnostic::new(file, Position::default(), format!("cannot read the file: {err}")));
-                continue;
             }
-        };
-        match parse_document(&source, file) {
+        }
+    }
+    load_sources_with(&sources, errors)
+}
+
+/// Validates definitions given as text, each with the path it is known by (for
+/// diagnostics, and to match `<types filename>` by file name).
+///
+/// # Errors
+/// Every problem found, each with its file, line and column.
+pub fn load_sources(sources: &[(PathBuf, String)]) -> Result<Idl, Diagnostics> {
+    load_sources_with(sources, Vec::new())
+}
+
+fn load_sources_with(sources: &[(PathBuf, String)], mut errors: Vec<Diagnostic>) -> Result<Idl, Diagnostics> {
+    let mut parsed = Vec::new();
+    for (file, source) in sources {
+        match parse_document(source, file) {
             Ok(document) => parsed.push(Parsed {
                 file: file.clone(),
-                source,
+                source: source.clone(),
                 document,
             }),
             Err(d) => errors.push(d),
         }
     }
-    match validate(parsed) {
+    match validate(&parsed) {
         Ok(idl) if errors.is_empty() => Ok(idl),
         Ok(_) => {
             let mut d = Diagnostics(errors);

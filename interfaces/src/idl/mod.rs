@@ -15,7 +15,7 @@ mod rust;
 mod validate;
 
 pub use diagnostic::{Diagnostic, Diagnostics, Position};
-pub use load::{load_dir, load_files};
+pub use load::{load_dir, load_files, load_sources};
 pub use model::{
     Command, Field, FieldType, Idl, Interface, Primitive, StructKind, StructType,
     HEADER_TYPE, INPUT_REF_TYPE, PACKAGE,

@@ -153,13 +153,13 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
                 field.name, field.name
             );
         }
-        if let FieldType::Struct(inner) = &field.ty {
-            if struct_has_sizes(idl, inner) {
-                if field.is_array {
-                    let _ = writeln!(out, "        for item in &self.{} {{ crate::Struct::check_sizes(item)?; }}", field.name);
-                } else {
-                    let _ = writeln!(out, "        crate::Struct::check_sizes(&self.{})?;", field.name);
-                }
+        if let FieldType::Struct(inner) = &field.ty
+            && struct_has_sizes(idl, inner)
+        {
+            if field.is_array {
+                let _ = writeln!(out, "        for item in &self.{} {{ crate::Struct::check_sizes(item)?; }}", field.name);
+            } else {
+                let _ = writeln!(out, "        crate::Struct::check_sizes(&self.{})?;", field.name);
             }
         }
     }

@@ -33,7 +33,7 @@ enum Known {
 }
 
 /// Validates every parsed file together and resolves them into an [`Idl`].
-pub(super) fn validate(files: Vec<Parsed>) -> Result<Idl, Diagnostics> {
+pub(super) fn validate(files: &[Parsed]) -> Result<Idl, Diagnostics> {
     let mut errors = Vec::new();
     let mut known: BTreeMap<String, Known> = BTreeMap::new();
     let mut types_xml = Vec::new();
@@ -45,7 +45,7 @@ pub(super) fn validate(files: Vec<Parsed>) -> Result<Idl, Diagnostics> {
     }
 
     // Type libraries first: interfaces refer to them.
-    for parsed in &files {
+    for parsed in files {
         let RawDocument::Types(types) = &parsed.document else {
             continue;
         };
@@ -78,7 +78,7 @@ pub(super) fn validate(files: Vec<Parsed>) -> Result<Idl, Diagnostics> {
 
     let mut interfaces = Vec::new();
     let mut interface_names: BTreeMap<String, PathBuf> = BTreeMap::new();
-    for parsed in &files {
+    for parsed in files {
         let RawDocument::Interface(raw) = &parsed.document else {
             continue;
         };
