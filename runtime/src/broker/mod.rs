@@ -1,1 +1,15 @@
 //! The broker: a pure decision core (events in, actions out) and its live driver.
+//!
+//! The [`BrokerCore`] decides which service provides each interface a client asks for,
+//! when to start, restart, stop or replace a provider, and when to ask for help. It does no
+//! I/O and reads no clock: time comes in with every event, so the same events give the same
+//! decisions live and in replay. The live driver turns processes, heartbeats and timers
+//! into [`Event`]s and carries out the [`Action`]s; every [`Decision`] (action and reason)
+//! is published on `/lewis/broker`.
+
+mod core;
+
+pub use self::core::{
+    Action, AfterStop, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need,
+    ServiceState, ServiceStatus, Snapshot,
+};

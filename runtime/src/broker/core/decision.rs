@@ -1,0 +1,168 @@
+//! What the decision core decides: actions for the driver, each with its reason.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+/// One thing the broker decided to do.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Action {
+    /// Spawn the service's process.
+    Start {
+        /// The service.
+        service: String,
+    },
+    /// Stop the service's process (SIGTERM, then SIGKILL after a grace period); a
+    /// `ProcessExited` event is expected back.
+    Stop {
+        /// The service.
+        service: String,
+    },
+    /// Tell a client which service provides the interface it asked for.
+    Bind {
+        /// The client.
+        client: String,
+        /// The interface.
+        interface: String,
+        /// Its provider.
+        service: String,
+    },
+    /// Move a client to another provider of an interface.
+    Rebind {
+        /// The client.
+        client: String,
+        /// The interface.
+        interface: String,
+        /// The provider it leaves.
+        from: String,
+        /// The provider it gets.
+        to: String,
+    },
+    /// A client has no provider for an interface any more (it keeps waiting for one).
+    Unbind {
+        /// The client.
+        client: String,
+        /// The interface.
+        interface: String,
+        /// The provider it loses.
+        service: String,
+    },
+    /// A client asked for an interface that no service of the robot provides.
+    Reject {
+        /// The client.
+        client: String,
+        /// The interface.
+        interface: String,
+    },
+    /// Nothing the broker can do keeps the robot whole: a person should look.
+    AskForHelp {
+        /// What is missing.
+        need: Need,
+    },
+    /// A record only (the driver has nothing to do): a crashed service will be started
+    /// again at `at_ns`; its clients stay bound to it.
+    RestartScheduled {
+        /// The service.
+        service: String,
+        /// When it will be started.
+        at_ns: i64,
+        /// Which restart within its policy's window, from 1.
+        attempt: u32,
+    },
+    /// A record only: the service failed for good (beyond its restart policy, stalled, or
+    /// could not be started); it is not chosen again until retried or restarted.
+    ServiceFailed {
+        /// The service.
+        service: String,
+    },
+}
+
+/// What the broker needs help with.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Need {
+    /// Clients wait for this interface and no provider of it is left.
+    Interface(String),
+    /// This service must always run and has failed for good.
+    Service(String),
+}
+
+impl Action {
+    /// Whether the live driver has something to carry out (the others are records).
+    #[must_use]
+    pub fn is_for_driver(&self) -> bool {
+        !matches!(
+            self,
+            Self::RestartScheduled { .. } | Self::ServiceFailed { .. }
+        )
+    }
+}
+
+/// An action, when it was decided, and why; published on `/lewis/broker`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Decision {
+    /// The time of the event that led to it, in nanoseconds.
+    pub at_ns: i64,
+    /// What to do.
+    pub action: Action,
+    /// Why, for people.
+    pub reason: String,
+}
+
+impl fmt::Display for Action {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Start { service } => write!(f, "start {service}"),
+            Self::Stop { service } => write!(f, "stop {service}"),
+            Self::Bind {
+                client,
+                interface,
+                service,
+            } => write!(f, "bind {client} to {service} for {interface}"),
+            Self::Rebind {
+                client,
+                interface,
+                from,
+                to,
+            } => write!(f, "rebind {client} from {from} to {to} for {interface}"),
+            Self::Unbind {
+                client,
+                interface,
+                service,
+            } => write!(f, "unbind {client} from {service} for {interface}"),
+            Self::Reject { client, interface } => {
+                write!(f, "reject {client}'s request for {interface}")
+            }
+            Self::AskForHelp {
+                need: Need::Interface(interface),
+            } => write!(f, "ask for help with {interface}"),
+            Self::AskForHelp {
+                need: Need::Service(service),
+            } => write!(f, "ask for help with service {service}"),
+            Self::RestartScheduled {
+                service,
+                at_ns,
+                attempt,
+            } => write!(
+                f,
+                "restart {service} at {} (attempt {attempt})",
+                fmt_time(*at_ns)
+            ),
+            Self::ServiceFailed { service } => write!(f, "{service} failed"),
+        }
+    }
+}
+
+impl fmt::Display for Decision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.action, self.reason)
+    }
+}
+
+/// A time or duration for people: whole milliseconds when it is one, nanoseconds otherwise.
+pub(super) fn fmt_time(ns: i64) -> String {
+    if ns % 1_000_000 == 0 {
+        format!("{} ms", ns / 1_000_000)
+    } else {
+        format!("{ns} ns")
+    }
+}

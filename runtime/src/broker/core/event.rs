@@ -1,0 +1,139 @@
+//! What the decision core hears about: clients, provider processes, heartbeats, time and
+//! the operator.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+/// The health a service declares with each heartbeat.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Health {
+    /// Working as specified.
+    #[default]
+    Ok,
+    /// Working, but worse than usual (shown and recorded; clients stay bound).
+    Degraded(String),
+    /// Not able to provide its interfaces now (clients are moved to another provider at once).
+    OutOfService(String),
+}
+
+impl Health {
+    /// Whether the service says it cannot serve.
+    #[must_use]
+    pub fn is_out_of_service(&self) -> bool {
+        matches!(self, Self::OutOfService(_))
+    }
+}
+
+impl fmt::Display for Health {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Ok => write!(f, "ok"),
+            Self::Degraded(why) => write!(f, "degraded ({why})"),
+            Self::OutOfService(why) => write!(f, "out of service ({why})"),
+        }
+    }
+}
+
+/// How a process ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ExitStatus {
+    /// It exited with this code.
+    Code(i32),
+    /// It was killed by this signal.
+    Signal(i32),
+}
+
+impl fmt::Display for ExitStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Code(code) => write!(f, "exit code {code}"),
+            Self::Signal(signal) => write!(f, "signal {signal}"),
+        }
+    }
+}
+
+/// Something the decision core must react to. Each comes with the time it happened
+/// (`now_ns` of [`BrokerCore::handle`](super::BrokerCore::handle)).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Event {
+    /// The broker is up: start the services whose start mode is `standby` or `always`.
+    BrokerStarted,
+    /// A client asks for an interface (not for a service). A client whose id is a service's
+    /// name is never bound to that service.
+    ClientRequest {
+        /// Who asks.
+        client: String,
+        /// The interface it needs.
+        interface: String,
+    },
+    /// A client went away: its bindings are dropped.
+    ClientGone {
+        /// Who went.
+        client: String,
+    },
+    /// The process of a service was spawned (after a `Start` action).
+    ProviderStarted {
+        /// The service.
+        service: String,
+    },
+    /// A service sent its first heartbeat: it is ready.
+    ProviderReady {
+        /// The service.
+        service: String,
+    },
+    /// A service's heartbeat, with the health it declares.
+    Heartbeat {
+        /// The service.
+        service: String,
+        /// What it says of itself.
+        health: Health,
+    },
+    /// A service's process ended.
+    ProcessExited {
+        /// The service.
+        service: String,
+        /// How it ended.
+        status: ExitStatus,
+    },
+    /// A service's process could not be spawned (the program does not exist, is not
+    /// executable, ...). Not retried: it would fail the same way.
+    StartFailed {
+        /// The service.
+        service: String,
+        /// What the system said.
+        error: String,
+    },
+    /// Time passed; the driver sends it when [`BrokerCore::next_deadline`](super::BrokerCore::next_deadline) is reached.
+    TimePassed,
+    /// The operator stops a service (it is not chosen again until restarted).
+    StopService {
+        /// The service.
+        service: String,
+    },
+    /// The operator restarts a service (its failure history is forgotten).
+    RestartService {
+        /// The service.
+        service: String,
+    },
+}
+
+impl fmt::Display for Event {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::BrokerStarted => write!(f, "broker started"),
+            Self::ClientRequest { client, interface } => {
+                write!(f, "client {client} requests {interface}")
+            }
+            Self::ClientGone { client } => write!(f, "client {client} gone"),
+            Self::ProviderStarted { service } => write!(f, "{service} process started"),
+            Self::ProviderReady { service } => write!(f, "{service} ready"),
+            Self::Heartbeat { service, health } => write!(f, "{service} heartbeat: {health}"),
+            Self::ProcessExited { service, status } => write!(f, "{service} exited with {status}"),
+            Self::StartFailed { service, error } => write!(f, "{service} could not start: {error}"),
+            Self::TimePassed => write!(f, "time passed"),
+            Self::StopService { service } => write!(f, "operator stops {service}"),
+            Self::RestartService { service } => write!(f, "operator restarts {service}"),
+        }
+    }
+}

@@ -1,0 +1,299 @@
+//! How services live: started, ready, crashed and restarted, stalled, failed, stopped and
+//! restarted by the operator, and the deadlines that drive it.
+
+use super::decision::fmt_time;
+use super::service::{AfterStop, ServiceState};
+use super::{Action, BrokerCore, ExitStatus, Health, Need};
+use crate::robot::StartMode;
+use crate::supervise::RestartDecision;
+
+impl BrokerCore {
+    pub(super) fn boot(&mut self) {
+        for name in self.boot_order.clone() {
+            let Some(entry) = self.services.get(&name) else {
+                continue;
+            };
+            if entry.state == ServiceState::Idle && entry.start != StartMode::OnDemand {
+                let mode = match entry.start {
+                    StartMode::Always => "it must always run",
+                    _ => "it is a hot standby",
+                };
+                self.start(&name, format!("the broker started and {mode}"));
+            }
+        }
+    }
+
+    /// A heartbeat (or, with `health` `None`, the first-heartbeat event).
+    pub(super) fn heartbeat(&mut self, service: &str, health: Option<&Health>) {
+        let now = self.now_ns;
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        if matches!(
+            entry.state,
+            ServiceState::Starting { .. } | ServiceState::Ready { .. }
+        ) {
+            entry.state = ServiceState::Ready {
+                last_heartbeat_ns: now,
+            };
+            if let Some(health) = health {
+                entry.health = health.clone();
+            }
+        }
+    }
+
+    pub(super) fn exited(&mut self, service: &str, status: ExitStatus) {
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        match entry.state {
+            ServiceState::Starting { .. } | ServiceState::Ready { .. } => {
+                self.crashed(service, &format!("{service} exited with {status}"));
+            }
+            ServiceState::Stopping { then } => match then {
+                AfterStop::Stopped => entry.state = ServiceState::Stopped,
+                AfterStop::Failed { retry_at_ns } => {
+                    entry.state = ServiceState::Failed { retry_at_ns };
+                }
+                AfterStop::Restart => {
+                    self.start(service, format!("the operator restarts {service}"));
+                }
+            },
+            // No process of ours: a late or duplicate report.
+            ServiceState::Idle
+            | ServiceState::Restarting { .. }
+            | ServiceState::Stopped
+            | ServiceState::Failed { .. } => {}
+        }
+    }
+
+    pub(super) fn crashed(&mut self, service: &str, what: &str) {
+        let now = self.now_ns;
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        match entry.tracker.on_failure(now) {
+            RestartDecision::RestartAt { at_ns, attempt } => {
+                entry.state = ServiceState::Restarting { at_ns, attempt };
+                let max = entry.tracker.policy().max_restarts;
+                let window_ms = entry.tracker.policy().window_ms;
+                self.decide(
+                    Action::RestartScheduled {
+                        service: service.to_owned(),
+                        at_ns,
+                        attempt,
+                    },
+                    format!(
+                        "{what}; restart {attempt} of at most {max} within {window_ms} ms, after {} of backoff; its clients stay bound",
+                        fmt_time(at_ns.saturating_sub(now))
+                    ),
+                );
+            }
+            RestartDecision::GiveUp { failures } => {
+                let window_ms = entry.tracker.policy().window_ms;
+                self.fail(
+                    service,
+                    &format!("{what}, its failure {failures} within {window_ms} ms: beyond its restart policy"),
+                    true,
+                    false,
+                );
+            }
+        }
+    }
+
+    pub(super) fn start_failed(&mut self, service: &str, error: &str) {
+        let Some(entry) = self.services.get(service) else {
+            return;
+        };
+        if matches!(entry.state, ServiceState::Starting { .. }) {
+            self.fail(
+                service,
+                &format!("{service} could not be started ({error})"),
+                false,
+                false,
+            );
+        }
+    }
+
+    /// Marks a service failed for good; stops its process if it still has one
+    /// (`process_alive`: it stalled, rather than exited or never started).
+    pub(super) fn fail(&mut self, service: &str, cause: &str, retry: bool, process_alive: bool) {
+        let now = self.now_ns;
+        let retry_at_ns = if retry {
+            self.retry_failed_after_ns.map(|d| now.saturating_add(d))
+        } else {
+            None
+        };
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        entry.state = if process_alive {
+            ServiceState::Stopping {
+                then: AfterStop::Failed { retry_at_ns },
+            }
+        } else {
+            ServiceState::Failed { retry_at_ns }
+        };
+        entry.last_failure = Some(cause.to_owned());
+        let always = entry.start == StartMode::Always;
+        let retry_note = match retry_at_ns {
+            Some(at) => format!("; it will be retried at {}", fmt_time(at)),
+            None if !retry => {
+                "; not retried, it would fail the same way: fix it, then restart it".to_owned()
+            }
+            None => String::new(),
+        };
+        self.decide(
+            Action::ServiceFailed {
+                service: service.to_owned(),
+            },
+            format!("{cause}{retry_note}"),
+        );
+        if process_alive {
+            self.decide(
+                Action::Stop {
+                    service: service.to_owned(),
+                },
+                format!("{service} has failed: its process must go"),
+            );
+        }
+        if always {
+            self.decide(
+                Action::AskForHelp {
+                    need: Need::Service(service.to_owned()),
+                },
+                format!("{service} must always run and has failed: {cause}"),
+            );
+        }
+    }
+
+    pub(super) fn start(&mut self, service: &str, reason: String) {
+        let now = self.now_ns;
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        if matches!(entry.state, ServiceState::Restarting { .. }) {
+            entry.restarts = entry.restarts.saturating_add(1);
+        }
+        entry.state = ServiceState::Starting { since_ns: now };
+        entry.health = Health::Ok;
+        self.decide(
+            Action::Start {
+                service: service.to_owned(),
+            },
+            reason,
+        );
+    }
+
+    pub(super) fn operator_stop(&mut self, service: &str) {
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        match entry.state {
+            ServiceState::Starting { .. } | ServiceState::Ready { .. } => {
+                entry.state = ServiceState::Stopping {
+                    then: AfterStop::Stopped,
+                };
+                self.decide(
+                    Action::Stop {
+                        service: service.to_owned(),
+                    },
+                    format!("the operator stops {service}"),
+                );
+            }
+            ServiceState::Stopping { .. } => {
+                entry.state = ServiceState::Stopping {
+                    then: AfterStop::Stopped,
+                };
+            }
+            ServiceState::Idle
+            | ServiceState::Restarting { .. }
+            | ServiceState::Failed { .. }
+            | ServiceState::Stopped => entry.state = ServiceState::Stopped,
+        }
+    }
+
+    pub(super) fn operator_restart(&mut self, service: &str) {
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        entry.tracker.reset();
+        match entry.state {
+            ServiceState::Starting { .. } | ServiceState::Ready { .. } => {
+                entry.state = ServiceState::Stopping {
+                    then: AfterStop::Restart,
+                };
+                self.decide(
+                    Action::Stop {
+                        service: service.to_owned(),
+                    },
+                    format!("the operator restarts {service}: stop it first"),
+                );
+            }
+            ServiceState::Stopping { .. } => {
+                entry.state = ServiceState::Stopping {
+                    then: AfterStop::Restart,
+                };
+            }
+            ServiceState::Idle
+            | ServiceState::Restarting { .. }
+            | ServiceState::Failed { .. }
+            | ServiceState::Stopped => {
+                self.start(service, format!("the operator restarts {service}"));
+            }
+        }
+    }
+
+    /// Acts on every deadline at or before now, earliest first (then by name). Each step
+    /// leaves the service with a later deadline or none, so this ends.
+    pub(super) fn run_deadlines(&mut self) {
+        let now = self.now_ns;
+        while let Some((_, name)) = self
+            .services
+            .iter()
+            .filter_map(|(name, e)| e.deadline().map(|d| (d, name)))
+            .filter(|(d, _)| *d <= now)
+            .min()
+            .map(|(d, name)| (d, name.clone()))
+        {
+            self.deadline_reached(&name);
+        }
+    }
+
+    pub(super) fn deadline_reached(&mut self, service: &str) {
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        match entry.state {
+            ServiceState::Starting { .. } => {
+                let ms = entry.startup_deadline_ns / 1_000_000;
+                self.fail(
+                    service,
+                    &format!("{service} stalled: no first heartbeat within its startup deadline of {ms} ms"),
+                    true,
+                    true,
+                );
+            }
+            ServiceState::Ready { .. } => {
+                let ms = entry.heartbeat_deadline_ns / 1_000_000;
+                self.fail(
+                    service,
+                    &format!("{service} stalled: no heartbeat within its deadline of {ms} ms"),
+                    true,
+                    true,
+                );
+            }
+            ServiceState::Restarting { attempt, .. } => {
+                self.start(
+                    service,
+                    format!("restart {attempt} of {service} after its backoff"),
+                );
+            }
+            ServiceState::Failed { .. } => {
+                entry.tracker.reset();
+                self.start(service, format!("retry {service}, failed long enough ago"));
+            }
+            ServiceState::Idle | ServiceState::Stopping { .. } | ServiceState::Stopped => {}
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! The broker's decision core: a pure state machine. Events come in with their time,
+//! decisions come out; no I/O, no clock, no randomness, and every map is ordered, so the
+//! same event sequence always gives the same decisions (live and in replay).
+//!
+//! Policy (DESIGN.md, "The broker"):
+//! - A client asks for an interface. It is bound to the best provider that can serve:
+//!   highest quality first; at equal quality a provider whose process already runs (it
+//!   costs no new process: the joint choice across interfaces, see below); then lower
+//!   cost; then name. A provider that is not running is started on demand and the client is
+//!   bound to it at once, so it subscribes while the process comes up.
+//! - A provider that crashes (any exit the broker did not ask for, code 0 included) is
+//!   restarted within its [`RestartPolicy`](crate::supervise::RestartPolicy); its clients stay
+//!   bound meanwhile. Beyond the policy it has failed: its clients are rebound to the next
+//!   provider, started if needed.
+//! - A provider that misses its heartbeat deadline (or its startup deadline) has stalled: it
+//!   has failed, it is stopped (the driver kills it) and its clients are rebound at once.
+//! - A provider that declares itself out of service loses its clients at once, but its
+//!   process is kept: it knows best when it recovers (a blocked laser), keeps sending
+//!   heartbeats (so a stall is still seen), and becomes a candidate again when it declares
+//!   itself healthy. A degraded provider keeps its clients: degraded is recorded and shown.
+//! - A provider that cannot be spawned at all (its program does not exist) has failed at
+//!   once and is never retried by the broker: it would fail the same way forever.
+//! - Fail back (per robot, per interface): when a provider that is ready and healthy is
+//!   strictly better (higher quality, or equal quality and lower cost) than a client's
+//!   current one, the client is moved to it. Only ready providers are failed back to, so a
+//!   client never leaves a working provider for one that has not proven itself.
+//! - When a client's interface has no provider left, the client is unbound and the broker
+//!   asks for help, once per outage; the client stays waiting and is bound as soon as a
+//!   provider can serve again (operator restart, retry, recovery from out of service).
+//! - When `retry_failed_after_ms` is set, a service that failed by crashing or stalling is
+//!   started again after that time, with its failure history forgotten.
+//! - `standby` and `always` services start with the broker; an `always` service that fails
+//!   for good also asks for help. Services started on demand keep running when their
+//!   clients leave, as warm standbys, until the operator stops them.
+//!
+//! Joint choice: requests arrive one at a time while the robot runs, so the core does not
+//! re-plan all bindings at each request (that would move working clients). It is greedy
+//! per request, with one rule that makes it choose well jointly: at equal quality it prefers
+//! a provider whose process already runs, so a service that provides several requested
+//! interfaces (a base giving Synchrodrive, Power and a sonar RangeFinder) is reused rather
+//! than a new process started.
+//!
+//! Deadlines: [`BrokerCore::handle`] first acts on every deadline at or before `now_ns`
+//! (so a heartbeat arriving exactly at or after its deadline is late), then on the event,
+//! then on any deadline the event made due, then rebinds clients.
+
+mod bindings;
+mod decision;
+mod event;
+mod lifecycle;
+mod service;
+mod snapshot;
+
+#[cfg(test)]
+mod proptests;
+#[cfg(test)]
+mod tests;
+
+use std::collections::{BTreeMap, BTreeSet};
+
+pub use decision::{Action, Decision, Need};
+pub use event::{Event, ExitStatus, Health};
+pub use service::{AfterStop, ServiceState};
+pub use snapshot::{Binding, ServiceStatus, Snapshot};
+
+use service::{Entry, ms_to_ns};
+
+use crate::robot::Robot;
+
+/// The broker's decision core. Build it from a robot description with [`BrokerCore::new`],
+/// feed it [`Event`]s with [`BrokerCore::handle`], wake it at [`BrokerCore::next_deadline`].
+#[derive(Debug, Clone)]
+pub struct BrokerCore {
+    services: BTreeMap<String, Entry>,
+    /// Declaration order: the order in which services start with the broker.
+    boot_order: Vec<String>,
+    fail_back_default: bool,
+    fail_back: BTreeMap<String, bool>,
+    retry_failed_after_ns: Option<i64>,
+    /// Client, then interface, then its provider (`None` while it waits for one).
+    clients: BTreeMap<String, BTreeMap<String, Option<String>>>,
+    /// Interfaces for which help was asked and no provider came back since.
+    help_asked: BTreeSet<String>,
+    out: Vec<Decision>,
+    now_ns: i64,
+}
+
+impl BrokerCore {
+    /// A core for this robot, before any event: no service runs, no client is known.
+    #[must_use]
+    pub fn new(robot: &Robot) -> Self {
+        Self {
+            services: robot
+                .services
+                .iter()
+                .map(|spec| (spec.name.clone(), Entry::new(spec)))
+                .collect(),
+            boot_order: robot.services.iter().map(|s| s.name.clone()).collect(),
+            fail_back_default: robot.broker.fail_back,
+            fail_back: robot.broker.fail_back_per_interface.clone(),
+            retry_failed_after_ns: robot.broker.retry_failed_after_ms.map(ms_to_ns),
+            clients: BTreeMap::new(),
+            help_asked: BTreeSet::new(),
+            out: Vec::new(),
+            now_ns: 0,
+        }
+    }
+
+    /// Acts on an event that happened at `now_ns` and returns the decisions, in the order
+    /// the driver must carry them out. Events about services the robot does not have are
+    /// ignored.
+    pub fn handle(&mut self, now_ns: i64, event: &Event) -> Vec<Decision> {
+        self.now_ns = now_ns;
+        self.run_deadlines();
+        self.apply(event);
+        self.run_deadlines();
+        self.reconcile();
+        std::mem::take(&mut self.out)
+    }
+
+    /// The earliest time at which the core must be called (with [`Event::TimePassed`]) even
+    /// if nothing else happens: a heartbeat or startup deadline, a restart after backoff, a
+    /// retry of a failed service.
+    #[must_use]
+    pub fn next_deadline(&self) -> Option<i64> {
+        self.services.values().filter_map(Entry::deadline).min()
+    }
+
+    /// Whether the robot has a service with this name (for the operator's commands).
+    #[must_use]
+    pub fn has_service(&self, name: &str) -> bool {
+        self.services.contains_key(name)
+    }
+
+    fn decide(&mut self, action: Action, reason: String) {
+        self.out.push(Decision {
+            at_ns: self.now_ns,
+            action,
+            reason,
+        });
+    }
+
+    fn apply(&mut self, event: &Event) {
+        match event {
+            Event::BrokerStarted => self.boot(),
+            Event::ClientRequest { client, interface } => self.request(client, interface),
+            Event::ClientGone { client } => self.client_gone(client),
+            // Spawned, not yet ready: the startup deadline keeps running.
+            Event::ProviderStarted { .. } | Event::TimePassed => {}
+            Event::ProviderReady { service } => self.heartbeat(service, None),
+            Event::Heartbeat { service, health } => self.heartbeat(service, Some(health)),
+            Event::ProcessExited { service, status } => self.exited(service, *status),
+            Event::StartFailed { service, error } => self.start_failed(service, error),
+            Event::StopService { service } => self.operator_stop(service),
+            Event::RestartService { service } => self.operator_restart(service),
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! Random event sequences: the core never panics, keeps its invariants, starts only
+//! services without a process, stops only services with one, and decides the same way
+//! every time.
+
+use std::collections::BTreeMap;
+
+use proptest::prelude::*;
+
+use super::tests::{core_for, invariants};
+use super::*;
+
+const MS: i64 = 1_000_000;
+
+/// Four services over five interfaces: on demand, hot standby and always; small restart
+/// limits so that every path (restart, give up, retry) is reached by short sequences.
+fn robot(fail_back: bool, retry: bool) -> String {
+    let retry = if retry {
+        "retry_failed_after_ms = 300\n"
+    } else {
+        ""
+    };
+    format!(
+        r#"
+[robot]
+name = "random"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+startup_deadline_ms = 200
+fail_back = {fail_back}
+{retry}restart = {{ max_restarts = 2, window_ms = 1000, backoff_initial_ms = 0, backoff_max_ms = 40 }}
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [
+    {{ interface = "RangeFinder", quality = 10, cost = 2 }},
+    {{ interface = "Distance", quality = 10, cost = 2 }},
+]
+[[services]]
+name = "sonar"
+kind = "test-range"
+start = "standby"
+provides = [
+    {{ interface = "RangeFinder", quality = 5, cost = 1 }},
+    {{ interface = "Distance", quality = 5, cost = 1 }},
+]
+[[services]]
+name = "base"
+kind = "rflex"
+start = "always"
+restart = {{ max_restarts = 1, window_ms = 500 }}
+provides = [
+    {{ interface = "Synchrodrive", quality = 5, cost = 3 }},
+    {{ interface = "Power", quality = 5, cost = 3 }},
+    {{ interface = "RangeFinder", quality = 5, cost = 3 }},
+]
+[[services]]
+name = "avoider"
+kind = "obstacle-avoider"
+requires = ["RangeFinder"]
+provides = [{{ interface = "Mover", quality = 5, cost = 1 }}]
+"#
+    )
+}
+
+const SERVICES: &[&str] = &["laser", "sonar", "base", "avoider", "ghost"];
+const CLIENTS: &[&str] = &["app", "mapper", "avoider", "laser", ""];
+const INTERFACES: &[&str] = &["RangeFinder", "Distance", "Power", "Mover", "Signs", "Nope"];
+
+fn name(list: &'static [&'static str]) -> impl Strategy<Value = String> {
+    proptest::sample::select(list).prop_map(str::to_owned)
+}
+
+fn health() -> impl Strategy<Value = Health> {
+    prop_oneof![
+        3 => Just(Health::Ok),
+        1 => ".{0,8}".prop_map(Health::Degraded),
+        1 => ".{0,8}".prop_map(Health::OutOfService),
+    ]
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        1 => Just(Event::BrokerStarted),
+        3 => (name(CLIENTS), name(INTERFACES))
+            .prop_map(|(client, interface)| Event::ClientRequest { client, interface }),
+        1 => name(CLIENTS).prop_map(|client| Event::ClientGone { client }),
+        1 => name(SERVICES).prop_map(|service| Event::ProviderStarted { service }),
+        2 => name(SERVICES).prop_map(|service| Event::ProviderReady { service }),
+        4 => (name(SERVICES), health()).prop_map(|(service, health)| Event::Heartbeat { service, health }),
+        2 => (name(SERVICES), any::<i32>(), any::<bool>()).prop_map(|(service, n, signal)| {
+            let status = if signal { ExitStatus::Signal(n) } else { ExitStatus::Code(n) };
+            Event::ProcessExited { service, status }
+        }),
+        1 => (name(SERVICES), ".{0,8}").prop_map(|(service, error)| Event::StartFailed { service, error }),
+        2 => Just(Event::TimePassed),
+        1 => name(SERVICES).prop_map(|service| Event::StopService { service }),
+        1 => name(SERVICES).prop_map(|service| Event::RestartService { service }),
+    ]
+}
+
+/// Time steps: mostly forward by up to 120 ms, sometimes anything (backwards, huge).
+fn step() -> impl Strategy<Value = i64> {
+    prop_oneof![
+        12 => (0i64..120).prop_map(|ms| ms * MS),
+        1 => any::<i64>(),
+    ]
+}
+
+fn has_process(core: &BrokerCore) -> BTreeMap<String, bool> {
+    core.services
+        .iter()
+        .map(|(name, e)| (name.clone(), e.has_process()))
+        .collect()
+}
+
+/// Which process the event says has ended, if the core believes it exists.
+fn ended(core: &BrokerCore, event: &Event) -> Option<String> {
+    let (Event::ProcessExited { service, .. } | Event::StartFailed { service, .. }) = event else {
+        return None;
+    };
+    let entry = core.services.get(service)?;
+    let ends = match event {
+        Event::StartFailed { .. } => matches!(entry.state, ServiceState::Starting { .. }),
+        _ => entry.has_process(),
+    };
+    ends.then(|| service.clone())
+}
+
+/// Handles one event, checking that every `Start` is for a service without a process and
+/// every `Stop` for one with a process, and that the result agrees with the core's state.
+///
+/// Within an hour of the end of time, deadlines saturate at `i64::MAX` and fall due as soon
+/// as they are set, even before the event: there only the invariants are checked.
+fn handle_checked(
+    core: &mut BrokerCore,
+    now_ns: i64,
+    event: &Event,
+) -> Result<Vec<Decision>, TestCaseError> {
+    if now_ns > i64::MAX - 3_600_000 * MS {
+        let decisions = core.handle(now_ns, event);
+        if let Err(broken) = invariants(core) {
+            return Err(TestCaseError::fail(format!("after {event}: {broken}")));
+        }
+        return Ok(decisions);
+    }
+    let mut alive = has_process(core);
+    if let Some(service) = ended(core, event) {
+        alive.insert(service, false);
+    }
+    let decisions = core.handle(now_ns, event);
+    for d in &decisions {
+        match &d.action {
+            Action::Start { service } => {
+                prop_assert!(
+                    !alive[service],
+                    "start of {service} which has a process: {d}"
+                );
+                alive.insert(service.clone(), true);
+            }
+            Action::Stop { service } => {
+                prop_assert!(
+                    alive[service],
+                    "stop of {service} which has no process: {d}"
+                );
+            }
+            _ => {}
+        }
+        prop_assert_eq!(d.at_ns, now_ns);
+    }
+    prop_assert_eq!(
+        &alive,
+        &has_process(core),
+        "after {} with {:?}",
+        event,
+        decisions
+    );
+    if let Err(broken) = invariants(core) {
+        return Err(TestCaseError::fail(format!("after {event}: {broken}")));
+    }
+    Ok(decisions)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+
+    #[test]
+    fn random_event_sequences_keep_the_invariants_and_replay_identically(
+        fail_back in any::<bool>(),
+        retry in any::<bool>(),
+        events in prop::collection::vec((step(), event()), 0..80),
+    ) {
+        let text = robot(fail_back, retry);
+        let mut core = core_for(&text);
+        let mut replay = core_for(&text);
+        let mut now_ns = 0i64;
+        for (step, event) in &events {
+            now_ns = now_ns.saturating_add(*step);
+            // Deadlines first, on their own, so that the event's effect on processes is
+            // seen before the decisions that follow it.
+            let mut decisions = handle_checked(&mut core, now_ns, &Event::TimePassed)?;
+            decisions.extend(handle_checked(&mut core, now_ns, event)?);
+            let mut again = replay.handle(now_ns, &Event::TimePassed);
+            again.extend(replay.handle(now_ns, event));
+            prop_assert_eq!(decisions, again);
+            if let Some(deadline) = core.next_deadline() {
+                // A deadline is never left behind: it is after the time just handled,
+                // unless time itself is at its end.
+                prop_assert!(deadline > now_ns || now_ns == i64::MAX, "deadline {deadline} at {now_ns}");
+            }
+        }
+        prop_assert_eq!(core.snapshot(), replay.snapshot());
+    }
+}

@@ -1,0 +1,171 @@
+//! One service as the decision core sees it: its offers, its state, its declared health
+//! and its failure history.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::event::Health;
+use crate::robot::{ServiceSpec, StartMode};
+use crate::supervise::RestartTracker;
+
+/// Where a service is in its life, as the broker sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ServiceState {
+    /// Not started yet; it can be started on demand.
+    Idle,
+    /// Started at `since_ns`; waiting for its first heartbeat.
+    Starting {
+        /// When the start was ordered.
+        since_ns: i64,
+    },
+    /// Sending heartbeats.
+    Ready {
+        /// When the last one arrived.
+        last_heartbeat_ns: i64,
+    },
+    /// Crashed; it will be started again at `at_ns` and keeps its clients meanwhile.
+    Restarting {
+        /// When it will be started.
+        at_ns: i64,
+        /// Which restart within its policy's window, from 1.
+        attempt: u32,
+    },
+    /// Asked to stop; waiting for its process to end.
+    Stopping {
+        /// What follows once it has ended.
+        then: AfterStop,
+    },
+    /// Stopped by the operator; not chosen until the operator restarts it.
+    Stopped,
+    /// Failed for good; not chosen until retried (at `retry_at_ns`) or restarted by the operator.
+    Failed {
+        /// When it will be started again, if the robot says failed services are retried.
+        retry_at_ns: Option<i64>,
+    },
+}
+
+/// What follows the end of a process the broker stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AfterStop {
+    /// It stays stopped (operator stop).
+    Stopped,
+    /// It is started again (operator restart); clients stay bound.
+    Restart,
+    /// It is failed (it stalled); clients have already been moved.
+    Failed {
+        /// When it will be started again, if failed services are retried.
+        retry_at_ns: Option<i64>,
+    },
+}
+
+/// What a service offers for one interface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Offer {
+    pub quality: u32,
+    pub cost: u32,
+}
+
+#[derive(Debug, Clone)]
+pub(super) struct Entry {
+    pub start: StartMode,
+    pub offers: BTreeMap<String, Offer>,
+    pub heartbeat_deadline_ns: i64,
+    pub startup_deadline_ns: i64,
+    pub tracker: RestartTracker,
+    pub state: ServiceState,
+    pub health: Health,
+    pub restarts: u32,
+    pub last_failure: Option<String>,
+}
+
+/// Milliseconds as nanoseconds; saturating, and at least 1 ns so that every deadline is
+/// strictly after the time it is set.
+pub(super) fn ms_to_ns(ms: u64) -> i64 {
+    i64::try_from(ms.saturating_mul(1_000_000))
+        .unwrap_or(i64::MAX)
+        .max(1)
+}
+
+impl Entry {
+    pub fn new(spec: &ServiceSpec) -> Self {
+        Self {
+            start: spec.start,
+            offers: spec
+                .provides
+                .iter()
+                .map(|p| {
+                    (
+                        p.interface.clone(),
+                        Offer {
+                            quality: p.quality,
+                            cost: p.cost,
+                        },
+                    )
+                })
+                .collect(),
+            heartbeat_deadline_ns: ms_to_ns(spec.heartbeat_deadline_ms),
+            startup_deadline_ns: ms_to_ns(spec.startup_deadline_ms),
+            tracker: RestartTracker::new(spec.restart),
+            state: ServiceState::Idle,
+            health: Health::Ok,
+            restarts: 0,
+            last_failure: None,
+        }
+    }
+
+    /// Whether a process of this service exists (or is being spawned).
+    #[cfg(test)]
+    pub fn has_process(&self) -> bool {
+        matches!(
+            self.state,
+            ServiceState::Starting { .. }
+                | ServiceState::Ready { .. }
+                | ServiceState::Stopping { .. }
+        )
+    }
+
+    /// Whether a process runs or will run again without a new decision: such a service
+    /// costs no new process when chosen.
+    pub fn is_active(&self) -> bool {
+        matches!(
+            self.state,
+            ServiceState::Starting { .. }
+                | ServiceState::Ready { .. }
+                | ServiceState::Restarting { .. }
+                | ServiceState::Stopping {
+                    then: AfterStop::Restart
+                }
+        )
+    }
+
+    /// Whether clients may stay bound to it: running or coming back, and not out of service.
+    pub fn serves(&self) -> bool {
+        self.is_active() && !self.health.is_out_of_service()
+    }
+
+    /// Whether it may be chosen for a new binding (perhaps by starting it).
+    pub fn can_serve(&self) -> bool {
+        self.serves() || (self.state == ServiceState::Idle && !self.health.is_out_of_service())
+    }
+
+    /// Whether it is ready now, healthy enough to take clients over (for fail back).
+    pub fn ready_to_serve(&self) -> bool {
+        matches!(self.state, ServiceState::Ready { .. }) && !self.health.is_out_of_service()
+    }
+
+    /// When the core must next look at this service without being told.
+    pub fn deadline(&self) -> Option<i64> {
+        match self.state {
+            ServiceState::Starting { since_ns } => {
+                Some(since_ns.saturating_add(self.startup_deadline_ns))
+            }
+            ServiceState::Ready { last_heartbeat_ns } => {
+                Some(last_heartbeat_ns.saturating_add(self.heartbeat_deadline_ns))
+            }
+            ServiceState::Restarting { at_ns, .. } => Some(at_ns),
+            ServiceState::Failed { retry_at_ns } => retry_at_ns,
+            ServiceState::Idle | ServiceState::Stopping { .. } | ServiceState::Stopped => None,
+        }
+    }
+}

@@ -1,0 +1,1140 @@
+//! Table-driven scenarios: a robot, a timed event sequence, and the transcript of every
+//! decision and the final state, inline.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use expect_test::{Expect, expect};
+
+use super::decision::fmt_time;
+use super::*;
+use crate::robot;
+
+pub(super) const KNOWN: &[&str] = &[
+    "RangeFinder",
+    "Distance",
+    "Synchrodrive",
+    "Egomotion",
+    "Power",
+    "ImageSource",
+    "CameraControl",
+    "Mover",
+    "Blobs",
+    "Blobs3D",
+    "Signs",
+];
+
+const MS: i64 = 1_000_000;
+
+/// The laser (quality 10) and the sonar (quality 5), both RangeFinder and Distance, on
+/// demand; restarts: 2 within 10 s, backoff 20 ms doubling to 200 ms.
+const LASER_SONAR: &str = r#"
+[robot]
+name = "bench"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+startup_deadline_ms = 1000
+restart = { max_restarts = 2, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [
+    { interface = "RangeFinder", quality = 10, cost = 2 },
+    { interface = "Distance", quality = 10, cost = 2 },
+]
+[[services]]
+name = "sonar"
+kind = "test-range"
+provides = [
+    { interface = "RangeFinder", quality = 5, cost = 1 },
+    { interface = "Distance", quality = 5, cost = 1 },
+]
+"#;
+
+pub(super) fn core_for(robot_toml: &str) -> BrokerCore {
+    let robot = robot::parse(robot_toml, Path::new("robot.toml"), KNOWN)
+        .unwrap_or_else(|e| panic!("test robot is invalid:\n{e}"));
+    BrokerCore::new(&robot)
+}
+
+/// Runs `events` (time in milliseconds, event) on a core for `robot_toml`, checking the
+/// invariants after each, and compares the transcript (each event, its decisions, then the
+/// final state and next deadline) with `expected`.
+fn check(robot_toml: &str, events: &[(i64, Event)], expected: &Expect) {
+    let mut core = core_for(robot_toml);
+    let mut transcript = String::new();
+    for (at_ms, event) in events {
+        let decisions = core.handle(at_ms * MS, event);
+        let _ = writeln!(transcript, "@{at_ms} {event}");
+        for d in &decisions {
+            assert_eq!(d.at_ns, at_ms * MS);
+            let _ = writeln!(transcript, "  {d}");
+        }
+        if let Err(broken) = invariants(&core) {
+            panic!("invariant broken after {event} at {at_ms} ms: {broken}\n{transcript}");
+        }
+    }
+    let _ = writeln!(transcript, "== state");
+    let _ = write!(transcript, "{}", core.snapshot());
+    let _ = writeln!(
+        transcript,
+        "next deadline: {}",
+        core.next_deadline()
+            .map_or_else(|| "none".to_owned(), fmt_time)
+    );
+    expected.assert_eq(&transcript);
+}
+
+/// What must hold after every event: every bound client is bound to another service that
+/// provides the interface and can serve it; help is asked only for interfaces with
+/// waiting clients.
+pub(super) fn invariants(core: &BrokerCore) -> Result<(), String> {
+    for (client, bindings) in &core.clients {
+        for (interface, service) in bindings {
+            let Some(service) = service else {
+                continue;
+            };
+            let Some(entry) = core.services.get(service) else {
+                return Err(format!("{client} bound to unknown {service}"));
+            };
+            if service == client {
+                return Err(format!("{client} bound to itself"));
+            }
+            if !entry.offers.contains_key(interface) {
+                return Err(format!(
+                    "{client} bound to {service} which lacks {interface}"
+                ));
+            }
+            let gone = matches!(
+                entry.state,
+                ServiceState::Idle
+                    | ServiceState::Stopped
+                    | ServiceState::Failed { .. }
+                    | ServiceState::Stopping {
+                        then: AfterStop::Stopped | AfterStop::Failed { .. }
+                    }
+            );
+            if gone || entry.health.is_out_of_service() {
+                return Err(format!(
+                    "{client} bound to {service} which cannot serve ({:?}, {:?})",
+                    entry.state, entry.health
+                ));
+            }
+        }
+    }
+    for interface in &core.help_asked {
+        let waiting = core
+            .clients
+            .values()
+            .any(|b| b.get(interface).is_some_and(Option::is_none));
+        if !waiting {
+            return Err(format!("help asked for {interface} with nobody waiting"));
+        }
+    }
+    Ok(())
+}
+
+fn s(x: &str) -> String {
+    x.to_owned()
+}
+fn boot() -> Event {
+    Event::BrokerStarted
+}
+fn req(client: &str, interface: &str) -> Event {
+    Event::ClientRequest {
+        client: s(client),
+        interface: s(interface),
+    }
+}
+fn gone(client: &str) -> Event {
+    Event::ClientGone { client: s(client) }
+}
+fn spawned(service: &str) -> Event {
+    Event::ProviderStarted {
+        service: s(service),
+    }
+}
+fn ready(service: &str) -> Event {
+    Event::ProviderReady {
+        service: s(service),
+    }
+}
+fn beat(service: &str) -> Event {
+    Event::Heartbeat {
+        service: s(service),
+        health: Health::Ok,
+    }
+}
+fn degraded(service: &str, why: &str) -> Event {
+    Event::Heartbeat {
+        service: s(service),
+        health: Health::Degraded(s(why)),
+    }
+}
+fn out_of_service(service: &str, why: &str) -> Event {
+    Event::Heartbeat {
+        service: s(service),
+        health: Health::OutOfService(s(why)),
+    }
+}
+fn killed(service: &str) -> Event {
+    Event::ProcessExited {
+        service: s(service),
+        status: ExitStatus::Signal(9),
+    }
+}
+fn exited(service: &str, code: i32) -> Event {
+    Event::ProcessExited {
+        service: s(service),
+        status: ExitStatus::Code(code),
+    }
+}
+fn start_failed(service: &str, error: &str) -> Event {
+    Event::StartFailed {
+        service: s(service),
+        error: s(error),
+    }
+}
+fn tick() -> Event {
+    Event::TimePassed
+}
+fn stop(service: &str) -> Event {
+    Event::StopService {
+        service: s(service),
+    }
+}
+fn restart(service: &str) -> Event {
+    Event::RestartService {
+        service: s(service),
+    }
+}
+
+#[test]
+fn a_request_binds_the_best_provider_started_on_demand() {
+    check(
+        LASER_SONAR,
+        &[
+            (0, req("app", "RangeFinder")),
+            (1, spawned("laser")),
+            (5, ready("laser")),
+            (10, beat("laser")),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @1 laser process started
+            @5 laser ready
+            @10 laser heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 10 ms, health ok, 0 restarts, 1 clients
+            service sonar: idle, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 60 ms
+        "#]],
+    );
+}
+
+/// The laser is up and serving `app` at 10 ms.
+fn laser_serving() -> Vec<(i64, Event)> {
+    vec![
+        (0, req("app", "RangeFinder")),
+        (5, ready("laser")),
+        (10, beat("laser")),
+    ]
+}
+
+fn with(mut first: Vec<(i64, Event)>, then: &[(i64, Event)]) -> Vec<(i64, Event)> {
+    first.extend_from_slice(then);
+    first
+}
+
+#[test]
+fn laser_crash_is_restarted_and_the_client_stays_bound() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (12, killed("laser")),
+                (32, tick()),
+                (35, ready("laser")),
+                (40, beat("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @12 laser exited with signal 9
+              restart laser at 32 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+            @32 time passed
+              start laser: restart 1 of laser after its backoff
+            @35 laser ready
+            @40 laser heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 40 ms, health ok, 1 restarts, 1 clients
+            service sonar: idle, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 90 ms
+        "#]],
+    );
+}
+
+#[test]
+fn laser_crash_beyond_limit_rebinds_client_to_sonar() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (12, killed("laser")),
+                (32, tick()),
+                (35, ready("laser")),
+                (40, exited("laser", 1)),
+                (80, tick()),
+                (81, exited("laser", 1)),
+                (90, ready("sonar")),
+                (95, beat("sonar")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @12 laser exited with signal 9
+              restart laser at 32 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+            @32 time passed
+              start laser: restart 1 of laser after its backoff
+            @35 laser ready
+            @40 laser exited with exit code 1
+              restart laser at 80 ms (attempt 2): laser exited with exit code 1; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
+            @80 time passed
+              start laser: restart 2 of laser after its backoff
+            @81 laser exited with exit code 1
+              laser failed: laser exited with exit code 1, its failure 3 within 10000 ms: beyond its restart policy
+              start sonar: laser exited with exit code 1, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser exited with exit code 1, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @90 sonar ready
+            @95 sonar heartbeat: ok
+            == state
+            service laser: failed, health ok, 2 restarts, 0 clients, last failure: laser exited with exit code 1, its failure 3 within 10000 ms: beyond its restart policy
+            service sonar: ready, last heartbeat 95 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 145 ms
+        "#]],
+    );
+}
+
+#[test]
+fn laser_stall_without_exiting_rebinds_after_the_heartbeat_deadline() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (59, beat("sonar")), // not running: ignored
+                (60, tick()),
+                (61, killed("laser")),
+                (70, ready("sonar")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @59 sonar heartbeat: ok
+            @60 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @61 laser exited with signal 9
+            @70 sonar ready
+            == state
+            service laser: failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: ready, last heartbeat 70 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 120 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_heartbeat_at_the_deadline_is_late_and_one_before_it_is_in_time() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[(59, beat("laser")), (109, beat("laser"))],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @59 laser heartbeat: ok
+            @109 laser heartbeat: ok
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            == state
+            service laser: stopping, failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: starting since 109 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 1109 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_provider_silent_after_its_start_stalls_at_its_startup_deadline() {
+    check(
+        LASER_SONAR,
+        &[
+            (0, req("app", "RangeFinder")),
+            (1, spawned("laser")),
+            (1000, tick()),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @1 laser process started
+            @1000 time passed
+              laser failed: laser stalled: no first heartbeat within its startup deadline of 1000 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no first heartbeat within its startup deadline of 1000 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no first heartbeat within its startup deadline of 1000 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            == state
+            service laser: stopping, failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no first heartbeat within its startup deadline of 1000 ms
+            service sonar: starting since 1000 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 2000 ms
+        "#]],
+    );
+}
+
+#[test]
+fn out_of_service_rebinds_at_once_and_keeps_the_process() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (20, out_of_service("laser", "mirror blocked")),
+                (25, ready("sonar")),
+                (30, beat("laser")),
+                (35, req("app2", "RangeFinder")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser heartbeat: out of service (mirror blocked)
+              start sonar: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @25 sonar ready
+            @30 laser heartbeat: ok
+            @35 client app2 requests RangeFinder
+              bind app2 to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            == state
+            service laser: ready, last heartbeat 30 ms, health ok, 0 restarts, 1 clients
+            service sonar: ready, last heartbeat 25 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            client app2 RangeFinder -> laser
+            next deadline: 75 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_degraded_provider_keeps_its_clients() {
+    check(
+        LASER_SONAR,
+        &with(laser_serving(), &[(20, degraded("laser", "dusty window"))]),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser heartbeat: degraded (dusty window)
+            == state
+            service laser: ready, last heartbeat 20 ms, health degraded (dusty window), 0 restarts, 1 clients
+            service sonar: idle, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 70 ms
+        "#]],
+    );
+}
+
+fn fail_back_robot(setting: &str) -> String {
+    LASER_SONAR.replace("[broker]\n", &format!("[broker]\n{setting}\n"))
+}
+
+#[test]
+fn fail_back_moves_clients_to_the_better_provider_once_it_is_ready_again() {
+    check(
+        &fail_back_robot("fail_back = true"),
+        &with(
+            laser_serving(),
+            &[
+                (20, out_of_service("laser", "mirror blocked")),
+                (25, ready("sonar")),
+                (30, beat("laser")),
+                (35, beat("sonar")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser heartbeat: out of service (mirror blocked)
+              start sonar: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @25 sonar ready
+            @30 laser heartbeat: ok
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            @35 sonar heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 30 ms, health ok, 0 restarts, 1 clients
+            service sonar: ready, last heartbeat 35 ms, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 80 ms
+        "#]],
+    );
+}
+
+#[test]
+fn fail_back_after_an_operator_restart_of_a_failed_provider() {
+    check(
+        &fail_back_robot("fail_back = true"),
+        &with(
+            laser_serving(),
+            &[
+                (60, tick()),
+                (61, killed("laser")),
+                (65, ready("sonar")),
+                (100, restart("laser")),
+                (105, spawned("laser")),
+                (110, beat("sonar")),
+                (120, ready("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @60 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @61 laser exited with signal 9
+            @65 sonar ready
+            @100 operator restarts laser
+              start laser: the operator restarts laser
+            @105 laser process started
+            @110 sonar heartbeat: ok
+            @120 laser ready
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            == state
+            service laser: ready, last heartbeat 120 ms, health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: ready, last heartbeat 110 ms, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 160 ms
+        "#]],
+    );
+}
+
+#[test]
+fn no_fail_back_when_not_configured() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (20, out_of_service("laser", "mirror blocked")),
+                (25, ready("sonar")),
+                (30, beat("laser")),
+                (35, beat("sonar")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser heartbeat: out of service (mirror blocked)
+              start sonar: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @25 sonar ready
+            @30 laser heartbeat: ok
+            @35 sonar heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 30 ms, health ok, 0 restarts, 0 clients
+            service sonar: ready, last heartbeat 35 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 80 ms
+        "#]],
+    );
+}
+
+#[test]
+fn fail_back_can_be_set_per_interface() {
+    check(
+        &(fail_back_robot("fail_back = true")
+            + "[broker.interfaces.Distance]\nfail_back = false\n"),
+        &[
+            (0, req("app", "RangeFinder")),
+            (0, req("app", "Distance")),
+            (5, ready("laser")),
+            (20, out_of_service("laser", "mirror blocked")),
+            (25, ready("sonar")),
+            (30, beat("laser")),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @0 client app requests Distance
+              bind app to laser for Distance: laser is the best provider of Distance (quality 10, cost 2)
+            @5 laser ready
+            @20 laser heartbeat: out of service (mirror blocked)
+              start sonar: laser is out of service (mirror blocked); sonar is the best provider of Distance left (quality 5, cost 1)
+              rebind app from laser to sonar for Distance: laser is out of service (mirror blocked); sonar is the best provider of Distance left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @25 sonar ready
+            @30 laser heartbeat: ok
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            == state
+            service laser: ready, last heartbeat 30 ms, health ok, 0 restarts, 1 clients
+            service sonar: ready, last heartbeat 25 ms, health ok, 0 restarts, 1 clients
+            client app Distance -> sonar
+            client app RangeFinder -> laser
+            next deadline: 75 ms
+        "#]],
+    );
+}
+
+#[test]
+fn no_provider_left_asks_for_help_once_then_binds_when_one_returns() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (20, out_of_service("laser", "mirror blocked")),
+                (25, out_of_service("sonar", "transducers wet")),
+                (30, beat("laser")),
+                (31, req("app2", "RangeFinder")),
+                (40, beat("sonar")),
+                (45, beat("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser heartbeat: out of service (mirror blocked)
+              start sonar: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @25 sonar heartbeat: out of service (transducers wet)
+              unbind app from sonar for RangeFinder: no provider of RangeFinder is left (laser is out of service (mirror blocked); sonar is out of service (transducers wet))
+              ask for help with RangeFinder: no provider of RangeFinder is left (laser is out of service (mirror blocked); sonar is out of service (transducers wet)); clients wait for it
+            @30 laser heartbeat: ok
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @31 client app2 requests RangeFinder
+              bind app2 to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @40 sonar heartbeat: ok
+            @45 laser heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 45 ms, health ok, 0 restarts, 2 clients
+            service sonar: ready, last heartbeat 40 ms, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            client app2 RangeFinder -> laser
+            next deadline: 90 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_missing_binary_is_reported_not_retried_and_the_next_provider_is_used() {
+    check(
+        LASER_SONAR,
+        &[
+            (0, req("app", "RangeFinder")),
+            (
+                1,
+                start_failed("laser", "No such file or directory (os error 2)"),
+            ),
+            (
+                2,
+                start_failed("sonar", "No such file or directory (os error 2)"),
+            ),
+            (60_000, tick()),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @1 laser could not start: No such file or directory (os error 2)
+              laser failed: laser could not be started (No such file or directory (os error 2)); not retried, it would fail the same way: fix it, then restart it
+              start sonar: laser could not be started (No such file or directory (os error 2)); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser could not be started (No such file or directory (os error 2)); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @2 sonar could not start: No such file or directory (os error 2)
+              sonar failed: sonar could not be started (No such file or directory (os error 2)); not retried, it would fail the same way: fix it, then restart it
+              unbind app from sonar for RangeFinder: no provider of RangeFinder is left (laser could not be started (No such file or directory (os error 2)); sonar could not be started (No such file or directory (os error 2)))
+              ask for help with RangeFinder: no provider of RangeFinder is left (laser could not be started (No such file or directory (os error 2)); sonar could not be started (No such file or directory (os error 2))); clients wait for it
+            @60000 time passed
+            == state
+            service laser: failed, health ok, 0 restarts, 0 clients, last failure: laser could not be started (No such file or directory (os error 2))
+            service sonar: failed, health ok, 0 restarts, 0 clients, last failure: sonar could not be started (No such file or directory (os error 2))
+            client app RangeFinder -> (waiting)
+            help asked for RangeFinder
+            next deadline: none
+        "#]],
+    );
+}
+
+#[test]
+fn several_clients_on_one_interface_are_all_rebound() {
+    check(
+        LASER_SONAR,
+        &[
+            (0, req("app", "RangeFinder")),
+            (1, req("avoider", "RangeFinder")),
+            (2, req("mapper", "RangeFinder")),
+            (5, ready("laser")),
+            (20, out_of_service("laser", "mirror blocked")),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @1 client avoider requests RangeFinder
+              bind avoider to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @2 client mapper requests RangeFinder
+              bind mapper to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @20 laser heartbeat: out of service (mirror blocked)
+              start sonar: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind avoider from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind mapper from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            == state
+            service laser: ready, last heartbeat 20 ms, health out of service (mirror blocked), 0 restarts, 0 clients
+            service sonar: starting since 20 ms, health ok, 0 restarts, 3 clients
+            client app RangeFinder -> sonar
+            client avoider RangeFinder -> sonar
+            client mapper RangeFinder -> sonar
+            next deadline: 70 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_service_providing_two_interfaces_fails_and_both_interfaces_clients_are_rebound() {
+    check(
+        LASER_SONAR,
+        &[
+            (0, req("app", "RangeFinder")),
+            (1, req("avoider", "Distance")),
+            (5, ready("laser")),
+            (10, killed("laser")),
+            (30, tick()),
+            (31, killed("laser")),
+            (71, tick()),
+            (72, killed("laser")),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @1 client avoider requests Distance
+              bind avoider to laser for Distance: laser is the best provider of Distance (quality 10, cost 2)
+            @5 laser ready
+            @10 laser exited with signal 9
+              restart laser at 30 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+            @30 time passed
+              start laser: restart 1 of laser after its backoff
+            @31 laser exited with signal 9
+              restart laser at 71 ms (attempt 2): laser exited with signal 9; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
+            @71 time passed
+              start laser: restart 2 of laser after its backoff
+            @72 laser exited with signal 9
+              laser failed: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy
+              start sonar: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind avoider from laser to sonar for Distance: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of Distance left (quality 5, cost 1)
+            == state
+            service laser: failed, health ok, 2 restarts, 0 clients, last failure: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy
+            service sonar: starting since 72 ms, health ok, 0 restarts, 2 clients
+            client app RangeFinder -> sonar
+            client avoider Distance -> sonar
+            next deadline: 1072 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_hot_standby_starts_with_the_broker_and_takes_over_without_a_start() {
+    check(
+        &LASER_SONAR.replace(
+            "name = \"sonar\"\nkind = \"test-range\"\n",
+            "name = \"sonar\"\nkind = \"test-range\"\nstart = \"standby\"\n",
+        ),
+        &[
+            (0, boot()),
+            (3, ready("sonar")),
+            (4, req("app", "RangeFinder")),
+            (8, ready("laser")),
+            (10, beat("sonar")),
+            (20, out_of_service("laser", "mirror blocked")),
+        ],
+        &expect![[r#"
+            @0 broker started
+              start sonar: the broker started and it is a hot standby
+            @3 sonar ready
+            @4 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @8 laser ready
+            @10 sonar heartbeat: ok
+            @20 laser heartbeat: out of service (mirror blocked)
+              rebind app from laser to sonar for RangeFinder: laser is out of service (mirror blocked); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            == state
+            service laser: ready, last heartbeat 20 ms, health out of service (mirror blocked), 0 restarts, 0 clients
+            service sonar: ready, last heartbeat 10 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 60 ms
+        "#]],
+    );
+}
+
+const BASE_AND_SONAR: &str = r#"
+[robot]
+name = "b21r"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+restart = { max_restarts = 0, window_ms = 10000 }
+[[services]]
+name = "base"
+kind = "rflex"
+start = "always"
+provides = [
+    { interface = "Synchrodrive", quality = 5, cost = 3 },
+    { interface = "Power", quality = 5, cost = 3 },
+    { interface = "RangeFinder", quality = 5, cost = 3 },
+]
+[[services]]
+name = "sonar-sim"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
+[[services]]
+name = "laser"
+kind = "sick"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 2 }]
+"#;
+
+#[test]
+fn at_equal_quality_a_running_provider_is_chosen_over_a_cheaper_new_process() {
+    check(
+        BASE_AND_SONAR,
+        &[
+            (0, boot()),
+            (5, ready("base")),
+            (6, req("app", "Synchrodrive")),
+            (7, req("app", "RangeFinder")),
+            (8, start_failed("laser", "permission denied")),
+        ],
+        &expect![[r#"
+            @0 broker started
+              start base: the broker started and it must always run
+            @5 base ready
+            @6 client app requests Synchrodrive
+              bind app to base for Synchrodrive: base is the best provider of Synchrodrive (quality 5, cost 3)
+            @7 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @8 laser could not start: permission denied
+              laser failed: laser could not be started (permission denied); not retried, it would fail the same way: fix it, then restart it
+              rebind app from laser to base for RangeFinder: laser could not be started (permission denied); base is the best provider of RangeFinder left (quality 5, cost 3)
+            == state
+            service base: ready, last heartbeat 5 ms, health ok, 0 restarts, 2 clients
+            service laser: failed, health ok, 0 restarts, 0 clients, last failure: laser could not be started (permission denied)
+            service sonar-sim: idle, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> base
+            client app Synchrodrive -> base
+            next deadline: 55 ms
+        "#]],
+    );
+}
+
+#[test]
+fn an_always_service_that_fails_for_good_asks_for_help() {
+    check(
+        BASE_AND_SONAR,
+        &[
+            (0, boot()),
+            (5, ready("base")),
+            (6, req("app", "Power")),
+            (7, killed("base")),
+        ],
+        &expect![[r#"
+            @0 broker started
+              start base: the broker started and it must always run
+            @5 base ready
+            @6 client app requests Power
+              bind app to base for Power: base is the best provider of Power (quality 5, cost 3)
+            @7 base exited with signal 9
+              base failed: base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              ask for help with service base: base must always run and has failed: base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              unbind app from base for Power: no provider of Power is left (base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy)
+              ask for help with Power: no provider of Power is left (base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy); clients wait for it
+            == state
+            service base: failed, health ok, 0 restarts, 0 clients, last failure: base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service laser: idle, health ok, 0 restarts, 0 clients
+            service sonar-sim: idle, health ok, 0 restarts, 0 clients
+            client app Power -> (waiting)
+            help asked for Power
+            next deadline: none
+        "#]],
+    );
+}
+
+#[test]
+fn clients_come_and_go_and_unknown_requests_are_rejected() {
+    check(
+        LASER_SONAR,
+        &[
+            (0, req("app", "RangeFinder")),
+            (1, req("app", "Distance")),
+            (2, req("app", "RangeFinder")),
+            (3, req("app", "Signs")),
+            (4, req("app", "NoSuchInterface")),
+            (5, gone("app")),
+            (6, gone("app")),
+            (7, beat("ghost")),
+            (8, restart("ghost")),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @1 client app requests Distance
+              bind app to laser for Distance: laser is the best provider of Distance (quality 10, cost 2)
+            @2 client app requests RangeFinder
+              bind app to laser for RangeFinder: repeated request: the binding is unchanged
+            @3 client app requests Signs
+              reject app's request for Signs: no service of this robot provides Signs to app
+            @4 client app requests NoSuchInterface
+              reject app's request for NoSuchInterface: no service of this robot provides NoSuchInterface to app
+            @5 client app gone
+              unbind app from laser for Distance: client app is gone
+              unbind app from laser for RangeFinder: client app is gone
+            @6 client app gone
+            @7 ghost heartbeat: ok
+            @8 operator restarts ghost
+            == state
+            service laser: starting since 0 ms, health ok, 0 restarts, 0 clients
+            service sonar: idle, health ok, 0 restarts, 0 clients
+            next deadline: 1000 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_service_asking_for_an_interface_it_provides_gets_another_provider() {
+    check(
+        LASER_SONAR,
+        &[(0, req("laser", "RangeFinder")), (1, req("sonar", "Signs"))],
+        &expect![[r#"
+            @0 client laser requests RangeFinder
+              start sonar: laser needs RangeFinder and sonar is its best provider (quality 5, cost 1)
+              bind laser to sonar for RangeFinder: sonar is the best provider of RangeFinder (quality 5, cost 1)
+            @1 client sonar requests Signs
+              reject sonar's request for Signs: no service of this robot provides Signs to sonar
+            == state
+            service laser: idle, health ok, 0 restarts, 0 clients
+            service sonar: starting since 0 ms, health ok, 0 restarts, 1 clients
+            client laser RangeFinder -> sonar
+            next deadline: 1000 ms
+        "#]],
+    );
+}
+
+#[test]
+fn failed_services_are_retried_when_the_robot_says_so() {
+    check(
+        &fail_back_robot("retry_failed_after_ms = 100\nfail_back = true"),
+        &with(
+            laser_serving(),
+            &[
+                (60, tick()),
+                (61, killed("laser")),
+                (65, ready("sonar")),
+                (100, beat("sonar")),
+                (140, beat("sonar")),
+                (160, tick()),
+                (170, ready("laser")),
+                (180, killed("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @60 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 160 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @61 laser exited with signal 9
+            @65 sonar ready
+            @100 sonar heartbeat: ok
+            @140 sonar heartbeat: ok
+            @160 time passed
+              start laser: retry laser, failed long enough ago
+            @170 laser ready
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            @180 laser exited with signal 9
+              restart laser at 200 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+            == state
+            service laser: restarting at 200 ms (attempt 1), health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: ready, last heartbeat 140 ms, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 190 ms
+        "#]],
+    );
+}
+
+#[test]
+fn an_operator_stop_moves_clients_away_and_a_restart_brings_the_service_back() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (20, stop("laser")),
+                (21, exited("laser", 0)),
+                (25, ready("sonar")),
+                (30, restart("laser")),
+                (35, ready("laser")),
+                (40, restart("sonar")),
+                (41, killed("sonar")),
+                (45, beat("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 operator stops laser
+              stop laser: the operator stops laser
+              start sonar: laser was stopped by the operator; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser was stopped by the operator; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @21 laser exited with exit code 0
+            @25 sonar ready
+            @30 operator restarts laser
+              start laser: the operator restarts laser
+            @35 laser ready
+            @40 operator restarts sonar
+              stop sonar: the operator restarts sonar: stop it first
+            @41 sonar exited with signal 9
+              start sonar: the operator restarts sonar
+            @45 laser heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 45 ms, health ok, 0 restarts, 0 clients
+            service sonar: starting since 41 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 95 ms
+        "#]],
+    );
+}
+
+#[test]
+fn the_test_robot_file_fails_over_from_laser_to_sonar() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    check(
+        &text,
+        &[
+            (0, req("app", "RangeFinder")),
+            (5, ready("laser")),
+            (10, killed("laser")),
+            (30, tick()),
+            (31, killed("laser")),
+            (71, tick()),
+            (72, killed("laser")),
+        ],
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser exited with signal 9
+              restart laser at 30 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+            @30 time passed
+              start laser: restart 1 of laser after its backoff
+            @31 laser exited with signal 9
+              restart laser at 71 ms (attempt 2): laser exited with signal 9; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
+            @71 time passed
+              start laser: restart 2 of laser after its backoff
+            @72 laser exited with signal 9
+              laser failed: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy
+              start sonar: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            == state
+            service laser: failed, health ok, 2 restarts, 0 clients, last failure: laser exited with signal 9, its failure 3 within 10000 ms: beyond its restart policy
+            service sonar: starting since 72 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 5072 ms
+        "#]],
+    );
+}
+
+#[test]
+fn the_same_events_give_the_same_decisions() {
+    let events = with(
+        laser_serving(),
+        &[
+            (20, out_of_service("laser", "x")),
+            (60, tick()),
+            (70, killed("laser")),
+        ],
+    );
+    let run = || {
+        let mut core = core_for(LASER_SONAR);
+        events
+            .iter()
+            .flat_map(|(t, e)| core.handle(t * MS, e))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(run(), run());
+}

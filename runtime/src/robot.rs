@@ -1,1 +1,0 @@
-//! The robot description (`robots/*.toml`): services, providers, policies.

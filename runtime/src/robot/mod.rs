@@ -1,0 +1,235 @@
+//! The robot description (`robots/*.toml`): which services make up a robot, how each is
+//! started, which interfaces it provides (with a quality and a cost) and requires, and how
+//! the broker watches it (restart policy, heartbeat deadline, start mode, fail back).
+//!
+//! [`parse`] and [`load`] turn the TOML text into a validated [`Robot`] or a
+//! [`RobotError`] listing every problem as `file:line:column: what is wrong`. The set of
+//! known interface names is a parameter, so tests and future interfaces need no change here.
+//!
+//! ```toml
+//! [robot]
+//! name = "test"
+//! description = "a laser and a sonar made of test services"
+//!
+//! [broker]
+//! heartbeat_period_ms = 10        # how often every service sends a heartbeat
+//! heartbeat_deadline_ms = 50      # default: silence longer than this is a stall
+//! startup_deadline_ms = 5000      # default: time from start to the first heartbeat
+//! fail_back = false               # default for every interface
+//! restart = { max_restarts = 3, window_ms = 10000, backoff_initial_ms = 50, backoff_max_ms = 2000 }
+//! # retry_failed_after_ms = 60000 # optional: start a failed service again after this time
+//!
+//! [broker.interfaces.RangeFinder]
+//! fail_back = true                # per-interface override
+//!
+//! [[services]]
+//! name = "laser"
+//! kind = "test-range"             # run as `lewis service laser --robot FILE`
+//! # command = ["/usr/bin/laserd", "--port", "/dev/ttyS0"]   # or a command line, no shell
+//! start = "on-demand"             # or "standby" (hot standby) or "always"
+//! heartbeat_deadline_ms = 50
+//! restart = { max_restarts = 2, window_ms = 10000 }
+//! provides = [
+//!     { interface = "RangeFinder", quality = 10, cost = 2, data_rate_hz = 10.0 },
+//! ]
+//! requires = []
+//! environment = { RUST_LOG = "info" }
+//! [services.parameters]           # free table handed to the service
+//! beams = 181
+//! ```
+
+mod error;
+mod raw;
+mod validate;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::BTreeMap;
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+pub use error::{Problem, RobotError};
+
+use crate::supervise::RestartPolicy;
+
+/// Quality and cost are relative scores within this range (higher quality is better,
+/// lower cost is better).
+pub const SCORE_RANGE: std::ops::RangeInclusive<i64> = 0..=100;
+
+/// A validated robot description.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot {
+    /// The robot's name (an identifier: letters, digits, `-` and `_`).
+    pub name: String,
+    /// What this robot is, for people.
+    pub description: String,
+    /// How the broker watches and chooses services.
+    pub broker: BrokerSettings,
+    /// The services, in the order the file declares them (the start order at boot).
+    pub services: Vec<ServiceSpec>,
+}
+
+impl Robot {
+    /// The service with this name.
+    #[must_use]
+    pub fn service(&self, name: &str) -> Option<&ServiceSpec> {
+        self.services.iter().find(|s| s.name == name)
+    }
+}
+
+/// The broker's settings for the whole robot.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BrokerSettings {
+    /// How often every service sends a heartbeat, in milliseconds.
+    pub heartbeat_period_ms: u64,
+    /// The default heartbeat deadline of a service, in milliseconds.
+    pub heartbeat_deadline_ms: u64,
+    /// The default time a service has from its start to its first heartbeat, in milliseconds.
+    pub startup_deadline_ms: u64,
+    /// Whether clients move back to a better provider once it is healthy again, by default.
+    pub fail_back: bool,
+    /// Per-interface overrides of `fail_back`.
+    pub fail_back_per_interface: BTreeMap<String, bool>,
+    /// The default restart policy of a service.
+    pub restart: RestartPolicy,
+    /// When set, a service that failed (gave up restarting, or stalled) is started again
+    /// after this long, in milliseconds; a service that could not be started at all is not.
+    pub retry_failed_after_ms: Option<u64>,
+}
+
+impl BrokerSettings {
+    /// Whether clients of `interface` fail back to a better provider when it is healthy again.
+    #[must_use]
+    pub fn fail_back_for(&self, interface: &str) -> bool {
+        self.fail_back_per_interface
+            .get(interface)
+            .copied()
+            .unwrap_or(self.fail_back)
+    }
+}
+
+impl Default for BrokerSettings {
+    fn default() -> Self {
+        Self {
+            heartbeat_period_ms: validate::DEFAULT_HEARTBEAT_PERIOD_MS,
+            heartbeat_deadline_ms: validate::DEFAULT_HEARTBEAT_DEADLINE_MS,
+            startup_deadline_ms: validate::DEFAULT_STARTUP_DEADLINE_MS,
+            fail_back: false,
+            fail_back_per_interface: BTreeMap::new(),
+            restart: RestartPolicy::default(),
+            retry_failed_after_ms: None,
+        }
+    }
+}
+
+/// One service of the robot: how to start it, what it provides and requires, how it is watched.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ServiceSpec {
+    /// The service's name, unique in the robot (an identifier).
+    pub name: String,
+    /// What it does, for people.
+    pub description: String,
+    /// How its process is started.
+    pub launch: Launch,
+    /// The free table of parameters handed to the service.
+    pub parameters: toml::Table,
+    /// The interfaces it provides, in declaration order.
+    pub provides: Vec<Provision>,
+    /// The interfaces it asks the broker for when it runs.
+    pub requires: Vec<String>,
+    /// How it is restarted after a crash (the broker's default unless given).
+    pub restart: RestartPolicy,
+    /// Silence longer than this (milliseconds) after a heartbeat means the service stalled.
+    pub heartbeat_deadline_ms: u64,
+    /// Time from its start to its first heartbeat, in milliseconds.
+    pub startup_deadline_ms: u64,
+    /// When it is started.
+    pub start: StartMode,
+    /// Environment variables set for its process (on top of the broker's own).
+    pub environment: BTreeMap<String, String>,
+}
+
+impl ServiceSpec {
+    /// What this service offers for `interface`, if it provides it.
+    #[must_use]
+    pub fn provision(&self, interface: &str) -> Option<&Provision> {
+        self.provides.iter().find(|p| p.interface == interface)
+    }
+
+    /// The program and arguments that start this service: `lewis_exe service NAME --robot
+    /// robot_file` for a built-in kind, the given command line otherwise. Never a shell.
+    #[must_use]
+    pub fn argv(&self, lewis_exe: &Path, robot_file: &Path) -> Vec<OsString> {
+        match &self.launch {
+            Launch::Kind(_) => vec![
+                lewis_exe.as_os_str().to_owned(),
+                "service".into(),
+                self.name.clone().into(),
+                "--robot".into(),
+                robot_file.as_os_str().to_owned(),
+            ],
+            Launch::Command(argv) => argv.iter().map(OsString::from).collect(),
+        }
+    }
+}
+
+/// How a service's process is started.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Launch {
+    /// A built-in service kind, run as `lewis service NAME --robot FILE`.
+    Kind(String),
+    /// A program and its arguments (the program is never empty; no shell is involved).
+    Command(Vec<String>),
+}
+
+/// What a service offers for one interface.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Provision {
+    /// The interface's name.
+    pub interface: String,
+    /// How good this provider is (in [`SCORE_RANGE`], higher is better).
+    pub quality: u32,
+    /// What it costs to run (in [`SCORE_RANGE`], lower is better).
+    pub cost: u32,
+    /// The rate it publishes at, in hertz, when known.
+    pub data_rate_hz: Option<f64>,
+}
+
+/// When the broker starts a service.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StartMode {
+    /// When a client needs one of its interfaces and it is the best provider.
+    #[default]
+    OnDemand,
+    /// At once, as a hot standby: failing over to it needs no process start.
+    Standby,
+    /// At once, because the robot needs it whatever the clients ask; if it fails for good
+    /// the broker asks for help.
+    Always,
+}
+
+/// Parses and validates a robot description. `origin` names the text in error messages
+/// (usually its path); `known_interfaces` are the interface names a service may provide
+/// or require.
+///
+/// # Errors
+/// A [`RobotError::Invalid`] listing every problem found, with its line and column.
+pub fn parse(text: &str, origin: &Path, known_interfaces: &[&str]) -> Result<Robot, RobotError> {
+    validate::parse(text, origin, known_interfaces)
+}
+
+/// Reads, parses and validates the robot description at `path`.
+///
+/// # Errors
+/// [`RobotError::Read`] when the file cannot be read, [`RobotError::Invalid`] otherwise.
+pub fn load(path: &Path, known_interfaces: &[&str]) -> Result<Robot, RobotError> {
+    let text = std::fs::read_to_string(path).map_err(|source| RobotError::Read {
+        path: PathBuf::from(path),
+        source,
+    })?;
+    parse(&text, path, known_interfaces)
+}

@@ -1,0 +1,392 @@
+use std::fmt::Write as _;
+use std::path::Path;
+
+use expect_test::{Expect, expect};
+use proptest::prelude::*;
+
+use super::*;
+
+/// The interfaces of the paper.
+const KNOWN: &[&str] = &[
+    "RangeFinder",
+    "Distance",
+    "Synchrodrive",
+    "Egomotion",
+    "Power",
+    "ImageSource",
+    "CameraControl",
+    "Mover",
+    "Blobs",
+    "Blobs3D",
+    "Signs",
+];
+
+/// Parses `text` as `robot.toml` and shows either a summary of the robot or every problem.
+fn check(text: &str, expected: &Expect) {
+    let shown = match parse(text, Path::new("robot.toml"), KNOWN) {
+        Ok(robot) => summary(&robot),
+        Err(error) => format!("{error}\n"),
+    };
+    expected.assert_eq(&shown);
+}
+
+fn summary(robot: &Robot) -> String {
+    let b = &robot.broker;
+    let mut out = format!(
+        "robot {} ({})\nbroker: heartbeat {} ms, deadline {} ms, startup {} ms, fail back {} {:?}, retry {:?}, restart {:?}\n",
+        robot.name,
+        robot.description,
+        b.heartbeat_period_ms,
+        b.heartbeat_deadline_ms,
+        b.startup_deadline_ms,
+        b.fail_back,
+        b.fail_back_per_interface,
+        b.retry_failed_after_ms,
+        b.restart,
+    );
+    for s in &robot.services {
+        let _ = writeln!(
+            out,
+            "service {} {:?} start {:?}: deadline {} ms, startup {} ms, restart {:?}",
+            s.name, s.launch, s.start, s.heartbeat_deadline_ms, s.startup_deadline_ms, s.restart
+        );
+        for p in &s.provides {
+            let _ = writeln!(
+                out,
+                "  provides {} quality {} cost {} rate {:?}",
+                p.interface, p.quality, p.cost, p.data_rate_hz
+            );
+        }
+        for r in &s.requires {
+            let _ = writeln!(out, "  requires {r}");
+        }
+        if !s.parameters.is_empty() {
+            let _ = writeln!(
+                out,
+                "  parameters {}",
+                s.parameters.to_string().replace('\n', "; ")
+            );
+        }
+        if !s.environment.is_empty() {
+            let _ = writeln!(out, "  environment {:?}", s.environment);
+        }
+    }
+    out
+}
+
+#[test]
+fn the_test_robot_file_is_valid() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
+    let robot = load(&path, KNOWN).unwrap_or_else(|e| panic!("{e}"));
+    expect![[r#"
+        robot test (Failover test bench: a synthetic laser and a synthetic sonar, no hardware)
+        broker: heartbeat 10 ms, deadline 50 ms, startup 5000 ms, fail back false {}, retry None, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 1000 }
+        service laser Kind("test-range") start OnDemand: deadline 50 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 2, window_ms: 10000, backoff_initial_ms: 20, backoff_max_ms: 200 }
+          provides RangeFinder quality 10 cost 2 rate Some(10.0)
+          provides Distance quality 10 cost 2 rate Some(10.0)
+          parameters beams = 181; field_of_view_deg = 180.0; max_range_m = 8.0; noise_m = 0.01; rate_hz = 10.0; seed = 1; 
+        service sonar Kind("test-range") start OnDemand: deadline 50 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 2, window_ms: 10000, backoff_initial_ms: 20, backoff_max_ms: 200 }
+          provides RangeFinder quality 5 cost 1 rate Some(5.0)
+          provides Distance quality 5 cost 1 rate Some(5.0)
+          parameters beams = 24; field_of_view_deg = 360.0; max_range_m = 5.0; noise_m = 0.05; rate_hz = 5.0; seed = 2; 
+    "#]]
+    .assert_eq(&summary(&robot));
+}
+
+#[test]
+fn a_missing_file_names_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nowhere.toml");
+    let error = load(&path, KNOWN).unwrap_err();
+    assert!(matches!(&error, RobotError::Read { path: p, .. } if *p == path));
+    assert!(error.to_string().contains("nowhere.toml"), "{error}");
+}
+
+#[test]
+fn defaults_fill_what_the_file_leaves_out() {
+    check(
+        r#"
+[robot]
+name = "mini"
+
+[broker]
+fail_back = true
+retry_failed_after_ms = 60000
+restart = { max_restarts = 5, window_ms = 1000 }
+
+[broker.interfaces.RangeFinder]
+fail_back = false
+
+[[services]]
+name = "laser"
+command = ["/usr/bin/laserd", "--port", "/dev/ttyS0"]
+provides = [{ interface = "RangeFinder", quality = 10, cost = 0 }]
+environment = { RUST_LOG = "debug" }
+
+[[services]]
+name = "avoider"
+kind = "obstacle-avoider"
+start = "always"
+requires = ["RangeFinder"]
+parameters = { speed_m_s = 0.3 }
+"#,
+        &expect![[r#"
+            robot mini ()
+            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back true {"RangeFinder": false}, retry Some(60000), restart RestartPolicy { max_restarts: 5, window_ms: 1000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+            service laser Command(["/usr/bin/laserd", "--port", "/dev/ttyS0"]) start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 5, window_ms: 1000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides RangeFinder quality 10 cost 0 rate None
+              environment {"RUST_LOG": "debug"}
+            service avoider Kind("obstacle-avoider") start Always: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 5, window_ms: 1000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              requires RangeFinder
+              parameters speed_m_s = 0.3; 
+        "#]],
+    );
+}
+
+#[test]
+fn a_service_may_require_what_it_provides_when_another_service_provides_it_too() {
+    check(
+        r#"
+[robot]
+name = "movers"
+[[services]]
+name = "vector-mover"
+kind = "vector-mover"
+provides = [{ interface = "Mover", quality = 5, cost = 1 }]
+[[services]]
+name = "avoider"
+kind = "obstacle-avoider"
+provides = [{ interface = "Mover", quality = 8, cost = 2 }]
+requires = ["Mover"]
+"#,
+        &expect![[r#"
+            robot movers ()
+            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back false {}, retry None, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+            service vector-mover Kind("vector-mover") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides Mover quality 5 cost 1 rate None
+            service avoider Kind("obstacle-avoider") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides Mover quality 8 cost 2 rate None
+              requires Mover
+        "#]],
+    );
+}
+
+#[test]
+fn a_syntax_error_is_placed_at_its_line_and_column() {
+    check(
+        "[robot]\nname = \"x\"\n[[services]\n",
+        &expect![[r#"
+            robot.toml:3:12: unclosed array table, expected `]`
+        "#]],
+    );
+}
+
+#[test]
+fn a_misspelt_key_is_an_error_not_ignored() {
+    check(
+        r#"
+[robot]
+name = "x"
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+heartbeat_deadline = 50
+"#,
+        &expect![[r#"
+            robot.toml:8:1: unknown field `heartbeat_deadline`, expected one of `name`, `description`, `kind`, `command`, `parameters`, `provides`, `requires`, `restart`, `heartbeat_deadline_ms`, `startup_deadline_ms`, `start`, `environment`
+        "#]],
+    );
+}
+
+#[test]
+fn a_wrong_type_and_an_unknown_start_mode_are_placed() {
+    check(
+        "[robot]\nname = \"x\"\n[[services]]\nname = \"a\"\nkind = \"k\"\nstart = \"sometimes\"\nprovides = []\n",
+        &expect![[r#"
+            robot.toml:6:9: unknown variant `sometimes`, expected one of `on-demand`, `standby`, `always`
+        "#]],
+    );
+    check(
+        "[robot]\nname = 7\n",
+        &expect![[r#"
+            robot.toml:2:8: invalid type: integer `7`, expected a string
+        "#]],
+    );
+    check(
+        "",
+        &expect![[r#"
+            robot.toml:1:1: missing field `robot`
+        "#]],
+    );
+}
+
+#[test]
+fn every_semantic_problem_is_reported_with_its_place() {
+    check(
+        r#"
+[robot]
+name = "test robot"
+
+[broker]
+heartbeat_period_ms = 20
+heartbeat_deadline_ms = 10
+restart = { max_restarts = 3, window_ms = 0, backoff_initial_ms = 500, backoff_max_ms = 100 }
+
+[broker.interfaces.Laser]
+fail_back = true
+
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [
+    { interface = "RangeFinder", quality = 101, cost = -1 },
+    { interface = "RangeFinder", quality = 5, cost = 1, data_rate_hz = 0.0 },
+    { interface = "LaserScan", quality = 5, cost = 1 },
+]
+
+[[services]]
+name = "laser"
+command = [""]
+provides = [{ interface = "Distance", quality = 5, cost = 1 }]
+requires = ["Power", "Power", "Mover3D"]
+heartbeat_deadline_ms = -5
+environment = { "A=B" = "x" }
+
+[[services]]
+name = "both"
+kind = "a"
+command = ["/bin/true"]
+provides = [{ interface = "Distance", quality = 5, cost = 1 }]
+
+[[services]]
+name = "neither"
+provides = [{ interface = "Distance", quality = 5, cost = 1 }]
+
+[[services]]
+name = "empty"
+command = []
+provides = [{ interface = "Distance", quality = 5, cost = 1 }]
+
+[[services]]
+name = "lonely"
+kind = "app"
+"#,
+        &expect![[r#"
+            robot.toml:3:8: robot name `test robot` is not a valid name: use a letter then letters, digits, `-` or `_`, at most 64 characters
+            robot.toml:7:25: heartbeat_deadline_ms 10 is not longer than the heartbeat period 20 ms, so every service would be seen as stalled: give a deadline of a few periods
+            robot.toml:8:11: restart window_ms is 0: give the window over which restarts are counted, in milliseconds
+            robot.toml:8:11: restart backoff_initial_ms 500 is above backoff_max_ms 100: the first delay cannot exceed the cap
+            robot.toml:10:20: broker settings for unknown interface `Laser`: known interfaces are Blobs, Blobs3D, CameraControl, Distance, Egomotion, ImageSource, Mover, Power, RangeFinder, Signs, Synchrodrive
+            robot.toml:17:44: quality 101 in service `laser` is out of range: give a value from 0 to 100
+            robot.toml:17:56: cost -1 in service `laser` is out of range: give a value from 0 to 100
+            robot.toml:18:19: service `laser` provides `RangeFinder` twice: keep one entry
+            robot.toml:18:72: data_rate_hz 0 of `RangeFinder` in service `laser` is out of range: give a rate above 0 and at most 1000000
+            robot.toml:19:19: service `laser` provides unknown interface `LaserScan`: known interfaces are Blobs, Blobs3D, CameraControl, Distance, Egomotion, ImageSource, Mover, Power, RangeFinder, Signs, Synchrodrive
+            robot.toml:23:8: duplicate service name `laser` (first declared on line 14): give each service its own name
+            robot.toml:24:12: the command of service `laser` has an empty program: give the program's path or name first
+            robot.toml:26:13: service `laser` requires `Power` but no other service provides it: add a provider or remove the requirement
+            robot.toml:26:22: service `laser` requires `Power` twice: keep one entry
+            robot.toml:26:31: service `laser` requires unknown interface `Mover3D`: known interfaces are Blobs, Blobs3D, CameraControl, Distance, Egomotion, ImageSource, Mover, Power, RangeFinder, Signs, Synchrodrive
+            robot.toml:27:25: heartbeat_deadline_ms is -5: give a positive number of milliseconds
+            robot.toml:28:17: environment variable name `A=B` of service `laser` is empty or contains `=` or a NUL byte
+            robot.toml:33:11: service `both` has both `kind` and `command`: give one (a built-in kind, or a command line)
+            robot.toml:37:8: service `neither` says neither `kind` (a built-in service) nor `command` (a command line): give one
+            robot.toml:42:11: the command of service `empty` is empty: give the program and its arguments
+            robot.toml:46:8: service `lonely` provides no interface and starts on demand, so nothing would ever start it: add `provides` or set `start = "always"`
+        "#]],
+    );
+}
+
+#[test]
+fn kind_services_run_through_lewis_and_commands_run_as_given() {
+    let robot = parse(
+        r#"
+[robot]
+name = "r"
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+[[services]]
+name = "sonar"
+command = ["/opt/sonar", "--rate", "5"]
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
+"#,
+        Path::new("r.toml"),
+        KNOWN,
+    )
+    .unwrap();
+    let argv = |name: &str| {
+        robot
+            .service(name)
+            .unwrap()
+            .argv(Path::new("/bin/lewis"), Path::new("robots/r.toml"))
+    };
+    assert_eq!(
+        argv("laser"),
+        ["/bin/lewis", "service", "laser", "--robot", "robots/r.toml"]
+    );
+    assert_eq!(argv("sonar"), ["/opt/sonar", "--rate", "5"]);
+}
+
+#[test]
+fn positions_count_characters_and_survive_offsets_past_the_end() {
+    use super::error::line_column;
+    assert_eq!(line_column("ab\ncd", 0), (1, 1));
+    assert_eq!(line_column("ab\ncd", 4), (2, 2));
+    assert_eq!(line_column("é\nx", 1), (1, 1));
+    assert_eq!(line_column("é\nx", 2), (1, 2));
+    assert_eq!(line_column("ab", 99), (1, 3));
+}
+
+proptest! {
+    #[test]
+    fn any_text_gives_a_robot_or_placed_problems(text in ".{0,400}") {
+        if let Err(RobotError::Invalid { problems, .. }) = parse(&text, Path::new("p.toml"), KNOWN) {
+            prop_assert!(!problems.is_empty());
+            for p in problems {
+                prop_assert!(p.line >= 1 && p.column >= 1);
+            }
+        }
+    }
+
+    #[test]
+    fn mangled_robot_files_never_panic(
+        cut in 0usize..2000,
+        insert in "[\\[\\]={}\",a-z0-9 \n-]{0,12}",
+    ) {
+        let base = include_str!("../../../robots/test.toml");
+        let mut at = cut.min(base.len());
+        while !base.is_char_boundary(at) {
+            at -= 1;
+        }
+        let text = format!("{}{}{}", &base[..at], insert, &base[at..]);
+        let _ = parse(&text, Path::new("p.toml"), KNOWN);
+    }
+}
+
+#[test]
+fn the_example_in_the_module_documentation_is_valid() {
+    let source = include_str!("mod.rs");
+    let example: String = source
+        .lines()
+        .skip_while(|l| *l != "//! ```toml")
+        .skip(1)
+        .take_while(|l| *l != "//! ```")
+        .map(|l| {
+            format!(
+                "{}\n",
+                l.trim_start_matches("//!").strip_prefix(' ').unwrap_or("")
+            )
+        })
+        .collect();
+    assert!(
+        example.contains("[[services]]"),
+        "example not found:\n{example}"
+    );
+    let robot = parse(&example, Path::new("doc.toml"), KNOWN).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(robot.services[0].name, "laser");
+    assert!(robot.broker.fail_back_for("RangeFinder"));
+    assert!(!robot.broker.fail_back_for("Distance"));
+}

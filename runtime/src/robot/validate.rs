@@ -1,0 +1,460 @@
+//! From the written description to a [`Robot`]: every semantic check, each problem placed
+//! at the value it is about. All problems are collected, not only the first.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::ops::Range;
+use std::path::Path;
+
+use toml::Spanned;
+
+use super::error::{Problem, RobotError, line_column};
+use super::raw::{RawBroker, RawProvision, RawRobot, RawService};
+use super::{BrokerSettings, Launch, Provision, Robot, SCORE_RANGE, ServiceSpec, StartMode};
+use crate::supervise::RestartPolicy;
+
+pub(super) const DEFAULT_HEARTBEAT_PERIOD_MS: u64 = 20;
+pub(super) const DEFAULT_HEARTBEAT_DEADLINE_MS: u64 = 100;
+pub(super) const DEFAULT_STARTUP_DEADLINE_MS: u64 = 5_000;
+
+/// Names (robot, service, kind) become parts of IPC names and file names.
+const MAX_NAME_LEN: usize = 64;
+
+pub(super) fn parse(
+    text: &str,
+    origin: &Path,
+    known_interfaces: &[&str],
+) -> Result<Robot, RobotError> {
+    let mut checker = Checker {
+        text,
+        origin,
+        known: known_interfaces.iter().copied().collect(),
+        problems: Vec::new(),
+    };
+    let raw: RawRobot = match toml::from_str(text) {
+        Ok(raw) => raw,
+        Err(error) => {
+            let span = error.span().unwrap_or(0..0);
+            checker.report(&span, error.message().trim_end().trim_end_matches('.'));
+            return Err(checker.into_error());
+        }
+    };
+    let robot = checker.robot(raw);
+    if checker.problems.is_empty() {
+        Ok(robot)
+    } else {
+        Err(checker.into_error())
+    }
+}
+
+struct Checker<'a> {
+    text: &'a str,
+    origin: &'a Path,
+    known: BTreeSet<&'a str>,
+    problems: Vec<(usize, Problem)>,
+}
+
+impl Checker<'_> {
+    fn report(&mut self, span: &Range<usize>, message: impl Into<String>) {
+        let (line, column) = line_column(self.text, span.start);
+        self.problems.push((
+            span.start,
+            Problem {
+                path: self.origin.to_path_buf(),
+                line,
+                column,
+                message: message.into(),
+            },
+        ));
+    }
+
+    fn into_error(mut self) -> RobotError {
+        // Stable: problems at one place keep the order in which they were found.
+        self.problems.sort_by_key(|(offset, _)| *offset);
+        RobotError::Invalid {
+            path: self.origin.to_path_buf(),
+            problems: self.problems.into_iter().map(|(_, p)| p).collect(),
+        }
+    }
+
+    fn robot(&mut self, raw: RawRobot) -> Robot {
+        let header = raw.robot;
+        self.identifier(&header.name, "robot name");
+        let broker = self.broker(raw.broker);
+        let mut services = Vec::with_capacity(raw.services.len());
+        let mut requirement_spans = Vec::with_capacity(raw.services.len());
+        let mut seen: BTreeMap<String, usize> = BTreeMap::new();
+        for service in raw.services {
+            let name = service.name.clone();
+            if let Some(first_line) = seen.get(name.get_ref()) {
+                let message = format!(
+                    "duplicate service name `{}` (first declared on line {first_line}): give each service its own name",
+                    name.get_ref()
+                );
+                self.report(&name.span(), message);
+            } else {
+                let (line, _) = line_column(self.text, name.span().start);
+                seen.insert(name.get_ref().clone(), line);
+            }
+            let (spec, spans) = self.service(service, &broker);
+            services.push(spec);
+            requirement_spans.push(spans);
+        }
+        self.requirements(&services, &requirement_spans);
+        Robot {
+            name: header.name.into_inner(),
+            description: header.description,
+            broker,
+            services,
+        }
+    }
+
+    fn broker(&mut self, raw: RawBroker) -> BrokerSettings {
+        let heartbeat_period_ms = raw
+            .heartbeat_period_ms
+            .and_then(|v| self.positive_ms(&v, "heartbeat_period_ms"))
+            .unwrap_or(DEFAULT_HEARTBEAT_PERIOD_MS);
+        let heartbeat_deadline_ms = match &raw.heartbeat_deadline_ms {
+            Some(deadline) => self.deadline(deadline, heartbeat_period_ms),
+            None => None,
+        }
+        .unwrap_or(DEFAULT_HEARTBEAT_DEADLINE_MS);
+        let startup_deadline_ms = raw
+            .startup_deadline_ms
+            .and_then(|v| self.positive_ms(&v, "startup_deadline_ms"))
+            .unwrap_or(DEFAULT_STARTUP_DEADLINE_MS);
+        let restart = match raw.restart {
+            Some(policy) => self.restart_policy(&policy),
+            None => RestartPolicy::default(),
+        };
+        let retry_failed_after_ms = raw
+            .retry_failed_after_ms
+            .and_then(|v| self.positive_ms(&v, "retry_failed_after_ms"));
+        let mut fail_back_per_interface = BTreeMap::new();
+        for (interface, settings) in raw.interfaces {
+            self.interface_name(&interface, "broker settings for");
+            if let Some(fail_back) = settings.fail_back {
+                fail_back_per_interface.insert(interface.into_inner(), fail_back);
+            }
+        }
+        BrokerSettings {
+            heartbeat_period_ms,
+            heartbeat_deadline_ms,
+            startup_deadline_ms,
+            fail_back: raw.fail_back,
+            fail_back_per_interface,
+            restart,
+            retry_failed_after_ms,
+        }
+    }
+
+    /// The service, and the places of its required interfaces.
+    fn service(
+        &mut self,
+        raw: RawService,
+        broker: &BrokerSettings,
+    ) -> (ServiceSpec, Vec<Range<usize>>) {
+        let name = raw.name.get_ref().clone();
+        self.identifier(&raw.name, "service name");
+        let launch = self.launch(&name, &raw.name.span(), raw.kind, raw.command);
+
+        let mut provides = Vec::with_capacity(raw.provides.len());
+        let mut provided: BTreeSet<String> = BTreeSet::new();
+        for provision in raw.provides {
+            let interface = provision.get_ref().interface.clone();
+            if !provided.insert(interface.get_ref().clone()) {
+                self.report(
+                    &interface.span(),
+                    format!(
+                        "service `{name}` provides `{}` twice: keep one entry",
+                        interface.get_ref()
+                    ),
+                );
+            }
+            provides.push(self.provision(&name, provision.into_inner()));
+        }
+        let mut requires = Vec::with_capacity(raw.requires.len());
+        let mut required: BTreeSet<String> = BTreeSet::new();
+        for interface in &raw.requires {
+            self.interface_name(interface, &format!("service `{name}` requires"));
+            if !required.insert(interface.get_ref().clone()) {
+                self.report(
+                    &interface.span(),
+                    format!(
+                        "service `{name}` requires `{}` twice: keep one entry",
+                        interface.get_ref()
+                    ),
+                );
+            }
+            requires.push(interface.get_ref().clone());
+        }
+        if provides.is_empty() && raw.start == StartMode::OnDemand {
+            self.report(
+                &raw.name.span(),
+                format!(
+                    "service `{name}` provides no interface and starts on demand, so nothing would ever start it: add `provides` or set `start = \"always\"`"
+                ),
+            );
+        }
+
+        let restart = match raw.restart {
+            Some(policy) => self.restart_policy(&policy),
+            None => broker.restart,
+        };
+        let heartbeat_deadline_ms = match &raw.heartbeat_deadline_ms {
+            Some(deadline) => self.deadline(deadline, broker.heartbeat_period_ms),
+            None => None,
+        }
+        .unwrap_or(broker.heartbeat_deadline_ms);
+        let startup_deadline_ms = raw
+            .startup_deadline_ms
+            .and_then(|v| self.positive_ms(&v, "startup_deadline_ms"))
+            .unwrap_or(broker.startup_deadline_ms);
+        let mut environment = BTreeMap::new();
+        for (key, value) in raw.environment {
+            if key.get_ref().is_empty() || key.get_ref().contains(['=', '\0']) {
+                self.report(
+                    &key.span(),
+                    format!(
+                        "environment variable name `{}` of service `{name}` is empty or contains `=` or a NUL byte",
+                        key.get_ref().escape_debug()
+                    ),
+                );
+            }
+            if value.get_ref().contains('\0') {
+                self.report(
+                    &value.span(),
+                    format!(
+                        "environment variable `{}` of service `{name}` contains a NUL byte",
+                        key.get_ref().escape_debug()
+                    ),
+                );
+            }
+            environment.insert(key.into_inner(), value.into_inner());
+        }
+        let requirement_spans = raw.requires.iter().map(Spanned::span).collect();
+        let spec = ServiceSpec {
+            name,
+            description: raw.description,
+            launch,
+            parameters: raw.parameters,
+            provides,
+            requires,
+            restart,
+            heartbeat_deadline_ms,
+            startup_deadline_ms,
+            start: raw.start,
+            environment,
+        };
+        (spec, requirement_spans)
+    }
+
+    fn launch(
+        &mut self,
+        name: &str,
+        name_span: &Range<usize>,
+        kind: Option<Spanned<String>>,
+        command: Option<Spanned<Vec<Spanned<String>>>>,
+    ) -> Launch {
+        match (kind, command) {
+            (Some(kind), Some(command)) => {
+                self.report(
+                    &command.span(),
+                    format!(
+                        "service `{name}` has both `kind` and `command`: give one (a built-in kind, or a command line)"
+                    ),
+                );
+                Launch::Kind(kind.into_inner())
+            }
+            (None, None) => {
+                self.report(
+                    name_span,
+                    format!(
+                        "service `{name}` says neither `kind` (a built-in service) nor `command` (a command line): give one"
+                    ),
+                );
+                Launch::Command(Vec::new())
+            }
+            (Some(kind), None) => {
+                self.identifier(&kind, "service kind");
+                Launch::Kind(kind.into_inner())
+            }
+            (None, Some(command)) => {
+                let span = command.span();
+                let argv = command.into_inner();
+                match argv.first() {
+                    None => self.report(
+                        &span,
+                        format!("the command of service `{name}` is empty: give the program and its arguments"),
+                    ),
+                    Some(program) if program.get_ref().trim().is_empty() => self.report(
+                        &program.span(),
+                        format!("the command of service `{name}` has an empty program: give the program's path or name first"),
+                    ),
+                    Some(_) => {}
+                }
+                for arg in &argv {
+                    if arg.get_ref().contains('\0') {
+                        self.report(
+                            &arg.span(),
+                            format!(
+                                "an argument of service `{name}`'s command contains a NUL byte"
+                            ),
+                        );
+                    }
+                }
+                Launch::Command(argv.into_iter().map(Spanned::into_inner).collect())
+            }
+        }
+    }
+
+    fn provision(&mut self, service: &str, raw: RawProvision) -> Provision {
+        self.interface_name(&raw.interface, &format!("service `{service}` provides"));
+        let quality = self.score(&raw.quality, "quality", service);
+        let cost = self.score(&raw.cost, "cost", service);
+        let data_rate_hz = raw.data_rate_hz.map(|rate| {
+            let hz = *rate.get_ref();
+            if !(hz.is_finite() && hz > 0.0 && hz <= 1e6) {
+                self.report(
+                    &rate.span(),
+                    format!(
+                        "data_rate_hz {hz} of `{}` in service `{service}` is out of range: give a rate above 0 and at most 1000000",
+                        raw.interface.get_ref()
+                    ),
+                );
+            }
+            hz
+        });
+        Provision {
+            interface: raw.interface.into_inner(),
+            quality,
+            cost,
+            data_rate_hz,
+        }
+    }
+
+    fn score(&mut self, value: &Spanned<i64>, what: &str, service: &str) -> u32 {
+        let v = *value.get_ref();
+        if SCORE_RANGE.contains(&v) {
+            u32::try_from(v).unwrap_or(0)
+        } else {
+            self.report(
+                &value.span(),
+                format!(
+                    "{what} {v} in service `{service}` is out of range: give a value from {} to {}",
+                    SCORE_RANGE.start(),
+                    SCORE_RANGE.end()
+                ),
+            );
+            0
+        }
+    }
+
+    fn restart_policy(&mut self, policy: &Spanned<RestartPolicy>) -> RestartPolicy {
+        let p = *policy.get_ref();
+        if p.window_ms == 0 {
+            self.report(
+                &policy.span(),
+                "restart window_ms is 0: give the window over which restarts are counted, in milliseconds",
+            );
+        }
+        if p.backoff_initial_ms > p.backoff_max_ms {
+            self.report(
+                &policy.span(),
+                format!(
+                    "restart backoff_initial_ms {} is above backoff_max_ms {}: the first delay cannot exceed the cap",
+                    p.backoff_initial_ms, p.backoff_max_ms
+                ),
+            );
+        }
+        p
+    }
+
+    /// The value in milliseconds when given and positive; `None` (and a problem) when not positive.
+    fn positive_ms(&mut self, value: &Spanned<i64>, what: &str) -> Option<u64> {
+        match u64::try_from(*value.get_ref()) {
+            Ok(ms) if ms > 0 => Some(ms),
+            _ => {
+                self.report(
+                    &value.span(),
+                    format!(
+                        "{what} is {}: give a positive number of milliseconds",
+                        value.get_ref()
+                    ),
+                );
+                None
+            }
+        }
+    }
+
+    /// A heartbeat deadline: positive and longer than the heartbeat period.
+    fn deadline(&mut self, deadline: &Spanned<i64>, period_ms: u64) -> Option<u64> {
+        let deadline_ms = self.positive_ms(deadline, "heartbeat_deadline_ms")?;
+        if deadline_ms <= period_ms {
+            self.report(
+                &deadline.span(),
+                format!(
+                    "heartbeat_deadline_ms {deadline_ms} is not longer than the heartbeat period {period_ms} ms, so every service would be seen as stalled: give a deadline of a few periods"
+                ),
+            );
+            return None;
+        }
+        Some(deadline_ms)
+    }
+
+    fn identifier(&mut self, name: &Spanned<String>, what: &str) {
+        let n = name.get_ref();
+        let valid = n.len() <= MAX_NAME_LEN
+            && n.starts_with(|c: char| c.is_ascii_alphabetic())
+            && n.chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+        if !valid {
+            self.report(
+                &name.span(),
+                format!(
+                    "{what} `{}` is not a valid name: use a letter then letters, digits, `-` or `_`, at most {MAX_NAME_LEN} characters",
+                    n.escape_debug()
+                ),
+            );
+        }
+    }
+
+    fn interface_name(&mut self, name: &Spanned<String>, context: &str) {
+        if !self.known.contains(name.get_ref().as_str()) {
+            let known: Vec<&str> = self.known.iter().copied().collect();
+            self.report(
+                &name.span(),
+                format!(
+                    "{context} unknown interface `{}`: known interfaces are {}",
+                    name.get_ref().escape_debug(),
+                    known.join(", ")
+                ),
+            );
+        }
+    }
+
+    /// Every required interface must be provided by another service: a service that
+    /// provides what it requires (an obstacle avoider that is a Mover and drives through a
+    /// Mover) is never bound to itself.
+    fn requirements(&mut self, services: &[ServiceSpec], spans: &[Vec<Range<usize>>]) {
+        for (service, spans) in services.iter().zip(spans) {
+            let mut checked = BTreeSet::new();
+            for (interface, span) in service.requires.iter().zip(spans) {
+                if !self.known.contains(interface.as_str()) || !checked.insert(interface) {
+                    continue; // already reported: unknown, or required twice
+                }
+                let provided_elsewhere = services.iter().any(|other| {
+                    other.name != service.name && other.provision(interface).is_some()
+                });
+                if !provided_elsewhere {
+                    self.report(
+                        span,
+                        format!(
+                            "service `{}` requires `{interface}` but no other service provides it: add a provider or remove the requirement",
+                            service.name
+                        ),
+                    );
+                }
+            }
+        }
+    }
+}
