@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 
 mod idl;
 mod info;
+mod seq;
 
 /// The `lewis` command line.
 #[derive(Debug, Parser)]
@@ -35,6 +36,9 @@ pub enum Command {
     Idl(idl::IdlCommand),
     /// Describe an MCAP recording: channels, counts, rates, losses, and decoded messages.
     Info(info::InfoArgs),
+    /// Check and run mission scripts (the sequencer).
+    #[command(subcommand)]
+    Seq(seq::SeqCommand),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -45,5 +49,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Idl(command) => idl::run(command),
         Command::Info(args) => info::run(&args),
+        Command::Seq(command) => seq::run(command),
     }
 }
