@@ -59,9 +59,13 @@ fn float64(rng: &mut Rng) -> f64 {
 }
 
 fn string(rng: &mut Rng) -> String {
-    const PIECES: &[&str] = &["a", "Z", " ", "laser", "é", "日本", "🤖", "\u{7f}", "ß", "\t"];
+    const PIECES: &[&str] = &[
+        "a", "Z", " ", "laser", "é", "日本", "🤖", "\u{7f}", "ß", "\t",
+    ];
     let n = if rng.below(8) == 0 { 200 } else { rng.below(6) };
-    (0..n).map(|_| PIECES[rng.below(PIECES.len() as u64) as usize]).collect()
+    (0..n)
+        .map(|_| PIECES[rng.below(PIECES.len() as u64) as usize])
+        .collect()
 }
 
 fn array_len(rng: &mut Rng, big: bool) -> usize {
@@ -82,7 +86,11 @@ fn primitive(w: &mut Writer, rng: &mut Rng, p: Primitive) {
         Primitive::Int32 | Primitive::UInt32 => w.number(&(rng.next() as u32).to_le_bytes()),
         Primitive::Int64 | Primitive::UInt64 => w.number(&rng.next().to_le_bytes()),
         Primitive::Float32 => {
-            let bits = if rng.below(3) == 0 { f32::NAN.to_bits() } else { rng.next() as u32 };
+            let bits = if rng.below(3) == 0 {
+                f32::NAN.to_bits()
+            } else {
+                rng.next() as u32
+            };
             w.number(&bits.to_le_bytes());
         }
         Primitive::Float64 => w.number(&float64(rng).to_le_bytes()),
@@ -93,7 +101,11 @@ fn primitive(w: &mut Writer, rng: &mut Rng, p: Primitive) {
             w.out.push(0);
         }
         Primitive::Bytes => {
-            let n = if rng.below(4) == 0 { 921_600 } else { rng.below(9) as usize };
+            let n = if rng.below(4) == 0 {
+                921_600
+            } else {
+                rng.below(9) as usize
+            };
             w.number(&(n as u32).to_le_bytes());
             w.out.extend((0..n).map(|i| (i as u8).wrapping_mul(31)));
         }
@@ -140,7 +152,12 @@ fn check_roundtrip<T: Struct>(idl: &Idl, seed: u64) {
         .unwrap_or_else(|| panic!("{} is not in the IDL", T::SCHEMA_NAME));
     let bytes = random_message(idl, ty, seed);
     let value: T = cdr::from_bytes(&bytes).unwrap_or_else(|e| panic!("{}: {e}", T::SCHEMA_NAME));
-    assert_eq!(cdr::to_vec(&value), bytes, "{} re-encodes differently", T::SCHEMA_NAME);
+    assert_eq!(
+        cdr::to_vec(&value),
+        bytes,
+        "{} re-encodes differently",
+        T::SCHEMA_NAME
+    );
     assert_eq!(cdr::encoded_len(&value), bytes.len());
 
     let mut exact = vec![0xAA; bytes.len()];
@@ -149,7 +166,10 @@ fn check_roundtrip<T: Struct>(idl: &Idl, seed: u64) {
     let mut short = vec![0; bytes.len() - 1];
     assert_eq!(
         cdr::encode_into(&value, &mut short),
-        Err(EncodeError::BufferTooSmall { needed: bytes.len(), available: bytes.len() - 1 })
+        Err(EncodeError::BufferTooSmall {
+            needed: bytes.len(),
+            available: bytes.len() - 1
+        })
     );
     // Every truncation is an error or (within the tolerated padding) the same value.
     for cut in [1, 2, 5, bytes.len() / 2, bytes.len() - 4] {
@@ -166,20 +186,7 @@ macro_rules! every_type {
     };
 }
 
-every_type!(
-    Header, InputRef, Point2D, Point3D, Pose2D, Pose3D, Blob, Blob3D, Sign, Blobs,
-    BlobsSetMinArea, BlobsSetMinAreaReply, Blobs3D, Blobs3DSetMaxRange, Blobs3DSetMaxRangeReply,
-    CameraControl, CameraControlSetZoom, CameraControlSetZoomReply, CameraControlSetFocus,
-    CameraControlSetFocusReply, CameraControlSetExposure, CameraControlSetExposureReply,
-    CameraControlSetPanTilt, CameraControlSetPanTiltReply, Distance, DistanceSetSectorCount,
-    DistanceSetSectorCountReply, Egomotion, EgomotionResetOdometry, EgomotionResetOdometryReply,
-    ImageSource, ImageSourceSetRate, ImageSourceSetRateReply, Mover, MoverGoto, MoverGotoReply,
-    MoverRotate, MoverRotateReply, MoverTranslate, MoverTranslateReply, MoverStop, MoverStopReply,
-    Power, PowerSetLowThreshold, PowerSetLowThresholdReply, RangeFinder, RangeFinderGetGeometry,
-    RangeFinderGetGeometryReply, Signs, SignsSetEnabled, SignsSetEnabledReply, Synchrodrive,
-    SynchrodriveSetVelocity, SynchrodriveSetVelocityReply, SynchrodriveStop, SynchrodriveStopReply,
-    SynchrodriveSetBrake, SynchrodriveSetBrakeReply,
-);
+lewis_interfaces::for_each_struct!(every_type);
 
 fn shipped() -> Idl {
     idl::load_dir(&Path::new(env!("CARGO_MANIFEST_DIR")).join("idl")).unwrap()
@@ -243,17 +250,27 @@ fn a_count_larger_than_the_message_is_an_error_not_an_allocation() {
     // The header's provider string length is at offset 4: claim 4 GiB.
     bytes[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
     let err = cdr::from_bytes::<RangeFinder>(&bytes).unwrap_err();
-    assert_eq!(err.to_string(), "message truncated: 4294967295 bytes needed, 148 left at byte 8 in field `header.provider`");
+    assert_eq!(
+        err.to_string(),
+        "message truncated: 4294967295 bytes needed, 148 left at byte 8 in field `header.provider`"
+    );
     let mut bytes = cdr::to_vec(&Blobs::default());
     let at = bytes.len() - 4;
     bytes[at..].copy_from_slice(&(u32::MAX / 2).to_le_bytes());
     let err = cdr::from_bytes::<Blobs>(&bytes).unwrap_err();
-    assert_eq!(err.to_string(), "sequence of 2147483647 elements cannot fit in the 0 bytes left at byte 48 in field `blobs`");
+    assert_eq!(
+        err.to_string(),
+        "sequence of 2147483647 elements cannot fit in the 0 bytes left at byte 48 in field `blobs`"
+    );
 }
 
 #[test]
 fn a_wrong_size_field_is_reported_by_check_sizes() {
-    let scan = RangeFinder { range_count: 3, ranges: vec![1.0, 2.0], ..Default::default() };
+    let scan = RangeFinder {
+        range_count: 3,
+        ranges: vec![1.0, 2.0],
+        ..Default::default()
+    };
     assert_eq!(
         scan.check_sizes().unwrap_err().to_string(),
         "`RangeFinder.ranges` has 2 elements but `RangeFinder.range_count` says 3"
@@ -263,20 +280,32 @@ fn a_wrong_size_field_is_reported_by_check_sizes() {
 #[test]
 fn commands_decode_by_name_and_unknown_names_list_the_valid_ones() {
     use lewis_interfaces::CommandSet;
-    let goto = MoverGoto { x: 1.5, y: -2.0, ..Default::default() };
+    let goto = MoverGoto {
+        x: 1.5,
+        y: -2.0,
+        ..Default::default()
+    };
     let bytes = cdr::to_vec(&goto);
     let decoded = <Mover as Interface>::Command::decode("goto", &bytes).unwrap();
     assert_eq!(decoded, MoverCommand::Goto(goto));
     assert_eq!(decoded.name(), "goto");
     let err = <Mover as Interface>::Command::decode("fly", &bytes).unwrap_err();
-    assert_eq!(err.to_string(), "interface `Mover` has no command `fly`; it has: goto, rotate, translate, stop");
+    assert_eq!(
+        err.to_string(),
+        "interface `Mover` has no command `fly`; it has: goto, rotate, translate, stop"
+    );
 }
 
 #[test]
 fn a_known_message_has_the_bytes_ros2_would_write() {
     // Hand-computed: header (empty provider, seq 7, time 9, no inputs), then x, y.
     let goto = MoverGoto {
-        header: Header { provider: String::new(), seq: 7, publish_time_ns: 9, inputs: vec![] },
+        header: Header {
+            provider: String::new(),
+            seq: 7,
+            publish_time_ns: 9,
+            inputs: vec![],
+        },
         x: 1.0,
         y: 2.0,
     };

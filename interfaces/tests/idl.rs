@@ -36,12 +36,25 @@ fn every_interface_of_the_paper_is_defined() {
     assert_eq!(
         names,
         [
-            "Blobs", "Blobs3D", "CameraControl", "Distance", "Egomotion", "ImageSource", "Mover",
-            "Power", "RangeFinder", "Signs", "Synchrodrive"
+            "Blobs",
+            "Blobs3D",
+            "CameraControl",
+            "Distance",
+            "Egomotion",
+            "ImageSource",
+            "Mover",
+            "Power",
+            "RangeFinder",
+            "Signs",
+            "Synchrodrive"
         ]
     );
     for interface in &idl.interfaces {
-        assert!(!interface.commands.is_empty(), "{} has no command", interface.name);
+        assert!(
+            !interface.commands.is_empty(),
+            "{} has no command",
+            interface.name
+        );
     }
     let mover = idl.interface("Mover").unwrap();
     let commands: Vec<&str> = mover.commands.iter().map(|c| c.name.as_str()).collect();
@@ -137,11 +150,20 @@ fn ros2msg_schema_appends_dependencies_as_ros2_does() {
 #[test]
 fn generated_catalogue_matches_the_xml() {
     let idl = shipped();
-    assert_eq!(lewis_interfaces::msg::INTERFACES.len(), idl.interfaces.len());
-    for (info, interface) in lewis_interfaces::msg::INTERFACES.iter().zip(&idl.interfaces) {
+    assert_eq!(
+        lewis_interfaces::msg::INTERFACES.len(),
+        idl.interfaces.len()
+    );
+    for (info, interface) in lewis_interfaces::msg::INTERFACES
+        .iter()
+        .zip(&idl.interfaces)
+    {
         assert_eq!(info.name, interface.name);
         assert_eq!(info.xml, interface.xml);
-        assert_eq!(info.publication.text, idl::schema_text(&idl, &interface.publication));
+        assert_eq!(
+            info.publication.text,
+            idl::schema_text(&idl, &interface.publication)
+        );
         assert_eq!(info.commands.len(), interface.commands.len());
     }
 }
@@ -242,7 +264,10 @@ fn the_papers_doctype_line_is_accepted() {
 
 #[test]
 fn nesting_too_deep_is_refused_without_recursion() {
-    let deep = format!("<interface name=\"Deep\" version=\"1.0\">{}", "<publish>".repeat(100_000));
+    let deep = format!(
+        "<interface name=\"Deep\" version=\"1.0\">{}",
+        "<publish>".repeat(100_000)
+    );
     check_file(
         "Deep.xml",
         &deep,
