@@ -35,11 +35,12 @@ pub fn builtin_idl() -> Result<idl::Idl, idl::Diagnostics> {
     let sources: Vec<(std::path::PathBuf, String)> = msg::TYPES_XML
         .iter()
         .map(|(file, xml)| (std::path::PathBuf::from(file), (*xml).to_owned()))
-        .chain(
-            msg::INTERFACES
-                .iter()
-                .map(|i| (std::path::PathBuf::from(format!("{}.xml", i.name)), i.xml.to_owned())),
-        )
+        .chain(msg::INTERFACES.iter().map(|i| {
+            (
+                std::path::PathBuf::from(format!("{}.xml", i.name)),
+                i.xml.to_owned(),
+            )
+        }))
         .collect();
     idl::load_sources(&sources)
 }

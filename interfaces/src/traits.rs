@@ -9,7 +9,9 @@ use crate::cdr::{Decode, DecodeError, Encode};
 use crate::msg::Header;
 
 /// Any generated struct: it has a CDR encoding and a ros2msg schema.
-pub trait Struct: Encode + Decode + Clone + Debug + PartialEq + Default + Send + Sync + 'static {
+pub trait Struct:
+    Encode + Decode + Clone + Debug + PartialEq + Default + Send + Sync + 'static
+{
     /// The schema name, `lewis_interfaces/msg/<Name>`.
     const SCHEMA_NAME: &'static str;
     /// The ros2msg schema text, dependencies appended as ROS 2 does.

@@ -62,7 +62,10 @@ impl fmt::Display for DecodeError {
                 write!(f, "message truncated: {needed} bytes needed, {left} left")?;
             }
             DecodeErrorKind::CountTooLarge { count, left } => {
-                write!(f, "sequence of {count} elements cannot fit in the {left} bytes left")?;
+                write!(
+                    f,
+                    "sequence of {count} elements cannot fit in the {left} bytes left"
+                )?;
             }
             DecodeErrorKind::MissingNul => write!(f, "string not terminated by NUL")?,
             DecodeErrorKind::InvalidUtf8 => write!(f, "string is not UTF-8")?,

@@ -73,7 +73,15 @@ pub fn from_bytes<T: Decode>(bytes: &[u8]) -> Result<T, DecodeError> {
         Some((header, _)) => {
             return Err(DecodeError::at(0, DecodeErrorKind::Encapsulation(*header)));
         }
-        None => return Err(DecodeError::at(0, DecodeErrorKind::Truncated { needed: 4, left: bytes.len() })),
+        None => {
+            return Err(DecodeError::at(
+                0,
+                DecodeErrorKind::Truncated {
+                    needed: 4,
+                    left: bytes.len(),
+                },
+            ));
+        }
     };
     let mut reader = Reader::new(payload);
     let value = T::decode(&mut reader)?;

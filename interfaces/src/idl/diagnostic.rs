@@ -119,7 +119,10 @@ impl From<Diagnostic> for Diagnostics {
 
 /// The candidate closest to `word` by edit distance, when it is close enough to be a
 /// plausible typo.
-pub(super) fn closest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+pub(super) fn closest<'a>(
+    word: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
     candidates
         .into_iter()
         .map(|c| (edit_distance(&word.to_lowercase(), &c.to_lowercase()), c))

@@ -13,7 +13,11 @@ use super::validate::{Parsed, validate};
 /// Every problem found, each with its file, line and column.
 pub fn load_dir(dir: &Path) -> Result<Idl, Diagnostics> {
     let entries = std::fs::read_dir(dir).map_err(|err| {
-        Diagnostics::from(Diagnostic::new(dir, Position::default(), format!("cannot read the folder: {err}")))
+        Diagnostics::from(Diagnostic::new(
+            dir,
+            Position::default(),
+            format!("cannot read the folder: {err}"),
+        ))
     })?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(Result::ok)
@@ -22,9 +26,11 @@ pub fn load_dir(dir: &Path) -> Result<Idl, Diagnostics> {
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(Diagnostic::new(dir, Position::default(), "no .xml files in this folder")
-            .with_hint("interface definitions are `NAME.xml` files beside a `types.xml`")
-            .into());
+        return Err(
+            Diagnostic::new(dir, Position::default(), "no .xml files in this folder")
+                .with_hint("interface definitions are `NAME.xml` files beside a `types.xml`")
+                .into(),
+        );
     }
     load_files(&files)
 }
@@ -42,7 +48,9 @@ pub fn load_files(files: &[PathBuf]) -> Result<Idl, Diagnostics> {
                 Ok(text) => sources.push((file.clone(), text)),
                 Err(err) => {
                     let offset = err.utf8_error().valid_up_to();
-                    let valid = String::from_utf8_lossy(err.as_bytes().get(..offset).unwrap_or_default()).into_owned();
+                    let valid =
+                        String::from_utf8_lossy(err.as_bytes().get(..offset).unwrap_or_default())
+                            .into_owned();
                     errors.push(Diagnostic::new(
                         file,
                         Position::of_offset(&valid, offset),
@@ -51,7 +59,11 @@ pub fn load_files(files: &[PathBuf]) -> Result<Idl, Diagnostics> {
                 }
             },
             Err(err) => {
-                errors.push(Diagnostic::new(file, Position::default(), format!("cannot read the file: {err}")));
+                errors.push(Diagnostic::new(
+                    file,
+                    Position::default(),
+                    format!("cannot read the file: {err}"),
+                ));
             }
         }
     }
@@ -67,7 +79,10 @@ pub fn load_sources(sources: &[(PathBuf, String)]) -> Result<Idl, Diagnostics> {
     load_sources_with(sources, Vec::new())
 }
 
-fn load_sources_with(sources: &[(PathBuf, String)], mut errors: Vec<Diagnostic>) -> Result<Idl, Diagnostics> {
+fn load_sources_with(
+    sources: &[(PathBuf, String)],
+    mut errors: Vec<Diagnostic>,
+) -> Result<Idl, Diagnostics> {
     let mut parsed = Vec::new();
     for (file, source) in sources {
         match parse_document(source, file) {

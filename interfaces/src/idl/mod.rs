@@ -17,8 +17,8 @@ mod validate;
 pub use diagnostic::{Diagnostic, Diagnostics, Position};
 pub use load::{load_dir, load_files, load_sources};
 pub use model::{
-    Command, Field, FieldType, Idl, Interface, Primitive, StructKind, StructType,
-    HEADER_TYPE, INPUT_REF_TYPE, PACKAGE,
+    Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface, PACKAGE, Primitive,
+    StructKind, StructType,
 };
 pub use ros2msg::schema_text;
 pub use rust::generate_rust;

@@ -262,10 +262,12 @@ impl Idl {
     /// Every struct that code generation emits: compounds, then per interface its
     /// publication, commands and replies.
     pub fn all_structs(&self) -> impl Iterator<Item = &StructType> {
-        self.types.iter().chain(self.interfaces.iter().flat_map(|i| {
-            std::iter::once(&i.publication)
-                .chain(i.commands.iter().flat_map(|c| [&c.request, &c.reply]))
-        }))
+        self.types
+            .iter()
+            .chain(self.interfaces.iter().flat_map(|i| {
+                std::iter::once(&i.publication)
+                    .chain(i.commands.iter().flat_map(|c| [&c.request, &c.reply]))
+            }))
     }
 
     /// The built-in compound types that every set of interfaces has.
@@ -293,9 +295,24 @@ impl Idl {
                         .to_owned(),
                 ),
                 fields: vec![
-                    field("provider", prim("String", Primitive::String), false, "the service that sent it"),
-                    field("seq", prim("UnsignedLong", Primitive::UInt64), false, "sequence number in its channel, from 1"),
-                    field("publish_time_ns", prim("Long", Primitive::Int64), false, "the sender's clock when it was sent, in nanoseconds"),
+                    field(
+                        "provider",
+                        prim("String", Primitive::String),
+                        false,
+                        "the service that sent it",
+                    ),
+                    field(
+                        "seq",
+                        prim("UnsignedLong", Primitive::UInt64),
+                        false,
+                        "sequence number in its channel, from 1",
+                    ),
+                    field(
+                        "publish_time_ns",
+                        prim("Long", Primitive::Int64),
+                        false,
+                        "the sender's clock when it was sent, in nanoseconds",
+                    ),
                     field(
                         "inputs",
                         FieldType::Struct(INPUT_REF_TYPE.to_owned()),
@@ -309,8 +326,18 @@ impl Idl {
                 kind: StructKind::Compound,
                 description: Some("One input a sample was computed from.".to_owned()),
                 fields: vec![
-                    field("channel", prim("String", Primitive::String), false, "the channel the input came from"),
-                    field("seq", prim("UnsignedLong", Primitive::UInt64), false, "the input's sequence number in that channel"),
+                    field(
+                        "channel",
+                        prim("String", Primitive::String),
+                        false,
+                        "the channel the input came from",
+                    ),
+                    field(
+                        "seq",
+                        prim("UnsignedLong", Primitive::UInt64),
+                        false,
+                        "the input's sequence number in that channel",
+                    ),
                 ],
             },
         ]

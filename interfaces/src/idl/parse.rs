@@ -117,7 +117,11 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
     let mut root: Option<Element> = None;
     let xml_error = |reader: &Reader<&[u8]>, err: &dyn std::fmt::Display| {
         let offset = usize::try_from(reader.error_position()).unwrap_or(usize::MAX);
-        Diagnostic::new(file, Position::of_offset(source, offset), format!("malformed XML: {err}"))
+        Diagnostic::new(
+            file,
+            Position::of_offset(source, offset),
+            format!("malformed XML: {err}"),
+        )
     };
     loop {
         let event = match reader.read_event() {
@@ -198,8 +202,12 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
         ));
     }
     root.ok_or_else(|| {
-        Diagnostic::new(file, Position::of_offset(source, source.len()), "no root element")
-            .with_hint("a definition file holds one `<interface>` or one `<types>` element")
+        Diagnostic::new(
+            file,
+            Position::of_offset(source, source.len()),
+            "no root element",
+        )
+        .with_hint("a definition file holds one `<interface>` or one `<types>` element")
     })
 }
 
@@ -244,13 +252,21 @@ fn element_of(
     let mut attrs = Vec::new();
     for attr in start.attributes() {
         let attr = attr.map_err(|err| {
-            Diagnostic::new(file, position, format!("malformed attribute in `<{name}>`: {err}"))
+            Diagnostic::new(
+                file,
+                position,
+                format!("malformed attribute in `<{name}>`: {err}"),
+            )
         })?;
         let key = attr.key.as_ref().to_owned();
         let value = attr
             .normalized_value(quick_xml::XmlVersion::Implicit1_0)
             .map_err(|err| {
-                Diagnostic::new(file, position, format!("bad value of `{key}` in `<{name}>`: {err}"))
+                Diagnostic::new(
+                    file,
+                    position,
+                    format!("bad value of `{key}` in `<{name}>`: {err}"),
+                )
             })?
             .into_owned();
         let offset = match find_attribute(raw_tag, cursor, &key) {
@@ -286,7 +302,12 @@ impl Cx<'_> {
     }
 
     /// Checks that `element` has only `allowed` attributes and every one of `required`.
-    fn attributes(&self, element: &Element, allowed: &[&str], required: &[&str]) -> Result<(), Diagnostic> {
+    fn attributes(
+        &self,
+        element: &Element,
+        allowed: &[&str],
+        required: &[&str],
+    ) -> Result<(), Diagnostic> {
         for (i, attr) in element.attrs.iter().enumerate() {
             if !allowed.contains(&attr.name.as_str()) {
                 let mut d = self.error(
@@ -302,7 +323,10 @@ impl Cx<'_> {
             if element.attrs[..i].iter().any(|a| a.name == attr.name) {
                 return Err(self.error(
                     attr.position,
-                    format!("attribute `{}` given twice on `<{}>`", attr.name, element.name),
+                    format!(
+                        "attribute `{}` given twice on `<{}>`",
+                        attr.name, element.name
+                    ),
                 ));
             }
         }
@@ -321,11 +345,15 @@ impl Cx<'_> {
         if element.text.trim().is_empty() {
             Ok(())
         } else {
-            Err(self.error(
-                element.position,
-                format!("`<{}>` holds text; only elements belong there", element.name),
-            )
-            .with_hint("put prose in a `<description>` or `<comment>` element"))
+            Err(self
+                .error(
+                    element.position,
+                    format!(
+                        "`<{}>` holds text; only elements belong there",
+                        element.name
+                    ),
+                )
+                .with_hint("put prose in a `<description>` or `<comment>` element"))
         }
     }
 
@@ -345,7 +373,10 @@ impl Cx<'_> {
         if let Some(child) = element.children.first() {
             return Err(self.error(
                 child.position,
-                format!("`<{}>` inside `<{}>`: it holds only text", child.name, element.name),
+                format!(
+                    "`<{}>` inside `<{}>`: it holds only text",
+                    child.name, element.name
+                ),
             ));
         }
         Ok(tidy(&element.text))
@@ -393,7 +424,13 @@ impl Cx<'_> {
                     self.prose(child)?;
                 }
                 "field" => fields.push(self.field(child)?),
-                _ => return Err(self.unknown_child(element, child, &["description", "comment", "field"])),
+                _ => {
+                    return Err(self.unknown_child(
+                        element,
+                        child,
+                        &["description", "comment", "field"],
+                    ));
+                }
             }
         }
         Ok(RawStruct {
@@ -409,7 +446,10 @@ impl Cx<'_> {
         match element.children.first() {
             Some(child) => Err(self.error(
                 child.position,
-                format!("`<{}>` inside `<{}>`, which holds nothing", child.name, element.name),
+                format!(
+                    "`<{}>` inside `<{}>`, which holds nothing",
+                    child.name, element.name
+                ),
             )),
             None => Ok(()),
         }
@@ -557,10 +597,14 @@ fn attr(element: &Element, name: &str) -> Spanned {
 }
 
 fn opt_attr(element: &Element, name: &str) -> Option<Spanned> {
-    element.attrs.iter().find(|a| a.name == name).map(|a| Spanned {
-        value: a.value.clone(),
-        position: a.position,
-    })
+    element
+        .attrs
+        .iter()
+        .find(|a| a.name == name)
+        .map(|a| Spanned {
+            value: a.value.clone(),
+            position: a.position,
+        })
 }
 
 fn list(names: &[&str]) -> String {

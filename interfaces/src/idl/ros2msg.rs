@@ -29,10 +29,12 @@ pub fn schema_text(idl: &Idl, ty: &StructType) -> String {
 /// Depth-first, in field order: the order ROS 2 uses.
 fn dependencies(idl: &Idl, ty: &StructType, seen: &mut BTreeSet<String>, order: &mut Vec<String>) {
     let header = ty.has_header().then(|| HEADER_TYPE.to_owned());
-    let names = header.into_iter().chain(ty.fields.iter().filter_map(|f| match &f.ty {
-        FieldType::Struct(name) => Some(name.clone()),
-        FieldType::Primitive { .. } => None,
-    }));
+    let names = header
+        .into_iter()
+        .chain(ty.fields.iter().filter_map(|f| match &f.ty {
+            FieldType::Struct(name) => Some(name.clone()),
+            FieldType::Primitive { .. } => None,
+        }));
     for name in names {
         if seen.insert(name.clone()) {
             order.push(name.clone());

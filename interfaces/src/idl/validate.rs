@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use super::diagnostic::{Diagnostic, Diagnostics, closest};
 use super::model::{
-    Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface, Primitive,
-    StructKind, StructType,
+    Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface, Primitive, StructKind,
+    StructType,
 };
 use super::parse::{RawDocument, RawField, RawInterface, RawTypes, Spanned};
 
@@ -18,11 +18,11 @@ pub(super) struct Parsed {
 }
 
 const RUST_KEYWORDS: &[&str] = &[
-    "as", "async", "await", "break", "const", "continue", "crate", "dyn", "else", "enum",
-    "extern", "false", "fn", "for", "gen", "if", "impl", "in", "let", "loop", "match", "mod",
-    "move", "mut", "pub", "ref", "return", "self", "static", "struct", "super", "trait", "true",
-    "type", "unsafe", "use", "where", "while", "abstract", "become", "box", "do", "final",
-    "macro", "override", "priv", "try", "typeof", "unsized", "virtual", "yield",
+    "as", "async", "await", "break", "const", "continue", "crate", "dyn", "else", "enum", "extern",
+    "false", "fn", "for", "gen", "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut",
+    "pub", "ref", "return", "self", "static", "struct", "super", "trait", "true", "type", "unsafe",
+    "use", "where", "while", "abstract", "become", "box", "do", "final", "macro", "override",
+    "priv", "try", "typeof", "unsized", "virtual", "yield",
 ];
 
 /// Names of a type: its primitive, or that it is a struct.
@@ -63,8 +63,12 @@ pub(super) fn validate(files: &[Parsed]) -> Result<Idl, Diagnostics> {
         let fields = resolve_fields(file, &raw.fields, &known, &mut errors);
         if raw.fields.is_empty() {
             errors.push(
-                Diagnostic::new(file, raw.position, format!("struct `{}` has no fields", raw.name.value))
-                    .with_hint("add a `<field>`, or remove the struct"),
+                Diagnostic::new(
+                    file,
+                    raw.position,
+                    format!("struct `{}` has no fields", raw.name.value),
+                )
+                .with_hint("add a `<field>`, or remove the struct"),
             );
         }
         types.push(StructType {
@@ -121,8 +125,12 @@ fn check_version(file: &Path, version: &Spanned, errors: &mut Vec<Diagnostic>) {
         .is_some_and(|(major, minor)| is_number(major) && is_number(minor));
     if !ok {
         errors.push(
-            Diagnostic::new(file, version.position, format!("bad version `{}`", version.value))
-                .with_hint("write MAJOR.MINOR, for example `1.0`"),
+            Diagnostic::new(
+                file,
+                version.position,
+                format!("bad version `{}`", version.value),
+            )
+            .with_hint("write MAJOR.MINOR, for example `1.0`"),
         );
     }
 }
@@ -133,14 +141,15 @@ fn is_number(s: &str) -> bool {
 
 fn is_type_name(name: &str) -> bool {
     let mut chars = name.chars();
-    chars.next().is_some_and(|c| c.is_ascii_uppercase())
-        && chars.all(|c| c.is_ascii_alphanumeric())
+    chars.next().is_some_and(|c| c.is_ascii_uppercase()) && chars.all(|c| c.is_ascii_alphanumeric())
 }
 
 fn is_field_name(name: &str) -> bool {
     let mut chars = name.chars();
     chars.next().is_some_and(|c| c.is_ascii_lowercase())
-        && name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
         && !name.ends_with('_')
         && !name.contains("__")
 }
@@ -150,8 +159,12 @@ fn check_type_name(file: &Path, name: &Spanned, what: &str, errors: &mut Vec<Dia
         return true;
     }
     errors.push(
-        Diagnostic::new(file, name.position, format!("bad {what} name `{}`", name.value))
-            .with_hint("type names are CamelCase: a capital letter, then letters and digits"),
+        Diagnostic::new(
+            file,
+            name.position,
+            format!("bad {what} name `{}`", name.value),
+        )
+        .with_hint("type names are CamelCase: a capital letter, then letters and digits"),
     );
     false
 }
@@ -165,8 +178,12 @@ fn collect_type_names(
     let mut declare = |name: &Spanned, kind: Known, errors: &mut Vec<Diagnostic>| {
         if name.value == HEADER_TYPE || name.value == INPUT_REF_TYPE {
             errors.push(
-                Diagnostic::new(file, name.position, format!("`{}` is a built-in type", name.value))
-                    .with_hint("every message starts with the built-in Header; choose another name"),
+                Diagnostic::new(
+                    file,
+                    name.position,
+                    format!("`{}` is a built-in type", name.value),
+                )
+                .with_hint("every message starts with the built-in Header; choose another name"),
             );
         } else if known.contains_key(&name.value) {
             errors.push(Diagnostic::new(
@@ -191,10 +208,12 @@ fn collect_type_names(
                     primitive.ros2.position,
                     format!("unknown ROS 2 type `{}`", primitive.ros2.value),
                 );
-                errors.push(match closest(&primitive.ros2.value, spellings.iter().copied()) {
-                    Some(near) => d.with_hint(format!("did you mean `{near}`?")),
-                    None => d.with_hint(format!("one of: {}", spellings.join(", "))),
-                });
+                errors.push(
+                    match closest(&primitive.ros2.value, spellings.iter().copied()) {
+                        Some(near) => d.with_hint(format!("did you mean `{near}`?")),
+                        None => d.with_hint(format!("one of: {}", spellings.join(", "))),
+                    },
+                );
             }
         }
     }
@@ -222,13 +241,19 @@ fn resolve_fields(
             );
         } else if RUST_KEYWORDS.contains(&name.as_str()) {
             errors.push(
-                Diagnostic::new(file, f.name.position, format!("field name `{name}` is a Rust keyword"))
-                    .with_hint("choose another name, for example with a unit or a qualifier"),
+                Diagnostic::new(
+                    file,
+                    f.name.position,
+                    format!("field name `{name}` is a Rust keyword"),
+                )
+                .with_hint("choose another name, for example with a unit or a qualifier"),
             );
         } else if name == "header" {
             errors.push(
                 Diagnostic::new(file, f.name.position, "field name `header` is reserved")
-                    .with_hint("every message starts with the built-in header; choose another name"),
+                    .with_hint(
+                        "every message starts with the built-in header; choose another name",
+                    ),
             );
         }
         if seen.insert(name, index).is_some() {
@@ -245,23 +270,43 @@ fn resolve_fields(
             }),
             Some(Known::Struct) => Some(FieldType::Struct(f.ty.value.clone())),
             None => {
-                let d = Diagnostic::new(file, f.ty.position, format!("unknown type `{}`", f.ty.value));
-                errors.push(match closest(&f.ty.value, known.keys().map(String::as_str)) {
-                    Some(near) => d.with_hint(format!("did you mean `{near}`?")),
-                    None => d.with_hint(format!(
-                        "known types: {}",
-                        known.keys().map(String::as_str).collect::<Vec<_>>().join(", ")
-                    )),
-                });
+                let d = Diagnostic::new(
+                    file,
+                    f.ty.position,
+                    format!("unknown type `{}`", f.ty.value),
+                );
+                errors.push(
+                    match closest(&f.ty.value, known.keys().map(String::as_str)) {
+                        Some(near) => d.with_hint(format!("did you mean `{near}`?")),
+                        None => d.with_hint(format!(
+                            "known types: {}",
+                            known
+                                .keys()
+                                .map(String::as_str)
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        )),
+                    },
+                );
                 None
             }
         };
         if let Some(size) = &f.array_size {
             check_array_size(file, f, size, raw, index, known, errors);
-            if matches!(ty, Some(FieldType::Primitive { primitive: Primitive::Bytes, .. })) {
+            if matches!(
+                ty,
+                Some(FieldType::Primitive {
+                    primitive: Primitive::Bytes,
+                    ..
+                })
+            ) {
                 errors.push(
-                    Diagnostic::new(file, size.position, format!("`{name}` is an array of Bytes"))
-                        .with_hint("Bytes is already a sequence; an array of them is not a ROS 2 type"),
+                    Diagnostic::new(
+                        file,
+                        size.position,
+                        format!("`{name}` is an array of Bytes"),
+                    )
+                    .with_hint("Bytes is already a sequence; an array of them is not a ROS 2 type"),
                 );
             }
         }
@@ -297,10 +342,14 @@ fn check_array_size(
             format!("array_size `{}` of `{name}` names no field", size.value),
         );
         let earlier = all.get(..index).unwrap_or_default();
-        errors.push(match closest(&size.value, earlier.iter().map(|f| f.name.value.as_str())) {
-            Some(near) => d.with_hint(format!("did you mean `{near}`?")),
-            None => d.with_hint("declare an Integer field that holds the length before the array"),
-        });
+        errors.push(
+            match closest(&size.value, earlier.iter().map(|f| f.name.value.as_str())) {
+                Some(near) => d.with_hint(format!("did you mean `{near}`?")),
+                None => {
+                    d.with_hint("declare an Integer field that holds the length before the array")
+                }
+            },
+        );
         return;
     };
     let target = &all[at];
@@ -309,13 +358,20 @@ fn check_array_size(
             Diagnostic::new(
                 file,
                 size.position,
-                format!("array_size `{}` of `{name}` names a later field", size.value),
+                format!(
+                    "array_size `{}` of `{name}` names a later field",
+                    size.value
+                ),
             )
-            .with_hint(format!("move `{}` above `{name}`: a length comes before its array", size.value)),
+            .with_hint(format!(
+                "move `{}` above `{name}`: a length comes before its array",
+                size.value
+            )),
         );
         return;
     }
-    let is_integer = matches!(known.get(&target.ty.value), Some(Known::Primitive(p)) if p.is_integer());
+    let is_integer =
+        matches!(known.get(&target.ty.value), Some(Known::Primitive(p)) if p.is_integer());
     if !is_integer || target.array_size.is_some() {
         errors.push(
             Diagnostic::new(
@@ -325,7 +381,11 @@ fn check_array_size(
                     "array_size `{}` of `{name}` names a field of type `{}`{}",
                     size.value,
                     target.ty.value,
-                    if target.array_size.is_some() { " array" } else { "" }
+                    if target.array_size.is_some() {
+                        " array"
+                    } else {
+                        ""
+                    }
                 ),
             )
             .with_hint("array_size must name a single Integer field"),
@@ -353,7 +413,10 @@ fn check_cycles(
                             Diagnostic::new(
                                 file,
                                 s.position,
-                                format!("struct `{}` contains itself (through `{}`)", s.name.value, t.name),
+                                format!(
+                                    "struct `{}` contains itself (through `{}`)",
+                                    s.name.value, t.name
+                                ),
                             )
                             .with_hint("a message has a fixed shape: break the cycle"),
                         );
@@ -400,9 +463,14 @@ fn resolve_interface(
                 Diagnostic::new(
                     file,
                     raw.name.position,
-                    format!("interface `{name}` is in a file named `{}`", file_name(file)),
+                    format!(
+                        "interface `{name}` is in a file named `{}`",
+                        file_name(file)
+                    ),
                 )
-                .with_hint(format!("name the file `{name}.xml`, so tools find it by name")),
+                .with_hint(format!(
+                    "name the file `{name}.xml`, so tools find it by name"
+                )),
             );
         }
         if let Some(other) = interface_names.insert(name.clone(), file.to_path_buf()) {
@@ -413,28 +481,39 @@ fn resolve_interface(
             ));
         } else if known.contains_key(name) {
             errors.push(
-                Diagnostic::new(file, raw.name.position, format!("interface `{name}` has the name of a type"))
-                    .with_hint("interfaces and types share one namespace: rename one of them"),
+                Diagnostic::new(
+                    file,
+                    raw.name.position,
+                    format!("interface `{name}` has the name of a type"),
+                )
+                .with_hint("interfaces and types share one namespace: rename one of them"),
             );
         }
     }
     check_version(file, &raw.version, errors);
     match &raw.types_file {
         None => errors.push(
-            Diagnostic::new(file, raw.position, format!("interface `{name}` has no `<types filename=...>`"))
-                .with_hint("add `<types filename=\"types.xml\"/>` naming the type library it uses"),
+            Diagnostic::new(
+                file,
+                raw.position,
+                format!("interface `{name}` has no `<types filename=...>`"),
+            )
+            .with_hint("add `<types filename=\"types.xml\"/>` naming the type library it uses"),
         ),
         Some(t) if !type_files.contains(&t.value) => errors.push(
-            Diagnostic::new(file, t.position, format!("type library `{}` not found", t.value)).with_hint(
-                format!(
-                    "put it beside this file; found: {}",
-                    if type_files.is_empty() {
-                        "none".to_owned()
-                    } else {
-                        type_files.iter().cloned().collect::<Vec<_>>().join(", ")
-                    }
-                ),
-            ),
+            Diagnostic::new(
+                file,
+                t.position,
+                format!("type library `{}` not found", t.value),
+            )
+            .with_hint(format!(
+                "put it beside this file; found: {}",
+                if type_files.is_empty() {
+                    "none".to_owned()
+                } else {
+                    type_files.iter().cloned().collect::<Vec<_>>().join(", ")
+                }
+            )),
         ),
         Some(_) => {}
     }
@@ -472,7 +551,9 @@ fn resolve_interface(
                     Diagnostic::new(
                         file,
                         c.name.position,
-                        format!("command `{cname}` needs the type name `{generated}`, which is taken"),
+                        format!(
+                            "command `{cname}` needs the type name `{generated}`, which is taken"
+                        ),
                     )
                     .with_hint("rename the command or the type"),
                 );
