@@ -29,21 +29,26 @@ pub fn encoded_len<T: Encode + ?Sized>(value: &T) -> usize {
 /// # Errors
 /// [`EncodeError::BufferTooSmall`] when `buffer` is shorter than [`encoded_len`]; the
 /// buffer's contents are then unspecified.
-pub fn encode_into<T: Encode + ?Sized>(value: &T, buffer: &mut [u8]) -> Result<usize, EncodeError> {
-    let needed = encoded_len(value);
+pub fn encode_into<T: Encode + ?Sized>(
+    value: &T,
+    buffer: &mut [u8],
+) -> Result<usize, EncodeError> {
+    let available = buffer.len();
+    // One pass when the buffer is big enough (the usual case: it was sized by
+    // `encoded_len`); the size is computed only to explain a failure.
+    let too_small = || EncodeError::BufferTooSmall {
+        needed: encoded_len(value),
+        available,
+    };
     let Some((header, payload)) = buffer.split_at_mut_checked(ENCAPSULATION_LE.len()) else {
-        return Err(EncodeError::BufferTooSmall {
-            needed,
-            available: buffer.len(),
-        });
+        return Err(too_small());
     };
     header.copy_from_slice(&ENCAPSULATION_LE);
-    let available = payload.len() + ENCAPSULATION_LE.len();
     let mut sink = SliceSink::new(payload);
     value.encode(&mut sink);
     match sink.finish() {
         Some(written) => Ok(written + ENCAPSULATION_LE.len()),
-        None => Err(EncodeError::BufferTooSmall { needed, available }),
+        None => Err(too_small()),
     }
 }
 

@@ -1,1 +1,194 @@
 //! IPC over iceoryx2: publish-subscribe of CDR bytes, commands, events, all under a namespace.
+//!
+//! This is the untyped layer: payloads are the bytes of a message, written in place into
+//! loaned shared memory by an encoder `FnOnce(&mut [u8])` once the caller has said the
+//! exact length. The typed layer (`Client<RangeFinder>`, `ctx.publish`) sits on top.
+//!
+//! - [`Namespace`]: every name lives under `LEWIS_NAMESPACE` (iceoryx2's global prefix).
+//! - [`Ipc`]: one iceoryx2 node per process (or per test); it makes every port below.
+//! - [`Publisher`] / [`Subscriber`]: a data channel, with per-channel buffer, overflow policy
+//!   and history ([`ChannelConfig`]); each is paired with an iceoryx2 event service so that
+//!   receivers can block instead of polling.
+//! - [`CommandServer`] / [`CommandClient`]: commands over iceoryx2 request-response, with a
+//!   timeout that turns into an error.
+//! - [`WaitSet`]: waits on many subscribers, servers, clients and file descriptors at once,
+//!   with a deadline, in event, adaptive (spin then block) or busy-poll mode.
+//! - [`Ipc::nodes`] / [`Ipc::cleanup_dead_nodes`]: liveness of the processes in the
+//!   namespace, the only way to see a publisher that was killed with SIGKILL.
+
+mod channel;
+mod command;
+mod liveness;
+mod namespace;
+mod wait;
+
+pub use channel::{
+    ChannelConfig, Drain, OverflowPolicy, PublishError, Published, Publisher, ReceiveError,
+    Received, Subscriber,
+};
+pub use command::{
+    CallError, CallId, CallOutcome, CommandClient, CommandConfig, CommandServer, Reply, ReplyError,
+    Request,
+};
+pub use liveness::{CleanupReport, LivenessError, NodeInfo, NodeLiveness};
+pub use namespace::{
+    DEFAULT_NAMESPACE, MAX_NAMESPACE_LEN, NAMESPACE_ENV, Namespace, NamespaceError,
+};
+pub use wait::{FdSource, Fired, MAX_WAIT_SOURCES, WaitError, WaitSet, Waitable, WakeMode, Woken};
+
+use iceoryx2::node::{Node, NodeBuilder};
+use iceoryx2::prelude::{NodeName, ServiceName, SignalHandlingMode, ipc};
+
+/// Why an IPC endpoint could not be set up.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum IpcError {
+    /// The namespace name is not valid.
+    #[error(transparent)]
+    Namespace(#[from] NamespaceError),
+    /// A node, channel or command name is not accepted by iceoryx2.
+    #[error("{kind} name `{name}` is not valid: {reason}")]
+    InvalidName {
+        /// What the name is for (`node`, `channel`, `command`).
+        kind: &'static str,
+        /// The refused name.
+        name: String,
+        /// What iceoryx2 said.
+        reason: String,
+    },
+    /// The iceoryx2 node could not be created (permissions on /tmp/iceoryx2 or /dev/shm).
+    #[error(
+        "cannot create IPC node `{node}` in namespace `{namespace}`: {reason}; check that /tmp/iceoryx2 and /dev/shm are writable"
+    )]
+    Node {
+        /// The node name.
+        node: String,
+        /// The namespace.
+        namespace: String,
+        /// What iceoryx2 said.
+        reason: String,
+    },
+    /// A service could not be opened or created, typically because another process created
+    /// it with different settings (buffer size, overflow policy, limits).
+    #[error(
+        "cannot open {pattern} `{name}` in namespace `{namespace}`: {reason}; both sides must use the same settings"
+    )]
+    Service {
+        /// `channel`, `channel event`, `command` or `command event`.
+        pattern: &'static str,
+        /// The name given by the caller.
+        name: String,
+        /// The namespace.
+        namespace: String,
+        /// What iceoryx2 said.
+        reason: String,
+    },
+    /// A port (publisher, subscriber, server, client, notifier, listener) could not be made,
+    /// typically because the service's limit for that port kind is reached.
+    #[error(
+        "cannot create {port} for `{name}`: {reason}; raise the limit in its config if too many are in use"
+    )]
+    Port {
+        /// The port kind.
+        port: &'static str,
+        /// The channel or command name.
+        name: String,
+        /// What iceoryx2 said.
+        reason: String,
+    },
+}
+
+/// The IPC endpoint of one process (an iceoryx2 node) in one namespace: it makes publishers,
+/// subscribers, command servers and clients, and sees the other nodes of the namespace.
+#[derive(Debug)]
+pub struct Ipc {
+    node: Node<ipc::Service>,
+    namespace: Namespace,
+}
+
+impl Ipc {
+    /// Joins `namespace` as the node `node_name` (shown in node lists; the service's name is
+    /// a good choice). Creating a node also removes what dead nodes of the namespace left.
+    pub fn open(namespace: &Namespace, node_name: &str) -> Result<Self, IpcError> {
+        let config = namespace.iceoryx2_config()?;
+        let name = NodeName::new(node_name).map_err(|e| IpcError::InvalidName {
+            kind: "node",
+            name: node_name.to_owned(),
+            reason: e.to_string(),
+        })?;
+        // We never call iceoryx2's own wait functions, and the process supervisor owns
+        // SIGTERM/SIGINT: iceoryx2 must not install handlers that swallow them.
+        let node = NodeBuilder::new()
+            .name(&name)
+            .config(&config)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<ipc::Service>()
+            .map_err(|e| IpcError::Node {
+                node: node_name.to_owned(),
+                namespace: namespace.to_string(),
+                reason: e.to_string(),
+            })?;
+        Ok(Self {
+            node,
+            namespace: namespace.clone(),
+        })
+    }
+
+    /// Joins the namespace named by `LEWIS_NAMESPACE` (default `default`).
+    pub fn open_from_env(node_name: &str) -> Result<Self, IpcError> {
+        Self::open(&Namespace::from_env()?, node_name)
+    }
+
+    /// The namespace this endpoint lives in.
+    pub fn namespace(&self) -> &Namespace {
+        &self.namespace
+    }
+
+    /// This node's id as it appears in [`Ipc::nodes`].
+    pub fn node_id(&self) -> u128 {
+        self.node.id().value()
+    }
+
+    pub(crate) fn node(&self) -> &Node<ipc::Service> {
+        &self.node
+    }
+
+    pub(crate) fn service_error(
+        &self,
+        pattern: &'static str,
+        name: &str,
+        reason: impl std::fmt::Display,
+    ) -> IpcError {
+        IpcError::Service {
+            pattern,
+            name: name.to_owned(),
+            namespace: self.namespace.to_string(),
+            reason: reason.to_string(),
+        }
+    }
+}
+
+pub(crate) fn port_error(
+    port: &'static str,
+    name: &str,
+    reason: impl std::fmt::Display,
+) -> IpcError {
+    IpcError::Port {
+        port,
+        name: name.to_owned(),
+        reason: reason.to_string(),
+    }
+}
+
+/// The iceoryx2 service name `{family}/{name}`: the family keeps data channels and commands
+/// of the same name apart.
+pub(crate) fn service_name(
+    kind: &'static str,
+    family: &str,
+    name: &str,
+) -> Result<ServiceName, IpcError> {
+    ServiceName::new(&format!("{family}/{name}")).map_err(|e| IpcError::InvalidName {
+        kind,
+        name: name.to_owned(),
+        reason: e.to_string(),
+    })
+}

@@ -1,0 +1,267 @@
+//! IPC between processes: the test binary starts itself again as a peer process (selected
+//! by `LEWIS_IPC_PEER`, in the namespace given by `LEWIS_NAMESPACE`). A peer keeps its
+//! endpoints until its standard input closes, so the parent decides when it goes away.
+
+#![allow(
+    clippy::unwrap_used,
+    reason = "helpers shared by the tests: a failure there is a test failure"
+)]
+
+use std::io::{BufRead, Read, Write};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use lewis_runtime::ipc::{
+    ChannelConfig, CommandConfig, Ipc, NAMESPACE_ENV, Namespace, NodeLiveness, Subscriber, WaitSet,
+    WakeMode, Woken,
+};
+
+const PEER_ENV: &str = "LEWIS_IPC_PEER";
+const WATCHDOG: Duration = Duration::from_secs(30);
+const SIZES: [usize; 3] = [64, 64 << 10, 1 << 20];
+
+fn pattern(len: usize) -> impl Fn(&mut [u8]) {
+    move |buf: &mut [u8]| {
+        for (i, b) in buf.iter_mut().enumerate() {
+            *b = ((i * 31 + len) % 251) as u8;
+        }
+    }
+}
+
+fn config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 8,
+        ..ChannelConfig::sensor(64)
+    }
+}
+
+/// Not a test of its own: the body of the peer processes the other tests start. Run
+/// directly (no `LEWIS_IPC_PEER`), it returns at once.
+#[test]
+fn peer_process_entry() {
+    let Ok(role) = std::env::var(PEER_ENV) else {
+        return;
+    };
+    let ipc = Ipc::open_from_env(&format!("peer-{role}")).unwrap();
+    let mut stdin = std::io::stdin().lock();
+    match role.as_str() {
+        "publish-sizes" => {
+            let mut publisher = ipc.publisher("sizes", &config()).unwrap();
+            for len in SIZES {
+                publisher.publish_with(len, pattern(len)).unwrap();
+            }
+            hold_until_stdin_closes(&mut stdin);
+        }
+        "publish-on-line" => {
+            let mut publisher = ipc.publisher("wake", &config()).unwrap();
+            let mut line = String::new();
+            stdin.read_line(&mut line).unwrap();
+            publisher.publish(line.trim_end().as_bytes()).unwrap();
+            hold_until_stdin_closes(&mut stdin);
+        }
+        "publish-then-hang" => {
+            let mut publisher = ipc.publisher("alive", &config()).unwrap();
+            publisher.publish(b"alive").unwrap();
+            hold_until_stdin_closes(&mut stdin);
+        }
+        "serve-echo" => {
+            let server = ipc
+                .command_server("echo", &CommandConfig::default())
+                .unwrap();
+            let mut ready = ipc.publisher("ready", &config()).unwrap();
+            ready.publish(b"serving").unwrap();
+            let waits = WaitSet::new(WakeMode::Event);
+            let request = loop {
+                if let Some(request) = server.receive().unwrap() {
+                    break request;
+                }
+                waits
+                    .wait(&[&server], Some(Instant::now() + WATCHDOG))
+                    .unwrap();
+            };
+            let mut answer = request.bytes().to_vec();
+            answer.reverse();
+            server.reply(request, &answer).unwrap();
+            hold_until_stdin_closes(&mut stdin);
+        }
+        other => panic!("unknown peer role {other}"),
+    }
+}
+
+fn hold_until_stdin_closes(stdin: &mut impl Read) {
+    let mut rest = Vec::new();
+    let _ = stdin.read_to_end(&mut rest);
+}
+
+struct Peer {
+    child: Child,
+    stdin: Option<ChildStdin>,
+}
+
+impl Peer {
+    fn start(namespace: &Namespace, role: &str) -> Self {
+        let mut child = Command::new(std::env::current_exe().unwrap())
+            .args([
+                "--exact",
+                "peer_process_entry",
+                "--nocapture",
+                "--test-threads=1",
+            ])
+            .env(PEER_ENV, role)
+            .env(NAMESPACE_ENV, namespace.as_str())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap();
+        let stdin = child.stdin.take();
+        Self { child, stdin }
+    }
+
+    fn pid(&self) -> i32 {
+        self.child.id() as i32
+    }
+
+    fn say(&mut self, line: &str) {
+        let stdin = self.stdin.as_mut().unwrap();
+        writeln!(stdin, "{line}").unwrap();
+        stdin.flush().unwrap();
+    }
+
+    /// Lets the peer finish and checks that it succeeded.
+    fn finish(mut self) {
+        drop(self.stdin.take());
+        let status = self.child.wait().unwrap();
+        assert!(status.success(), "peer failed: {status}");
+    }
+}
+
+impl Drop for Peer {
+    fn drop(&mut self) {
+        // A failed test must not leave its peer behind.
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn receive_one(waits: &WaitSet, sub: &mut Subscriber) -> Vec<u8> {
+    let deadline = Instant::now() + WATCHDOG;
+    loop {
+        if let Some(sample) = sub.receive().unwrap() {
+            return sample.bytes().to_vec();
+        }
+        match waits.wait(&[&*sub], Some(deadline)).unwrap() {
+            Woken::DeadlineReached => {
+                panic!("watchdog: nothing on {} within {WATCHDOG:?}", sub.channel())
+            }
+            Woken::Ready(_) | Woken::Interrupted => {}
+        }
+    }
+}
+
+#[test]
+fn payloads_of_64_bytes_64_kib_and_1_mib_cross_processes_intact() {
+    let ns = Namespace::unique("xp-sizes");
+    let ipc = Ipc::open(&ns, "parent").unwrap();
+    let mut sub = ipc.subscriber("sizes", &config()).unwrap();
+    let peer = Peer::start(&ns, "publish-sizes");
+    let waits = WaitSet::new(WakeMode::Event);
+    for len in SIZES {
+        let got = receive_one(&waits, &mut sub);
+        let mut expected = vec![0; len];
+        pattern(len)(&mut expected);
+        assert!(
+            got == expected,
+            "payload of {len} bytes arrived corrupted or with {} bytes",
+            got.len()
+        );
+    }
+    assert_eq!(sub.lost(), 0);
+    peer.finish();
+}
+
+#[test]
+fn a_blocked_wait_wakes_when_another_process_publishes() {
+    let ns = Namespace::unique("xp-wake");
+    let ipc = Ipc::open(&ns, "parent").unwrap();
+    let mut sub = ipc.subscriber("wake", &config()).unwrap();
+    let mut peer = Peer::start(&ns, "publish-on-line");
+    peer.say("hello");
+    let waits = WaitSet::new(WakeMode::Event);
+    match waits
+        .wait(&[&sub], Some(Instant::now() + WATCHDOG))
+        .unwrap()
+    {
+        Woken::Ready(fired) => assert_eq!(fired.iter().collect::<Vec<_>>(), vec![0]),
+        other => panic!("watchdog: the publication of the peer did not wake the wait: {other:?}"),
+    }
+    assert_eq!(sub.receive().unwrap().unwrap().bytes(), b"hello");
+    peer.finish();
+}
+
+#[test]
+fn a_command_is_answered_by_a_server_in_another_process() {
+    let ns = Namespace::unique("xp-cmd");
+    let ipc = Ipc::open(&ns, "parent").unwrap();
+    let mut ready = ipc.subscriber("ready", &config()).unwrap();
+    let peer = Peer::start(&ns, "serve-echo");
+    assert_eq!(
+        receive_one(&WaitSet::new(WakeMode::Event), &mut ready),
+        b"serving"
+    );
+    let mut client = ipc
+        .command_client("echo", &CommandConfig::default())
+        .unwrap();
+    let reply = client
+        .call_blocking(3, WATCHDOG, |b| b.copy_from_slice(b"abc"), WakeMode::Event)
+        .unwrap();
+    let reply = reply.bytes().to_vec();
+    assert_eq!(reply, b"cba");
+    peer.finish();
+}
+
+#[test]
+fn a_sigkilled_publisher_goes_unnoticed_by_subscribers_but_is_dead_in_the_node_list_and_cleaned_up()
+{
+    let ns = Namespace::unique("xp-kill");
+    let ipc = Ipc::open(&ns, "parent").unwrap();
+    let mut sub = ipc.subscriber("alive", &config()).unwrap();
+    let mut peer = Peer::start(&ns, "publish-then-hang");
+    let waits = WaitSet::new(WakeMode::Event);
+    assert_eq!(receive_one(&waits, &mut sub), b"alive");
+
+    let peer_pid = peer.pid();
+    let liveness_of_peer = |ipc: &Ipc| -> Vec<NodeLiveness> {
+        ipc.nodes()
+            .unwrap()
+            .into_iter()
+            .filter(|n| n.pid == Some(peer_pid))
+            .map(|n| n.liveness)
+            .collect()
+    };
+    assert_eq!(liveness_of_peer(&ipc), vec![NodeLiveness::Alive]);
+
+    peer.child.kill().unwrap(); // SIGKILL
+    peer.child.wait().unwrap();
+
+    // Subscribers see nothing: no error, no sample, no wake-up.
+    assert!(sub.receive().unwrap().is_none());
+    assert_eq!(
+        waits
+            .wait(&[&sub], Some(Instant::now() + Duration::from_millis(5)))
+            .unwrap(),
+        Woken::DeadlineReached
+    );
+    // The node list does.
+    assert_eq!(liveness_of_peer(&ipc), vec![NodeLiveness::Dead]);
+    let report = ipc.cleanup_dead_nodes();
+    assert_eq!((report.cleaned, report.failed), (1, 0));
+    assert_eq!(liveness_of_peer(&ipc), vec![]);
+    assert_eq!(
+        ipc.nodes()
+            .unwrap()
+            .iter()
+            .map(|n| n.id)
+            .collect::<Vec<_>>(),
+        vec![ipc.node_id()]
+    );
+}
