@@ -1,1 +1,10 @@
 //! Device drivers: the serial protocols of the SICK laser and the RFlex base.
+//!
+//! This layer is pure: codecs (frame, parse, CRC or checksum), streaming deframers that
+//! resynchronise after garbage, and the device-side state machines used by the emulators.
+//! It opens no port, starts no thread and reads no clock: time is passed in as nanoseconds.
+
+pub mod faults;
+pub mod framing;
+pub mod rflex;
+pub mod sick;
