@@ -5,4 +5,5 @@
 //! Services see only the runtime's `Context`: they know nothing of recording or replay.
 
 pub mod drivers;
+pub mod motion;
 pub mod perception;
