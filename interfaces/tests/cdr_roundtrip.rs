@@ -5,6 +5,8 @@
 //! large arrays. Each generated type must decode those bytes and encode them back to
 //! exactly the same bytes.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::path::Path;
 
 use lewis_interfaces::cdr::{self, DecodeError, EncodeError};

@@ -4,6 +4,8 @@
 //! compares it field by field with what was written, and `pymcap-cli doctor` checks the
 //! file.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;

@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# The test command: formatting, lints, and every test of the workspace (unit, property,
+# end-to-end with real processes, and interop with independent Python MCAP readers).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+scripts/setup-python.sh
+cargo fmt --all --check
+cargo clippy --workspace --all-targets --locked -- -D warnings
+cargo test --workspace --locked
