@@ -56,7 +56,11 @@ fn every_interface_of_the_paper_is_defined() {
     );
     // The system interfaces (Broker, Health, LogLine) are records; the paper's all take commands.
     let system = ["Health", "LogLine"];
-    for interface in idl.interfaces.iter().filter(|i| !system.contains(&i.name.as_str())) {
+    for interface in idl
+        .interfaces
+        .iter()
+        .filter(|i| !system.contains(&i.name.as_str()))
+    {
         assert!(
             !interface.commands.is_empty(),
             "{} has no command",

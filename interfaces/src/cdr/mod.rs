@@ -29,10 +29,7 @@ pub fn encoded_len<T: Encode + ?Sized>(value: &T) -> usize {
 /// # Errors
 /// [`EncodeError::BufferTooSmall`] when `buffer` is shorter than [`encoded_len`]; the
 /// buffer's contents are then unspecified.
-pub fn encode_into<T: Encode + ?Sized>(
-    value: &T,
-    buffer: &mut [u8],
-) -> Result<usize, EncodeError> {
+pub fn encode_into<T: Encode + ?Sized>(value: &T, buffer: &mut [u8]) -> Result<usize, EncodeError> {
     let available = buffer.len();
     // One pass when the buffer is big enough (the usual case: it was sized by
     // `encoded_len`); the size is computed only to explain a failure.

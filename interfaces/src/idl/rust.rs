@@ -288,11 +288,20 @@ fn plain_layout(ty: &StructType) -> Option<(&'static str, usize)> {
 
 fn emit_bulk_encode(out: &mut String, ty: &StructType, rust: &str, size: usize) {
     let total = size * ty.fields.len();
-    let _ = writeln!(out, "    fn encode_slice<S: crate::cdr::Sink>(items: &[Self], sink: &mut S) {{");
-    let _ = writeln!(out, "        if items.is_empty() {{\n            return;\n        }}");
+    let _ = writeln!(
+        out,
+        "    fn encode_slice<S: crate::cdr::Sink>(items: &[Self], sink: &mut S) {{"
+    );
+    let _ = writeln!(
+        out,
+        "        if items.is_empty() {{\n            return;\n        }}"
+    );
     let _ = writeln!(out, "        sink.align({size});");
     let _ = writeln!(out, "        sink.put_with(items.len() * {total}, |out| {{");
-    let _ = writeln!(out, "            for (chunk, item) in out.chunks_exact_mut({total}).zip(items) {{");
+    let _ = writeln!(
+        out,
+        "            for (chunk, item) in out.chunks_exact_mut({total}).zip(items) {{"
+    );
     for (i, f) in ty.fields.iter().enumerate() {
         let _ = writeln!(
             out,
@@ -311,13 +320,19 @@ fn emit_bulk_decode(out: &mut String, ty: &StructType, rust: &str, size: usize) 
         out,
         "    fn decode_vec(reader: &mut crate::cdr::Reader<'_>, count: usize) -> Result<Vec<Self>, crate::cdr::DecodeError> {{"
     );
-    let _ = writeln!(out, "        if count == 0 {{\n            return Ok(Vec::new());\n        }}");
+    let _ = writeln!(
+        out,
+        "        if count == 0 {{\n            return Ok(Vec::new());\n        }}"
+    );
     let _ = writeln!(out, "        reader.align({size})?;");
     let _ = writeln!(out, "        reader.check_count(count, {total})?;");
     let _ = writeln!(out, "        let bytes = reader.take(count * {total})?;");
     let _ = writeln!(out, "        let field = |chunk: &[u8], i: usize| {{");
     let _ = writeln!(out, "            let mut array = [0u8; {size}];");
-    let _ = writeln!(out, "            array.copy_from_slice(&chunk[i * {size}..(i + 1) * {size}]);");
+    let _ = writeln!(
+        out,
+        "            array.copy_from_slice(&chunk[i * {size}..(i + 1) * {size}]);"
+    );
     let _ = writeln!(out, "            {rust}::from_le_bytes(array)");
     let _ = writeln!(out, "        }};");
     let inits: Vec<String> = ty
@@ -467,6 +482,9 @@ fn emit_interface(out: &mut String, interface: &Interface) {
             out,
             "    fn decode(command: &str, bytes: &[u8]) -> Result<Self, crate::CommandDecodeError> {{"
         );
+        if interface.commands.is_empty() {
+            let _ = writeln!(out, "        let _ = bytes;");
+        }
         let _ = writeln!(out, "        match command {{");
         for c in &interface.commands {
             let _ = writeln!(
@@ -526,4 +544,3 @@ fn emit_catalogue(out: &mut String, idl: &Idl) {
     }
     let _ = writeln!(out, "];");
 }
-
