@@ -6,7 +6,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap().to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
 }
 
 fn lewis(args: &[&str]) -> Output {
@@ -25,7 +28,11 @@ fn stdout(output: &Output) -> String {
 fn idl_check_passes_on_the_shipped_definitions() {
     let out = lewis(&["idl", "check"]);
     assert_eq!(out.status.code(), Some(0), "{}", stdout(&out));
-    assert!(stdout(&out).starts_with("interfaces/idl: "), "{}", stdout(&out));
+    assert!(
+        stdout(&out).starts_with("interfaces/idl: "),
+        "{}",
+        stdout(&out)
+    );
 }
 
 #[test]
@@ -34,7 +41,10 @@ fn idl_check_on_broken_files_exits_1_with_one_error_each() {
     assert_eq!(out.status.code(), Some(1));
     let text = stdout(&out);
     assert!(text.ends_with("18 errors\n"), "{text}");
-    assert!(text.contains("UnknownType.xml:5:24: error: unknown type `Flaot`"), "{text}");
+    assert!(
+        text.contains("UnknownType.xml:5:24: error: unknown type `Flaot`"),
+        "{text}"
+    );
 }
 
 #[test]
@@ -48,22 +58,36 @@ fn idl_check_on_a_missing_folder_exits_2() {
 fn idl_show_prints_the_ros2msg_schema_and_names_unknown_ones() {
     let out = lewis(&["idl", "show", "Distance"]);
     assert_eq!(out.status.code(), Some(0));
-    assert!(stdout(&out).starts_with("lewis_interfaces/Header header\nint32 sector_count\nfloat64[] sector_distances\n"));
+    assert!(stdout(&out).starts_with(
+        "lewis_interfaces/Header header\nint32 sector_count\nfloat64[] sector_distances\n"
+    ));
     let out = lewis(&["idl", "show", "Laser"]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no interface or type named `Laser`; known: Blobs"));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("no interface or type named `Laser`; known: Blobs")
+    );
 }
 
 #[test]
 fn info_reads_every_ros2_recording_of_the_shared_data() {
     let dir = repo().join("../shared/data/mcap");
     assert!(dir.is_dir(), "{} is missing", dir.display());
-    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     files.sort();
     assert_eq!(files.len(), 5);
     for file in files {
         let out = lewis(&["info", file.to_str().unwrap(), "--messages", "100"]);
-        assert_eq!(out.status.code(), Some(0), "{}: {}", file.display(), String::from_utf8_lossy(&out.stderr));
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{}: {}",
+            file.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
         let json = lewis(&["info", file.to_str().unwrap(), "--json"]);
         let report: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
         assert!(report["channels"].as_array().is_some_and(|c| !c.is_empty()));
