@@ -7,3 +7,4 @@
 pub mod drivers;
 pub mod motion;
 pub mod perception;
+pub mod sim;
