@@ -21,7 +21,7 @@ pub fn run(command: SeqCommand) -> anyhow::Result<ExitCode> {
     match command {
         SeqCommand::Check { script } => match lewis_sequencer::check_file(&script) {
             Ok(checked) => {
-                if checked.warnings.len() > 0 {
+                if checked.warnings.iter().next().is_some() {
                     writeln!(out, "{}", checked.warnings)?;
                 }
                 writeln!(out, "{}: ok", script.display())?;
