@@ -36,7 +36,7 @@ impl Filler {
             Primitive::Int8 => json!(-((n % 128) as i64)),
             Primitive::Int16 => json!(-1000 - n as i64),
             Primitive::UInt16 => json!(60_000 - n),
-            Primitive::Int32 => json!(if n % 3 == 0 {
+            Primitive::Int32 => json!(if n.is_multiple_of(3) {
                 i64::from(i32::MIN) + n as i64
             } else {
                 n as i64 * 7
