@@ -5,6 +5,8 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 scripts/setup-python.sh
+# The browser test drives Debian's chromium with playwright-core (no browser download).
+npm ci --silent --no-audit --no-fund --prefix sequencer/gui-test
 cargo fmt --all --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
 cargo test --workspace --locked

@@ -11,11 +11,16 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::PathBuf;
 
+use serde::{Deserialize, Serialize};
+
 use crate::mission::{Mission, MissionState, Target};
 use crate::script::format_duration_ns;
 
 /// What happened, as the driver reports it.
-#[derive(Debug, Clone, PartialEq, Eq)]
+///
+/// Serialised (JSON, MCAP) with a `kind` field in snake case: `{"kind":"exited","code":0}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Event {
     /// The running program exited with this code.
     Exited {
@@ -42,6 +47,12 @@ pub enum Event {
     /// The supervisor stopped the mission: while being asked, the mission finishes; while a
     /// program runs, it aborts (the driver stops the program).
     SupervisorStopped,
+    /// The sequencer itself was told to stop (Ctrl-C, SIGTERM, its terminal closed): the
+    /// mission aborts whatever it was doing (the driver stops the program).
+    Interrupted {
+        /// By what, for the record (`SIGINT`).
+        reason: String,
+    },
 }
 
 impl fmt::Display for Event {
@@ -53,12 +64,16 @@ impl fmt::Display for Event {
             Self::SpawnFailed { error } => write!(f, "failure to start ({error})"),
             Self::SupervisorChose { state } => write!(f, "the supervisor's choice of `{state}`"),
             Self::SupervisorStopped => f.write_str("the supervisor's stop"),
+            Self::Interrupted { reason } => write!(f, "an interruption ({reason})"),
         }
     }
 }
 
 /// What the sequencer decided; each carries a reason for logs and the recording.
-#[derive(Debug, Clone, PartialEq, Eq)]
+///
+/// Serialised with a `kind` field in snake case: `{"kind":"transition","from":"door",...}`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Decision {
     /// Start the state's program.
     Run {
@@ -149,8 +164,38 @@ impl Decision {
     }
 }
 
-impl fmt::Display for Decision {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+impl Decision {
+    /// The decision with its reason emptied: what was decided, not how it is explained, so
+    /// a replay is not told apart by a reworded message or a changed restart count alone.
+    #[must_use]
+    pub fn without_reason(&self) -> Self {
+        let mut decision = self.clone();
+        match &mut decision {
+            Self::Run { reason, .. }
+            | Self::Restart { reason, .. }
+            | Self::EnterRecovery { reason, .. }
+            | Self::AskSupervisor { reason, .. }
+            | Self::Resume { reason, .. }
+            | Self::Transition { reason, .. }
+            | Self::Finished { reason }
+            | Self::Aborted { reason } => reason.clear(),
+        }
+        decision
+    }
+
+    /// The decision on one line without its reason (`transition door -> sign on 0`).
+    #[must_use]
+    pub fn summary(&self) -> String {
+        struct Summary<'d>(&'d Decision);
+        impl fmt::Display for Summary<'_> {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                self.0.write_summary(f)
+            }
+        }
+        Summary(self).to_string()
+    }
+
+    fn write_summary(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Run {
                 state,
@@ -185,6 +230,13 @@ impl fmt::Display for Decision {
             Self::Finished { .. } => f.write_str("finished")?,
             Self::Aborted { .. } => f.write_str("aborted")?,
         }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Decision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.write_summary(f)?;
         write!(f, " | {}", self.reason())
     }
 }
@@ -317,6 +369,23 @@ impl Sequencer {
                     reason: format!(
                         "the supervisor stopped the mission while `{}` was running",
                         self.name(state)
+                    ),
+                }])
+            }
+            (Phase::Running { state, .. }, Event::Interrupted { reason }) => {
+                self.phase = Phase::Aborted;
+                Ok(vec![Decision::Aborted {
+                    reason: format!(
+                        "the sequencer was interrupted ({reason}) while `{}` was running",
+                        self.name(state)
+                    ),
+                }])
+            }
+            (Phase::Asking, Event::Interrupted { reason }) => {
+                self.phase = Phase::Aborted;
+                Ok(vec![Decision::Aborted {
+                    reason: format!(
+                        "the sequencer was interrupted ({reason}) while the supervisor was asked"
                     ),
                 }])
             }

@@ -1,11 +1,16 @@
 //! Lewis sequencer: the mission script language of the paper, the finite state machine
 //! of sub-task programs, and the supervisor's GUI.
 //!
-//! What lives here so far is pure: the script parser (`script`), the checker that turns a
-//! parsed script into a runnable [`Mission`] (`check`), and the FSM core (`fsm`) that maps
-//! events (a program exited, crashed, timed out; the supervisor chose) to decisions (run,
-//! restart, recover, ask the supervisor, finish). None of it starts processes or reads a
-//! clock; the live driver, which does, feeds the core.
+//! The pure part: the script parser (`script`), the checker that turns a parsed script into
+//! a runnable [`Mission`] (`check`), and the FSM core (`fsm`) that maps events (a program
+//! exited, crashed, timed out; the supervisor chose) to decisions (run, restart, recover,
+//! ask the supervisor, finish). None of it starts processes or reads a clock.
+//!
+//! Around it: the live driver (`live`, [`run_mission`]) runs the programs through the
+//! runtime's process supervision and feeds the core; every event and decision goes as a
+//! [`Record`] to a [`RecordSink`] (a JSON-lines file for now, `/lewis/sequencer` later);
+//! the supervisor answers on a page (`gui`) or the terminal (`terminal`); and `replay`
+//! feeds recorded events to a script's FSM to show where it decides differently.
 //!
 //! # The language
 //!
@@ -54,18 +59,31 @@
 pub mod check;
 pub mod diagnostic;
 pub mod fsm;
+pub mod gui;
+pub mod live;
 pub mod location;
 pub mod mission;
+pub mod record;
+pub mod replay;
 pub mod resolve;
 pub mod script;
 pub mod source;
 mod suggest;
+pub mod terminal;
 
 pub use check::{CheckedScript, check_file, check_script, check_with};
 pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
 pub use fsm::{Decision, Event, EventError, Sequencer};
+pub use gui::{GuiError, GuiServer, GuiSink};
+pub use live::{
+    Command, ControlReceiver, Controller, Outcome, RunError, RunOptions, SignalForwarder,
+    control_channel, run_mission,
+};
 pub use location::{Location, Spanned};
 pub use mission::{Mission, MissionState, Target};
+pub use record::{ChannelSink, Entry, JsonLinesSink, Record, RecordSink, Tee};
+pub use replay::{Comparison, Difference, Recording, compare, read_json_lines};
 pub use resolve::{ProgramResolver, ResolveError, SystemResolver, TrustingResolver};
 pub use script::{Script, parse};
 pub use source::{FileSystem, MemorySources, SourceLoader};
+pub use terminal::TerminalChooser;

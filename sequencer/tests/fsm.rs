@@ -540,3 +540,38 @@ fn after_the_end_every_event_is_refused() {
         })
     );
 }
+
+#[test]
+fn an_interruption_aborts_while_running_and_while_asking_but_not_after_the_end() {
+    let interrupted = || Event::Interrupted {
+        reason: "SIGINT".into(),
+    };
+    check(
+        PAPER,
+        &[interrupted(), interrupted()],
+        &expect![[r#"
+            run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
+            > an interruption (SIGINT)
+            aborted | the sequencer was interrupted (SIGINT) while `door` was running
+            > an interruption (SIGINT)
+            refused: an interruption (SIGINT) is unexpected while the mission is aborted
+        "#]],
+    );
+    let (mut sequencer, _) = Sequencer::start(mission(PAPER));
+    for event in [
+        signalled(11),
+        signalled(11),
+        signalled(11),
+        signalled(11),
+        exited(0),
+    ] {
+        sequencer.handle(&event).unwrap();
+    }
+    assert!(sequencer.is_asking());
+    let decisions = sequencer.handle(&interrupted()).unwrap();
+    assert_eq!(
+        decisions[0].to_string(),
+        "aborted | the sequencer was interrupted (SIGINT) while the supervisor was asked"
+    );
+    assert!(sequencer.is_over());
+}

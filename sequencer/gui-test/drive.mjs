@@ -1,0 +1,80 @@
+// Drives the sequencer's supervisor page in headless Chromium, as a person on the robot's
+// touch screen would. Run by tests/gui_browser.rs:
+//   node drive.mjs URL RELEASE_FILE SCREENSHOT_DIR
+// The mission's first state waits for RELEASE_FILE; its second crashes into recovery, after
+// which the sequencer asks the supervisor. The script sees the first state highlighted,
+// releases it, sees the question arrive without a reload, taps `queue`, and sees the mission
+// finish. Exits non-zero with a message on the first expectation that fails.
+import { chromium } from "playwright-core";
+import { mkdtempSync, writeFileSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+
+const [url, release, shots] = process.argv.slice(2);
+if (!url || !release || !shots) {
+  console.error("usage: node drive.mjs URL RELEASE_FILE SCREENSHOT_DIR");
+  process.exit(2);
+}
+const executablePath = process.env.LEWIS_CHROMIUM || "/usr/bin/chromium";
+const profile = mkdtempSync(join(tmpdir(), "lewis-seq-chromium-"));
+const step = (what) => console.log(`gui-test: ${what}`);
+
+const context = await chromium.launchPersistentContext(profile, {
+  executablePath,
+  headless: true,
+  args: ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--disable-component-update", "--no-first-run"],
+  viewport: { width: 1280, height: 800 },
+  hasTouch: true,
+  isMobile: false,
+  timeout: 30000,
+});
+let failed = false;
+try {
+  const page = context.pages()[0] ?? await context.newPage();
+  page.setDefaultTimeout(20000);
+  page.on("pageerror", (e) => { console.error(`gui-test: page error: ${e}`); failed = true; });
+  page.on("dialog", (d) => { console.error(`gui-test: unexpected dialog: ${d.message()}`); failed = true; d.dismiss(); });
+
+  await page.goto(url);
+  await page.evaluate(() => { window.__sameDocument = true; });
+  await page.locator('#status[data-phase="running"]').waitFor();
+  await page.locator('#diagram .box.current[data-state="door"]').waitFor();
+  step("the page shows `door` running");
+  await page.screenshot({ path: join(shots, "running.png") });
+
+  writeFileSync(release, "");
+  await page.locator('#status[data-phase="asking"]').waitFor();
+  const help = page.locator("#help");
+  await help.waitFor({ state: "visible" });
+  await page.locator("#history li.restart").first().waitFor();
+  await page.locator("#history li.recovery").first().waitFor();
+  step("the question arrived live, after the restart and the recovery");
+  const suggested = await page.locator("#choices .choice.suggested").getAttribute("data-choice");
+  if (suggested !== "stop") throw new Error(`the suggested choice is ${suggested}, not stop`);
+  const box = await page.locator('#choices [data-choice="queue"]').boundingBox();
+  if (!box || box.height < 72 || box.width < 120) {
+    throw new Error(`the queue button is too small for a finger: ${JSON.stringify(box)}`);
+  }
+  await page.screenshot({ path: join(shots, "asking.png") });
+
+  await page.locator('#choices [data-choice="queue"]').tap();
+  await page.locator('#status[data-phase="finished"]').waitFor();
+  await page.locator("#history li.resume", { hasText: "resume at queue" }).waitFor();
+  await page.locator("#history li.transition", { hasText: "transition register -> stop" }).waitFor();
+  await page.locator("#diagram .stopnode.reached").waitFor();
+  step("after the tap on `queue` the mission resumed there and finished");
+  if (!(await page.evaluate(() => window.__sameDocument === true))) {
+    throw new Error("the page was reloaded: updates must arrive live");
+  }
+  await page.screenshot({ path: join(shots, "finished.png") });
+  if (failed) throw new Error("the page reported errors (see above)");
+  step("ok");
+} catch (e) {
+  console.error(`gui-test: FAILED: ${e.message ?? e}`);
+  failed = true;
+} finally {
+  await context.close();
+  rmSync(profile, { recursive: true, force: true });
+}
+process.exit(failed ? 1 : 0);

@@ -1,0 +1,131 @@
+//! The supervisor's page in a real browser: headless Chromium, driven by Playwright
+//! (`gui-test/drive.mjs`), watches a live mission, taps the state to resume from when the
+//! sequencer asks, and the mission resumes there.
+//!
+//! Needs Debian's `chromium` (or `LEWIS_CHROMIUM=/path/to/chromium`), `node`, and
+//! `npm ci --prefix sequencer/gui-test`; fails with a message saying which is missing.
+//! Screenshots go to `$TMPDIR/lewis-seq-gui/` (`running.png`, `asking.png`,
+//! `finished.png`).
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod common;
+
+use std::net::{Ipv4Addr, SocketAddr};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::mpsc;
+
+use common::write_script;
+use lewis_sequencer::live::{RunOptions, control_channel, run_mission};
+use lewis_sequencer::record::{ChannelSink, Entry, Tee};
+use lewis_sequencer::{Decision, GuiServer};
+
+const SCRIPT: &str = "\
+start door
+restart 1
+recovery oops
+use gui
+
+state door {P} print:waiting,wait:{D}/release,exit:0
+  action 0 trans sign
+
+state sign {P} signal:SEGV
+  action 0 trans queue
+
+state queue {P} exit:0
+  action 0 trans register
+
+state register {P} exit:0
+  action 0 trans stop
+
+state oops {P} print:recovering,exit:0
+  action 0 trans stop
+";
+
+fn gui_test_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("gui-test")
+}
+
+/// The browser and the driver script's tools, or a message saying how to get them.
+fn tools() -> PathBuf {
+    let chromium = std::env::var_os("LEWIS_CHROMIUM")
+        .map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
+    assert!(
+        chromium.is_file(),
+        "the GUI test needs Chromium at {}: install it with `apt-get install -y chromium` \
+         (or set LEWIS_CHROMIUM to its path)",
+        chromium.display()
+    );
+    let node = Command::new("node").arg("--version").output();
+    assert!(
+        node.is_ok_and(|o| o.status.success()),
+        "the GUI test needs `node` in PATH: install it with `apt-get install -y nodejs npm`"
+    );
+    assert!(
+        gui_test_dir().join("node_modules/playwright-core").is_dir(),
+        "the GUI test needs playwright-core: run `npm ci --prefix sequencer/gui-test`"
+    );
+    chromium
+}
+
+#[test]
+fn the_supervisor_resumes_the_mission_from_the_page_in_a_real_browser() {
+    let chromium = tools();
+    let dir = tempfile::tempdir().unwrap();
+    let (script, mission) = write_script(dir.path(), SCRIPT);
+    let shots = std::env::temp_dir().join("lewis-seq-gui");
+    std::fs::create_dir_all(&shots).unwrap();
+
+    let (controller, control) = control_channel().unwrap();
+    let gui = GuiServer::start(
+        SocketAddr::from((Ipv4Addr::LOCALHOST, 0)),
+        &mission,
+        controller.clone(),
+    )
+    .unwrap();
+    let (tx, rx) = mpsc::channel();
+    let mut sink = Tee::new().with(gui.sink()).with(ChannelSink(tx));
+    let (outcome, browser) = std::thread::scope(|scope| {
+        let (script, sink) = (&script, &mut sink);
+        let driver =
+            scope.spawn(move || run_mission(mission, RunOptions::new(script), &control, sink));
+        let browser = Command::new("node")
+            .arg(gui_test_dir().join("drive.mjs"))
+            .arg(gui.url())
+            .arg(dir.path().join("release"))
+            .arg(&shots)
+            .env("LEWIS_CHROMIUM", &chromium)
+            .current_dir(gui_test_dir())
+            .output()
+            .unwrap();
+        if !browser.status.success() {
+            // Whatever the page did not do, the mission must not wait for it forever.
+            controller.interrupt("the browser test failed");
+        }
+        (driver.join().unwrap().unwrap(), browser)
+    });
+    drop(sink);
+    let stdout = String::from_utf8_lossy(&browser.stdout);
+    let stderr = String::from_utf8_lossy(&browser.stderr);
+    assert!(
+        browser.status.success(),
+        "the browser test failed:\n{stdout}\n{stderr}"
+    );
+    assert!(stdout.contains("gui-test: ok"), "{stdout}\n{stderr}");
+    assert!(outcome.is_finished(), "{outcome:?}");
+    let resumed: Vec<String> = rx
+        .iter()
+        .filter_map(|r| match r.entry {
+            Entry::Decided {
+                decision: Decision::Resume { state, .. },
+            } => Some(state),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(resumed, ["queue"]);
+    for shot in ["running.png", "asking.png", "finished.png"] {
+        assert!(shots.join(shot).is_file(), "no screenshot {shot}");
+    }
+    gui.shutdown();
+}
