@@ -6,5 +6,6 @@
 
 pub mod faults;
 pub mod framing;
+pub mod io;
 pub mod rflex;
 pub mod sick;

@@ -1,0 +1,39 @@
+//! The I/O layer of the drivers: device emulators on pseudo-terminals and host-side drivers on
+//! serial ports, both built on the pure protocol layer of [`crate::drivers`].
+//!
+//! This is the only part of the drivers that opens ports, starts threads and reads the
+//! monotonic clock. Everything here is a plain struct: the service adapters (and
+//! `lewis fake-device`) call them.
+//!
+//! - [`FakeSick`] and [`FakeRflex`]: the scanner and the base behind a pseudo-terminal, on a
+//!   thread driven by `poll` (no busy waiting), with fault injection and unplugging.
+//! - [`SickDriver`] and [`RflexDriver`]: the host's side, over the `serialport` crate, with
+//!   blocking reads bounded by a timeout, a pollable file descriptor, health reporting and
+//!   reconnection when the port comes back.
+//!
+//! Linux only: the emulators read the host's baud rate from the pseudo-terminal's termios
+//! (`TCGETS2` on the master reflects the slave's settings).
+
+mod clock;
+pub mod fake_device;
+mod fault_spec;
+mod health;
+mod link;
+mod port;
+mod pty;
+pub mod rflex_driver;
+pub mod sick_driver;
+mod world_source;
+
+pub use clock::MonotonicClock;
+pub use fake_device::{
+    Emulated, EmulatorStats, FakeDevice, FakeDeviceError, FakeRflex, FakeSick, RflexEmulation,
+    RflexEmulatorOptions, SickEmulation,
+};
+pub use fault_spec::{FaultSpecError, parse_faults};
+pub use health::DriverHealth;
+pub use port::{LineParity, PortError, open_port};
+pub use pty::{Pty, PtyError};
+pub use rflex_driver::{RflexDriver, RflexDriverConfig, RflexDriverError, RflexEvent, RflexStats};
+pub use sick_driver::{LaserScan, SickDriver, SickDriverConfig, SickDriverError, SickStats};
+pub use world_source::{SharedPose, WorldLaserSource, WorldSonarSource};

@@ -1,0 +1,110 @@
+//! Range sources backed by the simulator's world, so that the emulators see what the simulated
+//! laser and sonar would: the base's emulator moves its true pose through the world, and the
+//! laser's emulator reads that pose through a [`SharedPose`].
+
+use std::sync::{Arc, Mutex, PoisonError};
+
+use crate::drivers::rflex::{self, SonarSource};
+use crate::drivers::sick::{RangeSource, ScanLayout};
+use crate::sim::{self, LaserConfig, SimLaser, SimSonar, World};
+
+/// A pose written by one emulator (the base) and read by another (the laser).
+#[derive(Debug, Clone, Default)]
+pub struct SharedPose(Arc<Mutex<sim::Pose2>>);
+
+impl SharedPose {
+    /// A shared pose starting at `pose`.
+    pub fn new(pose: sim::Pose2) -> Self {
+        Self(Arc::new(Mutex::new(pose)))
+    }
+
+    /// The pose now.
+    pub fn get(&self) -> sim::Pose2 {
+        *self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Moves the pose.
+    pub fn set(&self, pose: sim::Pose2) {
+        *self.0.lock().unwrap_or_else(PoisonError::into_inner) = pose;
+    }
+}
+
+/// The protocol layer's pose as the simulator's.
+pub(crate) fn to_sim_pose(pose: rflex::Pose2) -> sim::Pose2 {
+    sim::Pose2::new(pose.x_m, pose.y_m, pose.heading_rad)
+}
+
+/// Laser ranges from the world at the robot's pose: a [`SimLaser`] with the scanner's current
+/// angle and resolution (rebuilt when they change), its mount, noise and range from `config`.
+#[derive(Debug)]
+pub struct WorldLaserSource {
+    world: Arc<World>,
+    config: LaserConfig,
+    seed: u64,
+    pose: SharedPose,
+    laser: Option<(ScanLayout, SimLaser)>,
+}
+
+impl WorldLaserSource {
+    /// A source seeing `world` from `pose` (the robot's, the laser's mount is in `config`).
+    /// `config`'s beam count and field of view are replaced by the scanner's layout.
+    pub fn new(world: Arc<World>, config: LaserConfig, seed: u64, pose: SharedPose) -> Self {
+        Self {
+            world,
+            config,
+            seed,
+            pose,
+            laser: None,
+        }
+    }
+}
+
+impl RangeSource for WorldLaserSource {
+    fn ranges_m(&mut self, layout: ScanLayout) -> Vec<f64> {
+        if self
+            .laser
+            .as_ref()
+            .is_none_or(|(built, _)| *built != layout)
+        {
+            let config = LaserConfig {
+                beam_count: layout.value_count(),
+                field_of_view_rad: f64::from(layout.width.degrees()).to_radians(),
+                ..self.config
+            };
+            // A config the simulator refuses leaves no laser: the scan reads "nothing seen".
+            self.laser = SimLaser::new(config, self.seed)
+                .ok()
+                .map(|laser| (layout, laser));
+        }
+        let Some((_, laser)) = &mut self.laser else {
+            return Vec::new();
+        };
+        laser.scan(&self.world, self.pose.get()).ranges
+    }
+}
+
+/// Sonar ranges from the world: a [`SimSonar`] at the base's true pose placed at `origin`.
+#[derive(Debug)]
+pub struct WorldSonarSource {
+    world: Arc<World>,
+    sonar: SimSonar,
+    origin: sim::Pose2,
+}
+
+impl WorldSonarSource {
+    /// A source seeing `world` with `sonar`, the base's odometry origin at world pose `origin`.
+    pub fn new(world: Arc<World>, sonar: SimSonar, origin: sim::Pose2) -> Self {
+        Self {
+            world,
+            sonar,
+            origin,
+        }
+    }
+}
+
+impl SonarSource for WorldSonarSource {
+    fn ranges_m(&mut self, pose: &rflex::Pose2) -> Vec<f64> {
+        let world_pose = self.origin.compose(to_sim_pose(*pose));
+        self.sonar.scan(&self.world, world_pose).ranges
+    }
+}
