@@ -11,6 +11,9 @@ use clap::{Parser, Subcommand};
 mod idl;
 mod info;
 mod seq;
+mod service;
+mod status;
+mod up;
 
 /// The `lewis` command line.
 #[derive(Debug, Parser)]
@@ -39,6 +42,12 @@ pub enum Command {
     /// Check and run mission scripts (the sequencer).
     #[command(subcommand)]
     Seq(seq::SeqCommand),
+    /// Start the broker and a robot's services; run until Ctrl-C or --duration.
+    Up(up::UpArgs),
+    /// Run one service of a robot in this process (what `lewis up` starts).
+    Service(service::ServiceArgs),
+    /// Show the broker's services, health, restarts and bindings.
+    Status(status::StatusArgs),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -50,5 +59,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Idl(command) => idl::run(command),
         Command::Info(args) => info::run(&args),
         Command::Seq(command) => seq::run(command),
+        Command::Up(args) => up::run(&args),
+        Command::Service(args) => service::run(&args),
+        Command::Status(args) => status::run(&args),
     }
 }

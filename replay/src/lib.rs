@@ -4,6 +4,7 @@
 //! So far: [`info`], what a recording holds (`lewis info`), and [`json`], decoded values
 //! as JSON.
 
+pub mod import;
 pub mod info;
 pub mod json;
 

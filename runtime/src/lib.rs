@@ -5,6 +5,12 @@
 //! It knows nothing of MCAP files, recording or replay.
 
 pub mod broker;
+pub mod client;
+pub mod clock;
 pub mod ipc;
+pub mod live;
+pub mod names;
 pub mod robot;
+pub mod service;
 pub mod supervise;
+pub mod wire;

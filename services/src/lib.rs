@@ -8,3 +8,4 @@ pub mod drivers;
 pub mod motion;
 pub mod perception;
 pub mod sim;
+pub mod testing;

@@ -2,6 +2,9 @@
 //! data and the independent Python readers are, and a fresh temporary directory and IPC
 //! namespace for each test.
 
+// Helpers of tests: a failed expectation is the test's failure, said with its reason.
+#![allow(clippy::expect_used, clippy::print_stderr)]
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -65,4 +68,409 @@ pub fn run_ok(command: &mut Command) -> String {
         String::from_utf8_lossy(&output.stderr)
     );
     stdout
+}
+
+pub mod robot;
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Stdio};
+use std::rc::Rc;
+use std::sync::OnceLock;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
+use std::time::{Duration, Instant};
+
+use lewis_interfaces::msg::RangeFinder;
+use lewis_runtime::client::Client;
+use lewis_runtime::ipc::{Ipc, Namespace, NodeLiveness};
+
+/// The longest any end-to-end wait may take before the test fails: a watchdog against
+/// deadlocks, not a timing assertion.
+pub const WATCHDOG: Duration = Duration::from_secs(30);
+
+/// The `lewis` binary, built once per test process.
+///
+/// `CARGO_BIN_EXE_lewis` exists only for the `lewis` package's own tests, so the binary is
+/// located in the target directory of this test executable (`target/<profile>/lewis`) after
+/// `cargo build -p lewis --bin lewis` into that same directory (fast when it is up to date,
+/// and never stale). `LEWIS_EXE` overrides it.
+///
+/// # Panics
+/// When the binary cannot be built.
+#[must_use]
+pub fn lewis_exe() -> PathBuf {
+    static EXE: OnceLock<PathBuf> = OnceLock::new();
+    EXE.get_or_init(|| {
+        if let Some(exe) = std::env::var_os("LEWIS_EXE") {
+            return PathBuf::from(exe);
+        }
+        let test_exe = std::env::current_exe().expect("the test executable has a path");
+        // target/<profile>/deps/<test executable>
+        let profile_dir = test_exe
+            .parent()
+            .and_then(Path::parent)
+            .expect("the test executable lives in target/<profile>/deps");
+        let target_dir = profile_dir.parent().expect("target/<profile> has a parent");
+        let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+        let mut build = Command::new(cargo);
+        build
+            .args(["build", "--quiet", "-p", "lewis", "--bin", "lewis"])
+            .env("CARGO_TARGET_DIR", target_dir)
+            .current_dir(repo_root());
+        if profile_dir.file_name().is_some_and(|n| n == "release") {
+            build.arg("--release");
+        }
+        let status = build.status().expect("cargo can be run to build lewis");
+        assert!(status.success(), "cargo build -p lewis failed: {status}");
+        profile_dir.join("lewis")
+    })
+    .clone()
+}
+
+/// A running `lewis up`, in its own namespace and temporary directory, with its output
+/// collected line by line. Dropping it kills it (and so its services).
+pub struct Up {
+    child: Child,
+    /// Its namespace.
+    pub namespace: Namespace,
+    /// Its temporary directory (the robot file is `robot.toml` there).
+    pub dir: tempfile::TempDir,
+    lines: Receiver<String>,
+    /// Every line it wrote so far (stderr), for diagnostics.
+    pub seen: Vec<String>,
+}
+
+impl Up {
+    /// Writes `robot` to a fresh temporary directory and starts `lewis up` on it in a fresh
+    /// namespace named after `tag`.
+    ///
+    /// # Panics
+    /// When the directory or the process cannot be made.
+    #[must_use]
+    pub fn start(tag: &str, robot: &str) -> Self {
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        Self::start_in(dir, Namespace::unique(tag), robot)
+    }
+
+    /// As [`Up::start`] in a given directory and namespace.
+    ///
+    /// # Panics
+    /// When the robot file or the process cannot be made.
+    #[must_use]
+    pub fn start_in(dir: tempfile::TempDir, namespace: Namespace, robot: &str) -> Self {
+        let robot_path = dir.path().join("robot.toml");
+        std::fs::write(&robot_path, robot).expect("the robot file can be written");
+        let mut child = Command::new(lewis_exe())
+            .arg("up")
+            .arg(&robot_path)
+            .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "300"])
+            .env("RUST_LOG", "info")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("lewis up starts");
+        let stderr = child.stderr.take().expect("stderr is piped");
+        let (tx, lines) = channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        Self {
+            child,
+            namespace,
+            dir,
+            lines,
+            seen: Vec::new(),
+        }
+    }
+
+    /// The path of a file in the temporary directory.
+    #[must_use]
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// The process id of `lewis up`.
+    #[must_use]
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Waits (at most [`WATCHDOG`]) for an output line that contains `needle`, and returns it.
+    ///
+    /// # Panics
+    /// When no such line comes, printing everything seen.
+    pub fn wait_line(&mut self, needle: &str) -> String {
+        let deadline = Instant::now() + WATCHDOG;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) => {
+                    self.seen.push(line.clone());
+                    if line.contains(needle) {
+                        return line;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => panic!(
+                    "lewis up never wrote a line with `{needle}`; it wrote:\n{}",
+                    self.seen.join("\n")
+                ),
+            }
+        }
+    }
+
+    /// Takes the lines written so far without waiting.
+    pub fn drain(&mut self) {
+        while let Ok(line) = self.lines.try_recv() {
+            self.seen.push(line);
+        }
+    }
+
+    /// Stops it with SIGTERM and waits (watchdog) for it to end; returns its exit status.
+    ///
+    /// # Panics
+    /// When it does not end.
+    pub fn stop(&mut self) -> std::process::ExitStatus {
+        signal(self.child.id(), nix::sys::signal::Signal::SIGTERM);
+        let status = wait_child(&mut self.child);
+        // The reader thread ends with the pipe; collect what it read.
+        while let Ok(line) = self.lines.recv_timeout(WATCHDOG) {
+            self.seen.push(line);
+        }
+        status
+    }
+
+    /// Kills it with SIGKILL and reaps it.
+    pub fn kill(&mut self) {
+        signal(self.child.id(), nix::sys::signal::Signal::SIGKILL);
+        let _ = wait_child(&mut self.child);
+    }
+
+    /// The broker's status report (`lewis status`), asked in-process.
+    ///
+    /// # Panics
+    /// When the broker does not answer.
+    #[must_use]
+    pub fn status(&self) -> String {
+        let ipc = Ipc::open(&self.namespace, "test-status").expect("the test's IPC node opens");
+        let mut broker = ipc
+            .command_client(
+                lewis_runtime::names::BROKER_COMMAND,
+                &lewis_runtime::names::broker_command_config(),
+            )
+            .expect("the broker's command channel opens");
+        lewis_runtime::client::call_blocking(
+            &mut broker,
+            &lewis_interfaces::msg::BrokerStatus::default(),
+            WATCHDOG,
+        )
+        .expect("the broker answers")
+        .report
+    }
+
+    /// Asks for the status report until `accept` accepts it (watchdog) and returns it.
+    ///
+    /// # Panics
+    /// When no report is accepted in time.
+    pub fn wait_status(&self, what: &str, accept: impl Fn(&str) -> bool) -> String {
+        let deadline = Instant::now() + WATCHDOG;
+        loop {
+            let report = self.status();
+            if accept(&report) {
+                return report;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "the broker never reported {what}; last report:\n{report}"
+            );
+            // The broker announces no state change: ask again shortly, under the watchdog.
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Its log as one text.
+    #[must_use]
+    pub fn log(&self) -> String {
+        self.seen.join("\n")
+    }
+}
+
+impl Drop for Up {
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+        if std::thread::panicking() {
+            while let Ok(line) = self.lines.recv_timeout(Duration::from_secs(1)) {
+                self.seen.push(line);
+            }
+            eprintln!("lewis up wrote:\n{}", self.log());
+        }
+    }
+}
+
+/// Sends a signal to a process.
+///
+/// # Panics
+/// When the pid does not fit or the signal cannot be sent.
+pub fn signal(pid: u32, signal: nix::sys::signal::Signal) {
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(pid).expect("pids fit an i32"));
+    nix::sys::signal::kill(pid, signal).expect("the signal can be sent");
+}
+
+/// Waits (watchdog) for a child to end.
+///
+/// # Panics
+/// When it is still running after [`WATCHDOG`].
+pub fn wait_child(child: &mut Child) -> std::process::ExitStatus {
+    let pidfd = rustix::process::pidfd_open(
+        rustix::process::Pid::from_child(child),
+        rustix::process::PidfdFlags::empty(),
+    )
+    .expect("pidfd_open works on this kernel");
+    assert!(
+        wait_readable(&pidfd, WATCHDOG),
+        "process {} still runs after {WATCHDOG:?}",
+        child.id()
+    );
+    child.wait().expect("the child can be reaped")
+}
+
+/// Waits (at most `timeout`) for a descriptor to become readable; returns whether it did.
+fn wait_readable(fd: &impl std::os::fd::AsFd, timeout: Duration) -> bool {
+    let mut fds = [nix::poll::PollFd::new(
+        fd.as_fd(),
+        nix::poll::PollFlags::POLLIN,
+    )];
+    let timeout = nix::poll::PollTimeout::try_from(timeout).unwrap_or(nix::poll::PollTimeout::MAX);
+    matches!(nix::poll::poll(&mut fds, timeout), Ok(n) if n > 0)
+}
+
+/// A process that is not our child, watched through a pidfd so that its end can be awaited.
+#[derive(Debug)]
+pub struct Watched {
+    pid: u32,
+    pidfd: std::os::fd::OwnedFd,
+}
+
+impl Watched {
+    /// Starts watching process `pid`.
+    ///
+    /// # Panics
+    /// When the process does not exist.
+    #[must_use]
+    pub fn new(pid: u32) -> Self {
+        let raw = rustix::process::Pid::from_raw(i32::try_from(pid).expect("pids fit an i32"))
+            .expect("a pid is not zero");
+        let pidfd = rustix::process::pidfd_open(raw, rustix::process::PidfdFlags::empty())
+            .unwrap_or_else(|e| panic!("process {pid} does not exist: {e}"));
+        Self { pid, pidfd }
+    }
+
+    /// Waits at most [`WATCHDOG`] for it to end; returns whether it did.
+    #[must_use]
+    pub fn wait_gone(&self) -> bool {
+        wait_readable(&self.pidfd, WATCHDOG)
+    }
+
+    /// Its pid.
+    #[must_use]
+    pub fn pid(&self) -> u32 {
+        self.pid
+    }
+}
+
+/// Opens an IPC node in `namespace` for a test.
+///
+/// # Panics
+/// When it cannot be opened.
+#[must_use]
+pub fn open_ipc(namespace: &Namespace, name: &str) -> Rc<Ipc> {
+    Rc::new(Ipc::open(namespace, name).expect("the test's IPC node opens"))
+}
+
+/// Waits (watchdog) until a live node named `name` is in the namespace, and returns its pid;
+/// `except` skips a pid (the process that was just killed).
+///
+/// # Panics
+/// When none appears.
+#[must_use]
+pub fn wait_node(ipc: &Ipc, name: &str, except: Option<u32>) -> u32 {
+    let deadline = Instant::now() + WATCHDOG;
+    // Node files appear without any event to wait on: this is the one place that polls,
+    // at a modest rate, under the watchdog.
+    loop {
+        let nodes = ipc.nodes().expect("the node list can be read");
+        if let Some(pid) = nodes
+            .iter()
+            .filter(|n| n.liveness == NodeLiveness::Alive && n.name.as_deref() == Some(name))
+            .filter_map(|n| n.pid.and_then(|p| u32::try_from(p).ok()))
+            .find(|p| Some(*p) != except)
+        {
+            return pid;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no live node `{name}` appeared; nodes: {nodes:?}"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// The test application: it holds a `Client<RangeFinder>` and records which provider each
+/// sample came from. It contains no failover logic.
+pub struct RangeApp {
+    client: Client<RangeFinder>,
+    /// The provider of every sample received, in order.
+    pub providers: Vec<String>,
+}
+
+impl RangeApp {
+    /// Connects as client `app` to the broker of `ipc`'s namespace.
+    ///
+    /// # Panics
+    /// When the broker's channels cannot be opened.
+    #[must_use]
+    pub fn connect(ipc: &Rc<Ipc>) -> Self {
+        Self {
+            client: Client::connect(ipc, "app").expect("the client connects"),
+            providers: Vec::new(),
+        }
+    }
+
+    /// Receives samples until `count` consecutive ones came from `provider` (watchdog);
+    /// returns how many samples that took.
+    ///
+    /// # Panics
+    /// When that does not happen, listing the providers seen.
+    pub fn wait_for(&mut self, provider: &str, count: usize) -> usize {
+        let deadline = Instant::now() + WATCHDOG;
+        let start = self.providers.len();
+        let mut run = 0;
+        while run < count {
+            let left = deadline.saturating_duration_since(Instant::now());
+            assert!(
+                !left.is_zero(),
+                "never got {count} samples in a row from {provider}; got from: {:?}",
+                &self.providers[start..]
+            );
+            if let Some(sample) = self.client.recv_timeout(left).expect("the client works") {
+                let from = sample.message.header.provider;
+                run = if from == provider { run + 1 } else { 0 };
+                self.providers.push(from);
+            }
+        }
+        self.providers.len() - start
+    }
+
+    /// The provider the client is bound to now.
+    #[must_use]
+    pub fn provider(&self) -> Option<&str> {
+        self.client.provider()
+    }
 }

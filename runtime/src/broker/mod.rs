@@ -8,6 +8,7 @@
 //! is published on `/lewis/broker`.
 
 mod core;
+pub mod live;
 
 pub use self::core::{
     Action, AfterStop, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need,

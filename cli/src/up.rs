@@ -1,0 +1,85 @@
+//! `lewis up ROBOT.toml`: the broker and the robot's services, until Ctrl-C or `--duration`.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use clap::Args;
+use lewis_runtime::broker::live::{UpOptions, run_up};
+use lewis_runtime::ipc::Namespace;
+use lewis_runtime::robot::{self, Robot};
+use lewis_runtime::supervise::DEFAULT_STOP_GRACE;
+
+/// Arguments of `lewis up`.
+#[derive(Debug, Args)]
+pub struct UpArgs {
+    /// The robot description (`robots/*.toml`).
+    pub robot: PathBuf,
+    /// The IPC namespace (default: `LEWIS_NAMESPACE`, else `default`).
+    #[arg(long)]
+    pub namespace: Option<String>,
+    /// Stop after this many seconds (default: run until Ctrl-C or SIGTERM).
+    #[arg(long, value_name = "SECS")]
+    pub duration: Option<f64>,
+    /// Milliseconds a service has between SIGTERM and SIGKILL when it is stopped.
+    #[arg(long, value_name = "MS")]
+    pub stop_grace_ms: Option<u64>,
+}
+
+/// Runs `lewis up`.
+pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
+    init_logs();
+    let robot = load_robot(&args.robot)?;
+    let namespace = namespace(args.namespace.as_deref())?;
+    let duration = match args.duration {
+        Some(secs) if secs.is_finite() && secs >= 0.0 => Some(Duration::from_secs_f64(secs)),
+        Some(secs) => anyhow::bail!("--duration {secs}: give a number of seconds, 0 or more"),
+        None => None,
+    };
+    let options = UpOptions {
+        // Services get an absolute path: they may run in another directory.
+        robot_path: std::path::absolute(&args.robot)
+            .with_context(|| format!("cannot resolve {}", args.robot.display()))?,
+        namespace,
+        lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
+        duration,
+        stop_grace: args
+            .stop_grace_ms
+            .map_or(DEFAULT_STOP_GRACE, Duration::from_millis),
+    };
+    let summary = run_up(&robot, &options)?;
+    tracing::info!(
+        "broker down ({}), {} decisions",
+        summary.ended_by,
+        summary.decisions
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The namespace from `--namespace`, else `LEWIS_NAMESPACE`, else `default`.
+pub(crate) fn namespace(given: Option<&str>) -> anyhow::Result<Namespace> {
+    Ok(match given {
+        Some(name) => Namespace::new(name)?,
+        None => Namespace::from_env()?,
+    })
+}
+
+/// Loads a robot description, knowing every compiled interface.
+pub(crate) fn load_robot(path: &Path) -> anyhow::Result<Robot> {
+    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+        .iter()
+        .map(|i| i.name)
+        .collect();
+    Ok(robot::load(path, &known)?)
+}
+
+/// Logs to stderr, filtered by `RUST_LOG` (default `info`).
+pub(crate) fn init_logs() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}

@@ -1,0 +1,666 @@
+//! The broker's live driver, the heart of `lewis up`: it runs the [`BrokerCore`] on real
+//! processes, heartbeats, requests and timers.
+//!
+//! - It turns the [`Supervisor`]'s exit events, the heartbeats on every service's health
+//!   channel, the clients' `request`/`release` commands on `/lewis/broker/cmd` and the core's
+//!   deadlines ([`BrokerCore::next_deadline`]) into [`Event`]s;
+//! - it carries out the [`Action`]s: `Start` spawns `lewis service NAME --robot FILE` (or the
+//!   service's command line) in the namespace; `Stop` sends SIGTERM and, after the grace
+//!   period, SIGKILL, without blocking the loop (the exit comes back as an event); binds are
+//!   answered to the requesting client and published;
+//! - every decision is published on `/lewis/broker` (so clients follow rebinding and the
+//!   recorder keeps it) and logged;
+//! - services' stdout and stderr lines are published on `/lewis/log` with their names (by a
+//!   forwarding thread, so a burst of output never delays a decision).
+//!
+//! Everything waits on one [`WaitSet`]: the stop signals, the supervisor's descriptor, the
+//! command server and the health channels, with the earliest deadline.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::os::fd::AsFd;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, sync_channel};
+use std::time::{Duration, Instant};
+
+use lewis_interfaces::cdr;
+use lewis_interfaces::msg::{
+    Broker as BrokerMessage, BrokerCommand, BrokerReleaseReply, BrokerRequestReply,
+    BrokerStatusReply, Health as HealthMessage, LogLine as LogLineMessage,
+};
+use lewis_interfaces::{CommandSet, Message};
+use nix::sys::signal::Signal;
+
+use super::{Action, BrokerCore, Decision, Event, ExitStatus, Need};
+use crate::clock::LiveClock;
+use crate::ipc::{
+    CommandServer, FdSource, Ipc, IpcError, Namespace, Publisher, Subscriber, WaitError, WaitSet,
+    Waitable, WakeMode,
+};
+use crate::live::{StopSignals, health_from_message};
+use crate::names;
+use crate::robot::Robot;
+use crate::supervise::{
+    ChildSpec, ExitStatus as ProcessExit, LogLine, SuperviseError, Supervisor, SupervisorEvent,
+};
+use crate::wire;
+
+/// Log lines waiting to be published before new ones are dropped (and counted by the
+/// supervisor).
+const LOG_QUEUE: usize = 4096;
+
+/// How `lewis up` runs.
+#[derive(Debug, Clone)]
+pub struct UpOptions {
+    /// The robot file (handed to every `lewis service`).
+    pub robot_path: PathBuf,
+    /// The namespace of every IPC name.
+    pub namespace: Namespace,
+    /// The `lewis` executable that runs built-in service kinds.
+    pub lewis_exe: PathBuf,
+    /// Stop after this long (`None`: until SIGINT or SIGTERM).
+    pub duration: Option<Duration>,
+    /// Time between SIGTERM and SIGKILL when a service is stopped.
+    pub stop_grace: Duration,
+}
+
+/// Why `lewis up` could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum UpError {
+    /// A channel could not be opened.
+    #[error(transparent)]
+    Ipc(#[from] IpcError),
+    /// Process supervision failed.
+    #[error(transparent)]
+    Supervise(#[from] SuperviseError),
+    /// Waiting failed.
+    #[error(transparent)]
+    Wait(#[from] WaitError),
+    /// The stop signals could not be caught.
+    #[error("cannot catch SIGTERM and SIGINT: {0}")]
+    Signals(std::io::Error),
+    /// The log forwarding thread could not start.
+    #[error("cannot start the log forwarding thread: {0}")]
+    Thread(std::io::Error),
+}
+
+/// What a run of `lewis up` ended with.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UpSummary {
+    /// Decisions taken.
+    pub decisions: usize,
+    /// Why it ended (`signal` or `duration`).
+    pub ended_by: &'static str,
+}
+
+/// The broker message of a decision.
+#[must_use]
+pub fn decision_message(decision: &Decision) -> BrokerMessage {
+    let mut m = BrokerMessage {
+        reason: decision.reason.clone(),
+        at_ns: decision.at_ns,
+        ..BrokerMessage::default()
+    };
+    let action = match &decision.action {
+        Action::Start { service } => {
+            m.service.clone_from(service);
+            "start"
+        }
+        Action::Stop { service } => {
+            m.service.clone_from(service);
+            "stop"
+        }
+        Action::Bind {
+            client,
+            interface,
+            service,
+        } => {
+            m.client.clone_from(client);
+            m.interface.clone_from(interface);
+            m.service.clone_from(service);
+            "bind"
+        }
+        Action::Rebind {
+            client,
+            interface,
+            from,
+            to,
+        } => {
+            m.client.clone_from(client);
+            m.interface.clone_from(interface);
+            m.service.clone_from(to);
+            m.from_service.clone_from(from);
+            m.to_service.clone_from(to);
+            "rebind"
+        }
+        Action::Unbind {
+            client,
+            interface,
+            service,
+        } => {
+            m.client.clone_from(client);
+            m.interface.clone_from(interface);
+            m.service.clone_from(service);
+            "unbind"
+        }
+        Action::Reject { client, interface } => {
+            m.client.clone_from(client);
+            m.interface.clone_from(interface);
+            "reject"
+        }
+        Action::AskForHelp { need } => {
+            match need {
+                Need::Interface(interface) => m.interface.clone_from(interface),
+                Need::Service(service) => m.service.clone_from(service),
+            }
+            "ask-for-help"
+        }
+        Action::RestartScheduled { service, .. } => {
+            m.service.clone_from(service);
+            "restart-scheduled"
+        }
+        Action::ServiceFailed { service } => {
+            m.service.clone_from(service);
+            "service-failed"
+        }
+    };
+    m.action = action.to_owned();
+    m
+}
+
+/// Runs the broker and the robot's services until a stop signal or the duration, then stops
+/// every service in reverse start order.
+///
+/// # Errors
+/// When IPC, supervision or the signal handlers cannot be set up.
+pub fn run_up(robot: &Robot, options: &UpOptions) -> Result<UpSummary, UpError> {
+    let signals = StopSignals::install().map_err(UpError::Signals)?;
+    let (log_tx, log_rx) = sync_channel(LOG_QUEUE);
+    let forwarder = spawn_log_forwarder(options.namespace.clone(), log_rx)?;
+    let mut driver = Driver::new(robot, options, Supervisor::with_log_sink(log_tx)?)?;
+    let end = options.duration.map(|d| Instant::now() + d);
+    let ended_by = driver.run(&signals, end)?;
+    let summary = UpSummary {
+        decisions: driver.decisions,
+        ended_by,
+    };
+    driver.shutdown();
+    // Dropping the supervisor closes the log channel: the forwarder publishes what is left
+    // and ends.
+    drop(driver);
+    let _ = forwarder.join();
+    Ok(summary)
+}
+
+struct Driver<'r> {
+    robot: &'r Robot,
+    options: &'r UpOptions,
+    clock: LiveClock,
+    core: BrokerCore,
+    supervisor: Supervisor,
+    ipc: Ipc,
+    decisions_out: Publisher,
+    server: CommandServer,
+    health: Vec<(String, Subscriber)>,
+    /// Services sent SIGTERM, and when they get SIGKILL.
+    kills: BTreeMap<String, Instant>,
+    waits: WaitSet,
+    decisions: usize,
+    /// The time of the last event handed to the core.
+    last_ns: i64,
+}
+
+impl<'r> Driver<'r> {
+    fn new(
+        robot: &'r Robot,
+        options: &'r UpOptions,
+        supervisor: Supervisor,
+    ) -> Result<Self, UpError> {
+        let ipc = Ipc::open(&options.namespace, names::BROKER_NODE)?;
+        let decisions_out = ipc.publisher(names::BROKER_CHANNEL, &names::broker_config())?;
+        let server = ipc.command_server(names::BROKER_COMMAND, &names::broker_command_config())?;
+        let health = robot
+            .services
+            .iter()
+            .map(|s| {
+                ipc.subscriber(&names::health_channel(&s.name), &names::health_config())
+                    .map(|sub| (s.name.clone(), sub))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            robot,
+            options,
+            clock: LiveClock::new(),
+            core: BrokerCore::new(robot),
+            supervisor,
+            ipc,
+            decisions_out,
+            server,
+            health,
+            kills: BTreeMap::new(),
+            waits: WaitSet::new(WakeMode::Event),
+            decisions: 0,
+            last_ns: 0,
+        })
+    }
+
+    fn run(
+        &mut self,
+        signals: &StopSignals,
+        end: Option<Instant>,
+    ) -> Result<&'static str, UpError> {
+        tracing::info!(
+            robot = self.robot.name,
+            namespace = self.options.namespace.as_str(),
+            "broker up"
+        );
+        self.feed(Event::BrokerStarted);
+        loop {
+            if signals.take() {
+                return Ok("signal");
+            }
+            let now = Instant::now();
+            if end.is_some_and(|e| now >= e) {
+                return Ok("duration");
+            }
+            self.take_exits()?;
+            self.take_heartbeats();
+            self.serve_requests();
+            if self
+                .core
+                .next_deadline()
+                .is_some_and(|d| self.clock.now_ns() >= d)
+            {
+                self.feed(Event::TimePassed);
+            }
+            self.kill_overdue(now);
+            let deadline = self
+                .core
+                .next_deadline()
+                .map(|ns| self.clock.to_instant(ns))
+                .into_iter()
+                .chain(self.kills.values().copied())
+                .chain(end)
+                .min();
+            self.wait(signals, deadline)?;
+        }
+    }
+
+    fn wait(&self, signals: &StopSignals, deadline: Option<Instant>) -> Result<(), UpError> {
+        let signal_fd = FdSource::new(signals.as_fd());
+        let supervisor_fd = FdSource::new(self.supervisor.as_fd());
+        let mut sources: Vec<&dyn Waitable> = vec![&signal_fd, &supervisor_fd, &self.server];
+        sources.extend(self.health.iter().map(|(_, s)| s as &dyn Waitable));
+        self.waits.wait(&sources, deadline)?;
+        Ok(())
+    }
+
+    /// Hands an event that happens now to the core; see [`Driver::feed_at`].
+    fn feed(&mut self, event: Event) -> Vec<Decision> {
+        self.feed_at(self.clock.now_ns(), event)
+    }
+
+    /// Hands an event that happened at `at_ns` to the core and carries out its decisions,
+    /// and those of the events they cause, in order. Returns every decision taken.
+    ///
+    /// The time is when the event happened (a heartbeat's publish time, the moment an exit
+    /// was seen), not when this loop got to it: on a loaded machine the loop may run late,
+    /// and the core must not take a heartbeat that arrived in time for a missed one. Times
+    /// never go backwards.
+    fn feed_at(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
+        let mut queue = VecDeque::from([event]);
+        let mut all = Vec::new();
+        let mut at_ns = at_ns.max(self.last_ns);
+        while let Some(event) = queue.pop_front() {
+            self.last_ns = at_ns;
+            let now_ns = at_ns;
+            // Events caused by decisions (a spawn, a failed spawn) happen now.
+            at_ns = self.clock.now_ns().max(at_ns);
+            for decision in self.core.handle(now_ns, &event) {
+                self.publish(&decision);
+                if let Some(next) = self.carry_out(&decision.action) {
+                    queue.push_back(next);
+                }
+                all.push(decision);
+            }
+        }
+        all
+    }
+
+    fn publish(&mut self, decision: &Decision) {
+        self.decisions += 1;
+        match &decision.action {
+            Action::AskForHelp { .. } | Action::ServiceFailed { .. } => {
+                tracing::warn!("broker: {decision}");
+            }
+            _ => tracing::info!("broker: {decision}"),
+        }
+        let message = decision_message(decision);
+        let len = cdr::encoded_len(&message);
+        if let Err(e) = self.decisions_out.publish_with(len, |buf| {
+            let _ = cdr::encode_into(&message, buf);
+        }) {
+            tracing::warn!("cannot publish a broker decision: {e}");
+        }
+    }
+
+    /// Does what an action asks; returns the event that follows from it at once, if any.
+    fn carry_out(&mut self, action: &Action) -> Option<Event> {
+        match action {
+            Action::Start { service } => Some(self.start(service)),
+            Action::Stop { service } => {
+                match self.supervisor.signal(service, Signal::SIGTERM) {
+                    Ok(()) => {
+                        self.kills
+                            .insert(service.clone(), Instant::now() + self.options.stop_grace);
+                    }
+                    // Already gone: its exit event is on its way.
+                    Err(e) => tracing::debug!("stop {service}: {e}"),
+                }
+                None
+            }
+            _ => None,
+        }
+    }
+
+    fn start(&mut self, service: &str) -> Event {
+        let Some(spec) = self.robot.service(service) else {
+            return Event::StartFailed {
+                service: service.to_owned(),
+                error: "not in the robot file".to_owned(),
+            };
+        };
+        let argv = spec.argv(&self.options.lewis_exe, &self.options.robot_path);
+        let Some((program, args)) = argv.split_first() else {
+            return Event::StartFailed {
+                service: service.to_owned(),
+                error: "empty command line".to_owned(),
+            };
+        };
+        let mut child = ChildSpec::new(service, Path::new(program))
+            .args(args.iter().cloned())
+            .env(crate::ipc::NAMESPACE_ENV, self.options.namespace.as_str())
+            .stop_grace(self.options.stop_grace);
+        for (key, value) in &spec.environment {
+            child = child.env(key, value);
+        }
+        match self.supervisor.start(child) {
+            Ok(pid) => {
+                tracing::info!(service, pid, "started {service} (pid {pid})");
+                Event::ProviderStarted {
+                    service: service.to_owned(),
+                }
+            }
+            Err(e) => Event::StartFailed {
+                service: service.to_owned(),
+                error: e.to_string(),
+            },
+        }
+    }
+
+    fn take_exits(&mut self) -> Result<(), UpError> {
+        while let Some(event) = self.supervisor.try_event()? {
+            let seen_ns = self.clock.now_ns();
+            if let SupervisorEvent::Exited { name, status, .. } = event {
+                self.kills.remove(&name);
+                let status = match status {
+                    ProcessExit::Exited { code } => ExitStatus::Code(code),
+                    ProcessExit::Signalled { signal, .. } => ExitStatus::Signal(signal),
+                };
+                self.feed_at(
+                    seen_ns,
+                    Event::ProcessExited {
+                        service: name,
+                        status,
+                    },
+                );
+                // The dead process's ports and memory go before a restart (which waits for
+                // its backoff) opens the same channels again.
+                let _ = self.ipc.cleanup_dead_nodes();
+            }
+        }
+        Ok(())
+    }
+
+    fn take_heartbeats(&mut self) {
+        let mut beats = Vec::new();
+        for (service, subscriber) in &mut self.health {
+            while let Ok(Some(sample)) = subscriber.receive() {
+                match cdr::from_bytes::<HealthMessage>(sample.bytes()) {
+                    Ok(message) => beats.push((
+                        message.header.publish_time_ns,
+                        service.clone(),
+                        health_from_message(&message),
+                    )),
+                    Err(e) => tracing::warn!("bad heartbeat from {service}: {e}"),
+                }
+            }
+        }
+        let now_ns = self.clock.now_ns();
+        for (sent_ns, service, health) in beats {
+            // The service's clock, bounded by ours (a clock ahead must not delay deadlines).
+            self.feed_at(sent_ns.min(now_ns), Event::Heartbeat { service, health });
+        }
+    }
+
+    fn kill_overdue(&mut self, now: Instant) {
+        let due: Vec<String> = self
+            .kills
+            .iter()
+            .filter(|(_, at)| now >= **at)
+            .map(|(name, _)| name.clone())
+            .collect();
+        for name in due {
+            self.kills.remove(&name);
+            tracing::warn!(service = name, "{name} did not stop after SIGTERM: SIGKILL");
+            let _ = self.supervisor.signal(&name, Signal::SIGKILL);
+        }
+    }
+
+    fn serve_requests(&mut self) {
+        while let Ok(Some(request)) = self.server.receive() {
+            let answer = match wire::read_request(request.bytes()) {
+                Ok((command, bytes)) => match BrokerCommand::decode(command, bytes) {
+                    Ok(command) => Ok(self.answer(command)),
+                    Err(e) => Err(e.to_string()),
+                },
+                Err(e) => Err(e.to_string()),
+            };
+            if let Err(e) = self.server.reply(request, &wire::reply_to_vec(&answer)) {
+                tracing::warn!("cannot answer a broker request: {e}");
+            }
+        }
+    }
+
+    fn answer(&mut self, command: BrokerCommand) -> Vec<u8> {
+        match command {
+            BrokerCommand::Request(request) => {
+                let decisions = self.feed(Event::ClientRequest {
+                    client: request.client.clone(),
+                    interface: request.interface.clone(),
+                });
+                let rejected = decisions.iter().any(|d| {
+                    matches!(&d.action, Action::Reject { client, interface }
+                        if *client == request.client && *interface == request.interface)
+                });
+                let bound = self
+                    .core
+                    .snapshot()
+                    .bindings
+                    .into_iter()
+                    .find(|b| b.client == request.client && b.interface == request.interface)
+                    .and_then(|b| b.service);
+                let (status, service) = match (rejected, bound) {
+                    (true, _) => ("rejected", String::new()),
+                    (false, Some(service)) => ("bound", service),
+                    (false, None) => ("waiting", String::new()),
+                };
+                let mut reply = BrokerRequestReply {
+                    status: status.to_owned(),
+                    service,
+                    ..BrokerRequestReply::default()
+                };
+                self.stamp(reply.header_mut());
+                cdr::to_vec(&reply)
+            }
+            BrokerCommand::Release(release) => {
+                self.feed(Event::ClientGone {
+                    client: release.client,
+                });
+                let mut reply = BrokerReleaseReply::default();
+                self.stamp(reply.header_mut());
+                cdr::to_vec(&reply)
+            }
+            BrokerCommand::Status(_) => {
+                let mut reply = BrokerStatusReply {
+                    report: self.report(),
+                    ..BrokerStatusReply::default()
+                };
+                self.stamp(reply.header_mut());
+                cdr::to_vec(&reply)
+            }
+        }
+    }
+
+    fn stamp(&self, header: &mut lewis_interfaces::msg::Header) {
+        header.provider = names::BROKER_NODE.to_owned();
+        header.publish_time_ns = self.clock.now_ns();
+    }
+
+    /// The status report: the core's snapshot and every running process.
+    fn report(&self) -> String {
+        let mut report = format!(
+            "robot {} in namespace {}\n",
+            self.robot.name, self.options.namespace
+        );
+        report.push_str(&self.core.snapshot().to_string());
+        for name in self.supervisor.running() {
+            if let Some(pid) = self.supervisor.pid(name) {
+                report.push_str(&format!("process {name}: pid {pid}\n"));
+            }
+        }
+        report
+    }
+
+    fn shutdown(&mut self) {
+        for (name, result) in self.supervisor.stop_all() {
+            match result {
+                Ok(Some(status)) => tracing::info!(service = name, "stopped {name}: {status}"),
+                Ok(None) => {}
+                Err(e) => tracing::warn!(service = name, "cannot stop {name}: {e}"),
+            }
+        }
+    }
+}
+
+/// The log level a line of a service says it has (tracing's format writes it as a word).
+fn level_of(text: &str) -> &'static str {
+    for (word, level) in [
+        ("ERROR", "error"),
+        ("WARN", "warn"),
+        ("INFO", "info"),
+        ("DEBUG", "debug"),
+        ("TRACE", "trace"),
+    ] {
+        if text.split_whitespace().take(3).any(|w| w == word) {
+            return level;
+        }
+    }
+    ""
+}
+
+fn spawn_log_forwarder(
+    namespace: Namespace,
+    lines: Receiver<LogLine>,
+) -> Result<std::thread::JoinHandle<()>, UpError> {
+    std::thread::Builder::new()
+        .name("lewis-log".into())
+        .spawn(move || {
+            let publisher = Ipc::open(&namespace, "lewis-log").and_then(|ipc| {
+                ipc.publisher(names::LOG_CHANNEL, &names::log_config())
+                    .map(|p| (ipc, p))
+            });
+            let mut publisher = match publisher {
+                Ok((_ipc, publisher)) => Some((_ipc, publisher)),
+                Err(e) => {
+                    tracing::warn!("service logs are not published on /lewis/log: {e}");
+                    None
+                }
+            };
+            let mut seq = 0;
+            for line in lines {
+                let Some((_, publisher)) = &mut publisher else {
+                    continue;
+                };
+                seq += 1;
+                let mut message = LogLineMessage {
+                    service: line.name.to_string(),
+                    stream: line.stream.as_str().to_owned(),
+                    level: level_of(&line.text).to_owned(),
+                    text: line.text,
+                    ..LogLineMessage::default()
+                };
+                message.header.provider = names::BROKER_NODE.to_owned();
+                message.header.seq = seq;
+                let len = cdr::encoded_len(&message);
+                let _ = publisher.publish_with(len, |buf| {
+                    let _ = cdr::encode_into(&message, buf);
+                });
+            }
+        })
+        .map_err(UpError::Thread)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decisions_become_broker_messages_with_every_field_in_place() {
+        fn check(action: Action, expected: [&str; 6]) {
+            let m = decision_message(&Decision {
+                at_ns: 5,
+                action,
+                reason: "why".into(),
+            });
+            assert_eq!(
+                [
+                    m.action.as_str(),
+                    &m.client,
+                    &m.interface,
+                    &m.service,
+                    &m.from_service,
+                    &m.to_service
+                ],
+                expected
+            );
+            assert_eq!((m.at_ns, m.reason.as_str()), (5, "why"));
+        }
+        check(
+            Action::Start {
+                service: "laser".into(),
+            },
+            ["start", "", "", "laser", "", ""],
+        );
+        check(
+            Action::Rebind {
+                client: "app".into(),
+                interface: "RangeFinder".into(),
+                from: "laser".into(),
+                to: "sonar".into(),
+            },
+            ["rebind", "app", "RangeFinder", "sonar", "laser", "sonar"],
+        );
+        check(
+            Action::AskForHelp {
+                need: Need::Interface("RangeFinder".into()),
+            },
+            ["ask-for-help", "", "RangeFinder", "", "", ""],
+        );
+    }
+
+    #[test]
+    fn the_level_of_a_tracing_line_is_found() {
+        assert_eq!(level_of("2025-01-01T00:00:00Z  WARN lewis: x"), "warn");
+        assert_eq!(level_of("plain output"), "");
+    }
+}

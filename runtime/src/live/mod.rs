@@ -1,0 +1,507 @@
+//! The live harness: one service in its own process (`lewis service NAME --robot FILE`).
+//!
+//! It builds the service from a [`ServiceRegistry`], opens IPC in the namespace (the node is
+//! named after the service), publishes every interface the service provides on
+//! `/<service>/<Interface>` and serves its commands on `/<service>/<Interface>/cmd`, asks the
+//! broker for every interface it requires (through [`RawClient`]s that follow rebinding),
+//! ticks at the service's rate, publishes a heartbeat ([`Health`](lewis_interfaces::msg::Health))
+//! at the broker's period and at once when the declared health changes, and waits on one
+//! [`WaitSet`] for all of it (event wake-ups, no polling), the service's device and the stop
+//! signals. SIGTERM or SIGINT end it cleanly: `on_stop` runs, the process exits with 0.
+//!
+//! A stalled service (stuck in a handler) sends no heartbeat: that is how the broker sees a
+//! stall.
+
+mod signals;
+
+pub use signals::StopSignals;
+
+use std::collections::BTreeMap;
+use std::os::fd::AsFd;
+use std::rc::Rc;
+use std::time::{Duration, Instant};
+
+use lewis_interfaces::msg::{Health as HealthMessage, InputRef};
+use lewis_interfaces::{Message, cdr};
+
+use crate::broker::Health;
+use crate::client::{ClientError, RawClient};
+use crate::clock::LiveClock;
+use crate::ipc::{
+    CallError, CallId as IpcCallId, CommandServer, FdSource, Ipc, IpcError, Namespace, Publisher,
+    WaitError, WaitSet, Waitable, WakeMode, Woken,
+};
+use crate::names;
+use crate::robot::Robot;
+use crate::service::{
+    Backend, BuildError, CallFailure, CallId, ContextError, ContextState, IncomingCommand, Level,
+    ReplyEvent, Service, ServiceConfig, ServiceRegistry,
+};
+use crate::wire;
+
+/// Why a service could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    /// The robot has no service of that name.
+    #[error("robot `{robot}` has no service `{service}`; it has: {known}")]
+    UnknownService {
+        /// The robot.
+        robot: String,
+        /// The name asked for.
+        service: String,
+        /// The services it has.
+        known: String,
+    },
+    /// The service could not be built.
+    #[error(transparent)]
+    Build(#[from] BuildError),
+    /// A channel could not be opened.
+    #[error(transparent)]
+    Ipc(#[from] IpcError),
+    /// A required interface could not be asked for.
+    #[error(transparent)]
+    Client(#[from] ClientError),
+    /// Waiting failed.
+    #[error(transparent)]
+    Wait(#[from] WaitError),
+    /// The stop signals could not be caught.
+    #[error("cannot catch SIGTERM and SIGINT: {0}")]
+    Signals(std::io::Error),
+    /// The service's `on_start` refused to start.
+    #[error("service `{service}` could not start: {reason}")]
+    Start {
+        /// The service.
+        service: String,
+        /// What it said.
+        reason: String,
+    },
+}
+
+/// Runs service `service` of `robot` until SIGTERM or SIGINT.
+///
+/// # Errors
+/// When the service is unknown, cannot be built or started, or IPC fails.
+pub fn run_service(
+    robot: &Robot,
+    service: &str,
+    registry: &ServiceRegistry,
+    namespace: &Namespace,
+) -> Result<(), LiveError> {
+    let spec = robot
+        .service(service)
+        .ok_or_else(|| LiveError::UnknownService {
+            robot: robot.name.clone(),
+            service: service.to_owned(),
+            known: robot
+                .services
+                .iter()
+                .map(|s| s.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+    let config = ServiceConfig {
+        spec,
+        heartbeat_period_ms: robot.broker.heartbeat_period_ms,
+    };
+    let mut instance = registry.build(&config)?;
+    let signals = StopSignals::install().map_err(LiveError::Signals)?;
+    let ipc = Rc::new(Ipc::open(namespace, &spec.name)?);
+    let clock = LiveClock::new();
+
+    let mut publishers = BTreeMap::new();
+    let mut servers = Vec::new();
+    for provision in &spec.provides {
+        let interface = &provision.interface;
+        publishers.insert(
+            interface.clone(),
+            ipc.publisher(
+                &names::data_channel(&spec.name, interface),
+                &names::data_config(),
+            )?,
+        );
+        servers.push((
+            interface.clone(),
+            ipc.command_server(
+                &names::command_channel(&spec.name, interface),
+                &names::command_config(),
+            )?,
+        ));
+    }
+    let mut clients = BTreeMap::new();
+    for interface in &spec.requires {
+        clients.insert(
+            interface.clone(),
+            RawClient::new(&ipc, &spec.name, interface)?,
+        );
+    }
+    let health = ipc.publisher(&names::health_channel(&spec.name), &names::health_config())?;
+    let mut backend = LiveBackend {
+        service: spec.name.clone(),
+        clock,
+        publishers,
+        clients,
+        calls: BTreeMap::new(),
+        health,
+        health_seq: 0,
+        declared: Health::Ok,
+    };
+    let mut state = ContextState::new(&spec.name, config.seed());
+    let heartbeat_period = Duration::from_millis(robot.broker.heartbeat_period_ms.max(1));
+
+    // The first heartbeat says "ready" before anything else can take time.
+    backend.heartbeat();
+    instance
+        .on_start(&mut state.context(&mut backend))
+        .map_err(|reason| LiveError::Start {
+            service: spec.name.clone(),
+            reason,
+        })?;
+    let mut harness = Harness {
+        service: instance.as_mut(),
+        state,
+        backend,
+        servers,
+        waits: WaitSet::new(WakeMode::Event),
+        tick_period: None,
+    };
+    harness.tick_period = harness
+        .service
+        .tick_period_ns()
+        .and_then(|ns| u64::try_from(ns).ok())
+        .filter(|ns| *ns > 0)
+        .map(Duration::from_nanos);
+    harness.run(&signals, heartbeat_period)?;
+    Ok(())
+}
+
+struct Harness<'s> {
+    service: &'s mut dyn Service,
+    state: ContextState,
+    backend: LiveBackend,
+    servers: Vec<(String, CommandServer)>,
+    waits: WaitSet,
+    tick_period: Option<Duration>,
+}
+
+impl Harness<'_> {
+    fn run(&mut self, signals: &StopSignals, heartbeat_period: Duration) -> Result<(), LiveError> {
+        let start = Instant::now();
+        let mut next_heartbeat = start + heartbeat_period;
+        let mut next_tick = self.tick_period.map(|p| start + p);
+        let mut device_ready = false;
+        loop {
+            if signals.take() {
+                break;
+            }
+            let now = Instant::now();
+            if now >= next_heartbeat {
+                self.backend.heartbeat();
+                next_heartbeat = advance(next_heartbeat, heartbeat_period, now);
+            }
+            if let (Some(at), Some(period)) = (next_tick, self.tick_period)
+                && now >= at
+            {
+                self.service
+                    .on_tick(&mut self.state.context(&mut self.backend));
+                next_tick = Some(advance(at, period, now));
+            }
+            self.serve_commands();
+            self.take_inputs()?;
+            if device_ready {
+                self.service
+                    .on_device(&mut self.state.context(&mut self.backend));
+            }
+            let deadline = [Some(next_heartbeat), next_tick]
+                .into_iter()
+                .flatten()
+                .chain(
+                    self.backend
+                        .clients
+                        .values()
+                        .filter_map(RawClient::deadline),
+                )
+                .min();
+            device_ready = self.wait(signals, deadline)?;
+        }
+        self.service
+            .on_stop(&mut self.state.context(&mut self.backend));
+        Ok(())
+    }
+
+    /// Waits for anything to do; returns whether the device is readable.
+    fn wait(&self, signals: &StopSignals, deadline: Option<Instant>) -> Result<bool, LiveError> {
+        let signal_fd = FdSource::new(signals.as_fd());
+        let device_fd = self.service.device().map(FdSource::new);
+        let mut sources: Vec<&dyn Waitable> = vec![&signal_fd];
+        if let Some(device) = &device_fd {
+            sources.push(device);
+        }
+        for (_, server) in &self.servers {
+            sources.push(server);
+        }
+        for client in self.backend.clients.values() {
+            sources.extend(client.waitables());
+        }
+        // The device, when there is one, is source 1.
+        Ok(match self.waits.wait(&sources, deadline)? {
+            Woken::Ready(fired) => device_fd.is_some() && fired.contains(1),
+            Woken::DeadlineReached | Woken::Interrupted => false,
+        })
+    }
+
+    fn serve_commands(&mut self) {
+        for (interface, server) in &self.servers {
+            while let Ok(Some(request)) = server.receive() {
+                let answer = match wire::read_request(request.bytes()) {
+                    Ok((command, bytes)) => {
+                        let incoming = IncomingCommand {
+                            interface,
+                            command,
+                            bytes,
+                        };
+                        self.state.set_inputs(Vec::new());
+                        self.service
+                            .on_command(&mut self.state.context(&mut self.backend), &incoming)
+                            .map(|reply| reply.bytes)
+                            .map_err(|e| e.0)
+                    }
+                    Err(e) => Err(e.to_string()),
+                };
+                let frame = wire::reply_to_vec(&answer);
+                if let Err(e) = server.reply(request, &frame) {
+                    tracing::warn!(service = self.backend.service, "cannot reply: {e}");
+                }
+            }
+        }
+    }
+
+    fn take_inputs(&mut self) -> Result<(), LiveError> {
+        let interfaces: Vec<String> = self.backend.clients.keys().cloned().collect();
+        for interface in interfaces {
+            let Some(client) = self.backend.clients.get_mut(&interface) else {
+                continue;
+            };
+            if client.process()?.is_some() {
+                self.fail_calls_of(&interface);
+            }
+            while let Some(client) = self.backend.clients.get_mut(&interface) {
+                let provider = client.provider().unwrap_or_default().to_owned();
+                let channel = client.data_channel().to_owned();
+                let Some(received) = client.receive()? else {
+                    break;
+                };
+                let seq = crate::service::decode_header_seq(received.bytes());
+                self.state.set_inputs(vec![InputRef {
+                    channel: channel.clone(),
+                    seq,
+                }]);
+                let input = crate::service::Input {
+                    interface: &interface,
+                    provider: &provider,
+                    channel: &channel,
+                    bytes: received.bytes(),
+                };
+                self.service
+                    .on_input(&mut self.state.context(&mut self.backend), &input);
+            }
+            self.state.set_inputs(Vec::new());
+            while let Some(outcome) = self
+                .backend
+                .clients
+                .get_mut(&interface)
+                .and_then(RawClient::take_call_outcome)
+            {
+                let Some((call, command)) = self
+                    .backend
+                    .calls
+                    .remove(&(interface.clone(), outcome.call))
+                else {
+                    continue;
+                };
+                let frame;
+                let result = match outcome.result {
+                    Ok(reply) => {
+                        frame = reply;
+                        match wire::read_reply(frame.bytes()) {
+                            Ok(Ok(bytes)) => Ok(bytes),
+                            Ok(Err(refusal)) => Err(CallFailure::Refused(refusal)),
+                            Err(e) => Err(CallFailure::Transport(e.to_string())),
+                        }
+                    }
+                    Err(CallError::Timeout { timeout, .. }) => Err(CallFailure::Timeout {
+                        timeout_ns: i64::try_from(timeout.as_nanos()).unwrap_or(i64::MAX),
+                    }),
+                    Err(e) => Err(CallFailure::Transport(e.to_string())),
+                };
+                let event = ReplyEvent {
+                    call,
+                    interface: &interface,
+                    command,
+                    result,
+                };
+                self.service
+                    .on_reply(&mut self.state.context(&mut self.backend), &event);
+            }
+        }
+        Ok(())
+    }
+
+    /// The calls to a provider the client just left will never be answered.
+    fn fail_calls_of(&mut self, interface: &str) {
+        let lost: Vec<(String, IpcCallId)> = self
+            .backend
+            .calls
+            .keys()
+            .filter(|(i, _)| i == interface)
+            .cloned()
+            .collect();
+        for key in lost {
+            if let Some((call, command)) = self.backend.calls.remove(&key) {
+                let event = ReplyEvent {
+                    call,
+                    interface,
+                    command,
+                    result: Err(CallFailure::NoProvider {
+                        interface: interface.to_owned(),
+                    }),
+                };
+                self.service
+                    .on_reply(&mut self.state.context(&mut self.backend), &event);
+            }
+        }
+    }
+}
+
+/// The next time of a periodic event after `at`: one period later, or one period from now
+/// when the loop fell behind (missed periods are skipped, not caught up in a burst).
+fn advance(at: Instant, period: Duration, now: Instant) -> Instant {
+    let next = at + period;
+    if next <= now { now + period } else { next }
+}
+
+struct LiveBackend {
+    service: String,
+    clock: LiveClock,
+    publishers: BTreeMap<String, Publisher>,
+    clients: BTreeMap<String, RawClient>,
+    calls: BTreeMap<(String, IpcCallId), (CallId, &'static str)>,
+    health: Publisher,
+    health_seq: u64,
+    declared: Health,
+}
+
+impl LiveBackend {
+    fn heartbeat(&mut self) {
+        let (state, reason) = health_fields(&self.declared);
+        self.health_seq += 1;
+        let mut message = HealthMessage {
+            state: state.to_owned(),
+            reason: reason.to_owned(),
+            ..HealthMessage::default()
+        };
+        let header = message.header_mut();
+        header.provider.clone_from(&self.service);
+        header.seq = self.health_seq;
+        header.publish_time_ns = self.clock.now_ns();
+        let len = cdr::encoded_len(&message);
+        if let Err(e) = self.health.publish_with(len, |buf| {
+            let _ = cdr::encode_into(&message, buf);
+        }) {
+            tracing::warn!(service = self.service, "cannot publish heartbeat: {e}");
+        }
+    }
+}
+
+/// The `state` and `reason` fields of a Health message.
+#[must_use]
+pub fn health_fields(health: &Health) -> (&'static str, &str) {
+    match health {
+        Health::Ok => ("ok", ""),
+        Health::Degraded(why) => ("degraded", why),
+        Health::OutOfService(why) => ("out-of-service", why),
+    }
+}
+
+/// The health a Health message declares (an unknown state counts as degraded).
+#[must_use]
+pub fn health_from_message(message: &HealthMessage) -> Health {
+    match message.state.as_str() {
+        "ok" => Health::Ok,
+        "out-of-service" => Health::OutOfService(message.reason.clone()),
+        "degraded" => Health::Degraded(message.reason.clone()),
+        other => Health::Degraded(format!(
+            "unknown health state `{other}`: {}",
+            message.reason
+        )),
+    }
+}
+
+impl Backend for LiveBackend {
+    fn now_ns(&self) -> i64 {
+        self.clock.now_ns()
+    }
+
+    fn publish(
+        &mut self,
+        interface: &str,
+        len_bytes: usize,
+        encode: &mut dyn FnMut(&mut [u8]),
+    ) -> Result<(), ContextError> {
+        let publisher =
+            self.publishers
+                .get_mut(interface)
+                .ok_or_else(|| ContextError::NotProvided {
+                    service: self.service.clone(),
+                    interface: interface.to_owned(),
+                })?;
+        publisher
+            .publish_with(len_bytes, |buf| encode(buf))
+            .map(|_| ())
+            .map_err(|e| ContextError::Publish {
+                interface: interface.to_owned(),
+                reason: e.to_string(),
+            })
+    }
+
+    fn call(
+        &mut self,
+        call: CallId,
+        interface: &str,
+        command: &'static str,
+        frame: &[u8],
+        timeout_ns: i64,
+    ) -> Result<(), CallFailure> {
+        let client = self
+            .clients
+            .get_mut(interface)
+            .ok_or_else(|| CallFailure::NotRequired {
+                interface: interface.to_owned(),
+            })?;
+        let timeout = Duration::from_nanos(u64::try_from(timeout_ns).unwrap_or(0));
+        let id = client.call(frame, timeout).map_err(|e| match e {
+            ClientError::Unbound { .. } | ClientError::Call(CallError::NoServer { .. }) => {
+                CallFailure::NoProvider {
+                    interface: interface.to_owned(),
+                }
+            }
+            e => CallFailure::Transport(e.to_string()),
+        })?;
+        self.calls
+            .insert((interface.to_owned(), id), (call, command));
+        Ok(())
+    }
+
+    fn health_changed(&mut self, health: &Health) {
+        self.declared = health.clone();
+        self.heartbeat();
+    }
+
+    fn log(&mut self, service: &str, level: Level, text: &str) {
+        match level {
+            Level::Error => tracing::error!(service, "{text}"),
+            Level::Warn => tracing::warn!(service, "{text}"),
+            Level::Info => tracing::info!(service, "{text}"),
+            Level::Debug => tracing::debug!(service, "{text}"),
+        }
+    }
+}

@@ -1,0 +1,149 @@
+//! The IPC names and channel settings of a running robot, in one place: every process that
+//! opens a channel must use the same name and the same [`ChannelConfig`], or iceoryx2 refuses
+//! the second opener.
+//!
+//! | what | channel | message |
+//! |---|---|---|
+//! | a provider's data | `/<service>/<Interface>` | the interface's publication |
+//! | a provider's commands | `/<service>/<Interface>/cmd` | [`wire`](crate::wire) frames |
+//! | heartbeats and declared health | `/lewis/health/<service>` | `Health` |
+//! | broker decisions | `/lewis/broker` | `Broker` |
+//! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
+//! | services' output lines | `/lewis/log` | `LogLine` |
+//!
+//! All of them live under the namespace (`LEWIS_NAMESPACE`), see [`crate::ipc::Namespace`].
+
+use std::time::Duration;
+
+use crate::ipc::{ChannelConfig, CommandConfig, OverflowPolicy};
+
+/// The channel of broker decisions.
+pub const BROKER_CHANNEL: &str = "/lewis/broker";
+
+/// The command channel of the broker (`request`, `release`, `status`).
+pub const BROKER_COMMAND: &str = "/lewis/broker/cmd";
+
+/// The channel of forwarded output lines.
+pub const LOG_CHANNEL: &str = "/lewis/log";
+
+/// The iceoryx2 node name of the broker (`lewis up`).
+pub const BROKER_NODE: &str = "lewis-broker";
+
+/// The data channel on which `service` publishes `interface`.
+#[must_use]
+pub fn data_channel(service: &str, interface: &str) -> String {
+    format!("/{service}/{interface}")
+}
+
+/// The command channel on which `service` serves the commands of `interface`.
+#[must_use]
+pub fn command_channel(service: &str, interface: &str) -> String {
+    format!("/{service}/{interface}/cmd")
+}
+
+/// The channel on which `service` publishes its heartbeats and health.
+#[must_use]
+pub fn health_channel(service: &str) -> String {
+    format!("/lewis/health/{service}")
+}
+
+/// The settings of every provider's data channel: a sensor stream (fresh data matters, the
+/// oldest unread sample is dropped), the last sample kept for a client that is bound late or
+/// rebound, 64 KiB preallocated per sample (a 181-beam scan is about 10 KiB; bigger
+/// messages grow the segment).
+#[must_use]
+pub fn data_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 8,
+        max_held: 8,
+        max_subscribers: 32,
+        ..ChannelConfig::sensor(64 << 10)
+    }
+}
+
+/// The settings of health channels: the broker drains them at every wake-up; the last
+/// heartbeat is kept for a broker that joins late.
+#[must_use]
+pub fn health_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 16,
+        max_held: 4,
+        ..ChannelConfig::sensor(256)
+    }
+}
+
+/// The settings of `/lewis/broker`. Decisions must reach the clients, but a client that is
+/// not reading must never slow the broker down (failover latency depends on it): a deep
+/// buffer, the oldest dropped on overflow; a client that sees a gap asks the broker again
+/// (a repeated request answers with its current binding).
+#[must_use]
+pub fn broker_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 256,
+        overflow: OverflowPolicy::DropOldest,
+        history: 0,
+        max_held: 4,
+        max_subscribers: 64,
+        max_publishers: 2,
+        ..ChannelConfig::sensor(1024)
+    }
+}
+
+/// The settings of `/lewis/log`: a deep buffer, the oldest dropped (logs must not stall
+/// the broker).
+#[must_use]
+pub fn log_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 256,
+        overflow: OverflowPolicy::DropOldest,
+        history: 0,
+        max_held: 4,
+        max_subscribers: 16,
+        max_publishers: 2,
+        ..ChannelConfig::sensor(512)
+    }
+}
+
+/// The settings of the broker's command channel: every client and `lewis status` may call.
+#[must_use]
+pub fn broker_command_config() -> CommandConfig {
+    CommandConfig {
+        max_pending: 4,
+        max_clients: 64,
+        max_servers: 2,
+        ..CommandConfig::default()
+    }
+}
+
+/// The settings of a provider's command channel. Two servers: a restarted provider's new
+/// server may meet the old one before the dead node is cleaned up.
+#[must_use]
+pub fn command_config() -> CommandConfig {
+    CommandConfig {
+        max_pending: 8,
+        max_clients: 32,
+        max_servers: 2,
+        ..CommandConfig::default()
+    }
+}
+
+/// How long a client waits for the broker to answer a request.
+pub const BROKER_CALL_TIMEOUT: Duration = Duration::from_secs(2);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn channel_names_follow_the_documented_scheme() {
+        fn check(got: &str, expected: &str) {
+            assert_eq!(got, expected);
+        }
+        check(&data_channel("laser", "RangeFinder"), "/laser/RangeFinder");
+        check(
+            &command_channel("laser", "RangeFinder"),
+            "/laser/RangeFinder/cmd",
+        );
+        check(&health_channel("sonar"), "/lewis/health/sonar");
+    }
+}

@@ -1,0 +1,99 @@
+//! The service model: a [`Service`] is a plain struct driven by events, and a [`Context`] is
+//! all it may touch of the world.
+//!
+//! A service has no clock but [`Context::now`], starts no threads and does no IPC of its
+//! own: it publishes with [`Context::publish`], calls other providers with [`Context::call`]
+//! (asynchronous: the answer, or a timeout, comes back as [`Service::on_reply`]), declares
+//! its health with [`Context::set_health`], draws random numbers from [`Context::rng`] (seeded
+//! from the robot file) and logs with [`Context::log`]. That is what lets the same service
+//! run live, one process each ([`crate::live`]), and in a lockstep replay harness that feeds
+//! it recorded events on a virtual clock: both harnesses implement [`Backend`].
+//!
+//! A source that must block on a device (a serial port, a camera) returns the device's file
+//! descriptor from [`Service::device`]; the live harness waits on it with everything else
+//! and calls [`Service::on_device`] when it is readable. That hook is the only part of a
+//! service that never runs in replay.
+
+mod context;
+mod events;
+mod registry;
+mod rng;
+
+pub use context::{Backend, Context, ContextError, ContextState, Level};
+pub use events::{
+    CallFailure, CallId, CommandError, IncomingCommand, Input, InputError, Reply, ReplyEvent,
+    decode_header_seq,
+};
+pub use registry::{BuildError, Constructor, ServiceConfig, ServiceRegistry};
+pub use rng::Rng;
+
+use std::os::fd::BorrowedFd;
+
+/// A service: what it does on each event. Every method has a default that does nothing, so a
+/// service implements only what it needs.
+pub trait Service {
+    /// How often [`Service::on_tick`] runs, in nanoseconds (`None`: never).
+    fn tick_period_ns(&self) -> Option<i64> {
+        None
+    }
+
+    /// Runs once, before any other event. An error ends the service (its process exits with
+    /// a failure, which the broker sees as a crash).
+    ///
+    /// # Errors
+    /// When the service cannot work (a device that cannot be opened, a parameter that makes
+    /// no sense once combined with others).
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        let _ = ctx;
+        Ok(())
+    }
+
+    /// A sample of a required interface arrived from its current provider.
+    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        let _ = (ctx, input);
+    }
+
+    /// A client sent a command of an interface this service provides. Decode it with
+    /// [`IncomingCommand::decode`], answer with [`Context::reply`].
+    ///
+    /// # Errors
+    /// A [`CommandError`] refuses the command; the caller gets its text.
+    fn on_command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        let _ = ctx;
+        Err(CommandError::new(format!(
+            "this service takes no command `{}` of {}",
+            command.command, command.interface
+        )))
+    }
+
+    /// The answer to a [`Context::call`] this service made, or its failure (timeout, no
+    /// provider, refused).
+    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
+        let _ = (ctx, reply);
+    }
+
+    /// The periodic event, every [`Service::tick_period_ns`].
+    fn on_tick(&mut self, ctx: &mut Context<'_>) {
+        let _ = ctx;
+    }
+
+    /// Runs once, last, when the service is asked to stop.
+    fn on_stop(&mut self, ctx: &mut Context<'_>) {
+        let _ = ctx;
+    }
+
+    /// The file descriptor of the device this service reads, if any: the live harness waits
+    /// on it and calls [`Service::on_device`] when it is readable. Never used in replay.
+    fn device(&self) -> Option<BorrowedFd<'_>> {
+        None
+    }
+
+    /// The device is readable: read it (without blocking) and publish what it gave.
+    fn on_device(&mut self, ctx: &mut Context<'_>) {
+        let _ = ctx;
+    }
+}

@@ -1,0 +1,155 @@
+//! The kinds of service a `lewis` binary can run: a map from a kind name (`kind = "sick"` in
+//! the robot file) to a constructor. The runtime knows no kind; the binary registers those
+//! of `lewis-services`.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::DeserializeOwned;
+
+use super::Service;
+use super::rng::Rng;
+use crate::robot::ServiceSpec;
+
+/// What a constructor is given: the service's name and its part of the robot file.
+#[derive(Debug, Clone, Copy)]
+pub struct ServiceConfig<'a> {
+    /// The service's entry in the robot file.
+    pub spec: &'a ServiceSpec,
+    /// The broker's heartbeat period, in milliseconds.
+    pub heartbeat_period_ms: u64,
+}
+
+impl ServiceConfig<'_> {
+    /// The service's name.
+    #[must_use]
+    pub fn name(&self) -> &str {
+        &self.spec.name
+    }
+
+    /// The parameters table as a typed struct (use `#[serde(deny_unknown_fields)]` so that a
+    /// misspelt parameter is an error, and `#[serde(default)]` for optional ones).
+    ///
+    /// # Errors
+    /// A [`BuildError::Parameters`] naming the service and what serde found wrong.
+    pub fn parameters<P: DeserializeOwned>(&self) -> Result<P, BuildError> {
+        toml::Value::Table(self.spec.parameters.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| BuildError::Parameters {
+                service: self.spec.name.clone(),
+                reason: e.message().to_owned(),
+            })
+    }
+
+    /// The seed of the service's random source: its `seed` parameter when it is a
+    /// non-negative integer, otherwise a hash of its name (stable across runs).
+    #[must_use]
+    pub fn seed(&self) -> u64 {
+        self.spec
+            .parameters
+            .get("seed")
+            .and_then(toml::Value::as_integer)
+            .and_then(|s| u64::try_from(s).ok())
+            .unwrap_or_else(|| Rng::seed_from_name(&self.spec.name))
+    }
+}
+
+/// Why a service could not be built.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum BuildError {
+    /// No constructor is registered for the kind.
+    #[error(
+        "service `{service}` has kind `{kind}`, which this lewis does not know; known kinds: {known}"
+    )]
+    UnknownKind {
+        /// The service.
+        service: String,
+        /// The kind asked for.
+        kind: String,
+        /// The registered kinds, comma-separated.
+        known: String,
+    },
+    /// The service is run from a command line, not a kind.
+    #[error("service `{service}` is started from its own command line, not by `lewis service`")]
+    NotAKind {
+        /// The service.
+        service: String,
+    },
+    /// The parameters do not fit the kind.
+    #[error("parameters of service `{service}`: {reason}")]
+    Parameters {
+        /// The service.
+        service: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Builds a service of one kind.
+pub type Constructor =
+    Box<dyn Fn(&ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> + Send + Sync>;
+
+/// The kinds of service known to a binary.
+#[derive(Default)]
+pub struct ServiceRegistry {
+    kinds: BTreeMap<String, Constructor>,
+}
+
+impl fmt::Debug for ServiceRegistry {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ServiceRegistry")
+            .field("kinds", &self.kinds.keys().collect::<Vec<_>>())
+            .finish()
+    }
+}
+
+impl ServiceRegistry {
+    /// An empty registry.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Registers `kind` (a later registration of the same kind replaces the earlier one).
+    pub fn register(
+        &mut self,
+        kind: &str,
+        constructor: impl Fn(&ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
+        + Send
+        + Sync
+        + 'static,
+    ) -> &mut Self {
+        self.kinds.insert(kind.to_owned(), Box::new(constructor));
+        self
+    }
+
+    /// The registered kinds, sorted.
+    #[must_use]
+    pub fn kinds(&self) -> Vec<&str> {
+        self.kinds.keys().map(String::as_str).collect()
+    }
+
+    /// Builds the service `config.spec` describes.
+    ///
+    /// # Errors
+    /// When its kind is unknown, it has a command line instead, or its parameters do not fit.
+    pub fn build(&self, config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+        let kind = match &config.spec.launch {
+            crate::robot::Launch::Kind(kind) => kind,
+            crate::robot::Launch::Command(_) => {
+                return Err(BuildError::NotAKind {
+                    service: config.spec.name.clone(),
+                });
+            }
+        };
+        let constructor = self
+            .kinds
+            .get(kind)
+            .ok_or_else(|| BuildError::UnknownKind {
+                service: config.spec.name.clone(),
+                kind: kind.clone(),
+                known: self.kinds().join(", "),
+            })?;
+        constructor(config)
+    }
+}

@@ -1,0 +1,14 @@
+//! Test services that need no hardware, for the failover tests and demonstrations:
+//!
+//! - [`range`]: `test-range`, a range finder that publishes a synthetic scan of a
+//!   rectangular room (RangeFinder and Distance) at a rate, and can be told to crash, stall
+//!   or go out of service through a fault file, so that tests decide exactly when.
+
+pub mod range;
+
+use lewis_runtime::service::ServiceRegistry;
+
+/// Registers the test service kinds (`test-range`).
+pub fn register(registry: &mut ServiceRegistry) {
+    registry.register(range::KIND, range::build);
+}

@@ -1,0 +1,119 @@
+//! Robot files for the failover tests: a laser (quality 10) and a sonar (quality 5), both
+//! `test-range` services providing RangeFinder and Distance, with the knobs the tests turn.
+
+#![allow(clippy::expect_used)]
+
+use std::fmt::Write;
+use std::path::Path;
+
+/// The knobs of [`test_robot`].
+#[derive(Debug, Clone)]
+pub struct TestRobot<'a> {
+    /// The laser's fault file, if the test injects faults.
+    pub laser_fault_file: Option<&'a Path>,
+    /// The laser's start mode.
+    pub laser_start: &'a str,
+    /// Whether clients move back to the laser once it is healthy again.
+    pub fail_back: bool,
+    /// Restarts allowed to the laser within its window.
+    pub laser_max_restarts: u32,
+    /// Heartbeat deadline of both services, in milliseconds (generous by default: the
+    /// tests run on loaded machines, and only the stall test waits for it).
+    pub heartbeat_deadline_ms: u64,
+    /// Scans per second of each service.
+    pub rate_hz: f64,
+    /// Extra TOML appended (more services).
+    pub extra: &'a str,
+}
+
+impl Default for TestRobot<'_> {
+    fn default() -> Self {
+        Self {
+            laser_fault_file: None,
+            laser_start: "on-demand",
+            fail_back: false,
+            laser_max_restarts: 2,
+            heartbeat_deadline_ms: 1000,
+            rate_hz: 50.0,
+            extra: "",
+        }
+    }
+}
+
+/// The robot file text.
+#[must_use]
+pub fn test_robot(robot: &TestRobot<'_>) -> String {
+    let mut text = format!(
+        r#"[robot]
+name = "failover-test"
+description = "a synthetic laser and a synthetic sonar"
+
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = {deadline}
+startup_deadline_ms = 10000
+fail_back = {fail_back}
+restart = {{ max_restarts = 3, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
+
+[[services]]
+name = "laser"
+kind = "test-range"
+start = "{laser_start}"
+heartbeat_deadline_ms = {deadline}
+restart = {{ max_restarts = {max_restarts}, window_ms = 60000, backoff_initial_ms = 20, backoff_max_ms = 100 }}
+provides = [
+    {{ interface = "RangeFinder", quality = 10, cost = 2 }},
+    {{ interface = "Distance", quality = 10, cost = 2 }},
+]
+
+[services.parameters]
+beams = 181
+rate_hz = {rate}
+seed = 1
+"#,
+        deadline = robot.heartbeat_deadline_ms,
+        fail_back = robot.fail_back,
+        laser_start = robot.laser_start,
+        max_restarts = robot.laser_max_restarts,
+        rate = robot.rate_hz,
+    );
+    if let Some(fault) = robot.laser_fault_file {
+        let _ = writeln!(text, "fault_file = {:?}", fault.display().to_string());
+    }
+    let _ = write!(
+        text,
+        r#"
+[[services]]
+name = "sonar"
+kind = "test-range"
+start = "on-demand"
+heartbeat_deadline_ms = {deadline}
+provides = [
+    {{ interface = "RangeFinder", quality = 5, cost = 1 }},
+    {{ interface = "Distance", quality = 5, cost = 1 }},
+]
+
+[services.parameters]
+beams = 24
+field_of_view_deg = 360.0
+max_range_m = 5.0
+rate_hz = {rate}
+noise_m = 0.05
+seed = 2
+"#,
+        deadline = robot.heartbeat_deadline_ms,
+        rate = robot.rate_hz,
+    );
+    text.push_str(robot.extra);
+    text
+}
+
+/// Writes a fault word into a fault file atomically (a reader never sees half a word).
+///
+/// # Panics
+/// When the file cannot be written.
+pub fn set_fault(path: &Path, word: &str) {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, word).expect("the fault file can be written");
+    std::fs::rename(&tmp, path).expect("the fault file can be renamed into place");
+}

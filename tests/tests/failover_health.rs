@@ -1,0 +1,94 @@
+//! Failover on declared and missing health, end to end: a stalled laser (no heartbeat), a
+//! laser that declares itself out of service, and fail back once it recovers.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use lewis_runtime::ipc::Namespace;
+use lewis_tests::robot::{TestRobot, set_fault, test_robot};
+use lewis_tests::{RangeApp, Up, open_ipc};
+
+/// Starts `lewis up` on the test robot with a fault file for the laser, connects the
+/// application and waits until it receives from the laser.
+fn start_with_fault_file(tag: &str, fail_back: bool) -> (Up, RangeApp, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let fault = dir.path().join("laser.fault");
+    let robot = test_robot(&TestRobot {
+        laser_fault_file: Some(&fault),
+        fail_back,
+        ..TestRobot::default()
+    });
+    let mut up = Up::start_in(dir, Namespace::unique(tag), &robot);
+    up.wait_line("broker up");
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut app = RangeApp::connect(&ipc);
+    app.wait_for("laser", 5);
+    (up, app, fault)
+}
+
+#[test]
+fn stalled_laser_is_replaced_after_its_heartbeat_deadline() {
+    let (mut up, mut app, fault) = start_with_fault_file("stall", false);
+    set_fault(&fault, "stall");
+    app.wait_for("sonar", 5);
+    up.wait_line("SIGKILL");
+    up.stop();
+    let log = up.log();
+    assert!(log.contains("rebind app from laser to sonar"), "{log}");
+    assert!(
+        log.contains("heartbeat"),
+        "the reason names the heartbeat: {log}"
+    );
+}
+
+#[test]
+fn laser_out_of_service_rebinds_the_client_at_once() {
+    let (mut up, mut app, fault) = start_with_fault_file("oos", false);
+    set_fault(&fault, "out-of-service");
+    app.wait_for("sonar", 5);
+    up.stop();
+    let log = up.log();
+    assert!(log.contains("rebind app from laser to sonar"), "{log}");
+    assert!(log.contains("out of service"), "{log}");
+    assert!(
+        !log.contains("stop laser"),
+        "an out-of-service laser keeps running: {log}"
+    );
+}
+
+#[test]
+fn client_fails_back_to_the_laser_when_configured() {
+    let (mut up, mut app, fault) = start_with_fault_file("failback", true);
+    set_fault(&fault, "out-of-service");
+    app.wait_for("sonar", 5);
+    set_fault(&fault, "ok");
+    app.wait_for("laser", 5);
+    up.stop();
+    let log = up.log();
+    assert!(log.contains("rebind app from sonar to laser"), "{log}");
+}
+
+#[test]
+fn client_stays_on_sonar_without_fail_back() {
+    let (mut up, mut app, fault) = start_with_fault_file("nofailback", false);
+    set_fault(&fault, "out-of-service");
+    app.wait_for("sonar", 5);
+    set_fault(&fault, "ok");
+    // Once the broker has heard the laser say it is healthy again (fail back would be
+    // decided on that very heartbeat), the client is still on the sonar.
+    let report = up.wait_status("the laser healthy again", |report| {
+        report
+            .lines()
+            .any(|l| l.starts_with("service laser: ready") && l.contains("health ok"))
+    });
+    assert!(
+        report.contains("client app RangeFinder -> sonar"),
+        "{report}"
+    );
+    app.wait_for("sonar", 10);
+    up.stop();
+    assert!(
+        !up.log().contains("rebind app from sonar to laser"),
+        "{}",
+        up.log()
+    );
+}

@@ -1,0 +1,115 @@
+//! `lewis up` as a process: isolation by namespace, no orphans when it is killed, clear
+//! errors for bad robot files and missing programs.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::process::Command;
+
+use lewis_runtime::ipc::NodeLiveness;
+use lewis_tests::robot::{TestRobot, test_robot};
+use lewis_tests::{RangeApp, Up, Watched, lewis_exe, open_ipc, wait_node};
+
+#[test]
+fn two_robots_in_different_namespaces_do_not_see_each_other() {
+    let robot = test_robot(&TestRobot {
+        laser_start: "always",
+        ..TestRobot::default()
+    });
+    let mut a = Up::start("ns-a", &robot);
+    let mut b = Up::start("ns-b", &robot);
+    a.wait_line("broker up");
+    b.wait_line("broker up");
+    let ipc_a = open_ipc(&a.namespace, "test-a");
+    let ipc_b = open_ipc(&b.namespace, "test-b");
+    let laser_a = wait_node(&ipc_a, "laser", None);
+    let laser_b = wait_node(&ipc_b, "laser", None);
+    assert_ne!(laser_a, laser_b);
+    for (ipc, laser) in [(&ipc_a, laser_a), (&ipc_b, laser_b)] {
+        let lasers: Vec<i32> = ipc
+            .nodes()
+            .unwrap()
+            .into_iter()
+            .filter(|n| n.liveness == NodeLiveness::Alive && n.name.as_deref() == Some("laser"))
+            .filter_map(|n| n.pid)
+            .collect();
+        assert_eq!(lasers, [i32::try_from(laser).unwrap()]);
+    }
+    let mut app = RangeApp::connect(&ipc_a);
+    app.wait_for("laser", 3);
+    let status = Command::new(lewis_exe())
+        .args(["status", "--namespace", b.namespace.as_str()])
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&status.stdout);
+    assert!(status.status.success(), "{report}");
+    assert!(
+        report.contains(&format!("process laser: pid {laser_b}")),
+        "{report}"
+    );
+    assert!(!report.contains("client app"), "{report}");
+    a.stop();
+    b.stop();
+}
+
+#[test]
+fn sigkill_of_lewis_up_leaves_no_service_process() {
+    let robot = test_robot(&TestRobot {
+        laser_start: "always",
+        ..TestRobot::default()
+    });
+    let mut up = Up::start("sigkill-up", &robot);
+    up.wait_line("broker up");
+    let ipc = open_ipc(&up.namespace, "test");
+    let laser = Watched::new(wait_node(&ipc, "laser", None));
+    up.kill();
+    assert!(
+        laser.wait_gone(),
+        "laser (pid {}) outlived lewis up",
+        laser.pid()
+    );
+}
+
+#[test]
+fn malformed_robot_file_gives_a_line_numbered_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(
+        &path,
+        "[robot]\nname = \"bad\"\n\n[[services]]\nname = \"laser\"\nkind = \"test-range\"\nstart = \"sometimes\"\n",
+    )
+    .unwrap();
+    let output = Command::new(lewis_exe())
+        .arg("up")
+        .arg(&path)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("bad.toml:7:"), "{stderr}");
+}
+
+#[test]
+fn missing_service_program_is_reported_and_not_retried() {
+    let robot = test_robot(&TestRobot {
+        extra: r#"
+[[services]]
+name = "ghost"
+command = ["/nonexistent/lewis-ghost-driver"]
+start = "always"
+provides = [{ interface = "Distance", quality = 1, cost = 1 }]
+"#,
+        ..TestRobot::default()
+    });
+    let mut up = Up::start("ghost", &robot);
+    let line = up.wait_line("ghost failed");
+    assert!(line.contains("not found"), "{line}");
+    let status = Command::new(lewis_exe())
+        .args(["status", "--namespace", up.namespace.as_str()])
+        .output()
+        .unwrap();
+    let report = String::from_utf8_lossy(&status.stdout);
+    assert!(report.contains("service ghost: failed,"), "{report}");
+    up.stop();
+    let starts = up.seen.iter().filter(|l| l.contains("start ghost")).count();
+    assert_eq!(starts, 1, "{}", up.log());
+}
