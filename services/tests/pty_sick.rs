@@ -163,30 +163,6 @@ fn the_laser_is_probed_at_9600_switched_to_38400_and_streams_what_the_emulator_s
 }
 
 #[test]
-fn a_driver_restarted_while_the_scanner_runs_at_38400_finds_it_by_probing() {
-    let bench = bench();
-    let mut first = SickDriver::open(config(&bench.link)).unwrap();
-    read_scans(&mut first, 1);
-    drop(first);
-    assert!(
-        bench
-            .fake
-            .wait_for(WATCHDOG, |device| !device.is_streaming()),
-        "a driver going away stops the stream"
-    );
-    bench.fake.clear_host_bytes();
-
-    let mut second = SickDriver::open(config(&bench.link)).unwrap();
-    let host = bench.fake.host_bytes();
-    // Two unanswered probes at 9600 (two attempts), then at least one at 38400, and no switch.
-    let (probes, _) = leading_probes(&host);
-    assert!(probes >= 3, "{probes} probes");
-    assert!(!host.windows(8).any(|window| window == SWITCH_TO_38400));
-    assert_eq!(second.baud(), Some(BaudRate::B38400));
-    read_scans(&mut second, 2);
-}
-
-#[test]
 fn garbage_and_bad_crcs_are_skipped_and_counted() {
     let bench = bench();
     let mut driver = SickDriver::open(config(&bench.link)).unwrap();
