@@ -11,5 +11,5 @@ echo "== lewis idl show RangeFinder (the paper's Figure 2, as ROS 2 sees it)"
 $lewis idl show RangeFinder | head -25
 echo "== lewis info ../shared/data/mcap/talker.mcap --messages 3 (a recording written by ROS 2)"
 $lewis info ../shared/data/mcap/talker.mcap --messages 3
-echo "== lewis seq check robots/missions/extensions.seq"
+echo "== lewis seq check robots/missions/extensions.seq (its programs are not installed here: the checker says so)"
 $lewis seq check robots/missions/extensions.seq || true
