@@ -433,51 +433,20 @@ fn emit_interface(out: &mut String, interface: &Interface) {
             names.join(", ")
         );
         let _ = writeln!(out, "    fn name(&self) -> &'static str {{");
-        if interface.commands.is_empty() {
-            let _ = writeln!(out, "        match *self {{}}");
-        } else {
-            let _ = writeln!(out, "        match self {{");
-            for c in &interface.commands {
-                let _ = writeln!(
-                    out,
-                    "            Self::{}(_) => {:?},",
-                    variant(&c.name),
-                    c.name
-                );
-            }
-            let _ = writeln!(out, "        }}");
-        }
-        let _ = writeln!(out, "    }}");
+        emit_variant_match(out, interface, "", |c| {
+            format!("Self::{}(_) => {:?},", variant(&c.name), c.name)
+        });
         let _ = writeln!(out, "    fn header(&self) -> &Header {{");
-        if interface.commands.is_empty() {
-            let _ = writeln!(out, "        match *self {{}}");
-        } else {
-            let _ = writeln!(out, "        match self {{");
-            for c in &interface.commands {
-                let _ = writeln!(
-                    out,
-                    "            Self::{}(m) => &m.header,",
-                    variant(&c.name)
-                );
-            }
-            let _ = writeln!(out, "        }}");
-        }
-        let _ = writeln!(out, "    }}");
+        emit_variant_match(out, interface, "", |c| {
+            format!("Self::{}(m) => &m.header,", variant(&c.name))
+        });
         let _ = writeln!(out, "    fn encode_to_vec(&self, buffer: &mut Vec<u8>) {{");
-        if interface.commands.is_empty() {
-            let _ = writeln!(out, "        let _ = buffer;\n        match *self {{}}");
-        } else {
-            let _ = writeln!(out, "        match self {{");
-            for c in &interface.commands {
-                let _ = writeln!(
-                    out,
-                    "            Self::{}(m) => crate::cdr::encode_to_vec(m, buffer),",
-                    variant(&c.name)
-                );
-            }
-            let _ = writeln!(out, "        }}");
-        }
-        let _ = writeln!(out, "    }}");
+        emit_variant_match(out, interface, "let _ = buffer;\n        ", |c| {
+            format!(
+                "Self::{}(m) => crate::cdr::encode_to_vec(m, buffer),",
+                variant(&c.name)
+            )
+        });
         let _ = writeln!(
             out,
             "    fn decode(command: &str, bytes: &[u8]) -> Result<Self, crate::CommandDecodeError> {{"
@@ -500,6 +469,26 @@ fn emit_interface(out: &mut String, interface: &Interface) {
         );
         let _ = writeln!(out, "        }}\n    }}\n}}\n");
     }
+}
+
+/// The body of a method that matches on the command enum: one arm per command, or an
+/// empty match (after `empty_prefix`) for an interface without commands.
+fn emit_variant_match(
+    out: &mut String,
+    interface: &Interface,
+    empty_prefix: &str,
+    arm: impl Fn(&super::model::Command) -> String,
+) {
+    if interface.commands.is_empty() {
+        let _ = writeln!(out, "        {empty_prefix}match *self {{}}");
+    } else {
+        let _ = writeln!(out, "        match self {{");
+        for c in &interface.commands {
+            let _ = writeln!(out, "            {}", arm(c));
+        }
+        let _ = writeln!(out, "        }}");
+    }
+    let _ = writeln!(out, "    }}");
 }
 
 fn emit_catalogue(out: &mut String, idl: &Idl) {
