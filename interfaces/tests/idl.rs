@@ -50,12 +50,13 @@ fn every_interface_of_the_paper_is_defined() {
             "Mover",
             "Power",
             "RangeFinder",
+            "RecorderStats",
             "Signs",
             "Synchrodrive"
         ]
     );
     // The system interfaces (Broker, Health, LogLine) are records; the paper's all take commands.
-    let system = ["Health", "LogLine"];
+    let system = ["Health", "LogLine", "RecorderStats"];
     for interface in idl
         .interfaces
         .iter()

@@ -69,6 +69,8 @@ impl Filler {
 
     fn structure(&mut self, idl: &Idl, ty: &StructType) -> Value {
         let mut object = serde_json::Map::new();
+        // Several arrays may share one count field: one length per count field.
+        let mut lengths: BTreeMap<&str, usize> = BTreeMap::new();
         if ty.has_header() {
             object.insert(
                 "header".into(),
@@ -77,7 +79,11 @@ impl Filler {
         }
         for field in &ty.fields {
             let value = if field.is_array {
-                let len = (self.next() % 4) as usize;
+                let fresh = (self.next() % 4) as usize;
+                let len = match &field.array_size {
+                    Some(size) => *lengths.entry(size.as_str()).or_insert(fresh),
+                    None => fresh,
+                };
                 Value::Array((0..len).map(|_| self.value(idl, &field.ty)).collect())
             } else {
                 self.value(idl, &field.ty)

@@ -1,0 +1,327 @@
+//! The bounded queue between the tap (which sees every publication) and the writer
+//! thread (which owns the [`Recorder`]).
+//!
+//! **Policy**: the tap never waits. [`Tap::try_record`] copies the bytes and hands them to
+//! the queue if it has room for one more message *and* for its bytes; otherwise the
+//! message is dropped, counted per channel, and `Err(Dropped)` returned. A dropped
+//! message also shows in the file as a gap in its channel's sequence numbers, which is
+//! what the recorder counts as lost. The bounds ([`QueueOptions`]) cap the recorder's
+//! memory whatever the length of the run: about `capacity_bytes` plus one chunk.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use thiserror::Error;
+
+use crate::channel::{ChannelId, ChannelSpec, Sample};
+use crate::error::RecordError;
+use crate::recorder::{Recorder, RecordingReport};
+
+/// How long the writer thread waits for a message before it lets time pass
+/// ([`Recorder::tick`]): flushes and stats keep their period when traffic stops.
+const IDLE_TICK: Duration = Duration::from_millis(100);
+
+/// Messages written between two updates of the drop counts.
+const DROP_SWEEP_EVERY: u32 = 1024;
+
+/// The bounds of the queue.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct QueueOptions {
+    /// Messages it holds at most.
+    pub capacity_messages: usize,
+    /// Bytes of message data it holds at most (one message larger than this still goes
+    /// through an empty queue).
+    pub capacity_bytes: usize,
+}
+
+impl Default for QueueOptions {
+    /// 65536 messages and 48 MiB: more than a second of the stress mix (20 channels at
+    /// 1 kHz and a 640x480 RGB stream at 30 Hz, about 30 MB/s).
+    fn default() -> Self {
+        Self {
+            capacity_messages: 65_536,
+            capacity_bytes: 48 * 1024 * 1024,
+        }
+    }
+}
+
+/// Why [`Tap::try_record`] did not queue a message. Either way it was counted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Error)]
+pub enum Dropped {
+    /// The queue was full: the writer is behind.
+    #[error("the recorder's queue is full: the message was dropped and counted")]
+    QueueFull,
+    /// The writer thread has stopped (closed, or an error such as a full disk).
+    #[error("the recorder has stopped: the message was dropped and counted")]
+    Stopped,
+}
+
+struct Registered {
+    spec: ChannelSpec,
+    dropped: AtomicU64,
+}
+
+struct Shared {
+    channels: Mutex<Vec<Arc<Registered>>>,
+    queued_bytes: AtomicUsize,
+    capacity_bytes: usize,
+    dropped: AtomicU64,
+}
+
+impl Shared {
+    fn channels(&self) -> std::sync::MutexGuard<'_, Vec<Arc<Registered>>> {
+        // A panic while holding this lock leaves the list valid: keep using it.
+        self.channels.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+struct Owned {
+    channel: ChannelId,
+    seq: u64,
+    publish_time_ns: i64,
+    log_time_ns: i64,
+    data: Vec<u8>,
+}
+
+enum Entry {
+    Message(Owned),
+    Stop,
+}
+
+/// The publishing side: cheap to clone, never blocks.
+#[derive(Clone)]
+pub struct Tap {
+    shared: Arc<Shared>,
+    sender: SyncSender<Entry>,
+}
+
+impl Tap {
+    /// Registers a channel (it appears in the file even before its first message).
+    #[must_use]
+    pub fn register(&self, spec: ChannelSpec) -> ChannelId {
+        let mut channels = self.shared.channels();
+        channels.push(Arc::new(Registered {
+            spec,
+            dropped: AtomicU64::new(0),
+        }));
+        ChannelId(u32::try_from(channels.len() - 1).unwrap_or(u32::MAX))
+    }
+
+    /// Queues a copy of the message for the writer thread, or drops and counts it.
+    ///
+    /// # Errors
+    /// [`Dropped`] when the queue is full or the writer has stopped.
+    pub fn try_record(&self, sample: &Sample<'_>) -> Result<(), Dropped> {
+        let len = sample.data.len();
+        let before = self.shared.queued_bytes.fetch_add(len, Ordering::AcqRel);
+        if before > 0 && before + len > self.shared.capacity_bytes {
+            self.shared.queued_bytes.fetch_sub(len, Ordering::AcqRel);
+            return Err(self.drop_one(sample.channel, Dropped::QueueFull));
+        }
+        let entry = Entry::Message(Owned {
+            channel: sample.channel,
+            seq: sample.seq,
+            publish_time_ns: sample.publish_time_ns,
+            log_time_ns: sample.log_time_ns,
+            data: sample.data.to_vec(),
+        });
+        match self.sender.try_send(entry) {
+            Ok(()) => Ok(()),
+            Err(error) => {
+                self.shared.queued_bytes.fetch_sub(len, Ordering::AcqRel);
+                let reason = match error {
+                    TrySendError::Full(_) => Dropped::QueueFull,
+                    TrySendError::Disconnected(_) => Dropped::Stopped,
+                };
+                Err(self.drop_one(sample.channel, reason))
+            }
+        }
+    }
+
+    /// Messages dropped so far on `channel`.
+    #[must_use]
+    pub fn dropped(&self, channel: ChannelId) -> u64 {
+        usize::try_from(channel.0)
+            .ok()
+            .and_then(|i| {
+                self.shared
+                    .channels()
+                    .get(i)
+                    .map(|c| c.dropped.load(Ordering::Relaxed))
+            })
+            .unwrap_or(0)
+    }
+
+    /// Messages dropped so far, on all channels.
+    #[must_use]
+    pub fn dropped_total(&self) -> u64 {
+        self.shared.dropped.load(Ordering::Relaxed)
+    }
+
+    fn drop_one(&self, channel: ChannelId, reason: Dropped) -> Dropped {
+        self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+        if let Some(registered) = usize::try_from(channel.0)
+            .ok()
+            .and_then(|i| self.shared.channels().get(i).cloned())
+        {
+            registered.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+        reason
+    }
+}
+
+/// The writer thread: owns the [`Recorder`] and drains the queue into it.
+pub struct WriterThread {
+    handle: JoinHandle<Result<RecordingReport, RecordError>>,
+    sender: SyncSender<Entry>,
+    path: PathBuf,
+}
+
+impl WriterThread {
+    /// Whether the thread has ended (closed, or stopped by an error: [`Self::finish`]
+    /// says which).
+    #[must_use]
+    pub fn is_finished(&self) -> bool {
+        self.handle.is_finished()
+    }
+
+    /// Writes what is queued, closes the recording and reports. Messages offered after
+    /// this are dropped ([`Dropped::Stopped`]).
+    ///
+    /// # Errors
+    /// The error that stopped the writer, or the one closing the file met.
+    pub fn finish(self) -> Result<RecordingReport, RecordError> {
+        // The thread may have stopped on an error already; then there is no one to tell.
+        let _ = self.sender.send(Entry::Stop);
+        self.handle
+            .join()
+            .map_err(|_| RecordError::WriterPanicked { path: self.path })?
+    }
+}
+
+/// Starts the writer thread for `recorder`. `clock` gives the current time on the clock
+/// of the receive times; the thread reads it only when no message has come for a while,
+/// to keep flushing and writing stats on time.
+///
+/// # Errors
+/// [`RecordError::Io`] when the thread cannot be started.
+pub fn spawn(
+    recorder: Recorder,
+    queue: QueueOptions,
+    clock: impl FnMut() -> i64 + Send + 'static,
+) -> Result<(Tap, WriterThread), RecordError> {
+    let path = recorder.current_path().to_path_buf();
+    let channels = recorder
+        .channels()
+        .map(|spec| {
+            Arc::new(Registered {
+                spec: spec.clone(),
+                dropped: AtomicU64::new(0),
+            })
+        })
+        .collect();
+    let shared = Arc::new(Shared {
+        channels: Mutex::new(channels),
+        queued_bytes: AtomicUsize::new(0),
+        capacity_bytes: queue.capacity_bytes,
+        dropped: AtomicU64::new(0),
+    });
+    let (sender, receiver) = mpsc::sync_channel(queue.capacity_messages.max(1));
+    let thread_shared = Arc::clone(&shared);
+    let handle = std::thread::Builder::new()
+        .name("lewis-recorder".to_owned())
+        .spawn(move || drain(recorder, &receiver, &thread_shared, clock))
+        .map_err(|source| RecordError::Io {
+            path: path.clone(),
+            source,
+        })?;
+    Ok((
+        Tap {
+            shared,
+            sender: sender.clone(),
+        },
+        WriterThread {
+            handle,
+            sender,
+            path,
+        },
+    ))
+}
+
+/// The writer thread's loop.
+fn drain(
+    mut recorder: Recorder,
+    receiver: &Receiver<Entry>,
+    shared: &Shared,
+    mut clock: impl FnMut() -> i64,
+) -> Result<RecordingReport, RecordError> {
+    let mut drops_seen: Vec<u64> = Vec::new();
+    let mut since_sweep = 0_u32;
+    loop {
+        match receiver.recv_timeout(IDLE_TICK) {
+            Ok(Entry::Message(message)) => {
+                shared
+                    .queued_bytes
+                    .fetch_sub(message.data.len(), Ordering::AcqRel);
+                if usize::try_from(message.channel.0).unwrap_or(usize::MAX)
+                    >= recorder.channel_count()
+                {
+                    add_new_channels(&mut recorder, shared)?;
+                }
+                recorder.write(&Sample {
+                    channel: message.channel,
+                    seq: message.seq,
+                    publish_time_ns: message.publish_time_ns,
+                    log_time_ns: message.log_time_ns,
+                    data: &message.data,
+                })?;
+                since_sweep += 1;
+                if since_sweep >= DROP_SWEEP_EVERY {
+                    since_sweep = 0;
+                    sweep_drops(&mut recorder, shared, &mut drops_seen);
+                }
+            }
+            Ok(Entry::Stop) | Err(RecvTimeoutError::Disconnected) => break,
+            Err(RecvTimeoutError::Timeout) => {
+                add_new_channels(&mut recorder, shared)?;
+                sweep_drops(&mut recorder, shared, &mut drops_seen);
+                recorder.tick(clock())?;
+            }
+        }
+    }
+    add_new_channels(&mut recorder, shared)?;
+    sweep_drops(&mut recorder, shared, &mut drops_seen);
+    recorder.close()
+}
+
+/// Registers with the recorder the channels the tap registered since.
+fn add_new_channels(recorder: &mut Recorder, shared: &Shared) -> Result<(), RecordError> {
+    let new: Vec<ChannelSpec> = shared
+        .channels()
+        .iter()
+        .skip(recorder.channel_count())
+        .map(|c| c.spec.clone())
+        .collect();
+    for spec in new {
+        recorder.add_channel(spec)?;
+    }
+    Ok(())
+}
+
+/// Passes the tap's new drop counts to the recorder.
+fn sweep_drops(recorder: &mut Recorder, shared: &Shared, seen: &mut Vec<u64>) {
+    let channels = shared.channels();
+    // Drops of a channel the recorder does not know yet are passed once it does.
+    seen.resize(recorder.channel_count().min(channels.len()), 0);
+    for (i, (channel, seen)) in channels.iter().zip(seen.iter_mut()).enumerate() {
+        let now = channel.dropped.load(Ordering::Relaxed);
+        if now > *seen {
+            recorder.note_dropped(ChannelId(u32::try_from(i).unwrap_or(u32::MAX)), now - *seen);
+            *seen = now;
+        }
+    }
+}
