@@ -42,8 +42,10 @@ fn every_interface_of_the_paper_is_defined() {
             "Blobs3D",
             "Broker",
             "CameraControl",
+            "CommandLog",
             "Distance",
             "Egomotion",
+            "GroundTruth",
             "Health",
             "ImageSource",
             "LogLine",
@@ -55,8 +57,15 @@ fn every_interface_of_the_paper_is_defined() {
             "Synchrodrive"
         ]
     );
-    // The system interfaces (Broker, Health, LogLine) are records; the paper's all take commands.
-    let system = ["Health", "LogLine", "RecorderStats"];
+    // The system interfaces and the simulator's truth are records; the paper's all take
+    // commands.
+    let system = [
+        "CommandLog",
+        "GroundTruth",
+        "Health",
+        "LogLine",
+        "RecorderStats",
+    ];
     for interface in idl
         .interfaces
         .iter()

@@ -7,6 +7,7 @@
 //! | a provider's data | `/<service>/<Interface>` | the interface's publication |
 //! | a provider's commands | `/<service>/<Interface>/cmd` | [`wire`](crate::wire) frames |
 //! | heartbeats and declared health | `/lewis/health/<service>` | `Health` |
+//! | commands a service answered | `/lewis/commands/<service>` | `CommandLog` |
 //! | broker decisions | `/lewis/broker` | `Broker` |
 //! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
 //! | services' output lines | `/lewis/log` | `LogLine` |
@@ -45,6 +46,13 @@ pub fn command_channel(service: &str, interface: &str) -> String {
 #[must_use]
 pub fn health_channel(service: &str) -> String {
     format!("/lewis/health/{service}")
+}
+
+/// The channel on which the harness of `service` publishes every command it answered, with
+/// the reply, so that commands are recorded and replay can feed them again.
+#[must_use]
+pub fn command_log_channel(service: &str) -> String {
+    format!("/lewis/commands/{service}")
 }
 
 /// The settings of every provider's data channel: a sensor stream (fresh data matters, the
@@ -145,5 +153,6 @@ mod tests {
             "/laser/RangeFinder/cmd",
         );
         check(&health_channel("sonar"), "/lewis/health/sonar");
+        check(&command_log_channel("mover"), "/lewis/commands/mover");
     }
 }
