@@ -343,6 +343,8 @@ impl RawClient {
         let message = BrokerRequest {
             client: self.client.clone(),
             interface: self.interface.clone(),
+            // Process ids fit in an i32 on Linux (pid_max is at most 2^22).
+            pid: i32::try_from(std::process::id()).unwrap_or(0),
             ..BrokerRequest::default()
         };
         let frame = wire::request_to_vec(<BrokerRequest as Command>::NAME, &cdr::to_vec(&message));

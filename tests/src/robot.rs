@@ -13,6 +13,8 @@ pub struct TestRobot<'a> {
     pub laser_fault_file: Option<&'a Path>,
     /// The laser's start mode.
     pub laser_start: &'a str,
+    /// The sonar's start mode (`standby` keeps it warm for a faster failover).
+    pub sonar_start: &'a str,
     /// Whether clients move back to the laser once it is healthy again.
     pub fail_back: bool,
     /// Restarts allowed to the laser within its window.
@@ -31,6 +33,7 @@ impl Default for TestRobot<'_> {
         Self {
             laser_fault_file: None,
             laser_start: "on-demand",
+            sonar_start: "on-demand",
             fail_back: false,
             laser_max_restarts: 2,
             heartbeat_deadline_ms: 1000,
@@ -86,7 +89,7 @@ seed = 1
 [[services]]
 name = "sonar"
 kind = "test-range"
-start = "on-demand"
+start = "{sonar_start}"
 heartbeat_deadline_ms = {deadline}
 provides = [
     {{ interface = "RangeFinder", quality = 5, cost = 1 }},
@@ -103,6 +106,7 @@ seed = 2
 "#,
         deadline = robot.heartbeat_deadline_ms,
         rate = robot.rate_hz,
+        sonar_start = robot.sonar_start,
     );
     text.push_str(robot.extra);
     text

@@ -3,7 +3,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::process::Command;
+use std::io::{BufRead as _, BufReader};
+use std::process::{Command, Stdio};
 
 use lewis_runtime::ipc::NodeLiveness;
 use lewis_tests::robot::{TestRobot, test_robot};
@@ -112,4 +113,32 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
     up.stop();
     let starts = up.seen.iter().filter(|l| l.contains("start ghost")).count();
     assert_eq!(starts, 1, "{}", up.log());
+}
+
+#[test]
+fn a_client_killed_without_release_loses_its_bindings() {
+    let robot = test_robot(&TestRobot::default());
+    let mut up = Up::start("dead-client", &robot);
+    up.wait_line("broker up");
+    let mut client = Command::new(env!("CARGO_BIN_EXE_lewis-test-client"))
+        .arg("doomed")
+        .env("LEWIS_NAMESPACE", up.namespace.as_str())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(client.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert_eq!(line.trim(), "bound to laser");
+    assert!(up.status().contains("client doomed RangeFinder -> laser"));
+    client.kill().unwrap();
+    client.wait().unwrap();
+    up.wait_status("the dead client gone", |r| !r.contains("client doomed"));
+    up.stop();
+    assert!(
+        up.log().contains("client doomed died without a release"),
+        "{}",
+        up.log()
+    );
 }

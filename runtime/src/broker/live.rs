@@ -16,7 +16,7 @@
 //! Everything waits on one [`WaitSet`]: the stop signals, the supervisor's descriptor, the
 //! command server and the health channels, with the earliest deadline.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::os::fd::AsFd;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, sync_channel};
@@ -33,8 +33,8 @@ use nix::sys::signal::Signal;
 use super::{Action, BrokerCore, Decision, Event, ExitStatus, Need};
 use crate::clock::LiveClock;
 use crate::ipc::{
-    CommandServer, FdSource, Ipc, IpcError, Namespace, Publisher, Subscriber, WaitError, WaitSet,
-    Waitable, WakeMode,
+    CommandServer, FdSource, Ipc, IpcError, Namespace, NodeLiveness, Publisher, Subscriber,
+    WaitError, WaitSet, Waitable, WakeMode,
 };
 use crate::live::{StopSignals, health_from_message};
 use crate::names;
@@ -47,6 +47,9 @@ use crate::wire;
 /// Log lines waiting to be published before new ones are dropped (and counted by the
 /// supervisor).
 const LOG_QUEUE: usize = 4096;
+
+/// How often the broker looks for clients that died without a release.
+const CLIENT_SWEEP: Duration = Duration::from_millis(500);
 
 /// How `lewis up` runs.
 #[derive(Debug, Clone)]
@@ -207,6 +210,11 @@ struct Driver<'r> {
     decisions: usize,
     /// The time of the last event handed to the core.
     last_ns: i64,
+    /// The process of each client that told it, watched so that a client that dies without
+    /// a release loses its bindings.
+    client_pids: BTreeMap<String, i32>,
+    /// When the clients' processes are looked at next.
+    next_client_sweep: Instant,
 }
 
 impl<'r> Driver<'r> {
@@ -240,6 +248,8 @@ impl<'r> Driver<'r> {
             waits: WaitSet::new(WakeMode::Event),
             decisions: 0,
             last_ns: 0,
+            client_pids: BTreeMap::new(),
+            next_client_sweep: Instant::now() + CLIENT_SWEEP,
         })
     }
 
@@ -273,12 +283,18 @@ impl<'r> Driver<'r> {
                 self.feed(Event::TimePassed);
             }
             self.kill_overdue(now);
+            if now >= self.next_client_sweep {
+                self.sweep_dead_clients();
+                self.next_client_sweep = now + CLIENT_SWEEP;
+            }
+            let sweep = (!self.client_pids.is_empty()).then_some(self.next_client_sweep);
             let deadline = self
                 .core
                 .next_deadline()
                 .map(|ns| self.clock.to_instant(ns))
                 .into_iter()
                 .chain(self.kills.values().copied())
+                .chain(sweep)
                 .chain(end)
                 .min();
             self.wait(signals, deadline)?;
@@ -442,6 +458,34 @@ impl<'r> Driver<'r> {
         }
     }
 
+    /// Clients whose process no longer holds a live IPC node are gone: their bindings go
+    /// (a client killed with SIGKILL never sends its release).
+    fn sweep_dead_clients(&mut self) {
+        if self.client_pids.is_empty() {
+            return;
+        }
+        let Ok(nodes) = self.ipc.nodes() else {
+            return;
+        };
+        let alive: BTreeSet<i32> = nodes
+            .iter()
+            .filter(|n| n.liveness == NodeLiveness::Alive)
+            .filter_map(|n| n.pid)
+            .collect();
+        let gone: Vec<String> = self
+            .client_pids
+            .iter()
+            .filter(|(_, pid)| !alive.contains(pid))
+            .map(|(client, _)| client.clone())
+            .collect();
+        for client in gone {
+            self.client_pids.remove(&client);
+            tracing::info!(client, "client {client} died without a release");
+            self.feed(Event::ClientGone { client });
+        }
+        let _ = self.ipc.cleanup_dead_nodes();
+    }
+
     fn kill_overdue(&mut self, now: Instant) {
         let due: Vec<String> = self
             .kills
@@ -474,6 +518,9 @@ impl<'r> Driver<'r> {
     fn answer(&mut self, command: BrokerCommand) -> Vec<u8> {
         match command {
             BrokerCommand::Request(request) => {
+                if request.pid > 0 {
+                    self.client_pids.insert(request.client.clone(), request.pid);
+                }
                 let decisions = self.feed(Event::ClientRequest {
                     client: request.client.clone(),
                     interface: request.interface.clone(),
@@ -503,6 +550,7 @@ impl<'r> Driver<'r> {
                 cdr::to_vec(&reply)
             }
             BrokerCommand::Release(release) => {
+                self.client_pids.remove(&release.client);
                 self.feed(Event::ClientGone {
                     client: release.client,
                 });
