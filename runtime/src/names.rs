@@ -11,6 +11,7 @@
 //! | broker decisions | `/lewis/broker` | `Broker` |
 //! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
 //! | services' output lines | `/lewis/log` | `LogLine` |
+//! | the sequencer's records | `/lewis/sequencer` | `Sequencer` |
 //!
 //! All of them live under the namespace (`LEWIS_NAMESPACE`), see [`crate::ipc::Namespace`].
 
@@ -26,6 +27,9 @@ pub const BROKER_COMMAND: &str = "/lewis/broker/cmd";
 
 /// The channel of forwarded output lines.
 pub const LOG_CHANNEL: &str = "/lewis/log";
+
+/// The channel of the sequencer's records (events, decisions, program starts).
+pub const SEQUENCER_CHANNEL: &str = "/lewis/sequencer";
 
 /// The iceoryx2 node name of the broker (`lewis up`).
 pub const BROKER_NODE: &str = "lewis-broker";
@@ -109,6 +113,39 @@ pub fn log_config() -> ChannelConfig {
         max_subscribers: 16,
         max_publishers: 2,
         ..ChannelConfig::sensor(512)
+    }
+}
+
+/// The settings of `/lewis/commands/<service>`: every answered command is owed to the
+/// recorder, but the serving service must never wait for it; a deep buffer, the oldest
+/// dropped (the recorder counts the gap from the header's sequence numbers). Two
+/// publishers: a restarted service may meet its dead predecessor's port.
+#[must_use]
+pub fn command_log_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 64,
+        overflow: OverflowPolicy::DropOldest,
+        history: 0,
+        max_held: 4,
+        max_subscribers: 8,
+        max_publishers: 2,
+        ..ChannelConfig::sensor(512)
+    }
+}
+
+/// The settings of `/lewis/sequencer`. A mission makes a few records a second at most and
+/// every one is owed to the recorder (replay needs them all): a deep buffer, the publisher
+/// waits up to 100 ms for a slow reader before dropping (counted by both sides), and the
+/// last 64 records are kept for a recorder that joins after the mission started.
+#[must_use]
+pub fn sequencer_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 256,
+        history: 64,
+        max_held: 4,
+        max_subscribers: 16,
+        max_publishers: 2,
+        ..ChannelConfig::reliable(1024)
     }
 }
 

@@ -272,8 +272,10 @@ impl<'r> Driver<'r> {
             if end.is_some_and(|e| now >= e) {
                 return Ok("duration");
             }
-            self.take_exits()?;
+            // Heartbeats first: cleaning up after an exit can take a while, and heartbeats
+            // that arrived meanwhile must not be judged late.
             self.take_heartbeats();
+            self.take_exits()?;
             self.serve_requests();
             if self
                 .core
@@ -478,6 +480,9 @@ impl<'r> Driver<'r> {
             .filter(|(_, pid)| !alive.contains(pid))
             .map(|(client, _)| client.clone())
             .collect();
+        if gone.is_empty() {
+            return;
+        }
         for client in gone {
             self.client_pids.remove(&client);
             tracing::info!(client, "client {client} died without a release");

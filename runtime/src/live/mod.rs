@@ -12,6 +12,7 @@
 //! A stalled service (stuck in a handler) sends no heartbeat: that is how the broker sees a
 //! stall.
 
+pub mod fault;
 mod signals;
 
 pub use signals::StopSignals;
@@ -21,7 +22,7 @@ use std::os::fd::AsFd;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
-use lewis_interfaces::msg::{Health as HealthMessage, InputRef};
+use lewis_interfaces::msg::{CommandLog, Health as HealthMessage, InputRef};
 use lewis_interfaces::{Message, cdr};
 
 use crate::broker::Health;
@@ -135,6 +136,10 @@ pub fn run_service(
         );
     }
     let health = ipc.publisher(&names::health_channel(&spec.name), &names::health_config())?;
+    let command_log = ipc.publisher(
+        &names::command_log_channel(&spec.name),
+        &names::command_log_config(),
+    )?;
     let mut backend = LiveBackend {
         service: spec.name.clone(),
         clock,
@@ -144,6 +149,9 @@ pub fn run_service(
         health,
         health_seq: 0,
         declared: Health::Ok,
+        fault: fault::FaultState::Normal,
+        command_log,
+        command_log_seq: 0,
     };
     let mut state = ContextState::new(&spec.name, config.seed());
     let heartbeat_period = Duration::from_millis(robot.broker.heartbeat_period_ms.max(1));
@@ -161,6 +169,7 @@ pub fn run_service(
         state,
         backend,
         servers,
+        faults: ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?,
         waits: WaitSet::new(WakeMode::Event),
         tick_period: None,
     };
@@ -179,6 +188,8 @@ struct Harness<'s> {
     state: ContextState,
     backend: LiveBackend,
     servers: Vec<(String, CommandServer)>,
+    /// Injected faults ([`fault`]).
+    faults: CommandServer,
     waits: WaitSet,
     tick_period: Option<Duration>,
 }
@@ -192,6 +203,11 @@ impl Harness<'_> {
         loop {
             if signals.take() {
                 break;
+            }
+            if self.serve_faults() {
+                // Stalled: only a stop signal or another fault wakes it.
+                self.wait_stalled(signals)?;
+                continue;
             }
             let now = Instant::now();
             if now >= next_heartbeat {
@@ -252,8 +268,11 @@ impl Harness<'_> {
     fn serve_commands(&mut self) {
         for (interface, server) in &self.servers {
             while let Ok(Some(request)) = server.receive() {
+                let received_ns = self.backend.clock.now_ns();
+                let mut logged = (String::new(), request.bytes().to_vec());
                 let answer = match wire::read_request(request.bytes()) {
                     Ok((command, bytes)) => {
+                        logged = (command.to_owned(), bytes.to_vec());
                         let incoming = IncomingCommand {
                             interface,
                             command,
@@ -271,6 +290,9 @@ impl Harness<'_> {
                 if let Err(e) = server.reply(request, &frame) {
                     tracing::warn!(service = self.backend.service, "cannot reply: {e}");
                 }
+                let (command, request) = logged;
+                self.backend
+                    .log_command(interface, command, request, answer, received_ns);
             }
         }
     }
@@ -388,11 +410,57 @@ struct LiveBackend {
     health: Publisher,
     health_seq: u64,
     declared: Health,
+    /// The fault injected from outside, if any ([`fault`]).
+    fault: fault::FaultState,
+    /// `/lewis/commands/<service>`: every answered command, for the recorder.
+    command_log: Publisher,
+    command_log_seq: u64,
 }
 
 impl LiveBackend {
+    /// Publishes a command this service answered, with its reply, on
+    /// `/lewis/commands/<service>`.
+    fn log_command(
+        &mut self,
+        interface: &str,
+        command: String,
+        request: Vec<u8>,
+        answer: Result<Vec<u8>, String>,
+        received_ns: i64,
+    ) {
+        self.command_log_seq += 1;
+        let (status, reply, error) = match answer {
+            Ok(reply) => ("ok", reply, String::new()),
+            Err(error) => ("refused", Vec::new(), error),
+        };
+        let mut message = CommandLog {
+            interface: interface.to_owned(),
+            command,
+            request,
+            status: status.to_owned(),
+            reply,
+            error,
+            received_ns,
+            ..CommandLog::default()
+        };
+        let header = message.header_mut();
+        header.provider.clone_from(&self.service);
+        header.seq = self.command_log_seq;
+        header.publish_time_ns = self.clock.now_ns();
+        let len = cdr::encoded_len(&message);
+        if let Err(e) = self.command_log.publish_with(len, |buf| {
+            let _ = cdr::encode_into(&message, buf);
+        }) {
+            tracing::warn!(service = self.service, "cannot publish a command log: {e}");
+        }
+    }
+
     fn heartbeat(&mut self) {
-        let (state, reason) = health_fields(&self.declared);
+        let (state, reason) = match self.fault {
+            fault::FaultState::Stalled => return,
+            fault::FaultState::OutOfService => ("out-of-service", fault::OUT_OF_SERVICE_REASON),
+            fault::FaultState::Normal => health_fields(&self.declared),
+        };
         self.health_seq += 1;
         let mut message = HealthMessage {
             state: state.to_owned(),
@@ -454,6 +522,10 @@ impl Backend for LiveBackend {
                     service: self.service.clone(),
                     interface: interface.to_owned(),
                 })?;
+        if self.fault != fault::FaultState::Normal {
+            // An injected fault silences the service: the publication is dropped.
+            return Ok(());
+        }
         publisher
             .publish_with(len_bytes, |buf| encode(buf))
             .map(|_| ())

@@ -1,0 +1,259 @@
+//! Faults injected into a running service from outside (`lewis fault`), for demonstrations
+//! and tests, with no cooperation from the service's code.
+//!
+//! Every live service's harness serves the command channel `/lewis/fault/<service>` (see
+//! [`fault_channel`]). A request is a [`wire`] frame whose command name is the fault
+//! ([`InjectedFault::as_str`]) and whose message is empty; the harness answers with an
+//! empty reply once the fault is in effect:
+//!
+//! | fault | what the harness does |
+//! |---|---|
+//! | `stall` | it stops running the service: no ticks, inputs, commands, publications or heartbeats (the broker sees a missed heartbeat deadline, as for a service stuck in a handler); it still ends on SIGTERM and still hears `clear` |
+//! | `out-of-service` | it drops the service's publications and declares the service out of service in every heartbeat, whatever the service itself declares; the service keeps running |
+//! | `clear` | back to normal: publications flow, heartbeats say what the service declares |
+//!
+//! A crash needs no cooperation: `lewis fault NAME --kill` sends SIGKILL to the process.
+//!
+//! The same three words are the fault kinds that replay can inject into a recording, so
+//! that a fault seen live and one injected in replay mean the same thing to the broker.
+
+use std::fmt;
+use std::str::FromStr;
+use std::time::Duration;
+
+use crate::ipc::{CallError, CommandClient, CommandConfig, Ipc, IpcError, WakeMode};
+use crate::names;
+use crate::wire;
+
+/// A fault the live harness can put its service in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum InjectedFault {
+    /// Stop everything, heartbeats included, as a hung process would.
+    Stall,
+    /// Publish nothing and declare out-of-service.
+    OutOfService,
+    /// Undo any injected fault.
+    Clear,
+}
+
+impl InjectedFault {
+    /// Every fault, in documentation order.
+    pub const ALL: [Self; 3] = [Self::Stall, Self::OutOfService, Self::Clear];
+
+    /// Its name on the wire and on the command line.
+    #[must_use]
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Self::Stall => "stall",
+            Self::OutOfService => "out-of-service",
+            Self::Clear => "clear",
+        }
+    }
+}
+
+impl fmt::Display for InjectedFault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A word that names no [`InjectedFault`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown fault `{0}`: expected stall, out-of-service or clear")]
+pub struct UnknownFault(pub String);
+
+impl FromStr for InjectedFault {
+    type Err = UnknownFault;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.as_str() == s)
+            .ok_or_else(|| UnknownFault(s.to_owned()))
+    }
+}
+
+/// The command channel on which the harness of `service` takes injected faults.
+#[must_use]
+pub fn fault_channel(service: &str) -> String {
+    format!("/lewis/fault/{service}")
+}
+
+/// The settings of fault channels: one tool at a time sends, rarely.
+#[must_use]
+pub fn fault_config() -> CommandConfig {
+    CommandConfig {
+        max_pending: 2,
+        max_clients: 8,
+        ..names::command_config()
+    }
+}
+
+/// Why a fault could not be injected.
+#[derive(Debug, thiserror::Error)]
+pub enum InjectError {
+    /// The channel could not be opened.
+    #[error(transparent)]
+    Ipc(#[from] IpcError),
+    /// Nobody serves the fault channel: the service does not run now.
+    #[error(
+        "service `{service}` does not run in this namespace now (nobody serves {channel}): check `lewis status`"
+    )]
+    NotRunning {
+        /// The service.
+        service: String,
+        /// The channel.
+        channel: String,
+    },
+    /// The harness did not answer (it may be stalled already) or refused.
+    #[error("service `{service}` did not take fault `{fault}`: {reason}")]
+    Failed {
+        /// The service.
+        service: String,
+        /// The fault.
+        fault: InjectedFault,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Puts `service` (running in `ipc`'s namespace) in `fault`, waiting at most `timeout` for
+/// its harness to say the fault is in effect.
+///
+/// # Errors
+/// When the service does not run, does not answer in time, or refuses.
+pub fn inject(
+    ipc: &Ipc,
+    service: &str,
+    fault: InjectedFault,
+    timeout: Duration,
+) -> Result<(), InjectError> {
+    let channel = fault_channel(service);
+    let mut client: CommandClient = ipc.command_client(&channel, &fault_config())?;
+    let frame = wire::request_to_vec(fault.as_str(), &[]);
+    let failed = |reason: String| InjectError::Failed {
+        service: service.to_owned(),
+        fault,
+        reason,
+    };
+    let reply = client
+        .call_blocking(
+            frame.len(),
+            timeout,
+            |buf| buf.copy_from_slice(&frame),
+            WakeMode::Event,
+        )
+        .map_err(|e| match e {
+            CallError::NoServer { .. } => InjectError::NotRunning {
+                service: service.to_owned(),
+                channel: channel.clone(),
+            },
+            e => failed(e.to_string()),
+        })?;
+    match wire::read_reply(reply.bytes()) {
+        Ok(Ok(_)) => Ok(()),
+        Ok(Err(refusal)) => Err(failed(refusal)),
+        Err(e) => Err(failed(e.to_string())),
+    }
+}
+
+/// What the harness holds the service in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) enum FaultState {
+    /// No injected fault.
+    #[default]
+    Normal,
+    /// Out of service: publications dropped, heartbeats say so.
+    OutOfService,
+    /// Stalled: nothing runs.
+    Stalled,
+}
+
+impl FaultState {
+    /// The state after `fault`.
+    pub(crate) const fn after(fault: InjectedFault) -> Self {
+        match fault {
+            InjectedFault::Stall => Self::Stalled,
+            InjectedFault::OutOfService => Self::OutOfService,
+            InjectedFault::Clear => Self::Normal,
+        }
+    }
+}
+
+/// The reason heartbeats give while a fault is injected.
+pub(crate) const OUT_OF_SERVICE_REASON: &str = "fault injected with `lewis fault`";
+
+/// Reads a fault request frame.
+pub(crate) fn read_request(frame: &[u8]) -> Result<InjectedFault, String> {
+    let (command, _) = wire::read_request(frame).map_err(|e| e.to_string())?;
+    command.parse().map_err(|e: UnknownFault| e.to_string())
+}
+
+impl super::Harness<'_> {
+    /// Takes in the faults sent since the last call and answers them; returns whether the
+    /// service is stalled now.
+    pub(super) fn serve_faults(&mut self) -> bool {
+        while let Ok(Some(request)) = self.faults.receive() {
+            let answer = read_request(request.bytes()).map(|fault| {
+                self.apply(fault);
+                Vec::new()
+            });
+            if let Err(e) = self.faults.reply(request, &wire::reply_to_vec(&answer)) {
+                tracing::warn!(service = self.backend.service, "cannot answer a fault: {e}");
+            }
+        }
+        self.backend.fault == FaultState::Stalled
+    }
+
+    fn apply(&mut self, fault: InjectedFault) {
+        let before = self.backend.fault;
+        self.backend.fault = FaultState::after(fault);
+        tracing::warn!(
+            service = self.backend.service,
+            "fault injected: {fault} ({OUT_OF_SERVICE_REASON})"
+        );
+        // The broker hears a change of declared health at once, as with set_health.
+        if self.backend.fault != before && self.backend.fault != FaultState::Stalled {
+            self.backend.heartbeat();
+        }
+    }
+
+    /// Waits, stalled, for a stop signal or another fault.
+    pub(super) fn wait_stalled(
+        &self,
+        signals: &super::StopSignals,
+    ) -> Result<(), super::LiveError> {
+        let signal_fd = crate::ipc::FdSource::new(std::os::fd::AsFd::as_fd(signals));
+        let sources: [&dyn crate::ipc::Waitable; 2] = [&signal_fd, &self.faults];
+        self.waits.wait(&sources, None)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn faults_round_trip_through_their_words_and_unknown_words_are_refused() {
+        for fault in InjectedFault::ALL {
+            assert_eq!(fault.as_str().parse::<InjectedFault>(), Ok(fault));
+            let frame = wire::request_to_vec(fault.as_str(), &[]);
+            assert_eq!(read_request(&frame), Ok(fault));
+        }
+        assert_eq!(
+            read_request(&wire::request_to_vec("explode", &[])),
+            Err("unknown fault `explode`: expected stall, out-of-service or clear".to_owned())
+        );
+    }
+
+    #[test]
+    fn each_fault_leads_to_its_state() {
+        assert_eq!(FaultState::after(InjectedFault::Stall), FaultState::Stalled);
+        assert_eq!(
+            FaultState::after(InjectedFault::OutOfService),
+            FaultState::OutOfService
+        );
+        assert_eq!(FaultState::after(InjectedFault::Clear), FaultState::Normal);
+        assert_eq!(fault_channel("laser"), "/lewis/fault/laser");
+    }
+}
