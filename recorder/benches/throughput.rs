@@ -169,6 +169,7 @@ fn recorder_pipeline(
     let queue = QueueOptions {
         capacity_messages: messages.len() + 1,
         capacity_bytes: usize::MAX / 2,
+        ..QueueOptions::default()
     };
     let (tap, writer) = spawn(recorder, queue, || 0).unwrap();
     let ids: Vec<_> = channels.iter().map(|c| tap.register(c.clone())).collect();

@@ -1,8 +1,9 @@
 //! Lewis recorder: everything the robot publishes, into MCAP files that every MCAP tool
 //! reads. This crate is the one place of the project that writes MCAP for the robot.
 //!
-//! It does not know where messages come from: the live tap (in the runtime's harness)
-//! registers channels and offers messages; this crate owns what happens next.
+//! The core does not know where messages come from: a tap registers channels and offers
+//! messages; the core owns what happens next. [`live`] is the tap of a running robot: it
+//! subscribes to the robot's IPC channels (through `lewis-runtime`) and offers every sample.
 //!
 //! - [`Recorder`]: the core, on one thread, with no clock of its own. Channels in
 //!   ([`ChannelSpec`]: topic, ros2msg schema, provider, interface and version), messages
@@ -31,6 +32,7 @@
 mod channel;
 mod error;
 pub mod index;
+pub mod live;
 pub mod loss;
 mod options;
 mod part;

@@ -36,6 +36,9 @@ pub struct QueueOptions {
     /// Bytes of message data it holds at most (one message larger than this still goes
     /// through an empty queue).
     pub capacity_bytes: usize,
+    /// A pause of the writer thread after each message it writes: zero, except to test a
+    /// slow disk (the publishers' rate must not change, the losses must be counted).
+    pub write_delay: Duration,
 }
 
 impl Default for QueueOptions {
@@ -45,6 +48,7 @@ impl Default for QueueOptions {
         Self {
             capacity_messages: 65_536,
             capacity_bytes: 48 * 1024 * 1024,
+            write_delay: Duration::ZERO,
         }
     }
 }
@@ -234,7 +238,15 @@ pub fn spawn(
     let thread_shared = Arc::clone(&shared);
     let handle = std::thread::Builder::new()
         .name("lewis-recorder".to_owned())
-        .spawn(move || drain(recorder, &receiver, &thread_shared, clock))
+        .spawn(move || {
+            drain(
+                recorder,
+                &receiver,
+                &thread_shared,
+                queue.write_delay,
+                clock,
+            )
+        })
         .map_err(|source| RecordError::Io {
             path: path.clone(),
             source,
@@ -257,6 +269,7 @@ fn drain(
     mut recorder: Recorder,
     receiver: &Receiver<Entry>,
     shared: &Shared,
+    write_delay: Duration,
     mut clock: impl FnMut() -> i64,
 ) -> Result<RecordingReport, RecordError> {
     let mut drops_seen: Vec<u64> = Vec::new();
@@ -279,6 +292,9 @@ fn drain(
                     log_time_ns: message.log_time_ns,
                     data: &message.data,
                 })?;
+                if !write_delay.is_zero() {
+                    std::thread::sleep(write_delay);
+                }
                 since_sweep += 1;
                 if since_sweep >= DROP_SWEEP_EVERY {
                     since_sweep = 0;

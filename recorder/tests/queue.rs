@@ -23,6 +23,7 @@ fn the_stress_mix_through_the_queue_loses_nothing_and_keeps_every_sequence_numbe
     let queue = QueueOptions {
         capacity_messages: 70_000,
         capacity_bytes: 128 * 1024 * 1024,
+        ..QueueOptions::default()
     };
     let (tap, writer) = spawn(recorder, queue, || 0).unwrap();
     let channels = traffic::stress_channels();
@@ -88,6 +89,7 @@ fn with_a_held_writer_the_tap_drops_and_counts_and_the_losses_equal_the_gaps() {
     let queue = QueueOptions {
         capacity_messages: CAPACITY,
         capacity_bytes: 64 * 1024 * 1024,
+        ..QueueOptions::default()
     };
     let (gate, clock) = gated_clock();
     let (tap, writer) = spawn(recorder, queue, clock).unwrap();

@@ -157,12 +157,29 @@ impl Up {
     /// When the robot file or the process cannot be made.
     #[must_use]
     pub fn start_in(dir: tempfile::TempDir, namespace: Namespace, robot: &str) -> Self {
+        Self::start_with(dir, namespace, robot, &[])
+    }
+
+    /// As [`Up::start_in`] with more arguments for `lewis up` (`-o FILE`, `--no-record`).
+    /// It runs in the temporary directory, so its default recording goes to `logs/` there.
+    ///
+    /// # Panics
+    /// When the robot file or the process cannot be made.
+    #[must_use]
+    pub fn start_with(
+        dir: tempfile::TempDir,
+        namespace: Namespace,
+        robot: &str,
+        args: &[&std::ffi::OsStr],
+    ) -> Self {
         let robot_path = dir.path().join("robot.toml");
         std::fs::write(&robot_path, robot).expect("the robot file can be written");
         let mut child = Command::new(lewis_exe())
             .arg("up")
             .arg(&robot_path)
             .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "300"])
+            .args(args)
+            .current_dir(dir.path())
             .env("RUST_LOG", "info")
             .stdin(Stdio::null())
             .stdout(Stdio::null())

@@ -1,0 +1,279 @@
+//! Which channels of a running robot the tap subscribes to, with the settings each was
+//! created with and the MCAP channel each becomes.
+
+use globset::{GlobBuilder, GlobSet, GlobSetBuilder};
+use lewis_interfaces::Interface;
+use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine};
+use lewis_runtime::ipc::ChannelConfig;
+use lewis_runtime::names;
+use lewis_runtime::robot::Robot;
+use thiserror::Error;
+
+use crate::channel::ChannelSpec;
+
+/// Channel metadata key saying what a channel carries: `data`, `health`, `commands`,
+/// `broker` or `log`.
+pub const META_KIND: &str = "kind";
+
+/// One channel to tap: its IPC name and settings, and the MCAP channel it is written to.
+#[derive(Debug, Clone)]
+pub struct TapChannel {
+    /// The IPC settings it is opened with (those of [`names`]: a mismatch would be refused).
+    pub config: ChannelConfig,
+    /// The MCAP channel; its topic is the IPC channel name.
+    pub spec: ChannelSpec,
+}
+
+impl TapChannel {
+    fn new(mut spec: ChannelSpec, kind: &str, config: ChannelConfig) -> Self {
+        spec.extra_metadata
+            .insert(META_KIND.to_owned(), kind.to_owned());
+        Self { config, spec }
+    }
+
+    /// A robot-wide channel of interface `T`.
+    fn of<T: Interface>(provider: &str, topic: &str, kind: &str, config: ChannelConfig) -> Self {
+        let spec = ChannelSpec {
+            topic: topic.to_owned(),
+            schema_name: T::SCHEMA_NAME.to_owned(),
+            schema_text: T::SCHEMA_TEXT.to_owned(),
+            provider: provider.to_owned(),
+            interface: T::NAME.to_owned(),
+            interface_version: T::VERSION.to_owned(),
+            extra_metadata: std::collections::BTreeMap::new(),
+        };
+        Self::new(spec, kind, config)
+    }
+
+    /// The IPC channel name (and MCAP topic).
+    #[must_use]
+    pub fn topic(&self) -> &str {
+        &self.spec.topic
+    }
+}
+
+/// Every channel of `robot` worth recording, in a stable order: each provider's data
+/// channel `/<service>/<Interface>` (all of them, started or not, so that a provider
+/// started later by a failover is recorded from its first sample), then per service its
+/// health and its command log, then `/lewis/broker` and `/lewis/log`. Without a robot, only
+/// the channels that do not depend on it.
+#[must_use]
+pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
+    let mut channels = Vec::new();
+    let services = robot.map_or(&[][..], |r| &r.services[..]);
+    for service in services {
+        for provision in &service.provides {
+            // The robot file was checked against the compiled interfaces when it was loaded.
+            if let Some(interface) = lewis_interfaces::interface_info(&provision.interface) {
+                let topic = names::data_channel(&service.name, interface.name);
+                channels.push(TapChannel::new(
+                    ChannelSpec::publication(interface, &service.name, &topic),
+                    "data",
+                    names::data_config(),
+                ));
+            }
+        }
+    }
+    for service in services {
+        channels.push(TapChannel::of::<Health>(
+            &service.name,
+            &names::health_channel(&service.name),
+            "health",
+            names::health_config(),
+        ));
+        channels.push(TapChannel::of::<CommandLog>(
+            &service.name,
+            &names::command_log_channel(&service.name),
+            "commands",
+            names::command_log_config(),
+        ));
+    }
+    channels.push(TapChannel::of::<Broker>(
+        names::BROKER_NODE,
+        names::BROKER_CHANNEL,
+        "broker",
+        names::broker_config(),
+    ));
+    channels.push(TapChannel::of::<LogLine>(
+        names::BROKER_NODE,
+        names::LOG_CHANNEL,
+        "log",
+        names::log_config(),
+    ));
+    channels
+}
+
+/// A `--topics` glob that does not parse.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("--topics `{glob}` is not a valid glob: {reason}")]
+pub struct BadGlob {
+    /// The glob given.
+    pub glob: String,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
+/// The topics to record: all (no glob given), or those matching at least one glob. In a
+/// glob, `*` stays within one level of the name (`/lewis/health/*`), `**` crosses levels
+/// (`/lewis/**`), `{a,b}` is either.
+#[derive(Debug, Clone, Default)]
+pub struct TopicFilter {
+    globs: Option<GlobSet>,
+}
+
+impl TopicFilter {
+    /// Every topic.
+    #[must_use]
+    pub fn all() -> Self {
+        Self::default()
+    }
+
+    /// The topics matching at least one of `globs` (every topic when `globs` is empty).
+    ///
+    /// # Errors
+    /// [`BadGlob`] for the first glob that does not parse.
+    pub fn new<S: AsRef<str>>(globs: &[S]) -> Result<Self, BadGlob> {
+        if globs.is_empty() {
+            return Ok(Self::all());
+        }
+        let mut set = GlobSetBuilder::new();
+        for glob in globs {
+            let glob = glob.as_ref();
+            set.add(
+                GlobBuilder::new(glob)
+                    .literal_separator(true)
+                    .build()
+                    .map_err(|e| BadGlob {
+                        glob: glob.to_owned(),
+                        reason: e.kind().to_string(),
+                    })?,
+            );
+        }
+        let globs = set.build().map_err(|e| BadGlob {
+            glob: globs
+                .iter()
+                .map(AsRef::as_ref)
+                .collect::<Vec<_>>()
+                .join(" "),
+            reason: e.to_string(),
+        })?;
+        Ok(Self { globs: Some(globs) })
+    }
+
+    /// Whether `topic` is recorded.
+    #[must_use]
+    pub fn matches(&self, topic: &str) -> bool {
+        self.globs.as_ref().is_none_or(|g| g.is_match(topic))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot() -> Robot {
+        let text = r#"
+[robot]
+name = "t"
+
+[[services]]
+name = "laser"
+command = ["/bin/true"]
+provides = [{ interface = "RangeFinder", quality = 1, cost = 1 }, { interface = "Distance", quality = 1, cost = 1 }]
+
+[[services]]
+name = "sonar"
+command = ["/bin/true"]
+provides = [{ interface = "Distance", quality = 1, cost = 1 }]
+"#;
+        let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+            .iter()
+            .map(|i| i.name)
+            .collect();
+        lewis_runtime::robot::parse(text, std::path::Path::new("t.toml"), &known).unwrap()
+    }
+
+    #[test]
+    fn a_robot_gives_every_provider_channel_then_health_commands_broker_and_log() {
+        let robot = robot();
+        let topics: Vec<String> = robot_channels(Some(&robot))
+            .iter()
+            .map(|c| c.topic().to_owned())
+            .collect();
+        assert_eq!(
+            topics,
+            [
+                "/laser/RangeFinder",
+                "/laser/Distance",
+                "/sonar/Distance",
+                "/lewis/health/laser",
+                "/lewis/commands/laser",
+                "/lewis/health/sonar",
+                "/lewis/commands/sonar",
+                "/lewis/broker",
+                "/lewis/log",
+            ]
+        );
+    }
+
+    #[test]
+    fn every_channel_names_its_provider_interface_and_kind() {
+        let robot = robot();
+        let channels = robot_channels(Some(&robot));
+        let check = |topic: &str, expected: [&str; 3]| {
+            let c = channels.iter().find(|c| c.topic() == topic).unwrap();
+            let metadata = c.spec.metadata();
+            assert_eq!(
+                [
+                    metadata["provider"].as_str(),
+                    metadata["interface"].as_str(),
+                    metadata["kind"].as_str()
+                ],
+                expected,
+                "{topic}"
+            );
+            assert!(!c.spec.schema_text.is_empty(), "{topic}");
+        };
+        check("/sonar/Distance", ["sonar", "Distance", "data"]);
+        check("/lewis/health/laser", ["laser", "Health", "health"]);
+        check("/lewis/commands/sonar", ["sonar", "CommandLog", "commands"]);
+        check("/lewis/broker", ["lewis-broker", "Broker", "broker"]);
+        check("/lewis/log", ["lewis-broker", "LogLine", "log"]);
+    }
+
+    #[test]
+    fn without_a_robot_only_the_robot_wide_channels_are_tapped() {
+        let topics: Vec<String> = robot_channels(None)
+            .iter()
+            .map(|c| c.topic().to_owned())
+            .collect();
+        assert_eq!(topics, ["/lewis/broker", "/lewis/log"]);
+    }
+
+    #[test]
+    fn topic_globs_match_one_level_with_a_star_and_any_with_two() {
+        fn check(globs: &[&str], topic: &str, expected: bool) {
+            let filter = TopicFilter::new(globs).unwrap();
+            assert_eq!(filter.matches(topic), expected, "{globs:?} {topic}");
+        }
+        check(&[], "/laser/RangeFinder", true);
+        check(&["/laser/*"], "/laser/RangeFinder", true);
+        check(&["/laser/*"], "/laser/RangeFinder/cmd", false);
+        check(&["/lewis/*"], "/lewis/health/laser", false);
+        check(&["/lewis/**"], "/lewis/health/laser", true);
+        check(&["/*/Distance", "/lewis/broker"], "/sonar/Distance", true);
+        check(&["/*/Distance", "/lewis/broker"], "/lewis/broker", true);
+        check(&["/*/Distance", "/lewis/broker"], "/lewis/log", false);
+        check(&["/{laser,sonar}/RangeFinder"], "/sonar/RangeFinder", true);
+    }
+
+    #[test]
+    fn a_bad_glob_is_named_in_the_error() {
+        let error = TopicFilter::new(&["/laser/[a"]).unwrap_err();
+        assert_eq!(error.glob, "/laser/[a");
+        assert!(
+            error.to_string().starts_with("--topics `/laser/[a`"),
+            "{error}"
+        );
+    }
+}

@@ -1,0 +1,179 @@
+//! `lewis up` records by default, and `lewis record` records a running robot: every file
+//! (zstd, lz4, none, rotated) is decoded by the independent Python readers, passes
+//! `pymcap-cli doctor`, and holds every sample the services published, byte for byte.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod record_common;
+
+use std::ffi::OsStr;
+use std::path::PathBuf;
+
+use lewis_interfaces::msg::{Broker, CommandLog, RangeFinder, RangeFinderGetGeometry};
+use lewis_interfaces::{Message, cdr};
+use lewis_runtime::client::Client;
+use lewis_runtime::ipc::Namespace;
+use lewis_tests::{Up, WATCHDOG, open_ipc};
+use record_common::{
+    RecordProcess, Recording, assert_every_run_complete, assert_python_agrees, decode, doctor,
+    test_robot_file,
+};
+
+/// The samples a client received, as the bytes they travelled as, by sequence number.
+fn receive(client: &mut Client<RangeFinder>, count: usize) -> Vec<(u64, Vec<u8>)> {
+    let mut got = Vec::new();
+    while got.len() < count {
+        let sample = client
+            .recv_timeout(WATCHDOG)
+            .unwrap()
+            .expect("samples keep coming");
+        let seq = sample.message.header().seq;
+        got.push((seq, cdr::to_vec(&sample.message)));
+    }
+    got
+}
+
+#[test]
+fn lewis_up_and_lewis_record_write_files_every_reader_decodes_with_every_sample() {
+    let dir = tempfile::tempdir().unwrap();
+    let namespace = Namespace::unique("record-up");
+    let robot_path = dir.path().join("robot.toml");
+    std::fs::write(&robot_path, test_robot_file()).unwrap();
+    // Two more recorders beside the one of `lewis up`, subscribed before it starts.
+    let lz4_split = dir.path().join("lz4.mcap");
+    let none_split = dir.path().join("none.mcap");
+    let lz4 = RecordProcess::start(
+        &namespace,
+        &[
+            OsStr::new("--robot"),
+            robot_path.as_os_str(),
+            OsStr::new("-o"),
+            lz4_split.as_os_str(),
+            OsStr::new("--compression"),
+            OsStr::new("lz4"),
+            OsStr::new("--split-size"),
+            OsStr::new("60000"),
+        ],
+    );
+    let none = RecordProcess::start(
+        &namespace,
+        &[
+            OsStr::new("--robot"),
+            robot_path.as_os_str(),
+            OsStr::new("-o"),
+            none_split.as_os_str(),
+            OsStr::new("--compression"),
+            OsStr::new("none"),
+            OsStr::new("--split-duration"),
+            OsStr::new("0.5"),
+        ],
+    );
+    let zstd = dir.path().join("run.mcap");
+    let mut up = Up::start_with(
+        tempfile::tempdir().unwrap(),
+        namespace.clone(),
+        &test_robot_file(),
+        &[OsStr::new("-o"), zstd.as_os_str()],
+    );
+    up.wait_line("broker up");
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut client = Client::<RangeFinder>::connect(&ipc, "app").unwrap();
+    let received = receive(&mut client, 40);
+    for _ in 0..2 {
+        let geometry = client
+            .call(&RangeFinderGetGeometry::default(), WATCHDOG)
+            .unwrap();
+        assert_eq!(geometry.header.provider, "laser");
+    }
+    let received_more = receive(&mut client, 10);
+    drop(client);
+    assert!(up.stop().success(), "{}", up.log());
+    assert!(up.log().contains("recording closed"), "{}", up.log());
+    let (ok, out) = lz4.stop();
+    assert!(ok, "{out}");
+    let (ok, out) = none.stop();
+    assert!(ok, "{out}");
+
+    let parts = |path: &PathBuf| -> Vec<PathBuf> {
+        let index_path = lewis_recorder::index::index_path(path);
+        let index = lewis_recorder::index::PartsIndex::read(&index_path).unwrap();
+        assert!(index.parts.iter().all(|p| p.complete), "{index:?}");
+        index.part_paths(&index_path)
+    };
+    let runs = [
+        ("zstd", vec![zstd.clone()]),
+        ("lz4", parts(&lz4_split)),
+        ("none", parts(&none_split)),
+    ];
+    assert!(runs[1].1.len() > 1, "lz4 recording was not split");
+    assert!(runs[2].1.len() > 1, "none recording was not split");
+    let mut laser_counts = Vec::new();
+    for (compression, files) in &runs {
+        for file in files {
+            doctor(file);
+        }
+        let recording = Recording::read(files);
+        assert_python_agrees(files, &recording);
+        for topic in [
+            "/laser/RangeFinder",
+            "/laser/Distance",
+            "/lewis/health/laser",
+        ] {
+            assert_every_run_complete(&recording, topic);
+            assert_eq!(recording.seq_runs(topic).len(), 1, "{compression} {topic}");
+        }
+        let laser = recording.of("/laser/RangeFinder");
+        for (seq, bytes) in received.iter().chain(&received_more) {
+            let recorded = laser
+                .iter()
+                .find(|m| m.seq == *seq)
+                .unwrap_or_else(|| panic!("{compression}: sample {seq} is not in the file"));
+            assert_eq!(&recorded.data, bytes, "{compression}: sample {seq} differs");
+        }
+        let commands: Vec<CommandLog> = recording
+            .of("/lewis/commands/laser")
+            .iter()
+            .map(decode)
+            .collect();
+        assert_eq!(commands.len(), 2, "{compression}");
+        for command in &commands {
+            assert_eq!(
+                (
+                    command.interface.as_str(),
+                    command.command.as_str(),
+                    command.status.as_str()
+                ),
+                ("RangeFinder", "get_geometry", "ok")
+            );
+            assert!(!command.reply.is_empty());
+        }
+        let decisions: Vec<Broker> = recording.of("/lewis/broker").iter().map(decode).collect();
+        assert!(
+            decisions
+                .iter()
+                .any(|d| d.action == "bind" && d.client == "app" && d.service == "laser"),
+            "{compression}: {decisions:?}"
+        );
+        assert!(
+            recording.loss().values().all(|&lost| lost == 0),
+            "{compression}"
+        );
+        assert!(
+            recording.metadata[lewis_recorder::ROBOT_METADATA].contains_key("robot.toml"),
+            "{compression}"
+        );
+        assert!(
+            recording.metadata[lewis_recorder::INTERFACES_METADATA].contains_key("RangeFinder.xml")
+        );
+        assert_eq!(
+            recording.channels["/laser/RangeFinder"]["provider"], "laser",
+            "{compression}"
+        );
+        laser_counts.push(laser.len());
+    }
+    // The three recorders saw the same run.
+    assert!(
+        laser_counts.windows(2).all(|w| w[0] == w[1]),
+        "{laser_counts:?}"
+    );
+}
