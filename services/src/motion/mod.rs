@@ -8,8 +8,8 @@
 //!   [`MoverRequest`]s for a VectorMover, either one in another service or the one
 //!   [`AvoiderDrive`] owns.
 //!
-//! A service adapter feeds them Egomotion, readings and commands, and publishes
-//! [`VectorMover::publication`] or [`AvoiderDrive::publication`] as the Mover topic.
+//! The service kinds in [`service`] (`vector_mover`, `obstacle_avoider`) feed them
+//! Egomotion, readings and commands, and publish their Mover status.
 
 mod avoider_drive;
 pub mod cost_map;
@@ -18,6 +18,7 @@ pub mod geometry;
 mod mover;
 mod obstacle_avoider;
 pub mod scan;
+pub mod service;
 mod vector_mover;
 
 pub use avoider_drive::AvoiderDrive;

@@ -2,7 +2,8 @@
 //! velocity command they produce, and their errors.
 
 use lewis_interfaces::msg::{
-    MoverCommand, MoverGoto, MoverRotate, MoverStop, MoverTranslate, SynchrodriveSetVelocity,
+    MoverCommand, MoverGoto, MoverGotoReply, MoverReply, MoverRotate, MoverRotateReply, MoverStop,
+    MoverStopReply, MoverTranslate, MoverTranslateReply, SynchrodriveSetVelocity,
 };
 use std::fmt;
 use std::str::FromStr;
@@ -166,6 +167,31 @@ impl MoverRequest {
             MoverCommand::Stop(_) => Self::Stop,
         }
     }
+}
+
+/// Carries out a Mover command with `carry_out` (a mover's `request`) and builds its reply
+/// (headers left empty): the goal id for goto, rotate and translate. The one place where
+/// both movers turn commands into requests and goal ids into replies.
+pub(crate) fn answer_command(
+    command: &MoverCommand,
+    carry_out: impl FnOnce(MoverRequest) -> Result<Option<GoalId>, GoalError>,
+) -> Result<MoverReply, GoalError> {
+    let goal_id = carry_out(MoverRequest::from_command(command))?.map_or(0, GoalId::get);
+    Ok(match command {
+        MoverCommand::Goto(_) => MoverReply::Goto(MoverGotoReply {
+            goal_id,
+            ..Default::default()
+        }),
+        MoverCommand::Rotate(_) => MoverReply::Rotate(MoverRotateReply {
+            goal_id,
+            ..Default::default()
+        }),
+        MoverCommand::Translate(_) => MoverReply::Translate(MoverTranslateReply {
+            goal_id,
+            ..Default::default()
+        }),
+        MoverCommand::Stop(_) => MoverReply::Stop(MoverStopReply::default()),
+    })
 }
 
 /// The velocities a mover asks the synchro-drive for at one control step.

@@ -18,13 +18,12 @@ use super::cost_map::GoalCostMap;
 use super::free_space::{Candidate, Coverage, closest_reachable, free_distance_m};
 use super::geometry::{Vec2, pose_is_finite, position, robot_to_odom, wrap_angle};
 use super::mover::{
-    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand,
+    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand, answer_command,
     require_non_negative, require_positive,
 };
 use super::scan::{RangeScan, ScanError};
 use lewis_interfaces::msg::{
-    Distance, Mover, MoverCommand, MoverGotoReply, MoverReply, MoverRotateReply, MoverStopReply,
-    MoverTranslateReply, Point2D, Pose2D, RangeFinder,
+    Distance, Mover, MoverCommand, MoverReply, Point2D, Pose2D, RangeFinder,
 };
 use std::collections::VecDeque;
 use std::f64::consts::TAU;
@@ -365,24 +364,7 @@ impl ObstacleAvoider {
     /// # Errors
     /// An argument is not finite.
     pub fn handle(&mut self, command: &MoverCommand) -> Result<MoverReply, GoalError> {
-        let id = self
-            .request(MoverRequest::from_command(command))?
-            .map_or(0, GoalId::get);
-        Ok(match command {
-            MoverCommand::Goto(_) => MoverReply::Goto(MoverGotoReply {
-                goal_id: id,
-                ..Default::default()
-            }),
-            MoverCommand::Rotate(_) => MoverReply::Rotate(MoverRotateReply {
-                goal_id: id,
-                ..Default::default()
-            }),
-            MoverCommand::Translate(_) => MoverReply::Translate(MoverTranslateReply {
-                goal_id: id,
-                ..Default::default()
-            }),
-            MoverCommand::Stop(_) => MoverReply::Stop(MoverStopReply::default()),
-        })
+        answer_command(command, |request| self.request(request))
     }
 
     fn accept(&mut self, goal: Goal) -> GoalId {

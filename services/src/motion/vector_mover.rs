@@ -8,13 +8,10 @@
 
 use super::geometry::{Vec2, pose_is_finite, position, wrap_angle};
 use super::mover::{
-    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand,
+    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand, answer_command,
     require_non_negative, require_positive,
 };
-use lewis_interfaces::msg::{
-    Mover, MoverCommand, MoverGotoReply, MoverReply, MoverRotateReply, MoverStopReply,
-    MoverTranslateReply, Point2D, Pose2D,
-};
+use lewis_interfaces::msg::{Mover, MoverCommand, MoverReply, Point2D, Pose2D};
 
 const NANOS_PER_SEC: f64 = 1e9;
 
@@ -266,24 +263,7 @@ impl VectorMover {
     /// # Errors
     /// An argument is not finite.
     pub fn handle(&mut self, command: &MoverCommand) -> Result<MoverReply, GoalError> {
-        let id = self
-            .request(MoverRequest::from_command(command))?
-            .map_or(0, GoalId::get);
-        Ok(match command {
-            MoverCommand::Goto(_) => MoverReply::Goto(MoverGotoReply {
-                goal_id: id,
-                ..Default::default()
-            }),
-            MoverCommand::Rotate(_) => MoverReply::Rotate(MoverRotateReply {
-                goal_id: id,
-                ..Default::default()
-            }),
-            MoverCommand::Translate(_) => MoverReply::Translate(MoverTranslateReply {
-                goal_id: id,
-                ..Default::default()
-            }),
-            MoverCommand::Stop(_) => MoverReply::Stop(MoverStopReply::default()),
-        })
+        answer_command(command, |request| self.request(request))
     }
 
     fn accept(&mut self, request: MoverRequest) -> GoalId {
