@@ -12,7 +12,8 @@ use std::time::Duration;
 
 use lewis_services::drivers::faults::Faults;
 use lewis_services::drivers::io::{
-    DriverHealth, FakeSick, LaserScan, SharedPose, SickDriver, SickDriverConfig, WorldLaserSource,
+    DriverHealth, FakeSick, LaserScan, LineParity, SharedPose, SickDriver, SickDriverConfig,
+    WorldLaserSource, open_port,
 };
 use lewis_services::drivers::sick::{
     AngularResolution, BaudRate, RangeUnit, ScanLayout, ScanWidth, SickDeviceConfig,
@@ -160,6 +161,54 @@ fn the_laser_is_probed_at_9600_switched_to_38400_and_streams_what_the_emulator_s
     assert_eq!(stats.scans, 5);
     assert_eq!(stats.frames.checksum_errors, 0);
     assert_eq!(driver.health(), DriverHealth::Ok);
+}
+
+#[test]
+fn a_driver_restarted_while_the_scanner_runs_at_38400_finds_it_by_probing() {
+    let bench = bench();
+    let mut first = SickDriver::open(config(&bench.link)).unwrap();
+    read_scans(&mut first, 1);
+    drop(first);
+    assert!(
+        bench
+            .fake
+            .wait_for(WATCHDOG, |device| !device.is_streaming()),
+        "a driver going away stops the stream"
+    );
+    bench.fake.clear_host_bytes();
+
+    let mut second = SickDriver::open(config(&bench.link)).unwrap();
+    let host = bench.fake.host_bytes();
+    // Two unanswered probes at 9600 (two attempts), then at least one at 38400, and no switch.
+    let (probes, _) = leading_probes(&host);
+    assert!(probes >= 3, "{probes} probes");
+    assert!(!host.windows(8).any(|window| window == SWITCH_TO_38400));
+    assert_eq!(second.baud(), Some(BaudRate::B38400));
+    read_scans(&mut second, 2);
+}
+
+#[test]
+fn a_probe_read_late_after_the_host_moved_on_is_still_heard_at_the_rate_it_was_sent() {
+    use std::io::Write;
+
+    use serialport::SerialPort;
+
+    let bench = bench();
+    let mut host = open_port(&bench.link, 9_600, LineParity::None).unwrap();
+    // Holding the device holds the emulator thread: it can only look at the termios after
+    // the host has written its probe at 9600 and moved on to 19200, as a thread held up by
+    // the scheduler for longer than the host's reply timeout would.
+    bench.fake.with_device(|_| {
+        host.write_all(&STOP_STREAMING).unwrap();
+        host.set_baud_rate(19_200).unwrap();
+    });
+    assert!(
+        bench
+            .fake
+            .wait_for(WATCHDOG, |device| device.host_stats().frames_ok == 1),
+        "the scanner at 9600 hears the probe sent at 9600"
+    );
+    assert_eq!(bench.fake.stats().host_baud_bps, Some(19_200));
 }
 
 #[test]

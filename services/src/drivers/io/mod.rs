@@ -12,7 +12,8 @@
 //!   reconnection when the port comes back.
 //!
 //! Linux only: the emulators read the host's baud rate from the pseudo-terminal's termios
-//! (`TCGETS2` on the master reflects the slave's settings).
+//! (`TCGETS2` on the master reflects the slave's settings), at every read; what that can and
+//! cannot tell is in [`fake_device`].
 
 mod clock;
 pub mod fake_device;
@@ -21,19 +22,24 @@ mod health;
 mod link;
 mod port;
 mod pty;
+mod receiver;
+mod retry;
 pub mod rflex_driver;
 pub mod sick_driver;
+pub mod standalone;
 mod world_source;
 
 pub use clock::MonotonicClock;
 pub use fake_device::{
-    Emulated, EmulatorStats, FakeDevice, FakeDeviceError, FakeRflex, FakeSick, RflexEmulation,
-    RflexEmulatorOptions, SickEmulation,
+    Emulated, EmulatorStats, FakeDevice, FakeDeviceError, FakeRflex, FakeSick, HostRates,
+    RflexEmulation, RflexEmulatorOptions, SickEmulation,
 };
 pub use fault_spec::{FaultSpecError, parse_faults};
 pub use health::DriverHealth;
 pub use port::{LineParity, PortError, open_port};
 pub use pty::{Pty, PtyError};
+pub use receiver::{RflexReceiver, SickReceived, SickReceiver};
 pub use rflex_driver::{RflexDriver, RflexDriverConfig, RflexDriverError, RflexEvent, RflexStats};
 pub use sick_driver::{LaserScan, SickDriver, SickDriverConfig, SickDriverError, SickStats};
+pub use standalone::{DeviceKind, Standalone, StandaloneError, StandaloneOptions};
 pub use world_source::{SharedPose, WorldLaserSource, WorldSonarSource};

@@ -12,14 +12,15 @@ use std::os::fd::BorrowedFd;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use super::health::{DriverHealth, ErrorWindow};
+use super::health::DriverHealth;
 use super::link::{LinkDown, SerialLink};
 use super::port::{LineParity, PortError};
+use super::receiver::RflexReceiver;
+use super::retry::Retry;
 use crate::drivers::framing::DeframerStats;
 use crate::drivers::rflex::{
-    Axis, DioReport, OdometryConversion, OdometryIntegrator, Pose2, RflexCommand, RflexDeframer,
-    RflexFraming, RflexPacket, RflexReport, SONAR_COUNT, SONAR_UNITS_PER_M, StartupParams,
-    VelocityCommand, startup_sequence,
+    Axis, DioReport, OdometryConversion, OdometryIntegrator, Pose2, RflexCommand, RflexPacket,
+    RflexReport, SONAR_COUNT, SONAR_UNITS_PER_M, StartupParams, VelocityCommand, startup_sequence,
 };
 
 /// The RFlex's only rate.
@@ -179,8 +180,7 @@ impl Command {
 pub struct RflexDriver {
     config: RflexDriverConfig,
     link: SerialLink,
-    deframer: RflexDeframer,
-    window: ErrorWindow,
+    receiver: RflexReceiver,
     events: VecDeque<RflexEvent>,
     stats: RflexStats,
     odometry: OdometryIntegrator,
@@ -195,7 +195,7 @@ pub struct RflexDriver {
     started_at: Instant,
     last_report_at: Option<Instant>,
     down_reason: Option<String>,
-    next_reconnect_at: Instant,
+    retry: Retry,
     buf: Vec<u8>,
 }
 
@@ -206,8 +206,8 @@ impl RflexDriver {
         let link = SerialLink::open(&config.path, RFLEX_BAUD_BPS, LineParity::None)?;
         let now = Instant::now();
         let mut driver = Self {
-            deframer: RflexDeframer::new(RflexFraming),
-            window: ErrorWindow::new(config.checksum_window),
+            retry: Retry::new(config.reconnect_interval),
+            receiver: RflexReceiver::new(config.checksum_window),
             events: VecDeque::new(),
             stats: RflexStats::default(),
             odometry: OdometryIntegrator::new(config.conversion),
@@ -226,7 +226,6 @@ impl RflexDriver {
             started_at: now,
             last_report_at: None,
             down_reason: None,
-            next_reconnect_at: now,
             buf: vec![0; 4096],
             config,
             link,
@@ -312,6 +311,19 @@ impl RflexDriver {
         }
     }
 
+    /// Makes the integrated pose `pose` from now on (odometry keeps integrating from there).
+    pub fn reset_pose(&mut self, pose: Pose2) {
+        let reference = self.odometry.pose();
+        // The integrator's frame is kept: the offset is chosen so that it maps there.
+        let (sin, cos) = (pose.heading_rad - reference.heading_rad).sin_cos();
+        let heading_rad = pose.heading_rad - reference.heading_rad;
+        self.pose_offset = Pose2 {
+            x_m: pose.x_m - (cos * reference.x_m - sin * reference.y_m),
+            y_m: pose.y_m - (sin * reference.x_m + cos * reference.y_m),
+            heading_rad: heading_rad.sin().atan2(heading_rad.cos()),
+        };
+    }
+
     /// The integrated pose.
     pub fn pose(&self) -> Pose2 {
         compose(self.pose_offset, self.odometry.pose())
@@ -376,7 +388,7 @@ impl RflexDriver {
                 deadline: self.config.report_deadline,
             };
         }
-        let error_rate = self.window.error_rate();
+        let error_rate = self.receiver.error_rate();
         if error_rate > self.config.checksum_error_threshold {
             return DriverHealth::ChecksumErrors {
                 path,
@@ -390,7 +402,8 @@ impl RflexDriver {
     /// The counters so far.
     pub fn stats(&self) -> RflexStats {
         RflexStats {
-            frames: self.deframer.stats(),
+            frames: self.receiver.frames(),
+            undecodable_packets: self.receiver.undecodable(),
             ..self.stats
         }
     }
@@ -422,7 +435,7 @@ impl RflexDriver {
             asked_at: now,
             sent_at: now,
         };
-        self.window.clear();
+        self.receiver.clear_errors();
         Ok(())
     }
 
@@ -519,18 +532,8 @@ impl RflexDriver {
         if count == 0 {
             return Ok(0);
         }
-        let before = self.deframer.stats();
-        let frames = self.deframer.push(&self.buf[..count]);
-        let after = self.deframer.stats();
-        self.window.record(
-            after.frames_ok - before.frames_ok,
-            after.checksum_errors - before.checksum_errors,
-        );
-        for frame in frames {
-            match RflexReport::decode(&frame) {
-                Ok(report) => self.take_report(report),
-                Err(_) => self.stats.undecodable_packets += 1,
-            }
+        for report in self.receiver.push(&self.buf[..count]) {
+            self.take_report(report);
         }
         Ok(count)
     }
@@ -582,24 +585,20 @@ impl RflexDriver {
     fn lost(&mut self, down: LinkDown) {
         self.link.close();
         self.down_reason = Some(down.reason);
-        self.next_reconnect_at = Instant::now();
+        self.retry.now();
     }
 
     /// Tries to reopen the port and start the base up again when a retry is due; otherwise
     /// waits for the retry (at most until `deadline`).
     fn reconnect(&mut self, deadline: Instant) {
-        let now = Instant::now();
-        if now < self.next_reconnect_at {
-            // There is no descriptor to wait on while the port is away: wait for the retry.
-            std::thread::sleep(self.next_reconnect_at.min(deadline) - now);
+        if !self.retry.due_or_wait(deadline) {
             return;
         }
-        self.next_reconnect_at = now + self.config.reconnect_interval;
         if let Err(error) = self.link.reopen(RFLEX_BAUD_BPS) {
             self.down_reason = Some(error.to_string());
             return;
         }
-        self.deframer.reset();
+        self.receiver.reset();
         match self.start_up() {
             Ok(()) => {
                 // The base may have been power-cycled (counts from zero): integrate afresh

@@ -12,13 +12,15 @@ use std::os::fd::BorrowedFd;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use super::health::{DriverHealth, ErrorWindow};
+use super::health::DriverHealth;
 use super::link::{LinkDown, SerialLink};
 use super::port::{LineParity, PortError};
+use super::receiver::{SickReceived, SickReceiver};
+use super::retry::Retry;
 use crate::drivers::framing::DeframerStats;
 use crate::drivers::sick::{
     BaudRate, DEFAULT_PASSWORD, RangeUnit, ReplyBody, Scan, ScanLayout, ScanValue, SickCommand,
-    SickDeframer, SickError, SickFraming, SickReply, telegram_payload,
+    SickError, SickReply,
 };
 
 /// The NACK reply code.
@@ -184,15 +186,14 @@ pub struct SickStats {
 pub struct SickDriver {
     config: SickDriverConfig,
     link: SerialLink,
-    deframer: SickDeframer,
-    window: ErrorWindow,
+    receiver: SickReceiver,
     pending: VecDeque<LaserScan>,
     stats: SickStats,
     baud: Option<BaudRate>,
     streaming_since: Instant,
     last_scan_at: Option<Instant>,
     down_reason: Option<String>,
-    next_reconnect_at: Instant,
+    retry: Retry,
     buf: Vec<u8>,
 }
 
@@ -207,17 +208,16 @@ impl SickDriver {
         let link = SerialLink::open(&config.path, first.bits_per_second(), config.parity)?;
         let now = Instant::now();
         let mut driver = Self {
-            window: ErrorWindow::new(config.crc_window),
+            receiver: SickReceiver::new(config.layout, config.crc_window),
+            retry: Retry::new(config.reconnect_interval),
             config,
             link,
-            deframer: SickDeframer::new(SickFraming::from_scanner()),
             pending: VecDeque::new(),
             stats: SickStats::default(),
             baud: None,
             streaming_since: now,
             last_scan_at: None,
             down_reason: None,
-            next_reconnect_at: now,
             buf: vec![0; 4096],
         };
         driver.setup()?;
@@ -271,7 +271,7 @@ impl SickDriver {
                 deadline: self.config.scan_deadline,
             };
         }
-        let error_rate = self.window.error_rate();
+        let error_rate = self.receiver.error_rate();
         if error_rate > self.config.crc_error_threshold {
             return DriverHealth::ChecksumErrors {
                 path,
@@ -285,7 +285,8 @@ impl SickDriver {
     /// The counters so far.
     pub fn stats(&self) -> SickStats {
         SickStats {
-            frames: self.deframer.stats(),
+            frames: self.receiver.frames(),
+            undecodable_telegrams: self.receiver.undecodable(),
             ..self.stats
         }
     }
@@ -355,7 +356,7 @@ impl SickDriver {
         self.expect_mode_ok(&reply, "continuous streaming")?;
         self.streaming_since = Instant::now();
         self.last_scan_at = None;
-        self.window.clear();
+        self.receiver.clear_errors();
         Ok(())
     }
 
@@ -389,7 +390,7 @@ impl SickDriver {
             .map_err(|down| SickDriverError::Lost {
                 reason: down.reason,
             })?;
-        self.deframer.reset();
+        self.receiver.reset();
         Ok(())
     }
 
@@ -460,49 +461,25 @@ impl SickDriver {
         Ok(count)
     }
 
-    /// Deframes the first `count` bytes of the buffer: scans are queued, other replies
+    /// Decodes the first `count` bytes of the buffer: scans are queued, other replies
     /// returned.
     fn take_bytes(&mut self, count: usize) -> Vec<SickReply> {
-        if count == 0 {
-            return Vec::new();
-        }
-        let before = self.deframer.stats();
-        let frames = self.deframer.push(&self.buf[..count]);
-        let after = self.deframer.stats();
-        self.window.record(
-            after.frames_ok - before.frames_ok,
-            after.checksum_errors - before.checksum_errors,
-        );
         let mut replies = Vec::new();
-        for frame in frames {
-            let reply =
-                telegram_payload(&frame).and_then(|(_, payload)| SickReply::decode(payload));
-            match reply {
-                Ok(SickReply {
-                    body: ReplyBody::Scan(scan),
-                    ..
-                }) => self.queue_scan(scan),
-                Ok(reply) => replies.push(reply),
-                Err(_) => self.stats.undecodable_telegrams += 1,
+        for received in self.receiver.push(&self.buf[..count]) {
+            match received {
+                SickReceived::Scan(scan) => self.queue_scan(scan),
+                SickReceived::Reply(reply) => replies.push(reply),
             }
         }
         replies
     }
 
     fn queue_scan(&mut self, scan: Scan) {
-        let layout = if scan.values.len() == self.config.layout.value_count() {
-            self.config.layout
-        } else {
-            // A scan of another layout (set by another program, or left over from before the
-            // setup) cannot be given angles reliably.
-            self.stats.undecodable_telegrams += 1;
-            return;
-        };
         let now = Instant::now();
         self.stats.scans += 1;
         self.last_scan_at = Some(now);
         self.pending.push_back(LaserScan {
-            layout,
+            layout: self.config.layout,
             scan,
             received_at: now,
         });
@@ -512,19 +489,15 @@ impl SickDriver {
         self.link.close();
         self.baud = None;
         self.down_reason = Some(down.reason);
-        self.next_reconnect_at = Instant::now();
+        self.retry.now();
     }
 
     /// Tries to reopen the port and set the scanner up when a retry is due; otherwise waits
     /// for the retry (at most until `deadline`).
     fn reconnect(&mut self, deadline: Instant) {
-        let now = Instant::now();
-        if now < self.next_reconnect_at {
-            // There is no descriptor to wait on while the port is away: wait for the retry.
-            std::thread::sleep(self.next_reconnect_at.min(deadline) - now);
+        if !self.retry.due_or_wait(deadline) {
             return;
         }
-        self.next_reconnect_at = now + self.config.reconnect_interval;
         let first = self
             .config
             .probe_rates

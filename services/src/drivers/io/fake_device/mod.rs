@@ -8,6 +8,27 @@
 //! as garbage (about as many bytes as the host's rate allows in the same time). Output that
 //! the host does not read is queued up to a bound and then dropped, as on a wire.
 //!
+//! # Which rate the host's bytes were sent at
+//!
+//! A pseudo-terminal keeps no rate per byte: the emulator can only read the host's termios,
+//! and it reads it when it reads the bytes, which may be after the host has moved on to
+//! another rate (a host that probes writes at one rate, waits for a reply, changes the rate
+//! and writes again; an emulator thread held up for longer than that wait reads both writes
+//! at once). So the emulator reads the termios at every read and gives the device both the
+//! rate of its previous read and the rate now ([`HostRates`]): the bytes of one read were
+//! sent at one of them, or at both, when the host changed its rate once in between. A device
+//! hears a telegram when either rate is its own.
+//!
+//! The guarantee, whatever the scheduling of the emulator thread: **a telegram sent at the
+//! device's rate is always heard** as long as the host changed its rate at most once between
+//! writing it and the emulator reading it (a host that waits for a reply or a reply timeout
+//! after every write, as every SICK and RFlex host does, changes it once per wait); **a
+//! telegram sent at another rate is ignored**, except right after the host left the device's
+//! rate (the first read after the change), when the device may hear it and answer: at its own
+//! rate, which the host, now at another, receives as garbage, as it would from a real device
+//! answering late. The replies are garbled by the host's rate when they are written, which
+//! is when a real host would receive them.
+//!
 //! The handle ([`FakeDevice`]) shares the device with the thread: tests and tools inspect it
 //! ([`FakeDevice::with_device`]), wait for a state ([`FakeDevice::wait_for`], woken at every
 //! step of the thread), change faults, and unplug and replug the port.
@@ -51,9 +72,10 @@ pub trait Emulated: Send + 'static {
     /// The baud rate the device talks and listens at now.
     fn line_bps(&self) -> u32;
 
-    /// Takes bytes from the host, sent at `host_bps` (`None`: unknown), and returns the reply
-    /// bytes, which go out at the rate [`Emulated::line_bps`] gave before this call.
-    fn receive(&mut self, host_bps: Option<u32>, bytes: &[u8], now_ns: i64) -> Vec<u8>;
+    /// Takes bytes from the host, sent at one of `host` (see the module documentation), and
+    /// returns the reply bytes, which go out at the rate [`Emulated::line_bps`] gave before
+    /// this call.
+    fn receive(&mut self, host: HostRates, bytes: &[u8], now_ns: i64) -> Vec<u8>;
 
     /// Returns what is due by `now_ns` (scans, reports).
     fn tick(&mut self, now_ns: i64) -> Vec<u8>;
@@ -63,6 +85,31 @@ pub trait Emulated: Send + 'static {
 
     /// The port was plugged back in.
     fn replugged(&mut self, now_ns: i64);
+}
+
+/// The rates the host's port may have had when it wrote the bytes of one read: the rate the
+/// emulator saw at its previous read and the rate now (`None`: unknown, or the hang-up rate 0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HostRates {
+    /// The host's rate at the emulator's previous read (or when the port was opened).
+    pub before_bps: Option<u32>,
+    /// The host's rate now.
+    pub now_bps: Option<u32>,
+}
+
+impl HostRates {
+    /// The host has stayed at `bps`.
+    pub fn steady(bps: u32) -> Self {
+        Self {
+            before_bps: Some(bps),
+            now_bps: Some(bps),
+        }
+    }
+
+    /// Whether the bytes may have been sent at `bps`.
+    pub fn includes(self, bps: u32) -> bool {
+        self.before_bps == Some(bps) || self.now_bps == Some(bps)
+    }
 }
 
 /// Why an emulator could not start or stopped.
@@ -155,6 +202,8 @@ impl<E: Emulated> FakeDevice<E> {
         link: Option<&Path>,
     ) -> Result<Self, FakeDeviceError> {
         let pty = Pty::open(link)?;
+        // Read here, before any host can have opened the port: the thread may start late.
+        let opened_bps = pty.host_baud_bps();
         let (wake_rx, wake_tx) =
             nix::unistd::pipe2(OFlag::O_CLOEXEC | OFlag::O_NONBLOCK).map_err(|errno| {
                 FakeDeviceError::Io {
@@ -186,7 +235,7 @@ impl<E: Emulated> FakeDevice<E> {
         };
         let thread = std::thread::Builder::new()
             .name("fake-device".to_owned())
-            .spawn(move || runner.run(pty))
+            .spawn(move || runner.run(pty, opened_bps))
             .map_err(|error| FakeDeviceError::Stopped {
                 message: format!("cannot start the emulator thread: {error}"),
             })?;
@@ -352,8 +401,8 @@ struct Runner<E> {
 }
 
 impl<E: Emulated> Runner<E> {
-    fn run(mut self, pty: Pty) -> Result<(), FakeDeviceError> {
-        let result = self.serve(Some(pty));
+    fn run(mut self, pty: Pty, opened_bps: Option<u32>) -> Result<(), FakeDeviceError> {
+        let result = self.serve(Some(pty), opened_bps);
         if let Err(error) = &result {
             self.shared.lock().failure = Some(error.to_string());
         }
@@ -361,8 +410,15 @@ impl<E: Emulated> Runner<E> {
         result
     }
 
-    fn serve(&mut self, mut pty: Option<Pty>) -> Result<(), FakeDeviceError> {
+    /// Serves the device; `opened_bps` is the rate the port had when it was made.
+    fn serve(
+        &mut self,
+        mut pty: Option<Pty>,
+        opened_bps: Option<u32>,
+    ) -> Result<(), FakeDeviceError> {
         let mut received = Vec::new();
+        // The host's rate at the previous read: what bytes read next may have been sent at.
+        let mut read_bps = opened_bps;
         loop {
             let now_ns = self.clock.now_ns();
             let next_ns = {
@@ -376,6 +432,7 @@ impl<E: Emulated> Runner<E> {
                         state.path = fresh.path().to_path_buf();
                         state.emulation.replugged(now_ns);
                         state.stats.replugs += 1;
+                        read_bps = fresh.host_baud_bps();
                         pty = Some(fresh);
                     } else if !plugged {
                         pty = None;
@@ -383,15 +440,16 @@ impl<E: Emulated> Runner<E> {
                     }
                     state.stats.plugged = pty.is_some();
                 }
-                state.stats.bytes_to_host += self.output.take_written();
+                let (written, garbled) = self.output.take_counts();
+                state.stats.bytes_to_host += written;
+                state.stats.bytes_garbled += garbled;
                 let next_ns = match &pty {
                     Some(pty) => {
                         let host_bps = pty.host_baud_bps();
                         state.stats.host_baud_bps = host_bps;
                         let line_bps = state.emulation.line_bps();
                         let bytes = state.emulation.tick(now_ns);
-                        self.output
-                            .push(&mut state.stats, &bytes, line_bps, host_bps);
+                        self.output.push(&mut state.stats, &bytes, line_bps);
                         state.emulation.next_event_ns()
                     }
                     // Nothing moves while unplugged: wait for the handle.
@@ -401,7 +459,7 @@ impl<E: Emulated> Runner<E> {
                 next_ns
             };
             if let Some(pty) = &pty {
-                self.output.write(pty.master())?;
+                self.output.write(pty.master(), pty.host_baud_bps())?;
             }
             let master_events = self.wait(pty.as_ref(), poll_timeout(next_ns, now_ns))?;
             drain(self.wake.as_fd());
@@ -427,9 +485,13 @@ impl<E: Emulated> Runner<E> {
                     let excess = state.host_log.len().saturating_sub(HOST_LOG_LIMIT);
                     state.host_log.drain(..excess);
                     let line_bps = state.emulation.line_bps();
-                    let reply = state.emulation.receive(host_bps, &received, now_ns);
-                    self.output
-                        .push(&mut state.stats, &reply, line_bps, host_bps);
+                    let host = HostRates {
+                        before_bps: read_bps,
+                        now_bps: host_bps,
+                    };
+                    read_bps = host_bps;
+                    let reply = state.emulation.receive(host, &received, now_ns);
+                    self.output.push(&mut state.stats, &reply, line_bps);
                 }
             }
         }
@@ -501,18 +563,31 @@ fn drain(wake: BorrowedFd<'_>) {
 }
 
 /// The bytes queued for the host, and the line's garbling of bytes sent at a wrong rate.
+///
+/// Whether the host hears bytes as sent or as garbage is decided when they go out to the
+/// pseudo-terminal (the host receives them then), not when the device made them: a reply
+/// made while the host was at the device's rate, and written after it moved to another,
+/// reaches it as garbage.
 #[derive(Debug)]
 struct Output {
+    /// Device bytes not handed to the pseudo-terminal yet, with the rate they are sent at.
+    pending: VecDeque<(Vec<u8>, u32)>,
+    pending_len: usize,
+    /// Bytes as the host will receive them, being written.
     queue: VecDeque<u8>,
     written: u64,
+    garbled: u64,
     noise_state: u64,
 }
 
 impl Default for Output {
     fn default() -> Self {
         Self {
+            pending: VecDeque::new(),
+            pending_len: 0,
             queue: VecDeque::new(),
             written: 0,
+            garbled: 0,
             noise_state: 0x2545_F491_4F6C_DD1D,
         }
     }
@@ -520,46 +595,50 @@ impl Default for Output {
 
 impl Output {
     fn is_empty(&self) -> bool {
-        self.queue.is_empty()
+        self.queue.is_empty() && self.pending.is_empty()
     }
 
-    /// Queues `bytes` sent at `line_bps` for a host listening at `host_bps`.
-    fn push(
-        &mut self,
-        stats: &mut EmulatorStats,
-        bytes: &[u8],
-        line_bps: u32,
-        host_bps: Option<u32>,
-    ) {
+    /// Queues `bytes` sent at `line_bps`; beyond the bound they are dropped and counted.
+    fn push(&mut self, stats: &mut EmulatorStats, bytes: &[u8], line_bps: u32) {
         if bytes.is_empty() {
             return;
         }
-        let garbled = host_bps != Some(line_bps);
-        let count = if garbled {
-            stats.bytes_garbled += bytes.len() as u64;
-            // As many characters as the host's rate fits in the time the device took.
-            let host_bps = u64::from(host_bps.unwrap_or(0));
-            usize::try_from(bytes.len() as u64 * host_bps / u64::from(line_bps.max(1)))
-                .unwrap_or(usize::MAX)
-        } else {
-            bytes.len()
-        };
-        if self.queue.len() + count > OUTPUT_LIMIT {
+        if self.queue.len() + self.pending_len + bytes.len() > OUTPUT_LIMIT {
             stats.bytes_dropped += bytes.len() as u64;
             return;
         }
-        if garbled {
+        self.pending_len += bytes.len();
+        self.pending.push_back((bytes.to_vec(), line_bps));
+    }
+
+    /// Turns what is pending into what a host at `host_bps` receives: the bytes as sent when
+    /// the rates agree, else as many garbage characters as the host's rate fits in the time
+    /// the device took.
+    fn commit(&mut self, host_bps: Option<u32>) {
+        while let Some((bytes, line_bps)) = self.pending.pop_front() {
+            self.pending_len -= bytes.len();
+            if host_bps == Some(line_bps) {
+                self.queue.extend(bytes);
+                continue;
+            }
+            self.garbled += bytes.len() as u64;
+            let host_bps = u64::from(host_bps.unwrap_or(0));
+            let count = bytes.len() as u64 * host_bps / u64::from(line_bps.max(1));
             for _ in 0..count {
                 let byte = self.next_noise_byte();
                 self.queue.push_back(byte);
             }
-        } else {
-            self.queue.extend(bytes.iter().copied());
         }
     }
 
-    /// Writes what the master takes without blocking.
-    fn write(&mut self, master: BorrowedFd<'_>) -> Result<(), FakeDeviceError> {
+    /// Hands what is pending to a host at `host_bps` and writes what the master takes
+    /// without blocking.
+    fn write(
+        &mut self,
+        master: BorrowedFd<'_>,
+        host_bps: Option<u32>,
+    ) -> Result<(), FakeDeviceError> {
+        self.commit(host_bps);
         while !self.queue.is_empty() {
             let (front, _) = self.queue.as_slices();
             match nix::unistd::write(master, front) {
@@ -580,15 +659,20 @@ impl Output {
         Ok(())
     }
 
-    /// Bytes written since the last call.
-    fn take_written(&mut self) -> u64 {
-        std::mem::take(&mut self.written)
+    /// Bytes written, and device bytes garbled, since the last call.
+    fn take_counts(&mut self) -> (u64, u64) {
+        (
+            std::mem::take(&mut self.written),
+            std::mem::take(&mut self.garbled),
+        )
     }
 
     /// Drops the queue; the bytes dropped.
     fn clear(&mut self) -> u64 {
-        let count = self.queue.len() as u64;
+        let count = (self.queue.len() + self.pending_len) as u64;
         self.queue.clear();
+        self.pending.clear();
+        self.pending_len = 0;
         count
     }
 
@@ -621,10 +705,12 @@ mod tests {
     fn bytes_at_the_wrong_rate_reach_the_host_as_fewer_garbage_bytes() {
         let mut output = Output::default();
         let mut stats = EmulatorStats::default();
-        output.push(&mut stats, &[0x02; 400], 38_400, Some(9_600));
+        output.push(&mut stats, &[0x02; 400], 38_400);
+        output.commit(Some(9_600));
         assert_eq!(output.queue.len(), 100);
-        assert_eq!(stats.bytes_garbled, 400);
-        output.push(&mut stats, &[7, 8], 9_600, Some(9_600));
+        assert_eq!(output.take_counts(), (0, 400));
+        output.push(&mut stats, &[7, 8], 9_600);
+        output.commit(Some(9_600));
         assert_eq!(
             output
                 .queue
@@ -638,12 +724,24 @@ mod tests {
     }
 
     #[test]
+    fn the_host_rate_when_the_bytes_go_out_decides_whether_they_are_garbled() {
+        let mut output = Output::default();
+        let mut stats = EmulatorStats::default();
+        // Made while the host listened at 38400, written after it moved to 9600.
+        output.push(&mut stats, &[0x06; 40], 38_400);
+        output.commit(Some(9_600));
+        assert_eq!(output.queue.len(), 10);
+        assert!(output.queue.iter().any(|&byte| byte != 0x06));
+    }
+
+    #[test]
     fn output_beyond_the_limit_is_dropped_and_counted() {
         let mut output = Output::default();
         let mut stats = EmulatorStats::default();
         let chunk = vec![0; OUTPUT_LIMIT - 10];
-        output.push(&mut stats, &chunk, 9_600, Some(9_600));
-        output.push(&mut stats, &[1; 20], 9_600, Some(9_600));
+        output.push(&mut stats, &chunk, 9_600);
+        output.push(&mut stats, &[1; 20], 9_600);
+        output.commit(Some(9_600));
         assert_eq!(output.queue.len(), OUTPUT_LIMIT - 10);
         assert_eq!(stats.bytes_dropped, 20);
     }

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::{Emulated, FakeDevice, FakeDeviceError};
+use super::{Emulated, FakeDevice, FakeDeviceError, HostRates};
 use crate::drivers::io::clock::MonotonicClock;
 use crate::drivers::io::world_source::{SharedPose, to_sim_pose};
 use crate::drivers::rflex::{RflexDevice, RflexDeviceConfig, SonarSource};
@@ -71,8 +71,8 @@ impl Emulated for RflexEmulation {
         RFLEX_BAUD_BPS
     }
 
-    fn receive(&mut self, host_bps: Option<u32>, bytes: &[u8], now_ns: i64) -> Vec<u8> {
-        if host_bps != Some(RFLEX_BAUD_BPS) {
+    fn receive(&mut self, host: HostRates, bytes: &[u8], now_ns: i64) -> Vec<u8> {
+        if !host.includes(RFLEX_BAUD_BPS) {
             // Bytes at another rate are garbage to the base; it hears nothing.
             return Vec::new();
         }

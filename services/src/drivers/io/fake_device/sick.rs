@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::{Emulated, FakeDevice, FakeDeviceError};
+use super::{Emulated, FakeDevice, FakeDeviceError, HostRates};
 use crate::drivers::io::clock::MonotonicClock;
 use crate::drivers::sick::{BaudRate, RangeSource, SickDevice, SickDeviceConfig};
 
@@ -48,18 +48,10 @@ impl Emulated for SickEmulation {
         self.device.baud().bits_per_second()
     }
 
-    fn receive(&mut self, host_bps: Option<u32>, bytes: &[u8], now_ns: i64) -> Vec<u8> {
-        let heard_at = host_bps
-            .and_then(|bps| BaudRate::from_bits_per_second(bps).ok())
-            .unwrap_or_else(|| {
-                // The host is at a rate no SICK offers: its bytes are garbage to the scanner.
-                // Any rate but the scanner's says so to the state machine.
-                BaudRate::ALL
-                    .into_iter()
-                    .find(|&rate| rate != self.device.baud())
-                    .unwrap_or(BaudRate::B9600)
-            });
-        let reply = self.device.receive(heard_at, bytes);
+    fn receive(&mut self, host: HostRates, bytes: &[u8], now_ns: i64) -> Vec<u8> {
+        let reply = self
+            .device
+            .receive(heard_at(self.device.baud(), host), bytes);
         self.schedule(now_ns);
         reply
     }
@@ -110,5 +102,55 @@ impl FakeDevice<SickEmulation> {
             SickEmulation::new(config, source),
             link,
         )
+    }
+}
+
+/// The rate the scanner hears the host at: its own when the host may have sent at it, else
+/// another one (the bytes are garbage to it).
+fn heard_at(scanner: BaudRate, host: HostRates) -> BaudRate {
+    if host.includes(scanner.bits_per_second()) {
+        return scanner;
+    }
+    BaudRate::ALL
+        .into_iter()
+        .find(|&rate| rate != scanner)
+        .unwrap_or(BaudRate::B9600)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::drivers::sick::SickCommand;
+
+    fn probe() -> Vec<u8> {
+        SickCommand::StopStreaming.telegram().unwrap()
+    }
+
+    fn emulation() -> SickEmulation {
+        SickEmulation::new(SickDeviceConfig::default(), |_| Vec::new())
+    }
+
+    /// The scanner's answer (true) or silence (false) to a probe read with `host`.
+    fn check(host: HostRates, expected_answer: bool) {
+        let mut emulation = emulation();
+        let reply = emulation.receive(host, &probe(), 0);
+        assert_eq!(!reply.is_empty(), expected_answer, "{host:?}");
+    }
+
+    #[test]
+    fn a_probe_is_heard_when_the_host_may_have_sent_it_at_the_scanners_rate() {
+        let at = |before, now| HostRates {
+            before_bps: before,
+            now_bps: now,
+        };
+        check(HostRates::steady(9_600), true);
+        check(HostRates::steady(38_400), false);
+        // Read late, after the host moved on to the next candidate rate: still heard.
+        check(at(Some(9_600), Some(19_200)), true);
+        // Sent at the new rate, right after the host came to the scanner's.
+        check(at(Some(38_400), Some(9_600)), true);
+        check(at(Some(19_200), Some(38_400)), false);
+        check(at(None, None), false);
+        check(at(None, Some(57_600)), false);
     }
 }

@@ -1,0 +1,34 @@
+//! Arbitrary bytes through what the host-side drivers run on every read (the SICK and RFlex
+//! receivers: deframing, checksum windows, scan and report decoding) and through odometry
+//! integration of every report: nothing may panic, buffers stay bounded, poses stay finite.
+#![no_main]
+
+use lewis_services::drivers::io::{RflexReceiver, SickReceiver};
+use lewis_services::drivers::rflex::{
+    MAX_PACKET_LEN, OdometryConversion, OdometryIntegrator, RflexReport,
+};
+use lewis_services::drivers::sick::{MAX_TELEGRAM_LEN, ScanLayout};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&control, bytes)) = data.split_first() else {
+        return;
+    };
+    let chunk = usize::from(control).max(1);
+    let layout = ScanLayout::ALL[usize::from(control) % ScanLayout::ALL.len()];
+    let mut sick = SickReceiver::new(layout, 20);
+    let mut rflex = RflexReceiver::new(40);
+    let mut odometry = OdometryIntegrator::new(OdometryConversion::B21R);
+    for piece in bytes.chunks(chunk) {
+        let _ = sick.push(piece);
+        for report in rflex.push(piece) {
+            if let RflexReport::Odometry(report) = report {
+                let pose = odometry.update(&report);
+                assert!(pose.x_m.is_finite() && pose.y_m.is_finite());
+            }
+        }
+        assert!(sick.buffered_len() <= MAX_TELEGRAM_LEN);
+        assert!(rflex.buffered_len() <= MAX_PACKET_LEN);
+        assert!((0.0..=1.0).contains(&sick.error_rate()));
+    }
+});
