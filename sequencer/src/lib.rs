@@ -8,9 +8,11 @@
 //!
 //! Around it: the live driver (`live`, [`run_mission`]) runs the programs through the
 //! runtime's process supervision and feeds the core; every event and decision goes as a
-//! [`Record`] to a [`RecordSink`] (a JSON-lines file for now, `/lewis/sequencer` later);
+//! [`Record`] to a [`RecordSink`] (`/lewis/sequencer` through the runtime's IPC, as the
+//! `Sequencer` interface: `publish`, `message`; a JSON-lines file);
 //! the supervisor answers on a page (`gui`) or the terminal (`terminal`); and `replay`
-//! feeds recorded events to a script's FSM to show where it decides differently.
+//! feeds recorded events (from an MCAP recording, `mcap_read`, or JSON lines) to a script's
+//! FSM to show where it decides differently.
 //!
 //! # The language
 //!
@@ -62,7 +64,10 @@ pub mod fsm;
 pub mod gui;
 pub mod live;
 pub mod location;
+pub mod mcap_read;
+pub mod message;
 pub mod mission;
+pub mod publish;
 pub mod record;
 pub mod replay;
 pub mod resolve;
@@ -80,9 +85,12 @@ pub use live::{
     control_channel, run_mission,
 };
 pub use location::{Location, Spanned};
+pub use mcap_read::{McapReadError, McapRecords, is_mcap, read_mcap};
+pub use message::{MessageError, from_message, to_message};
 pub use mission::{Mission, MissionState, Target};
+pub use publish::{PublishReport, PublishSink, PublishStartError, Publisher};
 pub use record::{ChannelSink, Entry, JsonLinesSink, Record, RecordSink, Tee};
-pub use replay::{Comparison, Difference, Recording, compare, read_json_lines};
+pub use replay::{Comparison, Difference, Recording, compare, read_json_lines, split_missions};
 pub use resolve::{ProgramResolver, ResolveError, SystemResolver, TrustingResolver};
 pub use script::{Script, parse};
 pub use source::{FileSystem, MemorySources, SourceLoader};

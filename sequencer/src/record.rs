@@ -1,10 +1,10 @@
 //! What the live driver reports: every event it fed the FSM and every decision it got back,
 //! numbered and timed, to a caller-supplied [`RecordSink`].
 //!
-//! The records are what `/lewis/sequencer` will carry once the runtime's IPC exists (a sink
-//! publishing them is all that is missing), what the GUI shows, and what `lewis seq replay`
-//! reads back: until recordings hold them, [`JsonLinesSink`] writes one JSON object per
-//! line (`lewis seq run --events FILE`).
+//! The records are what `/lewis/sequencer` carries ([`crate::publish`], as the `Sequencer`
+//! interface, [`crate::message`]) and so what recordings hold, what the GUI shows, and what
+//! `lewis seq replay` reads back; [`JsonLinesSink`] also writes them as one JSON object per
+//! line (`lewis seq run --events FILE`), for a mission run without a recorder.
 
 use std::fmt;
 use std::fs::File;

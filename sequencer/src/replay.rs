@@ -2,7 +2,7 @@
 //! supervisor's choices) are fed to the FSM of a script, maybe a changed one, and its
 //! decisions are compared with the recorded ones: the regression test for mission scripts.
 //!
-//! Reading ([`read_json_lines`], later an MCAP reader) is kept apart from the comparison
+//! Reading ([`read_json_lines`], [`crate::mcap_read::read_mcap`]) is kept apart from the comparison
 //! ([`Recording::from_records`], [`compare`]), which only sees [`Record`]s.
 
 use std::fmt;
@@ -48,6 +48,28 @@ pub fn read_json_lines(reader: impl BufRead) -> Result<Vec<Record>, ReadError> {
         records.push(record);
     }
     Ok(records)
+}
+
+/// Splits the records of a recording that may hold several missions (a robot that ran
+/// `lewis seq run` twice while recorded) into one slice per mission, each starting at its
+/// [`Entry::MissionStarted`]; records before the first start (a recording begun late) make
+/// a slice of their own, which [`Recording::from_records`] then refuses as cut.
+#[must_use]
+pub fn split_missions(records: &[Record]) -> Vec<&[Record]> {
+    let mut starts: Vec<usize> = records
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| matches!(r.entry, Entry::MissionStarted { .. }))
+        .map(|(i, _)| i)
+        .collect();
+    if !records.is_empty() && starts.first() != Some(&0) {
+        starts.insert(0, 0);
+    }
+    starts
+        .iter()
+        .zip(starts.iter().skip(1).chain([&records.len()]))
+        .map(|(&from, &to)| &records[from..to])
+        .collect()
 }
 
 /// Records that do not make a mission.

@@ -190,6 +190,36 @@ fn records_that_are_not_one_mission_are_refused_with_a_reason() {
 }
 
 #[test]
+fn a_recording_of_several_missions_splits_at_each_start() {
+    let check = |records: &[Record], expected: &[&[u64]]| {
+        let got: Vec<Vec<u64>> = lewis_sequencer::split_missions(records)
+            .iter()
+            .map(|mission| mission.iter().map(|r| r.seq).collect())
+            .collect();
+        assert_eq!(got, expected);
+    };
+    let observed = || Entry::Observed {
+        event: Event::TimedOut,
+    };
+    check(&[], &[]);
+    check(&[record(0, started()), record(1, observed())], &[&[0, 1]]);
+    check(
+        &[
+            record(0, started()),
+            record(1, observed()),
+            record(0, started()),
+        ],
+        &[&[0, 1], &[0]],
+    );
+    // A recording begun late: what comes before the first start is a mission of its own,
+    // which replay refuses as cut.
+    check(
+        &[record(7, observed()), record(0, started())],
+        &[&[7], &[0]],
+    );
+}
+
+#[test]
 fn a_line_that_is_not_a_record_is_reported_with_its_number() {
     let text = "\n{\"seq\":0,\"time_ns\":1,\"entry\":{\"type\":\"observed\",\"event\":{\"kind\":\"timed_out\"}}}\n{\"seq\":1}\n";
     match read_json_lines(text.as_bytes()) {

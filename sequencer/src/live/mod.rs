@@ -14,7 +14,7 @@
 mod control;
 mod signals;
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::io;
 use std::path::PathBuf;
 use std::sync::mpsc::SyncSender;
@@ -44,6 +44,9 @@ pub struct RunOptions {
     /// Where the programs' output lines go, besides `tracing`; each [`LogLine`] is named after
     /// its state. Lines are dropped (and counted by the supervisor) when the channel is full.
     pub log_lines: Option<SyncSender<LogLine>>,
+    /// Variables set for every program before the script's own `env` (which win): what the
+    /// caller knows and the script should not have to say, such as `LEWIS_NAMESPACE`.
+    pub env: BTreeMap<String, String>,
 }
 
 impl RunOptions {
@@ -54,6 +57,7 @@ impl RunOptions {
             script: script.into(),
             stop_grace: DEFAULT_STOP_GRACE,
             log_lines: None,
+            env: BTreeMap::new(),
         }
     }
 }
@@ -115,6 +119,7 @@ pub fn run_mission(
         current: None,
         outcome: None,
         stop_grace: options.stop_grace,
+        env: options.env,
     };
     driver.recorder.emit(Entry::MissionStarted {
         script: options.script,
@@ -170,6 +175,7 @@ struct Driver<'s> {
     current: Option<Current>,
     outcome: Option<Outcome>,
     stop_grace: Duration,
+    env: BTreeMap<String, String>,
 }
 
 impl Driver<'_> {
@@ -255,7 +261,7 @@ impl Driver<'_> {
                 let mut spec = ChildSpec::new(state.clone(), program)
                     .args(args)
                     .stop_grace(self.stop_grace);
-                for (key, value) in env {
+                for (key, value) in self.env.iter().chain(&env) {
                     spec = spec.env(key, value);
                 }
                 match self.supervisor.start(spec) {
