@@ -1,12 +1,22 @@
 //! Lewis replay: reading MCAP recordings, deterministic re-simulation in lockstep,
 //! fault injection, comparison reports and live playback.
 //!
-//! So far: [`info`], what a recording holds (`lewis info`), and [`json`], decoded values
-//! as JSON.
+//! - [`info`]: what a recording holds (`lewis info`); [`json`]: decoded values as JSON.
+//! - [`recording`]: a recording's files, robot and messages in one total order.
+//! - [`lockstep`]: the harness that runs the broker's decision core and services on a
+//!   virtual clock, fed from a recording.
+//! - [`resim`]: `lewis replay`, the re-simulation of a recording into a new one with a
+//!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
 
+pub mod compare;
+pub mod fault;
 pub mod import;
 pub mod info;
 pub mod json;
+pub mod lockstep;
+pub mod recording;
+pub mod report;
+pub mod resim;
 
 pub use info::{InfoError, InfoOptions, InfoReport, inspect};
 pub use json::JsonValue;

@@ -7,7 +7,7 @@
 
 mod render;
 mod scan;
-mod summary;
+pub(crate) mod summary;
 
 use std::collections::BTreeMap;
 use std::fs::File;

@@ -11,7 +11,7 @@ use mcap::sans_io::{
 use mcap::{McapError, Summary};
 
 /// Why the summary could not be used.
-pub(super) enum SummaryFailure {
+pub(crate) enum SummaryFailure {
     Io(io::Error),
     Format(McapError),
 }
@@ -23,7 +23,7 @@ impl From<io::Error> for SummaryFailure {
 }
 
 /// The summary, `None` when the file has none.
-pub(super) fn read_summary(
+pub(crate) fn read_summary(
     file: &mut File,
     file_size: u64,
 ) -> Result<Option<Summary>, SummaryFailure> {
@@ -74,7 +74,7 @@ pub(super) fn read_header(
 }
 
 /// Reads the metadata record an index points at.
-pub(super) fn read_metadata(
+pub(crate) fn read_metadata(
     file: &mut File,
     index: &MetadataIndex,
 ) -> Result<Metadata, SummaryFailure> {

@@ -1,0 +1,151 @@
+//! `lewis replay RUN.mcap [RUN2.mcap ...]`: deterministic re-simulation of a recording,
+//! with faults injected and a comparison with what was recorded.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context as _;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use lewis_replay::fault::FaultSpec;
+use lewis_replay::resim::{
+    DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay,
+};
+
+use crate::service::registry;
+
+/// Arguments of `lewis replay`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Fault SPECs: PROVIDER[@START[-END]][:KIND], KIND one of \
+    crash, stall (the default), garbage, out-of-service; times from the start of the \
+    recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser half-way \
+    through; `laser@12.5s-20s:crash` crashes it for a window, then lets it recover.\n\n\
+    Exit codes: 0 replayed (and, with --check, the outputs match); 1 --check found \
+    outputs beyond the tolerance; 2 the replay could not run."
+)]
+pub struct ReplayArgs {
+    /// The recording (several files: parts of one run, merged in time order).
+    #[arg(required = true, value_name = "RUN.mcap")]
+    pub inputs: Vec<PathBuf>,
+    /// The output recording (default: RUN.replay.mcap beside the first input).
+    #[arg(short, long, value_name = "OUT.mcap")]
+    pub output: Option<PathBuf>,
+    /// Re-simulate these services (comma-separated) instead of every non-source service.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        conflicts_with = "all",
+        value_name = "A,B"
+    )]
+    pub services: Option<Vec<String>>,
+    /// Re-simulate every service this lewis can build, sources included.
+    #[arg(long)]
+    pub all: bool,
+    /// Inject a fault (repeat for several).
+    #[arg(long = "inject-fault", value_name = "SPEC", value_parser = parse_fault)]
+    pub faults: Vec<FaultSpec>,
+    /// Exit 1 when re-simulated outputs differ from the recorded ones beyond the tolerance.
+    #[arg(long)]
+    pub check: bool,
+    /// The absolute tolerance on numbers for --check.
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE, value_name = "X")]
+    pub tolerance: f64,
+    /// Also write the report as JSON to this file.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// Print the report as JSON on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The kinds that talk to a device or to the simulated world: fed from the recording by
+/// default, even when they require something (the simulated sensors require GroundTruth).
+const SOURCE_KINDS: &[&str] = &[
+    lewis_services::sim::service::base::KIND,
+    lewis_services::sim::service::laser::KIND,
+    lewis_services::sim::service::sonar::KIND,
+    lewis_services::sim::service::camera::KIND,
+    lewis_services::drivers::service::sick::KIND,
+    lewis_services::drivers::service::rflex::KIND,
+    lewis_services::camera::KIND,
+    lewis_services::testing::range::KIND,
+];
+
+fn parse_fault(text: &str) -> Result<FaultSpec, String> {
+    text.parse()
+        .map_err(|e: lewis_replay::fault::FaultError| e.to_string())
+}
+
+/// Runs `lewis replay`.
+pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
+    let mut options = ReplayOptions::new(args.inputs.clone());
+    options.output = Some(
+        args.output
+            .clone()
+            .unwrap_or_else(|| default_output(&args.inputs[0])),
+    );
+    options.services = match (&args.services, args.all) {
+        (_, true) => ServiceSelection::All,
+        (Some(names), false) => ServiceSelection::Only(names.clone()),
+        (None, false) => ServiceSelection::NonSources,
+    };
+    options.faults.clone_from(&args.faults);
+    options.tolerance = args.tolerance;
+    options.source_kinds = SOURCE_KINDS.iter().map(|k| (*k).to_owned()).collect();
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let bar = ProgressBar::new(1000);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "replaying {bar:40} {percent:>3}% {msg} ({elapsed} elapsed, {eta} left)",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    });
+    let mut on_progress = |p: Progress| {
+        if let Some(bar) = &bar {
+            let permille = if p.total_ns > 0 {
+                u64::try_from(p.done_ns.saturating_mul(1000) / p.total_ns).unwrap_or(0)
+            } else {
+                1000
+            };
+            bar.set_position(permille.min(1000));
+            bar.set_message(format!(
+                "{:.1}s of {:.1}s, {} messages",
+                secs(p.done_ns),
+                secs(p.total_ns),
+                p.messages
+            ));
+        }
+    };
+    let report = replay(&options, &registry(), &mut on_progress);
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let report = report?;
+    if let Some(path) = &args.report {
+        let json = serde_json::to_string_pretty(&report)?;
+        std::fs::write(path, json + "\n")
+            .with_context(|| format!("cannot write the report to {}", path.display()))?;
+    }
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut out, &report)?;
+        writeln!(out)?;
+    } else {
+        writeln!(out, "{report}")?;
+    }
+    Ok(if args.check && !report.check.passed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+// For display only.
+#[allow(clippy::cast_precision_loss)]
+fn secs(ns: i64) -> f64 {
+    ns as f64 / 1e9
+}

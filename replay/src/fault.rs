@@ -1,0 +1,347 @@
+//! Fault specifications (`--inject-fault SPEC`): which provider fails, when, how, and
+//! whether it recovers.
+//!
+//! `PROVIDER[@START[-END]][:KIND]`: `laser` (stalls half-way through the recording),
+//! `laser@12.5s`, `laser@12.5s:crash`, `laser@12.5s-20s` (a window, then recovery). Times
+//! are from the start of the recording, in seconds (`12.5s`, `12.5`) or milliseconds
+//! (`500ms`). Kinds:
+//!
+//! | kind | what the provider does from START | what the broker sees |
+//! |---|---|---|
+//! | `stall` (default) | no data, no heartbeat | a missed heartbeat deadline |
+//! | `crash` | its process exits (SIGABRT), again at every restart until END | exits, restarts, then failure |
+//! | `garbage` | publishes bytes that do not decode, same sizes | nothing (heartbeats go on) |
+//! | `out-of-service` | no data; heartbeats declare it out of service | clients moved away at once |
+
+use std::fmt;
+use std::str::FromStr;
+
+use lewis_runtime::robot::Robot;
+use serde::Serialize;
+
+/// How a provider fails.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultKind {
+    /// No data and no heartbeat: the broker sees the deadline pass.
+    Stall,
+    /// The process exits with SIGABRT, and again at every restart while the fault lasts.
+    Crash,
+    /// Data that does not decode, heartbeats as usual.
+    Garbage,
+    /// No data; the heartbeats declare the provider out of service.
+    OutOfService,
+}
+
+impl FaultKind {
+    /// Every kind's name, as written in a SPEC.
+    pub const NAMES: &'static str = "crash, stall, garbage, out-of-service";
+
+    /// The name as written in a SPEC.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Stall => "stall",
+            Self::Crash => "crash",
+            Self::Garbage => "garbage",
+            Self::OutOfService => "out-of-service",
+        }
+    }
+}
+
+impl fmt::Display for FaultKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A fault as written on the command line, times relative to the recording's start.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FaultSpec {
+    /// The text it was parsed from.
+    pub text: String,
+    /// The service that fails.
+    pub provider: String,
+    /// When, in nanoseconds from the start (`None`: half-way through).
+    pub at_ns: Option<i64>,
+    /// When it recovers, in nanoseconds from the start (`None`: never).
+    pub until_ns: Option<i64>,
+    /// How it fails.
+    pub kind: FaultKind,
+}
+
+/// A fault placed on the recording's clock.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Fault {
+    /// The SPEC it came from.
+    pub spec: String,
+    /// The service that fails.
+    pub provider: String,
+    /// How it fails.
+    pub kind: FaultKind,
+    /// When it starts, on the recording's log-time clock, in nanoseconds.
+    pub at_ns: i64,
+    /// When it ends, on the same clock (`None`: never).
+    pub until_ns: Option<i64>,
+}
+
+impl Fault {
+    /// Whether the fault holds at `now_ns`.
+    #[must_use]
+    pub fn active_at(&self, now_ns: i64) -> bool {
+        now_ns >= self.at_ns && self.until_ns.is_none_or(|end| now_ns < end)
+    }
+}
+
+/// Why a fault SPEC is not valid.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FaultError {
+    /// The text does not follow the syntax.
+    #[error(
+        "fault `{spec}`: {reason}; write PROVIDER[@START[-END]][:KIND] with KIND one of {kinds}, e.g. laser@12.5s:crash",
+        kinds = FaultKind::NAMES
+    )]
+    Syntax {
+        /// The SPEC.
+        spec: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The robot has no such service.
+    #[error("fault `{spec}`: the recorded robot has no service `{provider}`; it has: {known}")]
+    UnknownProvider {
+        /// The SPEC.
+        spec: String,
+        /// The name given.
+        provider: String,
+        /// The services it has, comma-separated.
+        known: String,
+    },
+    /// A time falls outside the recording.
+    #[error(
+        "fault `{spec}`: {time} is outside the recording; choose times from 0s to {duration} (its length)"
+    )]
+    OutsideRecording {
+        /// The SPEC.
+        spec: String,
+        /// The time, for people.
+        time: String,
+        /// The recording's length, for people.
+        duration: String,
+    },
+}
+
+impl FromStr for FaultSpec {
+    type Err = FaultError;
+
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        let syntax = |reason: &str| FaultError::Syntax {
+            spec: text.to_owned(),
+            reason: reason.to_owned(),
+        };
+        let (rest, kind) = match text.split_once(':') {
+            Some((rest, kind)) => (
+                rest,
+                match kind {
+                    "crash" => FaultKind::Crash,
+                    "stall" => FaultKind::Stall,
+                    "garbage" => FaultKind::Garbage,
+                    "out-of-service" => FaultKind::OutOfService,
+                    other => return Err(syntax(&format!("unknown kind `{other}`"))),
+                },
+            ),
+            None => (text, FaultKind::Stall),
+        };
+        let (provider, window) = match rest.split_once('@') {
+            Some((provider, window)) => (provider, Some(window)),
+            None => (rest, None),
+        };
+        if provider.is_empty()
+            || !provider
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(syntax("the provider must be a service name"));
+        }
+        let (at_ns, until_ns) = match window {
+            None => (None, None),
+            Some(window) => {
+                let (start, end) = match window.split_once('-') {
+                    Some((start, end)) => (start, Some(end)),
+                    None => (window, None),
+                };
+                let start = parse_time(start).ok_or_else(|| {
+                    syntax(&format!("`{start}` is not a time (12.5s, 12.5 or 500ms)"))
+                })?;
+                let end = match end {
+                    Some(end) => Some(parse_time(end).ok_or_else(|| {
+                        syntax(&format!("`{end}` is not a time (12.5s, 12.5 or 500ms)"))
+                    })?),
+                    None => None,
+                };
+                if end.is_some_and(|end| end <= start) {
+                    return Err(syntax("the window ends before it starts"));
+                }
+                (Some(start), end)
+            }
+        };
+        Ok(Self {
+            text: text.to_owned(),
+            provider: provider.to_owned(),
+            at_ns,
+            until_ns,
+            kind,
+        })
+    }
+}
+
+impl FaultSpec {
+    /// Places the fault on a recording of `robot` spanning `start_ns..=end_ns` (log time).
+    ///
+    /// # Errors
+    /// When the robot has no such service or a time is outside the recording.
+    pub fn resolve(&self, robot: &Robot, start_ns: i64, end_ns: i64) -> Result<Fault, FaultError> {
+        if robot.service(&self.provider).is_none() {
+            return Err(FaultError::UnknownProvider {
+                spec: self.text.clone(),
+                provider: self.provider.clone(),
+                known: robot
+                    .services
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        let length_ns = end_ns.saturating_sub(start_ns).max(0);
+        let outside = |t: i64| FaultError::OutsideRecording {
+            spec: self.text.clone(),
+            time: format_seconds(t),
+            duration: format_seconds(length_ns),
+        };
+        let at = self.at_ns.unwrap_or(length_ns / 2);
+        if at > length_ns {
+            return Err(outside(at));
+        }
+        if let Some(until) = self.until_ns
+            && until > length_ns
+        {
+            return Err(outside(until));
+        }
+        Ok(Fault {
+            spec: self.text.clone(),
+            provider: self.provider.clone(),
+            kind: self.kind,
+            at_ns: start_ns.saturating_add(at),
+            until_ns: self.until_ns.map(|u| start_ns.saturating_add(u)),
+        })
+    }
+}
+
+/// `12.5s`, `12.5` (seconds) or `500ms`, as nanoseconds; `None` when not a finite,
+/// non-negative time.
+fn parse_time(text: &str) -> Option<i64> {
+    let (number, scale) = if let Some(ms) = text.strip_suffix("ms") {
+        (ms, 1e6)
+    } else if let Some(s) = text.strip_suffix('s') {
+        (s, 1e9)
+    } else {
+        (text, 1e9)
+    };
+    let value: f64 = number.parse().ok()?;
+    let ns = (value * scale).round();
+    // Bounded above, so the cast cannot overflow.
+    #[allow(clippy::cast_possible_truncation)]
+    (value.is_finite() && value >= 0.0 && ns < 9.0e18).then_some(ns as i64)
+}
+
+/// A duration in seconds for people: `12.5s`.
+#[must_use]
+pub fn format_seconds(ns: i64) -> String {
+    // For display only: the rounding of large values does not matter.
+    #[allow(clippy::cast_precision_loss)]
+    let seconds = ns as f64 / 1e9;
+    let text = format!("{seconds:.3}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    format!("{text}s")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    type Parsed<'a> = (&'a str, Option<i64>, Option<i64>, FaultKind);
+
+    fn check(text: &str, expected: Result<Parsed<'_>, &str>) {
+        let got = text.parse::<FaultSpec>();
+        match (got, expected) {
+            (Ok(spec), Ok((provider, at, until, kind))) => {
+                assert_eq!(
+                    (spec.provider.as_str(), spec.at_ns, spec.until_ns, spec.kind),
+                    (provider, at, until, kind),
+                    "{text}"
+                );
+            }
+            (Err(e), Err(part)) => assert!(e.to_string().contains(part), "{text}: {e}"),
+            (got, expected) => panic!("{text}: got {got:?}, expected {expected:?}"),
+        }
+    }
+
+    #[test]
+    fn specs_name_a_provider_a_time_a_window_and_a_kind() {
+        check("laser", Ok(("laser", None, None, FaultKind::Stall)));
+        check(
+            "laser@12.5s",
+            Ok(("laser", Some(12_500_000_000), None, FaultKind::Stall)),
+        );
+        check(
+            "laser@12.5:crash",
+            Ok(("laser", Some(12_500_000_000), None, FaultKind::Crash)),
+        );
+        check(
+            "sim-laser@500ms-2s:garbage",
+            Ok((
+                "sim-laser",
+                Some(500_000_000),
+                Some(2_000_000_000),
+                FaultKind::Garbage,
+            )),
+        );
+        check(
+            "laser:out-of-service",
+            Ok(("laser", None, None, FaultKind::OutOfService)),
+        );
+    }
+
+    #[test]
+    fn malformed_specs_say_what_is_wrong_and_how_to_write_one() {
+        check("laser:explode", Err("unknown kind `explode`"));
+        check("laser@soon", Err("`soon` is not a time"));
+        check("laser@5s-2s", Err("ends before it starts"));
+        check("@5s", Err("the provider must be a service name"));
+        check("laser@-1s", Err("is not a time"));
+        check("laser:x", Err("e.g. laser@12.5s:crash"));
+    }
+
+    #[test]
+    fn resolving_checks_the_provider_and_the_recording_length() {
+        let robot = lewis_runtime::robot::parse(
+            "[robot]\nname = \"r\"\n[[services]]\nname = \"laser\"\nkind = \"k\"\nprovides = [{ interface = \"RangeFinder\", quality = 1, cost = 1 }]\n",
+            std::path::Path::new("r.toml"),
+            &["RangeFinder"],
+        )
+        .unwrap();
+        let spec: FaultSpec = "laser".parse().unwrap();
+        let fault = spec.resolve(&robot, 100, 10_000_000_100).unwrap();
+        assert_eq!(fault.at_ns, 5_000_000_100);
+        let late: FaultSpec = "laser@12s".parse().unwrap();
+        let e = late.resolve(&robot, 100, 10_000_000_100).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "fault `laser@12s`: 12s is outside the recording; choose times from 0s to 10s (its length)"
+        );
+        let unknown: FaultSpec = "sonar".parse().unwrap();
+        let e = unknown.resolve(&robot, 0, 1).unwrap_err();
+        assert!(e.to_string().contains("it has: laser"), "{e}");
+    }
+}

@@ -1,0 +1,102 @@
+//! What a recorded topic is to the harness, from the runtime's channel names
+//! ([`lewis_runtime::names`]).
+
+use lewis_runtime::names;
+use lewis_runtime::robot::Robot;
+
+/// What a recorded topic carries.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Route {
+    /// A provider's publications of an interface (`/<service>/<Interface>`).
+    Data {
+        /// The provider.
+        service: String,
+        /// The interface.
+        interface: String,
+    },
+    /// A service's heartbeats (`/lewis/health/<service>`).
+    Health {
+        /// The service.
+        service: String,
+    },
+    /// The commands a service answered (`/lewis/commands/<service>`).
+    Commands {
+        /// The service.
+        service: String,
+    },
+    /// The broker's decisions (`/lewis/broker`).
+    Broker,
+    /// Anything else (logs, the recorder's stats, topics of other programs).
+    Other,
+}
+
+/// The route of `topic` in a recording of `robot`.
+#[must_use]
+pub fn route(topic: &str, robot: &Robot) -> Route {
+    let service_of = |name: &str| robot.service(name).map(|s| s.name.clone());
+    if let Some(service) = topic
+        .strip_prefix(&names::health_channel(""))
+        .and_then(service_of)
+    {
+        return Route::Health { service };
+    }
+    if let Some(service) = topic
+        .strip_prefix(&names::command_log_channel(""))
+        .and_then(service_of)
+    {
+        return Route::Commands { service };
+    }
+    if topic == names::BROKER_CHANNEL {
+        return Route::Broker;
+    }
+    let mut parts = topic.strip_prefix('/').unwrap_or("").splitn(2, '/');
+    if let (Some(service), Some(interface)) = (parts.next(), parts.next())
+        && let Some(spec) = robot.service(service)
+        && spec.provision(interface).is_some()
+    {
+        return Route::Data {
+            service: service.to_owned(),
+            interface: interface.to_owned(),
+        };
+    }
+    Route::Other
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn topics_are_routed_by_the_runtime_names() {
+        let robot = lewis_runtime::robot::parse(
+            "[robot]\nname = \"r\"\n[[services]]\nname = \"laser\"\nkind = \"k\"\nprovides = [{ interface = \"RangeFinder\", quality = 1, cost = 1 }]\n",
+            std::path::Path::new("r.toml"),
+            &["RangeFinder"],
+        )
+        .unwrap();
+        let check = |topic: &str, expected: Route| assert_eq!(route(topic, &robot), expected);
+        check(
+            "/laser/RangeFinder",
+            Route::Data {
+                service: "laser".into(),
+                interface: "RangeFinder".into(),
+            },
+        );
+        check(
+            "/lewis/health/laser",
+            Route::Health {
+                service: "laser".into(),
+            },
+        );
+        check(
+            "/lewis/commands/laser",
+            Route::Commands {
+                service: "laser".into(),
+            },
+        );
+        check("/lewis/broker", Route::Broker);
+        check("/laser/Distance", Route::Other);
+        check("/lewis/health/sonar", Route::Other);
+        check("/lewis/log", Route::Other);
+    }
+}

@@ -1,0 +1,201 @@
+//! The merged message stream of a recording's files, in total order.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use lewis_runtime::service::decode_header_seq;
+use mcap::Summary;
+use mcap::sans_io::indexed_reader::{IndexedReadEvent, IndexedReader, IndexedReaderOptions};
+
+use super::RecordingError;
+
+/// One recorded message.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RecordedMessage {
+    /// Its topic.
+    pub topic: Arc<str>,
+    /// When the recorder received it (MCAP `log_time`): the replay's virtual time.
+    pub log_time_ns: i64,
+    /// The header's publish time (MCAP `publish_time`).
+    pub publish_time_ns: i64,
+    /// The header's sequence number (0 when the bytes have no valid header).
+    pub seq: u64,
+    /// The CDR bytes.
+    pub data: Vec<u8>,
+}
+
+/// The order key of a message: log time, topic, sequence number, then file and position.
+type Key = (i64, Arc<str>, u64, usize, u64);
+
+struct FileStream {
+    path: PathBuf,
+    file: File,
+    reader: IndexedReader,
+    topics: BTreeMap<u16, Arc<str>>,
+    chunk: Vec<u8>,
+    head: Option<RecordedMessage>,
+    position: u64,
+}
+
+impl FileStream {
+    fn pull(&mut self) -> Result<Option<RecordedMessage>, RecordingError> {
+        loop {
+            let request = match self.reader.next_event() {
+                None => return Ok(None),
+                Some(Err(e)) => return Err(self.format(&e)),
+                Some(Ok(IndexedReadEvent::ReadChunkRequest { offset, length })) => (offset, length),
+                Some(Ok(IndexedReadEvent::Message { header, data })) => {
+                    let Some(topic) = self.topics.get(&header.channel_id) else {
+                        continue;
+                    };
+                    return Ok(Some(RecordedMessage {
+                        topic: topic.clone(),
+                        log_time_ns: i64::try_from(header.log_time).unwrap_or(i64::MAX),
+                        publish_time_ns: i64::try_from(header.publish_time).unwrap_or(i64::MAX),
+                        seq: decode_header_seq(data),
+                        data: data.to_vec(),
+                    }));
+                }
+            };
+            let (offset, length) = request;
+            self.chunk.resize(length, 0);
+            let io = |source| RecordingError::Io {
+                path: self.path.clone(),
+                source,
+            };
+            self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
+            self.file.read_exact(&mut self.chunk).map_err(io)?;
+            if let Err(e) = self.reader.insert_chunk_record_data(offset, &self.chunk) {
+                return Err(self.format(&e));
+            }
+        }
+    }
+
+    fn format(&self, e: &mcap::McapError) -> RecordingError {
+        RecordingError::Format {
+            path: self.path.clone(),
+            reason: e.to_string(),
+        }
+    }
+
+    fn fill(&mut self) -> Result<(), RecordingError> {
+        if self.head.is_none() {
+            self.head = self.pull()?;
+        }
+        Ok(())
+    }
+}
+
+/// The messages of a recording in total order; an iterator of results.
+pub struct Messages {
+    streams: Vec<FileStream>,
+    ready: VecDeque<RecordedMessage>,
+    failed: bool,
+}
+
+impl std::fmt::Debug for Messages {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Messages")
+            .field("files", &self.streams.len())
+            .field("ready", &self.ready.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Messages {
+    pub(super) fn open(
+        files: &[(PathBuf, Summary)],
+        topics: Option<&[&str]>,
+    ) -> Result<Self, RecordingError> {
+        let mut streams = Vec::new();
+        for (path, summary) in files {
+            let mut options = IndexedReaderOptions::new();
+            if let Some(topics) = topics {
+                options = options.include_topics(topics.iter().map(|t| (*t).to_owned()));
+            }
+            let reader = IndexedReader::new_with_options(summary, options).map_err(|e| {
+                RecordingError::Format {
+                    path: path.clone(),
+                    reason: e.to_string(),
+                }
+            })?;
+            let file = File::open(path).map_err(|source| RecordingError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let topics = summary
+                .channels
+                .iter()
+                .map(|(id, c)| (*id, Arc::from(c.topic.as_str())))
+                .collect();
+            streams.push(FileStream {
+                path: path.clone(),
+                file,
+                reader,
+                topics,
+                chunk: Vec::new(),
+                head: None,
+                position: 0,
+            });
+        }
+        Ok(Self {
+            streams,
+            ready: VecDeque::new(),
+            failed: false,
+        })
+    }
+
+    /// Gathers every message at the earliest pending log time, from every file, sorted.
+    fn refill(&mut self) -> Result<(), RecordingError> {
+        for stream in &mut self.streams {
+            stream.fill()?;
+        }
+        let Some(time) = self
+            .streams
+            .iter()
+            .filter_map(|s| s.head.as_ref().map(|m| m.log_time_ns))
+            .min()
+        else {
+            return Ok(());
+        };
+        let mut batch: BTreeMap<Key, RecordedMessage> = BTreeMap::new();
+        for (file, stream) in self.streams.iter_mut().enumerate() {
+            while stream.head.as_ref().is_some_and(|m| m.log_time_ns == time) {
+                if let Some(message) = stream.head.take() {
+                    stream.position += 1;
+                    let key = (
+                        time,
+                        message.topic.clone(),
+                        message.seq,
+                        file,
+                        stream.position,
+                    );
+                    batch.insert(key, message);
+                }
+                stream.fill()?;
+            }
+        }
+        self.ready.extend(batch.into_values());
+        Ok(())
+    }
+}
+
+impl Iterator for Messages {
+    type Item = Result<RecordedMessage, RecordingError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.failed {
+            return None;
+        }
+        if self.ready.is_empty()
+            && let Err(e) = self.refill()
+        {
+            self.failed = true;
+            return Some(Err(e));
+        }
+        self.ready.pop_front().map(Ok)
+    }
+}

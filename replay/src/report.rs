@@ -1,0 +1,353 @@
+//! The report of a replay: what was re-simulated, the faults and the broker's reactions to
+//! them, the longest time a client went without data, and how far the re-simulated outputs
+//! are from the recorded ones. `Display` gives the text for people, `Serialize` the JSON.
+//! Times are from the start of the recording, in nanoseconds.
+
+use std::fmt;
+
+use lewis_runtime::broker::{Action, Decision};
+use serde::Serialize;
+
+use crate::compare::ChannelDivergence;
+use crate::fault::{Fault, FaultKind, format_seconds};
+use crate::lockstep::{Gap, HarnessStats};
+
+/// At most this many reactions are listed per fault.
+const MAX_REACTIONS: usize = 32;
+
+/// The report of one replay.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The recordings replayed.
+    pub inputs: Vec<String>,
+    /// The file written.
+    pub output: String,
+    /// The robot's name.
+    pub robot: String,
+    /// The log time of the recording's first message (the origin of every other time).
+    pub start_ns: i64,
+    /// The recording's length.
+    pub duration_ns: i64,
+    /// The services run in the harness.
+    pub resimulated: Vec<String>,
+    /// The services fed from the recording.
+    pub fed: Vec<String>,
+    /// Recorded messages read.
+    pub messages_read: u64,
+    /// Messages written (recorded copies and re-simulated outputs).
+    pub messages_written: u64,
+    /// Broker decisions taken in the replay.
+    pub decisions: u64,
+    /// The faults injected and what the broker did about them.
+    pub faults: Vec<FaultReport>,
+    /// The longest time a re-simulated client went without data of an interface.
+    pub longest_gap: Option<Gap>,
+    /// Per output channel, how far the re-simulated outputs are from the recorded ones.
+    pub divergence: Vec<ChannelDivergence>,
+    /// What the harness did.
+    pub harness: HarnessStats,
+    /// The regression check.
+    pub check: CheckOutcome,
+}
+
+/// One injected fault and the broker's reactions.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FaultReport {
+    /// The SPEC.
+    pub spec: String,
+    /// The provider that failed.
+    pub provider: String,
+    /// How.
+    pub kind: FaultKind,
+    /// When it started.
+    pub at_ns: i64,
+    /// When it ended, if it did.
+    pub until_ns: Option<i64>,
+    /// The broker's decisions about the provider while the fault lasted, in order.
+    pub reactions: Vec<Reaction>,
+    /// Clients moved to another provider.
+    pub takeovers: Vec<Takeover>,
+}
+
+/// One decision of the broker after a fault.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Reaction {
+    /// When.
+    pub at_ns: i64,
+    /// How long after the fault started.
+    pub latency_ns: i64,
+    /// What it decided.
+    pub action: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// A client moved to another provider after a fault.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Takeover {
+    /// The client.
+    pub client: String,
+    /// The interface.
+    pub interface: String,
+    /// The provider that took over.
+    pub provider: String,
+    /// When.
+    pub at_ns: i64,
+    /// How long after the fault started.
+    pub latency_ns: i64,
+}
+
+/// The outcome of the comparison with the recording.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CheckOutcome {
+    /// The absolute tolerance on numbers.
+    pub tolerance: f64,
+    /// Whether every output channel is within it.
+    pub passed: bool,
+    /// The channels that are not.
+    pub failing: Vec<String>,
+}
+
+impl CheckOutcome {
+    /// The outcome for these divergences.
+    #[must_use]
+    pub fn of(tolerance: f64, divergence: &[ChannelDivergence]) -> Self {
+        let failing: Vec<String> = divergence
+            .iter()
+            .filter(|d| d.differing > 0)
+            .map(|d| d.channel.clone())
+            .collect();
+        Self {
+            tolerance,
+            passed: failing.is_empty(),
+            failing,
+        }
+    }
+}
+
+/// The reactions to `fault` among `decisions` (times relative to `start_ns`).
+#[must_use]
+pub fn fault_report(fault: &Fault, decisions: &[Decision], start_ns: i64) -> FaultReport {
+    let provider = fault.provider.as_str();
+    let during =
+        |d: &&Decision| d.at_ns >= fault.at_ns && fault.until_ns.is_none_or(|end| d.at_ns < end);
+    let mut reactions = Vec::new();
+    let mut takeovers = Vec::new();
+    let mut unbound: Vec<(String, String)> = Vec::new();
+    for decision in decisions.iter().filter(during) {
+        let concerns = match &decision.action {
+            Action::Start { service }
+            | Action::Stop { service }
+            | Action::RestartScheduled { service, .. }
+            | Action::ServiceFailed { service } => service == provider,
+            Action::Rebind {
+                client,
+                interface,
+                from,
+                to,
+            } => {
+                if from == provider {
+                    takeovers.push(takeover(client, interface, to, decision, fault, start_ns));
+                }
+                from == provider
+            }
+            Action::Unbind {
+                client,
+                interface,
+                service,
+            } => {
+                if service == provider {
+                    unbound.push((client.clone(), interface.clone()));
+                }
+                service == provider
+            }
+            Action::Bind {
+                client,
+                interface,
+                service,
+            } => {
+                let back = unbound
+                    .iter()
+                    .position(|(c, i)| c == client && i == interface);
+                if let Some(i) = back
+                    && service != provider
+                {
+                    unbound.remove(i);
+                    takeovers.push(takeover(
+                        client, interface, service, decision, fault, start_ns,
+                    ));
+                    true
+                } else {
+                    false
+                }
+            }
+            Action::AskForHelp { .. } => true,
+            Action::Reject { .. } => false,
+        };
+        if concerns && reactions.len() < MAX_REACTIONS {
+            reactions.push(Reaction {
+                at_ns: decision.at_ns - start_ns,
+                latency_ns: decision.at_ns - fault.at_ns,
+                action: decision.action.to_string(),
+                reason: decision.reason.clone(),
+            });
+        }
+    }
+    FaultReport {
+        spec: fault.spec.clone(),
+        provider: fault.provider.clone(),
+        kind: fault.kind,
+        at_ns: fault.at_ns - start_ns,
+        until_ns: fault.until_ns.map(|u| u - start_ns),
+        reactions,
+        takeovers,
+    }
+}
+
+fn takeover(
+    client: &str,
+    interface: &str,
+    provider: &str,
+    decision: &Decision,
+    fault: &Fault,
+    start_ns: i64,
+) -> Takeover {
+    Takeover {
+        client: client.to_owned(),
+        interface: interface.to_owned(),
+        provider: provider.to_owned(),
+        at_ns: decision.at_ns - start_ns,
+        latency_ns: decision.at_ns - fault.at_ns,
+    }
+}
+
+fn ms(ns: i64) -> String {
+    // For display only.
+    #[allow(clippy::cast_precision_loss)]
+    let ms = ns as f64 / 1e6;
+    format!("{ms:.1} ms")
+}
+
+impl fmt::Display for Report {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "replayed {} ({}, robot {}) into {}",
+            self.inputs.join(", "),
+            format_seconds(self.duration_ns),
+            self.robot,
+            self.output
+        )?;
+        writeln!(f, "re-simulated: {}", list(&self.resimulated))?;
+        writeln!(f, "fed from the recording: {}", list(&self.fed))?;
+        writeln!(
+            f,
+            "messages: {} read, {} written; {} broker decisions; {} inputs delivered, {} ticks",
+            self.messages_read,
+            self.messages_written,
+            self.decisions,
+            self.harness.inputs_delivered,
+            self.harness.ticks
+        )?;
+        let h = &self.harness;
+        if h.calls_between_resimulated
+            + h.calls_answered_from_log
+            + h.calls_defaulted
+            + h.calls_failed
+            > 0
+        {
+            writeln!(
+                f,
+                "calls: {} between re-simulated services, {} answered from the recording, {} answered with a default reply (not in the recording), {} failed",
+                h.calls_between_resimulated,
+                h.calls_answered_from_log,
+                h.calls_defaulted,
+                h.calls_failed
+            )?;
+        }
+        if h.external_commands_fed > 0 {
+            writeln!(
+                f,
+                "commands from outside fed again: {}",
+                h.external_commands_fed
+            )?;
+        }
+        for fault in &self.faults {
+            let window = fault
+                .until_ns
+                .map(|u| format!(" until {}", format_seconds(u)))
+                .unwrap_or_default();
+            writeln!(
+                f,
+                "fault {}: {} {} at {}{window}",
+                fault.spec,
+                fault.provider,
+                fault.kind,
+                format_seconds(fault.at_ns)
+            )?;
+            if fault.reactions.is_empty() {
+                writeln!(f, "  the broker did not react")?;
+            }
+            for r in &fault.reactions {
+                writeln!(f, "  +{}: {} ({})", ms(r.latency_ns), r.action, r.reason)?;
+            }
+            for t in &fault.takeovers {
+                writeln!(
+                    f,
+                    "  {} took over {} for {} after {}",
+                    t.provider,
+                    t.interface,
+                    t.client,
+                    ms(t.latency_ns)
+                )?;
+            }
+        }
+        if let Some(gap) = &self.longest_gap {
+            writeln!(
+                f,
+                "longest gap: {} had no {} for {} (from {} to {})",
+                gap.client,
+                gap.interface,
+                ms(gap.gap_ns),
+                format_seconds(gap.from_ns),
+                format_seconds(gap.to_ns)
+            )?;
+        }
+        if self.divergence.is_empty() {
+            writeln!(f, "no output channel to compare")?;
+        }
+        for d in &self.divergence {
+            let first = d
+                .first_divergence_ns
+                .map(|t| format!(", first at {}", format_seconds(t)))
+                .unwrap_or_default();
+            writeln!(
+                f,
+                "{}: {} recorded, {} re-simulated, {} differ{first}, max difference {:e}",
+                d.channel, d.recorded, d.resimulated, d.differing, d.max_numeric_difference
+            )?;
+        }
+        if self.check.passed {
+            write!(
+                f,
+                "check: outputs match the recording (tolerance {:e})",
+                self.check.tolerance
+            )
+        } else {
+            write!(
+                f,
+                "check: outputs differ from the recording beyond {:e} on {}",
+                self.check.tolerance,
+                self.check.failing.join(", ")
+            )
+        }
+    }
+}
+
+fn list(names: &[String]) -> String {
+    if names.is_empty() {
+        "none".to_owned()
+    } else {
+        names.join(", ")
+    }
+}

@@ -1,0 +1,545 @@
+//! The lockstep harness and `lewis replay`'s library on a recording made here with the
+//! recorder library: a `test-range` laser (and a sonar that never ran), and a consumer
+//! service written below that asks the laser for its geometry at start and publishes the
+//! nearest reading of every scan as Distance. The recording is what a live run writes:
+//! data, heartbeats, the broker's decisions and the laser's command log.
+
+// Test helpers fail the test by panicking, like the tests that call them.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+
+use lewis_interfaces::msg::{
+    CommandLog, Distance, Health as HealthMessage, RangeFinder, RangeFinderGetGeometry,
+    RangeFinderGetGeometryReply,
+};
+use lewis_interfaces::{Interface, Message, cdr};
+use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
+use lewis_replay::fault::FaultSpec;
+use lewis_replay::report::Report;
+use lewis_replay::resim::{ReplayError, ReplayOptions, ServiceSelection, replay};
+use lewis_runtime::broker::live::decision_message;
+use lewis_runtime::broker::{Action, Decision};
+use lewis_runtime::names;
+use lewis_runtime::service::{
+    Context, Input, ReplyEvent, Rng, Service, ServiceConfig, ServiceRegistry,
+};
+use lewis_services::testing::range::{Params, Room, SyntheticScanner};
+
+const T0: i64 = 1_000_000_000;
+const MS: i64 = 1_000_000;
+
+const ROBOT: &str = r#"
+[robot]
+name = "bench"
+description = "a laser, a sonar and a consumer"
+
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+restart = { max_restarts = 2, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }
+
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 2, data_rate_hz = 10.0 }]
+[services.parameters]
+beams = 19
+rate_hz = 10.0
+noise_m = 0.01
+seed = 1
+
+[[services]]
+name = "sonar"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1, data_rate_hz = 5.0 }]
+[services.parameters]
+beams = 24
+field_of_view_deg = 360.0
+max_range_m = 5.0
+rate_hz = 5.0
+noise_m = 0.05
+seed = 2
+
+[[services]]
+name = "consumer"
+kind = "test-consumer"
+start = "always"
+requires = ["RangeFinder"]
+provides = [{ interface = "Distance", quality = 1, cost = 1 }]
+[services.parameters]
+offset_m = 0.25
+"#;
+
+/// The consumer's computation: the nearest reading plus an offset, with the range the
+/// laser said it has.
+fn consumer_distance(scan: &RangeFinder, offset_m: f64, max_range_m: f64) -> Distance {
+    let min = scan.ranges.iter().copied().fold(f64::INFINITY, f64::min);
+    Distance {
+        min_distance: min + offset_m,
+        max_range: max_range_m,
+        ..Distance::default()
+    }
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ConsumerParams {
+    offset_m: f64,
+}
+
+struct Consumer {
+    offset_m: f64,
+    max_range_m: f64,
+}
+
+impl Service for Consumer {
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        ctx.call(&mut RangeFinderGetGeometry::default())
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    fn on_reply(&mut self, _ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
+        if let Ok(geometry) = reply.decode::<RangeFinderGetGeometry>() {
+            self.max_range_m = geometry.max_range;
+        }
+    }
+
+    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        match input.decode::<RangeFinder>() {
+            Ok(scan) => {
+                let mut distance = consumer_distance(&scan, self.offset_m, self.max_range_m);
+                ctx.publish(&mut distance).unwrap();
+            }
+            Err(e) => ctx.warn(&format!("bad scan: {e}")),
+        }
+    }
+}
+
+fn registry() -> ServiceRegistry {
+    let mut registry = ServiceRegistry::new();
+    lewis_services::testing::register(&mut registry);
+    registry.register("test-consumer", |config: &ServiceConfig<'_>| {
+        let params: ConsumerParams = config.parameters()?;
+        Ok(Box::new(Consumer {
+            offset_m: params.offset_m,
+            max_range_m: 0.0,
+        }) as Box<dyn Service>)
+    });
+    registry
+}
+
+struct Writer {
+    recorder: Recorder,
+}
+
+impl Writer {
+    fn channel<T: Interface>(&mut self, provider: &str, topic: &str) -> ChannelId {
+        let info = lewis_interfaces::interface_info(T::NAME).unwrap();
+        self.recorder
+            .add_channel(ChannelSpec::publication(info, provider, topic))
+            .unwrap()
+    }
+
+    fn write<T: Message>(&mut self, channel: ChannelId, log_ns: i64, message: &T) {
+        let data = cdr::to_vec(message);
+        self.recorder
+            .write(&Sample {
+                channel,
+                seq: message.header().seq,
+                publish_time_ns: message.header().publish_time_ns,
+                log_time_ns: log_ns,
+                data: &data,
+            })
+            .unwrap();
+    }
+}
+
+fn stamp<T: Message>(mut message: T, provider: &str, seq: u64, time_ns: i64) -> T {
+    let header = message.header_mut();
+    header.provider = provider.into();
+    header.seq = seq;
+    header.publish_time_ns = time_ns;
+    message
+}
+
+/// Writes a recording of `duration_ms` of a live run of the robot, the consumer using
+/// `offset_m`.
+fn make_recording(dir: &Path, duration_ms: i64, offset_m: f64) -> PathBuf {
+    let path = dir.join("run.mcap");
+    let mut options = RecorderOptions::new(&path);
+    options.sync_on_flush = false;
+    options.disk_reserve_bytes = 0;
+    options.robot_description = Some(RobotDescription {
+        file_name: "bench.toml".into(),
+        toml: ROBOT.into(),
+    });
+    let mut w = Writer {
+        recorder: Recorder::create(options).unwrap(),
+    };
+    let broker =
+        w.channel::<lewis_interfaces::msg::Broker>(names::BROKER_NODE, names::BROKER_CHANNEL);
+    let laser_health = w.channel::<HealthMessage>("laser", &names::health_channel("laser"));
+    let consumer_health =
+        w.channel::<HealthMessage>("consumer", &names::health_channel("consumer"));
+    let scans = w.channel::<RangeFinder>("laser", &names::data_channel("laser", "RangeFinder"));
+    let distances = w.channel::<Distance>("consumer", &names::data_channel("consumer", "Distance"));
+    let commands = w.channel::<CommandLog>("laser", &names::command_log_channel("laser"));
+
+    let decisions = [
+        (
+            T0,
+            Action::Start {
+                service: "consumer".into(),
+            },
+        ),
+        (
+            T0 + MS,
+            Action::Bind {
+                client: "consumer".into(),
+                interface: "RangeFinder".into(),
+                service: "laser".into(),
+            },
+        ),
+        (
+            T0 + MS,
+            Action::Start {
+                service: "laser".into(),
+            },
+        ),
+    ];
+    for (seq, (at_ns, action)) in (1..).zip(decisions) {
+        let message = decision_message(&Decision {
+            at_ns,
+            action,
+            reason: "recorded".into(),
+        });
+        w.write(
+            broker,
+            at_ns,
+            &stamp(message, names::BROKER_NODE, seq, at_ns),
+        );
+    }
+
+    let params = Params {
+        beams: 19,
+        noise_m: 0.01,
+        ..Params::default()
+    };
+    let scanner = SyntheticScanner::new(&params, Room::DEFAULT);
+    let mut rng = Rng::new(1);
+    let geometry = RangeFinderGetGeometryReply {
+        range_count: 19,
+        max_range: params.max_range_m,
+        rate: params.rate_hz,
+        ..RangeFinderGetGeometryReply::default()
+    };
+    let request = stamp(
+        RangeFinderGetGeometry::default(),
+        "consumer",
+        1,
+        T0 + 3 * MS,
+    );
+    let log = CommandLog {
+        interface: "RangeFinder".into(),
+        command: "get_geometry".into(),
+        request: cdr::to_vec(&request),
+        status: "ok".into(),
+        reply: cdr::to_vec(&stamp(geometry, "laser", 1, T0 + 6 * MS)),
+        received_ns: T0 + 5 * MS,
+        ..CommandLog::default()
+    };
+    w.write(commands, T0 + 6 * MS, &stamp(log, "laser", 1, T0 + 6 * MS));
+
+    let end = T0 + duration_ms * MS;
+    let (mut health_seq, mut scan_seq) = (0, 0);
+    let mut t = T0 + 2 * MS;
+    while t <= end {
+        health_seq += 1;
+        let ok = HealthMessage {
+            state: "ok".into(),
+            ..HealthMessage::default()
+        };
+        w.write(
+            consumer_health,
+            t,
+            &stamp(ok.clone(), "consumer", health_seq, t),
+        );
+        w.write(
+            laser_health,
+            t + 3 * MS,
+            &stamp(ok, "laser", health_seq, t + 3 * MS),
+        );
+        if (t - T0 - 2 * MS) % (100 * MS) == 0 && t > T0 + 50 * MS {
+            scan_seq += 1;
+            let scan_at = t + 5 * MS;
+            let scan = stamp(
+                scanner.range_finder(scanner.ranges(&mut rng)),
+                "laser",
+                scan_seq,
+                scan_at,
+            );
+            w.write(scans, scan_at, &scan);
+            let mut distance = stamp(
+                consumer_distance(&scan, offset_m, params.max_range_m),
+                "consumer",
+                scan_seq,
+                scan_at + MS,
+            );
+            distance.header.inputs = vec![lewis_interfaces::msg::InputRef {
+                channel: names::data_channel("laser", "RangeFinder"),
+                seq: scan_seq,
+            }];
+            w.write(distances, scan_at + MS, &distance);
+        }
+        t += 10 * MS;
+    }
+    w.recorder.close().unwrap();
+    path
+}
+
+fn run(
+    input: &Path,
+    output: &Path,
+    faults: &[&str],
+    services: ServiceSelection,
+) -> Result<Report, ReplayError> {
+    let mut options = ReplayOptions::new(vec![input.to_path_buf()]);
+    options.output = Some(output.to_path_buf());
+    options.services = services;
+    options.faults = faults
+        .iter()
+        .map(|f| f.parse::<FaultSpec>().unwrap())
+        .collect();
+    replay(&options, &registry(), &mut |_| {})
+}
+
+fn replay_default(dir: &Path, faults: &[&str]) -> Report {
+    let input = make_recording(dir, 2000, 0.25);
+    run(
+        &input,
+        &dir.join("out.mcap"),
+        faults,
+        ServiceSelection::NonSources,
+    )
+    .unwrap()
+}
+
+#[test]
+fn a_replay_without_faults_matches_the_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_default(dir.path(), &[]);
+    assert!(report.check.passed, "{report}");
+    assert_eq!(report.resimulated, ["consumer", "sonar"], "{report}");
+    assert_eq!(report.fed, ["laser"]);
+    let distance = &report.divergence[0];
+    assert_eq!(distance.channel, "/consumer/Distance");
+    assert_eq!(
+        (distance.recorded, distance.resimulated),
+        (19, 19),
+        "{report}"
+    );
+    assert_eq!(distance.differing, 0);
+    // The geometry call was answered from the laser's recorded command log.
+    assert_eq!(report.harness.calls_answered_from_log, 1, "{report}");
+    assert_eq!(report.harness.calls_defaulted, 0);
+}
+
+#[test]
+fn a_stalled_laser_fails_over_to_the_sonar_within_the_heartbeat_deadline() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_default(dir.path(), &["laser"]);
+    let fault = &report.faults[0];
+    assert_eq!(
+        fault.at_ns,
+        report.duration_ns / 2,
+        "half-way through: {report}"
+    );
+    println!("{report}");
+    let takeover = &fault.takeovers[0];
+    assert_eq!(
+        (takeover.client.as_str(), takeover.provider.as_str()),
+        ("consumer", "sonar"),
+        "{report}"
+    );
+    // The deadline is 50 ms after the last heartbeat, which came at most 10 ms before.
+    assert!(
+        (40 * MS..=60 * MS).contains(&takeover.latency_ns),
+        "{report}"
+    );
+    assert!(
+        fault.reactions.iter().any(|r| r.action == "laser failed"),
+        "{report}"
+    );
+    // The consumer went on with sonar data, so its outputs diverged from the laser's.
+    let distance = &report.divergence[0];
+    assert!(distance.differing > 0, "{report}");
+    assert!(
+        distance.first_divergence_ns.unwrap() >= 1000 * MS,
+        "{report}"
+    );
+    assert!(!report.check.passed);
+    let gap = report.longest_gap.as_ref().unwrap();
+    assert_eq!(gap.client, "consumer");
+    assert!(gap.gap_ns > 100 * MS && gap.gap_ns < 500 * MS, "{report}");
+}
+
+#[test]
+fn out_of_service_moves_the_client_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_default(dir.path(), &["laser@0.5s:out-of-service"]);
+    let takeover = &report.faults[0].takeovers[0];
+    assert_eq!(
+        (takeover.provider.as_str(), takeover.latency_ns),
+        ("sonar", 0),
+        "{report}"
+    );
+}
+
+#[test]
+fn a_crash_window_restarts_the_laser_and_the_client_stays_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_default(dir.path(), &["laser@0.5s-0.52s:crash"]);
+    let fault = &report.faults[0];
+    assert!(fault.takeovers.is_empty(), "{report}");
+    assert!(
+        fault
+            .reactions
+            .iter()
+            .any(|r| r.action.starts_with("restart laser")),
+        "{report}"
+    );
+}
+
+#[test]
+fn garbage_reaches_the_client_which_stops_publishing() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_default(dir.path(), &["laser@1s-1.5s:garbage"]);
+    assert!(report.faults[0].reactions.is_empty(), "{report}");
+    let distance = &report.divergence[0];
+    assert_eq!(distance.resimulated, 14, "{report}");
+    assert!(report.harness.faulted_publications >= 5, "{report}");
+}
+
+#[test]
+fn a_changed_parameter_fails_the_check_with_the_size_of_the_difference() {
+    let dir = tempfile::tempdir().unwrap();
+    // Recorded with an offset of 0.5 m, replayed with the robot file's 0.25 m: the
+    // recording stores the robot file, so record with another offset to change the code's
+    // input instead.
+    let input = make_recording(dir.path(), 1000, 0.5);
+    let report = run(
+        &input,
+        &dir.path().join("out.mcap"),
+        &[],
+        ServiceSelection::NonSources,
+    )
+    .unwrap();
+    assert!(!report.check.passed);
+    let distance = &report.divergence[0];
+    assert_eq!(distance.differing, distance.recorded, "{report}");
+    assert!(
+        (distance.max_numeric_difference - 0.25).abs() < 1e-9,
+        "{report}"
+    );
+    assert!(
+        report
+            .to_string()
+            .contains("outputs differ from the recording"),
+        "{report}"
+    );
+}
+
+#[test]
+fn the_same_replay_gives_the_same_bytes_with_and_without_faults() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = make_recording(dir.path(), 2000, 0.25);
+    for faults in [
+        &[][..],
+        &["laser@0.7s:crash", "laser@1.2s-1.6s:garbage"][..],
+    ] {
+        // The file name is in the recorder's stats: same name, two folders.
+        std::fs::create_dir_all(dir.path().join("a")).unwrap();
+        std::fs::create_dir_all(dir.path().join("b")).unwrap();
+        let a = dir.path().join("a/out.mcap");
+        let b = dir.path().join("b/out.mcap");
+        run(&input, &a, faults, ServiceSelection::NonSources).unwrap();
+        run(&input, &b, faults, ServiceSelection::NonSources).unwrap();
+        let (a, b) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
+        assert!(a.len() > 1000);
+        assert!(a == b, "replays of {faults:?} differ");
+    }
+}
+
+#[test]
+fn the_output_holds_the_recording_and_the_replay_beside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.mcap");
+    let input = make_recording(dir.path(), 1000, 0.25);
+    run(&input, &out, &["laser@0.5s"], ServiceSelection::NonSources).unwrap();
+    let info = lewis_replay::inspect(&out, &lewis_replay::InfoOptions::default()).unwrap();
+    let topics: Vec<&str> = info.channels.iter().map(|c| c.topic.as_str()).collect();
+    for topic in [
+        "/laser/RangeFinder",
+        "/consumer/Distance",
+        "/replay/consumer/Distance",
+        "/replay/sonar/RangeFinder",
+        "/replay/lewis/broker",
+        "/replay/lewis/faults",
+    ] {
+        assert!(topics.contains(&topic), "{topic} missing from {topics:?}");
+    }
+}
+
+#[test]
+fn options_that_do_not_fit_the_recording_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = make_recording(dir.path(), 1000, 0.25);
+    let out = dir.path().join("out.mcap");
+    let check = |faults: &[&str], services: ServiceSelection, expected: &str| {
+        let e = run(&input, &out, faults, services).unwrap_err().to_string();
+        assert!(e.contains(expected), "{e}");
+    };
+    check(
+        &["lidar"],
+        ServiceSelection::NonSources,
+        "no service `lidar`; it has: laser, sonar, consumer",
+    );
+    check(
+        &["laser@5s"],
+        ServiceSelection::NonSources,
+        "5s is outside the recording; choose times from 0s to 0.995s (its length)",
+    );
+    check(
+        &[],
+        ServiceSelection::Only(vec!["ghost".into()]),
+        "`ghost`, which the recorded robot does not have; it has: laser, sonar, consumer",
+    );
+    let e = run(&input, &input, &[], ServiceSelection::NonSources).unwrap_err();
+    assert!(
+        e.to_string().contains("is one of the recordings replayed"),
+        "{e}"
+    );
+}
+
+#[test]
+fn re_simulating_everything_runs_the_laser_from_its_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = make_recording(dir.path(), 1000, 0.25);
+    let report = run(
+        &input,
+        &dir.path().join("out.mcap"),
+        &[],
+        ServiceSelection::All,
+    )
+    .unwrap();
+    assert_eq!(report.resimulated, ["consumer", "laser", "sonar"]);
+    assert!(report.fed.is_empty());
+    let laser = report
+        .divergence
+        .iter()
+        .find(|d| d.channel == "/laser/RangeFinder")
+        .unwrap();
+    assert!(laser.resimulated >= 9, "{report}");
+}
