@@ -4,6 +4,7 @@
 //!
 //! Services see only the runtime's `Context`: they know nothing of recording or replay.
 
+pub mod camera;
 pub mod drivers;
 pub mod motion;
 pub mod perception;

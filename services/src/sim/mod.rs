@@ -14,6 +14,7 @@ pub mod distance;
 pub mod geometry;
 pub mod laser;
 pub mod rng;
+pub mod service;
 pub mod sonar;
 pub mod world;
 
