@@ -1,0 +1,365 @@
+//! What each message becomes in Rerun. The entity tree:
+//!
+//! | entity | what |
+//! |---|---|
+//! | `world/robot/pose`, `world/robot/path` | the true pose (GroundTruth) and its whole path |
+//! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path |
+//! | `world/scans/<topic>` | every RangeFinder's hits placed in the world with the pose above |
+//! | `world/mover/goal`, `world/mover/waypoint` | where the Mover is going |
+//! | `world/blobs3d/<topic>`, `world/signs/<topic>` | perception placed in the world |
+//! | `robot/body`, `robot/scans/<topic>` | the robot frame: outline, hits and (sonar) rays |
+//! | `camera/<topic>/image`, `.../blobs/<topic>`, `.../signs/<topic>` | images, with boxes |
+//! | `events/broker`, `events/log/<service>`, `events/commands/<service>`, `events/health` | text logs |
+//! | `status/bindings/<client>/<interface>`, `status/services/<service>`, `status/health/<service>` | state lanes |
+//! | `plots/<topic>/<field>` | every numeric field of interfaces without a drawing, and velocities |
+//! | `topics/<topic>` | every other decodable message, as text |
+//!
+//! The world frame is the simulator's (GroundTruth) when the recording has it, else the
+//! odometry frame. Scans are placed with the last pose received before them.
+
+mod camera;
+mod events;
+mod geometry;
+mod plots;
+mod scans;
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use lewis_interfaces::dynamic::Value;
+use lewis_interfaces::msg::Pose2D;
+use rerun::{Color, LineStrips2D};
+use rerun::{EntityPath, EntityPathPart};
+
+use crate::ViewError;
+use crate::decode::{Decoded, Drawn};
+use crate::rows::{ChunkSink, Rows, Stamp};
+use crate::source::ChannelInfo;
+
+pub(crate) use geometry::Point;
+
+/// The entity path made of these parts, each taken literally.
+pub(crate) fn entity<'a>(parts: impl IntoIterator<Item = &'a str>) -> EntityPath {
+    EntityPath::new(
+        parts
+            .into_iter()
+            .filter(|part| !part.is_empty())
+            .map(EntityPathPart::new)
+            .collect(),
+    )
+}
+
+/// The parts of a topic: `/laser/RangeFinder` is `laser`, `RangeFinder`.
+pub(crate) fn topic_parts(topic: &str) -> impl Iterator<Item = &str> {
+    topic.split('/').filter(|part| !part.is_empty())
+}
+
+/// `prefix` then the parts of `topic`, then `suffix`.
+pub(crate) fn topic_entity(prefix: &[&str], topic: &str, suffix: &[&str]) -> EntityPath {
+    entity(
+        prefix
+            .iter()
+            .copied()
+            .chain(topic_parts(topic))
+            .chain(suffix.iter().copied()),
+    )
+}
+
+/// Paths are kept with points this far apart at least: enough for a drawing, and a long
+/// run stays small.
+const PATH_STEP_M: f64 = 0.01;
+
+/// What the scene remembers between messages.
+pub(crate) struct Scene {
+    rows: Rows,
+    /// The pose that places robot-frame data in the world: the last true pose, or the last
+    /// odometry pose when the recording has no true pose.
+    world_pose: Option<Pose2D>,
+    has_truth: bool,
+    truth_path: Vec<Point>,
+    odometry_path: Vec<Point>,
+    scan_colours: BTreeMap<String, Color>,
+    plotted_topics: BTreeSet<String>,
+    has_images: bool,
+    events: events::EventState,
+    camera: camera::CameraState,
+    /// Messages drawn, shown generically, not decodable.
+    pub counts: Counts,
+    /// Per topic: messages that could not be decoded and the first reason.
+    pub failures: BTreeMap<String, (u64, String)>,
+}
+
+/// How many messages went where.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct Counts {
+    /// Messages read.
+    pub messages: u64,
+    /// Messages of interfaces with their own drawing.
+    pub drawn: u64,
+    /// Messages shown generically (plots, text).
+    pub generic: u64,
+    /// Messages that could not be decoded.
+    pub failed: u64,
+}
+
+impl Scene {
+    pub(crate) fn new() -> Self {
+        Self {
+            rows: Rows::new(),
+            world_pose: None,
+            has_truth: false,
+            truth_path: Vec::new(),
+            odometry_path: Vec::new(),
+            scan_colours: BTreeMap::new(),
+            plotted_topics: BTreeSet::new(),
+            has_images: false,
+            events: events::EventState::default(),
+            camera: camera::CameraState::default(),
+            counts: Counts::default(),
+            failures: BTreeMap::new(),
+        }
+    }
+
+    /// The rows, for data that is not a message (the frames' orientation).
+    pub(crate) fn rows_mut(&mut self) -> &mut Rows {
+        &mut self.rows
+    }
+
+    /// The topics with plots, in order.
+    pub(crate) fn plotted_topics(&self) -> Vec<String> {
+        self.plotted_topics.iter().cloned().collect()
+    }
+
+    /// Whether the recording has camera images.
+    pub(crate) fn has_images(&self) -> bool {
+        self.has_images
+    }
+
+    /// Rows logged per entity path.
+    pub(crate) fn row_counts(&self) -> &BTreeMap<String, u64> {
+        self.rows.row_counts()
+    }
+
+    /// Draws the robot's outline, once.
+    pub(crate) fn start(&mut self, sink: &mut dyn ChunkSink) -> Result<(), ViewError> {
+        scans::log_robot_body(&mut self.rows, sink)
+    }
+
+    /// Draws one message.
+    pub(crate) fn message(
+        &mut self,
+        sink: &mut dyn ChunkSink,
+        channel: &ChannelInfo,
+        stamp: Stamp,
+        decoded: Decoded,
+    ) -> Result<(), ViewError> {
+        self.counts.messages += 1;
+        match decoded {
+            Decoded::Drawn(drawn, value) => {
+                self.counts.drawn += 1;
+                self.drawn(sink, channel, stamp, *drawn)?;
+                if let Some(value) = value {
+                    self.plot(sink, &channel.topic, stamp, &value)?;
+                }
+                Ok(())
+            }
+            Decoded::Generic(value) => {
+                self.counts.generic += 1;
+                self.generic(sink, channel, stamp, &value)
+            }
+            Decoded::Failed(reason) => {
+                self.counts.failed += 1;
+                let failure = self
+                    .failures
+                    .entry(channel.topic.clone())
+                    .or_insert((0, reason));
+                failure.0 += 1;
+                Ok(())
+            }
+        }
+    }
+
+    fn drawn(
+        &mut self,
+        sink: &mut dyn ChunkSink,
+        channel: &ChannelInfo,
+        stamp: Stamp,
+        drawn: Drawn,
+    ) -> Result<(), ViewError> {
+        let topic = channel.topic.as_str();
+        let rows = &mut self.rows;
+        match drawn {
+            Drawn::RangeFinder(scan) => {
+                let colour = scan_colour(&mut self.scan_colours, topic);
+                scans::log_scan(
+                    rows,
+                    sink,
+                    topic,
+                    stamp,
+                    &scan,
+                    colour,
+                    self.world_pose.as_ref(),
+                )
+            }
+            Drawn::GroundTruth(truth) => {
+                self.has_truth = true;
+                self.world_pose = Some(truth.pose.clone());
+                push_path(&mut self.truth_path, &truth.pose);
+                scans::log_pose(
+                    rows,
+                    sink,
+                    &["world", "robot", "pose"],
+                    stamp,
+                    &truth.pose,
+                    true,
+                )
+            }
+            Drawn::Egomotion(odometry) => {
+                if !self.has_truth {
+                    self.world_pose = Some(odometry.pose.clone());
+                }
+                push_path(&mut self.odometry_path, &odometry.pose);
+                scans::log_pose(
+                    rows,
+                    sink,
+                    &["world", "odometry", "pose"],
+                    stamp,
+                    &odometry.pose,
+                    false,
+                )
+            }
+            Drawn::Image(image) => {
+                self.has_images = true;
+                self.camera.image(rows, sink, topic, stamp, &image)
+            }
+            Drawn::Blobs(blobs) => self.camera.blobs(rows, sink, topic, stamp, &blobs),
+            Drawn::Signs(signs) => {
+                self.camera.signs(rows, sink, topic, stamp, &signs)?;
+                scans::log_signs_in_world(
+                    rows,
+                    sink,
+                    topic,
+                    stamp,
+                    &signs,
+                    self.world_pose.as_ref(),
+                )
+            }
+            Drawn::Blobs3D(blobs) => scans::log_blobs3d_in_world(
+                rows,
+                sink,
+                topic,
+                stamp,
+                &blobs,
+                self.world_pose.as_ref(),
+            ),
+            Drawn::Mover(mover) => {
+                scans::log_mover(rows, sink, stamp, &mover)?;
+                self.events.mover(rows, sink, topic, stamp, &mover)
+            }
+            Drawn::Broker(decision) => events::broker(rows, sink, stamp, &decision),
+            Drawn::Health(health) => self.events.health(rows, sink, stamp, &health),
+            Drawn::LogLine(line) => events::log_line(rows, sink, stamp, &line),
+            Drawn::CommandLog(command) => events::command(rows, sink, stamp, &command),
+        }
+    }
+
+    fn generic(
+        &mut self,
+        sink: &mut dyn ChunkSink,
+        channel: &ChannelInfo,
+        stamp: Stamp,
+        value: &Value,
+    ) -> Result<(), ViewError> {
+        let compiled_in = lewis_interfaces::msg::INTERFACES
+            .iter()
+            .any(|i| i.publication.name == channel.schema_name);
+        if !compiled_in {
+            events::generic_text(&mut self.rows, sink, &channel.topic, stamp, value)?;
+        }
+        if channel.topic == lewis_names::SEQUENCER_CHANNEL {
+            self.events.sequencer(&mut self.rows, sink, stamp, value)?;
+        }
+        self.plot(sink, &channel.topic, stamp, value)
+    }
+
+    fn plot(
+        &mut self,
+        sink: &mut dyn ChunkSink,
+        topic: &str,
+        stamp: Stamp,
+        value: &Value,
+    ) -> Result<(), ViewError> {
+        if plots::log_numeric_fields(&mut self.rows, sink, topic, stamp, value)?
+            && !self.plotted_topics.contains(topic)
+        {
+            self.plotted_topics.insert(topic.to_owned());
+        }
+        Ok(())
+    }
+
+    /// Draws what needs the whole recording (the paths) and sends every pending row.
+    pub(crate) fn finish(&mut self, sink: &mut dyn ChunkSink) -> Result<(), ViewError> {
+        let paths = [
+            (
+                ["world", "robot", "path"],
+                &self.truth_path,
+                Color::from_rgb(40, 170, 60),
+            ),
+            (
+                ["world", "odometry", "path"],
+                &self.odometry_path,
+                Color::from_rgb(150, 150, 150),
+            ),
+        ];
+        for (path, points, colour) in paths {
+            if points.len() > 1 {
+                let strip: Vec<[f32; 2]> = points.iter().map(|p| p.to_f32()).collect();
+                self.rows.log_static(
+                    sink,
+                    &entity(path),
+                    &LineStrips2D::new([strip])
+                        .with_colors([colour])
+                        .with_radii([0.02_f32]),
+                )?;
+            }
+        }
+        self.rows.flush(sink)
+    }
+}
+
+/// The names of the runtime's channels that the viewer treats specially (the viewer does
+/// not depend on the runtime: `lewis_runtime::names` has the same).
+mod lewis_names {
+    /// Where the sequencer publishes its records.
+    pub const SEQUENCER_CHANNEL: &str = "/lewis/sequencer";
+}
+
+fn push_path(path: &mut Vec<Point>, pose: &Pose2D) {
+    let point = Point::new(pose.x, pose.y);
+    if !point.is_finite() {
+        return;
+    }
+    if path
+        .last()
+        .is_none_or(|last| last.distance(point) >= PATH_STEP_M)
+    {
+        path.push(point);
+    }
+}
+
+/// Laser red, sonar blue, other range finders from a fixed palette in order of appearance:
+/// a failover shows as the scan changing colour and character.
+fn scan_colour(colours: &mut BTreeMap<String, Color>, topic: &str) -> Color {
+    const OTHERS: [(u8, u8, u8); 4] = [(200, 160, 0), (160, 60, 200), (0, 170, 170), (120, 80, 40)];
+    let count = colours.len();
+    *colours.entry(topic.to_owned()).or_insert_with(|| {
+        let lower = topic.to_ascii_lowercase();
+        if lower.contains("sonar") {
+            Color::from_rgb(40, 110, 240)
+        } else if lower.contains("laser") || lower.contains("lidar") {
+            Color::from_rgb(230, 60, 30)
+        } else {
+            let (r, g, b) = OTHERS[count % OTHERS.len()];
+            Color::from_rgb(r, g, b)
+        }
+    })
+}
