@@ -8,12 +8,22 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod fake_device;
+mod fault;
+mod goal;
 mod idl;
 mod info;
+mod mission;
+mod record;
+mod recover;
+mod replay;
 mod seq;
 mod service;
 mod status;
+mod tune;
 mod up;
+#[cfg(feature = "viewer")]
+mod view;
 
 /// The `lewis` command line.
 #[derive(Debug, Parser)]
@@ -42,12 +52,32 @@ pub enum Command {
     /// Check and run mission scripts (the sequencer).
     #[command(subcommand)]
     Seq(seq::SeqCommand),
+    /// Record a running robot into MCAP: every publication, command, decision and log line.
+    Record(record::RecordArgs),
+    /// Repair a recording whose writer died (SIGKILL, power cut): everything up to its last
+    /// complete chunk, with a new summary.
+    Recover(recover::RecoverArgs),
+    /// Re-simulate a recording in lockstep: services and broker on a virtual clock, faults
+    /// injected, outputs compared with the recording (a regression test with --check).
+    Replay(replay::ReplayArgs),
     /// Start the broker and a robot's services; run until Ctrl-C or --duration.
     Up(up::UpArgs),
     /// Run one service of a robot in this process (what `lewis up` starts).
     Service(service::ServiceArgs),
     /// Show the broker's services, health, restarts and bindings.
     Status(status::StatusArgs),
+    /// Show a recording in the Rerun viewer, or write it as a Rerun file (--save OUT.rrd).
+    #[cfg(feature = "viewer")]
+    View(view::ViewArgs),
+    /// Take a service of a running robot down: kill, stall or put it out of service.
+    Fault(fault::FaultArgs),
+    /// Emulate the SICK laser or the RFlex base on a pseudo-terminal and print its path, until
+    /// Ctrl-C.
+    FakeDevice(fake_device::FakeDeviceArgs),
+    /// Tune colour classes offline: re-run the blob finder over recorded or saved images,
+    /// or pick a colour from an image.
+    #[command(subcommand)]
+    Tune(tune::TuneCommand),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -59,8 +89,16 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Idl(command) => idl::run(command),
         Command::Info(args) => info::run(&args),
         Command::Seq(command) => seq::run(command),
+        Command::Record(args) => record::run(&args),
+        Command::Recover(args) => recover::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),
         Command::Service(args) => service::run(&args),
         Command::Status(args) => status::run(&args),
+        #[cfg(feature = "viewer")]
+        Command::View(args) => view::run(&args),
+        Command::Fault(args) => fault::run(&args),
+        Command::FakeDevice(args) => fake_device::run(&args),
+        Command::Tune(command) => tune::run(command),
     }
 }

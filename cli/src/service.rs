@@ -28,6 +28,10 @@ pub struct ServiceArgs {
 pub fn registry() -> ServiceRegistry {
     let mut registry = ServiceRegistry::new();
     lewis_services::testing::register(&mut registry);
+    lewis_services::drivers::service::register(&mut registry);
+    lewis_services::sim::service::register(&mut registry);
+    lewis_services::motion::service::register(&mut registry);
+    lewis_services::perception::register(&mut registry);
     registry
 }
 

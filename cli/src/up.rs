@@ -25,6 +25,23 @@ pub struct UpArgs {
     /// Milliseconds a service has between SIGTERM and SIGKILL when it is stopped.
     #[arg(long, value_name = "MS")]
     pub stop_grace_ms: Option<u64>,
+    /// Do not record (by default a recorder subscribes before the services start).
+    #[arg(long)]
+    pub no_record: bool,
+    /// The recording (default: `logs/<robot>-<UTC time>.mcap`).
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "PATH",
+        conflicts_with = "no_record"
+    )]
+    pub output: Option<PathBuf>,
+    /// Drive to a goal, then stop (`--goal X,Y`).
+    #[command(flatten)]
+    pub goal: crate::goal::GoalArgs,
+    /// Run a mission script with the robot, then stop (`--script MISSION.seq`).
+    #[command(flatten)]
+    pub mission: crate::mission::ScriptArgs,
 }
 
 /// Runs `lewis up`.
@@ -48,13 +65,36 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
             .stop_grace_ms
             .map_or(DEFAULT_STOP_GRACE, Duration::from_millis),
     };
-    let summary = run_up(&robot, &options)?;
+    let recorder = if args.no_record {
+        None
+    } else {
+        crate::record::RecorderChild::start(
+            &options.lewis_exe,
+            &options.robot_path,
+            &robot.name,
+            &options.namespace,
+            args.output.as_deref(),
+        )?
+    };
+    let goal = crate::goal::start(&args.goal, &robot, &options.namespace)?;
+    let mission = crate::mission::start(&args.mission, &options.namespace)?;
+    let summary = run_up(&robot, &options);
+    // The mission ends before the recorder stops, which records its last decisions.
+    let mission = mission.map(crate::mission::MissionRun::finish);
+    // Stopped last: it records the services' last words and the broker's stop decisions.
+    if let Some(recorder) = recorder {
+        recorder.stop();
+    }
+    let summary = summary?;
     tracing::info!(
         "broker down ({}), {} decisions",
         summary.ended_by,
         summary.decisions
     );
-    Ok(ExitCode::SUCCESS)
+    if let Some(code) = mission {
+        return code;
+    }
+    goal.map_or(Ok(ExitCode::SUCCESS), crate::goal::GoalRun::finish)
 }
 
 /// The namespace from `--namespace`, else `LEWIS_NAMESPACE`, else `default`.

@@ -53,6 +53,7 @@ fn every_interface_of_the_paper_is_defined() {
             "Power",
             "RangeFinder",
             "RecorderStats",
+            "Sequencer",
             "Signs",
             "Synchrodrive"
         ]
@@ -65,6 +66,7 @@ fn every_interface_of_the_paper_is_defined() {
         "Health",
         "LogLine",
         "RecorderStats",
+        "Sequencer",
     ];
     for interface in idl
         .interfaces
