@@ -285,10 +285,10 @@ impl RecordSink for Console {
 
 fn replay(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     let path = &args.recording;
-    let mcap = lewis_sequencer::is_mcap(path)
+    let mcap = lewis_replay::mission_log::is_mcap(path)
         .with_context(|| format!("cannot read the recording {}", path.display()))?;
     let records = if mcap {
-        let found = lewis_sequencer::read_mcap(path)?;
+        let found = lewis_replay::mission_log::read_mcap(path)?;
         if let Some(cut) = &found.cut {
             writeln!(
                 std::io::stderr(),

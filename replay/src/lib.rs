@@ -14,6 +14,7 @@ pub mod import;
 pub mod info;
 pub mod json;
 pub mod lockstep;
+pub mod mission_log;
 pub mod recording;
 pub mod report;
 pub mod resim;

@@ -11,7 +11,7 @@
 //! [`Record`] to a [`RecordSink`] (`/lewis/sequencer` through the runtime's IPC, as the
 //! `Sequencer` interface: `publish`, `message`; a JSON-lines file);
 //! the supervisor answers on a page (`gui`) or the terminal (`terminal`); and `replay`
-//! feeds recorded events (from an MCAP recording, `mcap_read`, or JSON lines) to a script's
+//! feeds recorded events (JSON lines here; from an MCAP recording, `lewis_replay::mission_log`) to a script's
 //! FSM to show where it decides differently.
 //!
 //! # The language
@@ -64,7 +64,6 @@ pub mod fsm;
 pub mod gui;
 pub mod live;
 pub mod location;
-pub mod mcap_read;
 pub mod message;
 pub mod mission;
 pub mod publish;
@@ -85,7 +84,6 @@ pub use live::{
     control_channel, run_mission,
 };
 pub use location::{Location, Spanned};
-pub use mcap_read::{McapReadError, McapRecords, is_mcap, read_mcap};
 pub use message::{MessageError, from_message, to_message};
 pub use mission::{Mission, MissionState, Target};
 pub use publish::{PublishReport, PublishSink, PublishStartError, Publisher};

@@ -2,7 +2,7 @@
 //! supervisor's choices) are fed to the FSM of a script, maybe a changed one, and its
 //! decisions are compared with the recorded ones: the regression test for mission scripts.
 //!
-//! Reading ([`read_json_lines`], [`crate::mcap_read::read_mcap`]) is kept apart from the comparison
+//! Reading ([`read_json_lines`], `lewis_replay::mission_log::read_mcap`) is kept apart from the comparison
 //! ([`Recording::from_records`], [`compare`]), which only sees [`Record`]s.
 
 use std::fmt;

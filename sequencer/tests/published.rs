@@ -18,7 +18,7 @@ use lewis_recorder::{ChannelSpec, Recorder, RecorderOptions, Sample};
 use lewis_runtime::ipc::{Ipc, Namespace, WaitSet, WakeMode, Woken};
 use lewis_runtime::names::{SEQUENCER_CHANNEL, sequencer_config};
 use lewis_sequencer::record::{Entry, Record};
-use lewis_sequencer::{Decision, from_message, read_json_lines, read_mcap};
+use lewis_sequencer::{Decision, from_message, read_json_lines};
 use lewis_tests::{WATCHDOG, lewis_exe, wait_child};
 
 /// The paper's mission without `use gui`: a crash beyond the restart limit and an unlisted
@@ -216,11 +216,6 @@ fn a_recorded_mcap_replays_identically_and_shows_where_a_changed_script_differs(
     let (received, _) = run_published(dir.path());
     let mcap = dir.path().join("run.mcap");
     record_mcap(&mcap, &received);
-
-    let read = read_mcap(&mcap).unwrap();
-    assert!(read.cut.is_none());
-    let records: Vec<Record> = received.iter().map(|t| t.record.clone()).collect();
-    assert_eq!(read.records, records);
 
     let same = lewis(&["seq", "replay"], &[&mcap]);
     assert_eq!(same.status.code(), Some(0), "{}", text(&same));

@@ -17,8 +17,8 @@ use lewis_runtime::names::SEQUENCER_CHANNEL;
 use mcap::records::Record as McapRecord;
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
-use crate::message::{MessageError, from_message};
-use crate::record::Record;
+use lewis_sequencer::message::{MessageError, from_message};
+use lewis_sequencer::record::Record;
 
 /// The first bytes of every MCAP file.
 pub const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
