@@ -1,15 +1,18 @@
 #!/usr/bin/env bash
-# The main job, as far as it is built: see README.md ("State of the main job").
+# The main job: the simulated B21r drives to a goal, recorded; the recording is described,
+# re-simulated with the laser failing half-way, and turned into a Rerun file. No hardware.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 cargo build --release -q -p lewis
 lewis=target/release/lewis
-echo "== lewis idl check interfaces/idl"
-$lewis idl check interfaces/idl
-echo "== lewis idl show RangeFinder (the paper's Figure 2, as ROS 2 sees it)"
-$lewis idl show RangeFinder | head -25
-echo "== lewis info ../shared/data/mcap/talker.mcap --messages 3 (a recording written by ROS 2)"
-$lewis info ../shared/data/mcap/talker.mcap --messages 3
-echo "== lewis seq check robots/missions/extensions.seq (its programs are not installed here: the checker says so)"
-$lewis seq check robots/missions/extensions.seq || true
+mkdir -p logs
+echo "== lewis up robots/sim.toml --goal 12,13 -o logs/demo.mcap (drive from the lobby into the corridor)"
+$lewis up robots/sim.toml --goal 12,13 -o logs/demo.mcap --namespace "demo-$$"
+echo "== lewis info logs/demo.mcap"
+$lewis info logs/demo.mcap
+echo "== lewis replay logs/demo.mcap --inject-fault laser (what if the laser had died half-way?)"
+$lewis replay logs/demo.mcap -o logs/demo-replay.mcap --inject-fault laser --report logs/demo-replay.json
+echo "== lewis view logs/demo.mcap --save logs/demo.rrd"
+$lewis view logs/demo.mcap --save logs/demo.rrd
+echo "open it with: rerun logs/demo.rrd   (pip install rerun-sdk==0.36.3)"
