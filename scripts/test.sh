@@ -9,4 +9,6 @@ scripts/setup-python.sh
 npm ci --silent --no-audit --no-fund --prefix sequencer/gui-test
 cargo fmt --all --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
-cargo test --workspace --locked
+# `cargo test --workspace` builds target/debug/lewis with the features of this build; the
+# end-to-end tests run that one rather than building `lewis` again with other features.
+LEWIS_EXE="$root/target/debug/lewis" cargo test --workspace --locked

@@ -12,7 +12,8 @@
 //! module (`viewer/src/draw/mod.rs`).
 //! A blueprint opens the viewer on that layout.
 //!
-//! The .rrd file depends only on the input: the same recording gives the same bytes.
+//! The .rrd file depends only on the input: the same recording gives the same messages, byte
+//! for byte (only the order of the manifests in Rerun's footer may differ).
 //!
 //! ```no_run
 //! use lewis_viewer::{Target, ViewOptions, view};

@@ -2,8 +2,10 @@
 //!
 //! The file is written with Rerun's encoder directly (not through a `RecordingStream`), so
 //! that every id in it comes from the input: the same recording always gives the same
-//! bytes. The file has no footer: Rerun's footer lists the stores' manifests in hash-map
-//! order, which differs between runs; the viewer reads files without one.
+//! messages, byte for byte. The file ends with Rerun's footer (the manifest of each store,
+//! which `rerun rrd verify` and lazy loading need); Rerun lists the two stores' manifests
+//! (recording and blueprint) in hash-map order, so only the footer's bytes may differ
+//! between two conversions of one recording.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -64,7 +66,6 @@ impl Output {
             BufWriter::new(file),
         )
         .map_err(|e| write_error(e.to_string()))?;
-        encoder.do_not_emit_footer();
         let store_id = store_id(StoreKind::Recording, recording_id);
         encoder
             .append(&set_store_info(store_id.clone(), 1))

@@ -124,18 +124,25 @@ impl Scan {
         }
     }
 
-    /// The beam whose bearing is closest to `bearing_rad`, seen from `from`: its index.
+    /// The beam that looks closest to the bearing `bearing_of` gives from its origin (within
+    /// 3 degrees): its index.
     fn nearest_beam(&self, bearing_of: impl Fn(Point2<f64>) -> f64) -> Option<usize> {
         self.beams
             .iter()
             .enumerate()
-            .map(|(i, beam)| (i, angle_between(beam.bearing_rad, bearing_of(beam.origin))))
+            .map(|(i, beam)| {
+                (
+                    i,
+                    angle_between(beam.bearing_rad, bearing_of(beam.origin)).abs(),
+                )
+            })
             .filter(|&(_, gap)| gap < 3f64.to_radians())
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _)| i)
     }
 }
 
+/// The signed difference `a - b`, in [-pi, pi).
 fn angle_between(a: f64, b: f64) -> f64 {
     (a - b + PI).rem_euclid(2.0 * PI) - PI
 }

@@ -120,7 +120,12 @@ fn sonar_scan() -> RangeFinder {
 /// Writes the run to `dir/run.mcap` and returns its path.
 pub fn failover_run(dir: &Path) -> PathBuf {
     let path = dir.join("run.mcap");
-    let recorder = Recorder::create(RecorderOptions::new(&path)).unwrap();
+    // Small chunks, so that a file cut short still has complete ones.
+    let options = RecorderOptions {
+        chunk_size_bytes: 16 * 1024,
+        ..RecorderOptions::new(&path)
+    };
+    let recorder = Recorder::create(options).unwrap();
     let mut w = Writer {
         recorder,
         seqs: BTreeMap::new(),
