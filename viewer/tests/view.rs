@@ -102,11 +102,6 @@ fn the_same_recording_gives_the_same_rrd_messages() {
         std::fs::read(first).unwrap(),
         std::fs::read(second).unwrap(),
     );
-    assert_eq!(
-        a.len(),
-        b.len(),
-        "two conversions of one recording differ in size"
-    );
     let (a, b) = (before_footer(&a), before_footer(&b));
     assert!(a.len() > 1000, "the file is too small: {} bytes", a.len());
     assert!(a == b, "two conversions of one recording differ");
