@@ -32,6 +32,7 @@ pub fn registry() -> ServiceRegistry {
     lewis_services::sim::service::register(&mut registry);
     lewis_services::motion::service::register(&mut registry);
     lewis_services::perception::register(&mut registry);
+    lewis_services::range_distance::register(&mut registry);
     registry
 }
 

@@ -33,7 +33,12 @@
 //! memory_ms = 5000
 //! position_tolerance_m = 0.07
 //! heading_tolerance_rad = 0.03
+//! goal = { x_m = 12.0, y_m = 13.0 } # a goto taken at start, in the odometry frame
 //! ```
+//!
+//! Without `goal` the avoider waits for a Mover command. With it, it starts moving to the
+//! goal as if a client had sent `goto` before its first tick (and again after a restart):
+//! for robots that have one job, and for replays of logs in which no client sent one.
 
 use lewis_interfaces::msg::{
     Distance, InputRef, Mover, MoverGoto, MoverRotate, MoverStop, MoverTranslate, RangeFinder,
@@ -83,6 +88,18 @@ pub struct Params {
     /// Seed of the runtime's random source (unused; accepted so that every robot file may
     /// give one).
     pub seed: Option<u64>,
+    /// A goal taken at start (see the module documentation).
+    pub goal: Option<GoalParam>,
+}
+
+/// A point of the odometry frame to go to, as robot files write it.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GoalParam {
+    /// x, in m.
+    pub x_m: f64,
+    /// y, in m.
+    pub y_m: f64,
 }
 
 impl Default for Params {
@@ -99,6 +116,7 @@ impl Default for Params {
             position_tolerance_m: None,
             heading_tolerance_rad: None,
             seed: None,
+            goal: None,
         }
     }
 }
@@ -166,6 +184,8 @@ pub struct ObstacleAvoiderService {
     mover_status: Option<Mover>,
     mover_failing: Complaint,
     bad_reading: Complaint,
+    /// The goal taken at start.
+    goal: Option<GoalParam>,
 }
 
 /// Builds an `obstacle_avoider` from its robot-file entry.
@@ -199,6 +219,17 @@ impl ObstacleAvoiderService {
         }
         let avoider =
             ObstacleAvoider::new(params.avoider_config()).map_err(|e| config_error(config, &e))?;
+        if let Some(goal) = params.goal
+            && !(goal.x_m.is_finite() && goal.y_m.is_finite())
+        {
+            return Err(BuildError::Parameters {
+                service: config.name().to_owned(),
+                reason: format!(
+                    "goal = {{ x_m = {}, y_m = {} }}: give finite coordinates in m",
+                    goal.x_m, goal.y_m
+                ),
+            });
+        }
         Ok(Self {
             avoider,
             sensor,
@@ -212,6 +243,7 @@ impl ObstacleAvoiderService {
             mover_status: None,
             mover_failing: Complaint::default(),
             bad_reading: Complaint::default(),
+            goal: params.goal,
         })
     }
 
@@ -364,6 +396,20 @@ fn missing(config: &ServiceConfig<'_>, interface: &str) -> BuildError {
 impl Service for ObstacleAvoiderService {
     fn tick_period_ns(&self) -> Option<i64> {
         Some(self.period_ns)
+    }
+
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        if let Some(goal) = self.goal {
+            // Checked finite when built: the goal is accepted.
+            self.avoider
+                .goto(goal.x_m, goal.y_m)
+                .map_err(|e| e.to_string())?;
+            ctx.info(&format!(
+                "going to the goal of its parameters, ({}, {})",
+                goal.x_m, goal.y_m
+            ));
+        }
+        Ok(())
     }
 
     fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {

@@ -413,6 +413,45 @@ fn services_missing_a_requirement_or_with_bad_parameters_are_not_built() {
 }
 
 #[test]
+fn an_avoider_with_a_goal_parameter_heads_for_it_from_its_start() {
+    let text = ROBOT.replace(
+        "requires = [\"RangeFinder\", \"Egomotion\", \"Mover\"]",
+        "requires = [\"RangeFinder\", \"Egomotion\", \"Mover\"]\nparameters = { goal = { x_m = 2.0, y_m = 0.0 } }",
+    );
+    let with_goal = robot(&text);
+    let mut rig = Rig::new(&with_goal, "obstacle_avoider");
+    rig.service
+        .on_start(&mut rig.state.context(&mut rig.backend))
+        .unwrap();
+    let scan = RangeFinder {
+        range_count: 3,
+        ranges: vec![5.0; 3],
+        max_range: 5.0,
+        uniform: true,
+        sensor_positions: vec![Default::default(); 3],
+        theta_offset: -0.5,
+        theta_separation: 0.5,
+        ..RangeFinder::default()
+    };
+    rig.input("base", &mut egomotion(0.0, 0.0, 0.0), 0);
+    rig.input("laser", &mut scan.clone(), 0);
+    rig.tick(TICK_NS);
+    assert_eq!(rig.last_status().status, MoverStatus::Moving.as_str());
+    let calls = rig.take_calls();
+    assert_eq!(calls.len(), 1, "{calls:?}");
+    assert_eq!((calls[0].1.as_str(), calls[0].2), ("Mover", "goto"));
+
+    let bad = ROBOT.replace(
+        "requires = [\"RangeFinder\", \"Egomotion\", \"Mover\"]",
+        "requires = [\"RangeFinder\", \"Egomotion\", \"Mover\"]\nparameters = { goal = { x_m = inf, y_m = 0.0 } }",
+    );
+    let err = build(&robot(&bad), "obstacle_avoider")
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("give finite coordinates"), "{err}");
+}
+
+#[test]
 fn an_avoider_that_cannot_reach_its_vector_mover_asks_again_at_the_next_step() {
     let robot = robot(ROBOT);
     let mut rig = Rig::new(&robot, "obstacle_avoider");
