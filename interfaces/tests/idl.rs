@@ -42,6 +42,7 @@ fn every_interface_of_the_paper_is_defined() {
             "Blobs3D",
             "Broker",
             "CameraControl",
+            "Clock",
             "CommandLog",
             "Distance",
             "Egomotion",
@@ -61,6 +62,7 @@ fn every_interface_of_the_paper_is_defined() {
     // The system interfaces and the simulator's truth are records; the paper's all take
     // commands.
     let system = [
+        "Clock",
         "CommandLog",
         "GroundTruth",
         "Health",

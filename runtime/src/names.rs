@@ -12,6 +12,10 @@
 //! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
 //! | services' output lines | `/lewis/log` | `LogLine` |
 //! | the sequencer's records | `/lewis/sequencer` | `Sequencer` |
+//! | the time of a recording played live | `/lewis/clock` | `Clock` |
+//!
+//! [`channel_config`] gives the settings of any of them from its name alone, for tools that
+//! open channels they only know by name (`lewis play` publishing a recording's topics).
 //!
 //! All of them live under the namespace (`LEWIS_NAMESPACE`), see [`crate::ipc::Namespace`].
 
@@ -30,6 +34,9 @@ pub const LOG_CHANNEL: &str = "/lewis/log";
 
 /// The channel of the sequencer's records (events, decisions, program starts).
 pub const SEQUENCER_CHANNEL: &str = "/lewis/sequencer";
+
+/// The channel of the time of a recording played into live IPC (`lewis play`).
+pub const CLOCK_CHANNEL: &str = "/lewis/clock";
 
 /// The iceoryx2 node name of the broker (`lewis up`).
 pub const BROKER_NODE: &str = "lewis-broker";
@@ -149,6 +156,33 @@ pub fn sequencer_config() -> ChannelConfig {
     }
 }
 
+/// The settings of `/lewis/clock`: only the newest time matters (the oldest unread is
+/// dropped), and the last one is kept for a follower that joins late.
+#[must_use]
+pub fn clock_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 4,
+        max_subscribers: 32,
+        ..ChannelConfig::sensor(256)
+    }
+}
+
+/// The settings of the data or record channel named `channel`, from its name: the broker's,
+/// log, sequencer and clock channels, health (`/lewis/health/*`) and command logs
+/// (`/lewis/commands/*`) have their own; every other name is a provider's data channel.
+#[must_use]
+pub fn channel_config(channel: &str) -> ChannelConfig {
+    match channel {
+        BROKER_CHANNEL => broker_config(),
+        LOG_CHANNEL => log_config(),
+        SEQUENCER_CHANNEL => sequencer_config(),
+        CLOCK_CHANNEL => clock_config(),
+        _ if channel.starts_with("/lewis/health/") => health_config(),
+        _ if channel.starts_with("/lewis/commands/") => command_log_config(),
+        _ => data_config(),
+    }
+}
+
 /// The settings of the broker's command channel: every client and `lewis status` may call.
 #[must_use]
 pub fn broker_command_config() -> CommandConfig {
@@ -191,5 +225,19 @@ mod tests {
         );
         check(&health_channel("sonar"), "/lewis/health/sonar");
         check(&command_log_channel("mover"), "/lewis/commands/mover");
+    }
+
+    #[test]
+    fn a_channel_name_gives_the_settings_its_owner_opens_it_with() {
+        fn check(channel: &str, expected: &ChannelConfig) {
+            assert_eq!(&channel_config(channel), expected, "{channel}");
+        }
+        check("/laser/RangeFinder", &data_config());
+        check(&health_channel("laser"), &health_config());
+        check(&command_log_channel("laser"), &command_log_config());
+        check(BROKER_CHANNEL, &broker_config());
+        check(LOG_CHANNEL, &log_config());
+        check(SEQUENCER_CHANNEL, &sequencer_config());
+        check(CLOCK_CHANNEL, &clock_config());
     }
 }
