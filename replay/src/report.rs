@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::compare::ChannelDivergence;
 use crate::fault::{Fault, FaultKind, format_seconds};
-use crate::lockstep::{Gap, HarnessStats};
+use crate::lockstep::{Feed, Gap, HarnessStats};
 
 /// At most this many reactions are listed per fault.
 const MAX_REACTIONS: usize = 32;
@@ -42,6 +42,8 @@ pub struct Report {
     pub faults: Vec<FaultReport>,
     /// The longest time a re-simulated client went without data of an interface.
     pub longest_gap: Option<Gap>,
+    /// What each re-simulated client received from each provider (times from the start).
+    pub feeds: Vec<Feed>,
     /// Per output channel, how far the re-simulated outputs are from the recorded ones.
     pub divergence: Vec<ChannelDivergence>,
     /// What the harness did.
@@ -301,6 +303,18 @@ impl fmt::Display for Report {
                     ms(t.latency_ns)
                 )?;
             }
+        }
+        for feed in &self.feeds {
+            writeln!(
+                f,
+                "input: {} got {} from {}: {} samples, {} to {}",
+                feed.client,
+                feed.interface,
+                feed.provider,
+                feed.samples,
+                format_seconds(feed.first_ns),
+                format_seconds(feed.last_ns)
+            )?;
         }
         if let Some(gap) = &self.longest_gap {
             writeln!(

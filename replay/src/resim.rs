@@ -40,7 +40,9 @@ use lewis_runtime::service::{ServiceConfig, ServiceRegistry};
 
 use crate::compare::Comparator;
 use crate::fault::{Fault, FaultError, FaultSpec};
-use crate::lockstep::{CommandBook, Emitted, Lockstep, LockstepError, Plan, Route, Sink, route};
+use crate::lockstep::{
+    CommandBook, Emitted, Feed, Lockstep, LockstepError, Plan, Route, Sink, route,
+};
 use crate::recording::{Recording, RecordingError};
 use crate::report::{CheckOutcome, Report, fault_report};
 
@@ -371,6 +373,14 @@ pub fn replay(
         messages: read,
     });
     let stats = harness.stats().clone();
+    let feeds = harness
+        .feeds()
+        .map(|feed| Feed {
+            first_ns: feed.first_ns - start_ns,
+            last_ns: feed.last_ns - start_ns,
+            ..feed.clone()
+        })
+        .collect();
     let longest_gap = harness.longest_gap().cloned().map(|mut g| {
         g.from_ns -= start_ns;
         g.to_ns -= start_ns;
@@ -412,6 +422,7 @@ pub fn replay(
             .map(|f| fault_report(f, &decisions, start_ns))
             .collect(),
         longest_gap,
+        feeds,
         divergence,
         harness: stats,
         check,

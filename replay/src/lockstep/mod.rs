@@ -166,6 +166,24 @@ pub struct Gap {
     pub gap_ns: i64,
 }
 
+/// What one re-simulated client received of one interface from one provider: the
+/// evidence of which sensor a service worked from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Feed {
+    /// The client.
+    pub client: String,
+    /// The interface.
+    pub interface: String,
+    /// The provider.
+    pub provider: String,
+    /// Samples delivered.
+    pub samples: u64,
+    /// The virtual time of the first.
+    pub first_ns: i64,
+    /// The virtual time of the last.
+    pub last_ns: i64,
+}
+
 /// What to run: which services are re-simulated, which faults are injected, and the
 /// recorded answers of the fed services.
 #[derive(Debug, Clone, Default)]
@@ -266,6 +284,7 @@ pub struct Lockstep<'a> {
     stats: HarnessStats,
     last_input: BTreeMap<(String, String), i64>,
     longest_gap: Option<Gap>,
+    feeds: BTreeMap<(String, String, String), Feed>,
 }
 
 impl std::fmt::Debug for Lockstep<'_> {
@@ -347,6 +366,7 @@ impl<'a> Lockstep<'a> {
             stats: HarnessStats::default(),
             last_input: BTreeMap::new(),
             longest_gap: None,
+            feeds: BTreeMap::new(),
         };
         for i in 0..harness.faults.len() {
             let (at, until) = (harness.faults[i].at_ns, harness.faults[i].until_ns);
@@ -501,6 +521,12 @@ impl<'a> Lockstep<'a> {
     #[must_use]
     pub fn longest_gap(&self) -> Option<&Gap> {
         self.longest_gap.as_ref()
+    }
+
+    /// What each re-simulated client received from each provider so far, ordered by client,
+    /// interface and provider.
+    pub fn feeds(&self) -> impl Iterator<Item = &Feed> {
+        self.feeds.values()
     }
 
     /// The provider of each client's interface now.
@@ -755,6 +781,21 @@ impl<'a> Lockstep<'a> {
                     self.note_gap(&client, &interface, last, self.now_ns);
                 }
                 self.stats.inputs_delivered += 1;
+                let now_ns = self.now_ns;
+                self.feeds
+                    .entry((client.clone(), interface.clone(), provider.clone()))
+                    .and_modify(|f| {
+                        f.samples += 1;
+                        f.last_ns = now_ns;
+                    })
+                    .or_insert_with(|| Feed {
+                        client: client.clone(),
+                        interface: interface.clone(),
+                        provider: provider.clone(),
+                        samples: 1,
+                        first_ns: now_ns,
+                        last_ns: now_ns,
+                    });
                 let provenance = vec![InputRef {
                     channel: channel.to_string(),
                     seq,
