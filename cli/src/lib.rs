@@ -12,6 +12,7 @@ mod fake_device;
 mod fault;
 mod goal;
 mod idl;
+mod import;
 mod info;
 mod mission;
 mod record;
@@ -57,6 +58,10 @@ pub enum Command {
     /// Repair a recording whose writer died (SIGKILL, power cut): everything up to its last
     /// complete chunk, with a new summary.
     Recover(recover::RecoverArgs),
+    /// Import a log of another robot software (CARMEN) as a Lewis recording that replay runs
+    /// services over.
+    #[command(subcommand)]
+    Import(import::ImportCommand),
     /// Re-simulate a recording in lockstep: services and broker on a virtual clock, faults
     /// injected, outputs compared with the recording (a regression test with --check).
     Replay(replay::ReplayArgs),
@@ -91,6 +96,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Seq(command) => seq::run(command),
         Command::Record(args) => record::run(&args),
         Command::Recover(args) => recover::run(&args),
+        Command::Import(command) => import::run(command),
         Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),
         Command::Service(args) => service::run(&args),

@@ -98,19 +98,27 @@ fn check_log(file: &str, scans: u64, beams: usize, clock: ScanClock) -> Imported
     );
 
     // One reading and one Distance per scan, a sonar reading every other scan, one
-    // Egomotion per ODOM line.
+    // Egomotion per ODOM line, a heartbeat of each source every 100 ms of the log.
     let count = |channel: &str| imported.by_channel.get(channel).map_or(0, Vec::len);
     let scans = usize::try_from(scans).unwrap();
     assert_eq!(count("/laser/RangeFinder"), scans, "{file}");
-    assert_eq!(count("/laser/Distance"), scans, "{file}");
+    assert_eq!(count("/distance/Distance"), scans, "{file}");
     assert_eq!(count("/sonar/RangeFinder"), scans.div_ceil(2), "{file}");
-    assert_eq!(count("/sonar/Distance"), scans.div_ceil(2), "{file}");
     assert_eq!(report.odometry, OdometrySource::OdomLines);
     assert_eq!(
         count("/base/Egomotion"),
         usize::try_from(report.counts.odometry).unwrap()
     );
-    assert_eq!(imported.by_channel.len(), 5, "{file}");
+    let (first, last) = (imported.order[0], *imported.order.last().unwrap());
+    let heartbeats = usize::try_from((last - first) / 100_000_000 + 1).unwrap();
+    for source in ["laser", "base", "sonar"] {
+        assert_eq!(
+            count(&format!("/lewis/health/{source}")),
+            heartbeats,
+            "{file}"
+        );
+    }
+    assert_eq!(imported.by_channel.len(), 7, "{file}");
 
     // Time never goes backwards: non-decreasing over the import, strictly increasing per
     // channel, never negative; headers agree with the log times and count from 1.
@@ -125,7 +133,10 @@ fn check_log(file: &str, scans: u64, beams: usize, clock: ScanClock) -> Imported
             let h = m.payload.header();
             assert_eq!(h.seq, u64::try_from(k + 1).unwrap());
             assert_eq!(h.publish_time_ns, m.time_ns);
-            assert!(channel.starts_with(&format!("/{}/", h.provider)));
+            assert!(
+                channel.starts_with(&format!("/{}/", h.provider))
+                    || *channel == format!("/lewis/health/{}", h.provider)
+            );
         }
     }
 
@@ -172,9 +183,26 @@ fn check_log(file: &str, scans: u64, beams: usize, clock: ScanClock) -> Imported
             .map(|p| p.interface.clone())
             .collect()
     };
-    assert_eq!(provides("laser"), ["RangeFinder", "Distance"]);
-    assert_eq!(provides("base"), ["Egomotion"]);
-    assert_eq!(provides("sonar"), ["RangeFinder", "Distance"]);
+    assert_eq!(provides("laser"), ["RangeFinder"]);
+    assert_eq!(provides("base"), ["Egomotion", "Synchrodrive"]);
+    assert_eq!(provides("sonar"), ["RangeFinder"]);
+    assert_eq!(provides("distance"), ["Distance"]);
+    assert_eq!(provides("obstacle_avoider"), ["Mover"]);
+    assert_eq!(provides("vector_mover"), ["Mover"]);
+    // The Distance readings are the distance service's, computed from the laser readings
+    // they name.
+    for (m, laser) in imported.by_channel["/distance/Distance"]
+        .iter()
+        .zip(&imported.by_channel["/laser/RangeFinder"])
+    {
+        let h = m.payload.header();
+        assert_eq!(h.inputs.len(), 1);
+        assert_eq!(
+            (h.inputs[0].channel.as_str(), h.inputs[0].seq),
+            ("/laser/RangeFinder", laser.payload.header().seq)
+        );
+        assert_eq!(m.time_ns, laser.time_ns);
+    }
     imported
 }
 
@@ -558,9 +586,15 @@ fn payloads_carry_their_schema_and_decode_back_from_cdr() {
             Payload::Egomotion(_) => {
                 Payload::Egomotion(lewis_interfaces::cdr::from_bytes(&buffer).unwrap())
             }
+            Payload::Health(_) => {
+                Payload::Health(lewis_interfaces::cdr::from_bytes(&buffer).unwrap())
+            }
         };
         assert_eq!(decoded, m.payload);
-        assert!(m.payload.schema_text().contains("range") || m.payload.interface() == "Egomotion");
+        assert!(
+            m.payload.schema_text().contains("range")
+                || ["Egomotion", "Health"].contains(&m.payload.interface())
+        );
         schemas.insert((m.payload.schema_name(), m.channel.clone()));
     }
     assert_eq!(
@@ -568,15 +602,23 @@ fn payloads_carry_their_schema_and_decode_back_from_cdr() {
         [
             (
                 "lewis_interfaces/msg/Distance",
-                "/laser/Distance".to_owned()
-            ),
-            (
-                "lewis_interfaces/msg/Distance",
-                "/sonar/Distance".to_owned()
+                "/distance/Distance".to_owned()
             ),
             (
                 "lewis_interfaces/msg/Egomotion",
                 "/base/Egomotion".to_owned()
+            ),
+            (
+                "lewis_interfaces/msg/Health",
+                "/lewis/health/base".to_owned()
+            ),
+            (
+                "lewis_interfaces/msg/Health",
+                "/lewis/health/laser".to_owned()
+            ),
+            (
+                "lewis_interfaces/msg/Health",
+                "/lewis/health/sonar".to_owned()
             ),
             (
                 "lewis_interfaces/msg/RangeFinder",
@@ -587,5 +629,105 @@ fn payloads_carry_their_schema_and_decode_back_from_cdr() {
                 "/sonar/RangeFinder".to_owned()
             ),
         ]
+    );
+}
+
+#[test]
+fn a_limit_imports_the_log_up_to_its_nth_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "small.log", SMALL_LOG.as_bytes());
+    let imported = import_all(
+        &path,
+        ImportOptions {
+            max_scans: Some(1),
+            ..ImportOptions::default()
+        },
+    );
+    let report = imported.import.report();
+    assert!(report.cut_short);
+    assert_eq!(
+        report.counts.odometry, 1,
+        "the ODOM line after the scan is not read"
+    );
+    let counts: Vec<(&str, usize)> = imported
+        .by_channel
+        .iter()
+        .map(|(c, m)| (c.as_str(), m.len()))
+        .collect();
+    assert_eq!(
+        counts,
+        [
+            ("/base/Egomotion", 1),
+            ("/distance/Distance", 1),
+            ("/laser/RangeFinder", 1),
+            ("/lewis/health/base", 2),
+            ("/lewis/health/laser", 2),
+            ("/lewis/health/sonar", 2),
+            ("/sonar/RangeFinder", 1),
+        ]
+    );
+    let warnings = report.warnings().join("\n");
+    assert!(
+        warnings.contains("only the log up to its scan 1 was imported (line 4)"),
+        "{warnings}"
+    );
+    // The whole log has two scans: a limit beyond it cuts nothing.
+    let all = import_all(
+        &path,
+        ImportOptions {
+            max_scans: Some(5),
+            ..ImportOptions::default()
+        },
+    );
+    assert!(!all.import.report().cut_short);
+    assert_eq!(all.by_channel["/laser/RangeFinder"].len(), 2);
+}
+
+#[test]
+fn the_avoider_goal_is_the_pose_farthest_from_the_start_unless_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "small.log", SMALL_LOG.as_bytes());
+    let farthest = CarmenImport::open(&path, ImportOptions::default()).unwrap();
+    assert_eq!(farthest.report().goal, (0.3, 0.4));
+    assert!(robot_toml(farthest.report()).contains("goal = { x_m = 0.3, y_m = 0.4 }"));
+    let given = CarmenImport::open(
+        &path,
+        ImportOptions {
+            goal: Some((5.0, -2.0)),
+            ..ImportOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(robot_toml(given.report()).contains("goal = { x_m = 5.0, y_m = -2.0 }"));
+}
+
+#[test]
+fn options_out_of_range_are_refused_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "small.log", SMALL_LOG.as_bytes());
+    let check = |options: ImportOptions, expected: &str| {
+        let error = CarmenImport::open(&path, options).unwrap_err().to_string();
+        assert!(error.contains(expected), "{error}");
+    };
+    check(
+        ImportOptions {
+            max_scans: Some(0),
+            ..ImportOptions::default()
+        },
+        "--limit-scans 0 would import nothing",
+    );
+    check(
+        ImportOptions {
+            goal: Some((f64::NAN, 0.0)),
+            ..ImportOptions::default()
+        },
+        "give finite coordinates",
+    );
+    check(
+        ImportOptions {
+            distance_sectors: 0,
+            ..ImportOptions::default()
+        },
+        "0 Distance sectors: give 1 to 360",
     );
 }

@@ -6,13 +6,14 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
-use lewis_interfaces::msg::{Distance, Egomotion, Header, Pose2D, RangeFinder};
+use lewis_interfaces::msg::{Distance, Egomotion, Header, Health, InputRef, Pose2D, RangeFinder};
 use lewis_interfaces::{Interface, Struct};
-use lewis_runtime::names::data_channel;
+use lewis_runtime::names::{data_channel, health_channel};
+use lewis_services::range_distance::{self, RangeToDistance};
 
 use super::laser::{
     BeamGeometry, DEFAULT_MAX_RANGE_M, LaserMount, LaserSetup, ReadingCounts, SonarOptions,
-    derived_sonar, field_of_view, laser_distance, range_finder, sonar_distance,
+    derived_sonar, field_of_view, range_finder,
 };
 use super::parse::{LaserId, LaserScan, Record};
 use super::reader::{LineError, LogReader, ParseCounts, ReadError};
@@ -24,6 +25,9 @@ pub const LASER: &str = "laser";
 pub const BASE: &str = "base";
 /// The provider name of the sonar-like fallback derived from the laser.
 pub const SONAR: &str = "sonar";
+/// The name of the imported robot's Distance service (`range_distance`), whose outputs the
+/// import computes as that service would have published them live.
+pub const DISTANCE: &str = "distance";
 
 /// How to import a CARMEN log.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,17 +40,28 @@ pub struct ImportOptions {
     pub distance_sectors: usize,
     /// The derived sonar-like fallback, or `None` for none.
     pub sonar: Option<SonarOptions>,
+    /// Import only the log up to its Nth scan of the imported laser (`None`: all of it).
+    pub max_scans: Option<u64>,
+    /// The period of the sources' heartbeats (and of the robot's broker), in ns.
+    pub heartbeat_period_ns: i64,
+    /// The goal of the imported robot's obstacle avoider, in the odometry frame, in m
+    /// (`None`: the odometry pose farthest from the first one).
+    pub goal: Option<(f64, f64)>,
 }
 
 impl Default for ImportOptions {
     /// Re-time broken stamps, 81.91 m without a parameter, 8 Distance sectors, the derived
-    /// sonar with its defaults.
+    /// sonar with its defaults, the whole log, heartbeats every 100 ms, the farthest pose as
+    /// the goal.
     fn default() -> Self {
         Self {
             timing: TimingOptions::default(),
             default_max_range_m: DEFAULT_MAX_RANGE_M,
             distance_sectors: 8,
             sonar: Some(SonarOptions::default()),
+            max_scans: None,
+            heartbeat_period_ns: 100_000_000,
+            goal: None,
         }
     }
 }
@@ -76,6 +91,9 @@ pub enum ImportError {
         /// Why.
         source: TimingError,
     },
+    /// An option is out of range.
+    #[error("{0}")]
+    Option(String),
     /// The file changed between the two passes.
     #[error(
         "{} changed while it was being imported (its records differ between the two passes): import it again",
@@ -175,6 +193,15 @@ pub struct ImportReport {
     pub sonar: Option<SonarOptions>,
     /// Distance sectors.
     pub distance_sectors: usize,
+    /// The bearings the Distance sectors cover (the laser's field of view), from and to, in
+    /// degrees (rounded to a micro-degree, so that the robot file states them exactly).
+    pub distance_span_deg: [f64; 2],
+    /// The period of the sources' heartbeats, in ns.
+    pub heartbeat_period_ns: i64,
+    /// The goal of the imported obstacle avoider, in the odometry frame, in m.
+    pub goal: (f64, f64),
+    /// Whether [`ImportOptions::max_scans`] cut the log short.
+    pub cut_short: bool,
     /// Laser scan lines not imported (`RLASER`, `ROBOTLASER2`.., or `ROBOTLASER1` when the
     /// log has `FLASER`).
     pub scans_not_imported: u64,
@@ -229,7 +256,25 @@ impl ImportReport {
                 sonar.transducers, sonar.max_range_m, sonar.every_nth_scan
             ));
         }
+        if self.cut_short {
+            out.push(format!(
+                "only the log up to its scan {} was imported (line {})",
+                self.laser.beam_counts.values().sum::<u64>(),
+                self.counts.lines
+            ));
+        }
         out
+    }
+
+    /// The parameters of the imported robot's `range_distance` service: the import computes
+    /// its Distance readings with exactly these.
+    #[must_use]
+    pub fn distance_params(&self) -> range_distance::Params {
+        range_distance::Params {
+            sector_count: self.distance_sectors,
+            span_deg: Some(self.distance_span_deg),
+            seed: None,
+        }
     }
 }
 
@@ -254,6 +299,9 @@ pub enum Payload {
     Distance(Distance),
     /// Odometry.
     Egomotion(Egomotion),
+    /// A heartbeat of a source (the log says nothing of its health: it is taken as alive
+    /// from the log's first record to its last).
+    Health(Health),
 }
 
 impl Payload {
@@ -264,6 +312,7 @@ impl Payload {
             Self::RangeFinder(_) => RangeFinder::NAME,
             Self::Distance(_) => Distance::NAME,
             Self::Egomotion(_) => Egomotion::NAME,
+            Self::Health(_) => Health::NAME,
         }
     }
 
@@ -274,6 +323,7 @@ impl Payload {
             Self::RangeFinder(_) => RangeFinder::SCHEMA_NAME,
             Self::Distance(_) => Distance::SCHEMA_NAME,
             Self::Egomotion(_) => Egomotion::SCHEMA_NAME,
+            Self::Health(_) => Health::SCHEMA_NAME,
         }
     }
 
@@ -284,6 +334,7 @@ impl Payload {
             Self::RangeFinder(_) => RangeFinder::SCHEMA_TEXT,
             Self::Distance(_) => Distance::SCHEMA_TEXT,
             Self::Egomotion(_) => Egomotion::SCHEMA_TEXT,
+            Self::Health(_) => Health::SCHEMA_TEXT,
         }
     }
 
@@ -293,6 +344,7 @@ impl Payload {
             Self::RangeFinder(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
             Self::Distance(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
             Self::Egomotion(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
+            Self::Health(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
         }
     }
 
@@ -303,6 +355,7 @@ impl Payload {
             Self::RangeFinder(m) => &m.header,
             Self::Distance(m) => &m.header,
             Self::Egomotion(m) => &m.header,
+            Self::Health(m) => &m.header,
         }
     }
 }
@@ -372,6 +425,101 @@ fn rate_hz(times_ns: impl Iterator<Item = i64>) -> Option<f64> {
     (count >= 2 && span_s > 0.0).then(|| (count - 1) as f64 / span_s)
 }
 
+/// Where odometry poses come from, for the default goal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum PoseStream {
+    Odom,
+    Scan(LaserSource),
+}
+
+/// The first pose of a stream and the one farthest from it.
+#[derive(Debug, Default)]
+struct FarthestPose {
+    first: Option<Pose2D>,
+    farthest: Option<(f64, Pose2D)>,
+}
+
+impl FarthestPose {
+    fn see(&mut self, pose: &Pose2D) {
+        if !(pose.x.is_finite() && pose.y.is_finite()) {
+            return;
+        }
+        let first = self.first.get_or_insert_with(|| pose.clone());
+        let d = (pose.x - first.x).hypot(pose.y - first.y);
+        if self.farthest.as_ref().is_none_or(|(best, _)| d > *best) {
+            self.farthest = Some((d, pose.clone()));
+        }
+    }
+}
+
+/// Whether the import has its `max_scans` scans of the laser it imports (FLASER, or
+/// ROBOTLASER1 in a log without FLASER so far).
+fn limit_reached(beams: &BTreeMap<LaserSource, BTreeMap<usize, u64>>, max: Option<u64>) -> bool {
+    let Some(max) = max else {
+        return false;
+    };
+    let scans = |source| beams.get(&source).map_or(0, |b| b.values().sum::<u64>());
+    let front = scans(LaserSource::Flaser);
+    front >= max || (front == 0 && scans(LaserSource::RobotLaser1) >= max)
+}
+
+/// The field of view of the most common scan, in the robot frame, in degrees, rounded to a
+/// micro-degree.
+fn span_deg(
+    geometry: BeamGeometry,
+    beam_counts: &BTreeMap<usize, u64>,
+    mount: &LaserMount,
+) -> [f64; 2] {
+    let beams = beam_counts
+        .iter()
+        .max_by_key(|(beams, count)| (**count, std::cmp::Reverse(**beams)))
+        .map_or(0, |(beams, _)| *beams);
+    let scan = RangeFinder {
+        ranges: vec![0.0; beams],
+        theta_offset: mount.heading_rad + geometry.first_beam_rad,
+        theta_separation: geometry.separation_rad,
+        ..RangeFinder::default()
+    };
+    let span = field_of_view(&scan);
+    let round = |rad: f64| (rad.to_degrees() * 1e6).round() / 1e6;
+    let (from, to) = (round(span.from_rad), round(span.to_rad));
+    if from < to {
+        [from, to]
+    } else {
+        [-180.0, 180.0]
+    }
+}
+
+fn check_options(options: &ImportOptions) -> Result<(), ImportError> {
+    if options.max_scans == Some(0) {
+        return Err(ImportError::Option(
+            "--limit-scans 0 would import nothing: give at least 1 scan".to_owned(),
+        ));
+    }
+    if options.heartbeat_period_ns <= 0 {
+        return Err(ImportError::Option(format!(
+            "a heartbeat period of {} ns: give a positive period",
+            options.heartbeat_period_ns
+        )));
+    }
+    if let Some((x, y)) = options.goal
+        && !(x.is_finite() && y.is_finite())
+    {
+        return Err(ImportError::Option(format!(
+            "the goal ({x}, {y}) is not a point: give finite coordinates in m"
+        )));
+    }
+    if !range_distance::SECTOR_COUNTS.contains(&options.distance_sectors) {
+        return Err(ImportError::Option(format!(
+            "{} Distance sectors: give {} to {}",
+            options.distance_sectors,
+            range_distance::SECTOR_COUNTS.start(),
+            range_distance::SECTOR_COUNTS.end()
+        )));
+    }
+    Ok(())
+}
+
 impl CarmenImport {
     /// Reads the log at `path` once: counts its lines, reads the laser parameters, and
     /// re-times its records.
@@ -388,7 +536,10 @@ impl CarmenImport {
     /// # Errors
     /// As [`CarmenImport::open`].
     pub fn from_reader(mut reader: LogReader, options: ImportOptions) -> Result<Self, ImportError> {
+        check_options(&options)?;
         let mut timed: Vec<(Timed, StampInput)> = Vec::new();
+        let mut poses: BTreeMap<PoseStream, FarthestPose> = BTreeMap::new();
+        let mut cut_short = false;
         let mut beams: BTreeMap<LaserSource, BTreeMap<usize, u64>> = BTreeMap::new();
         let mut geometry: BTreeMap<LaserSource, BeamGeometry> = BTreeMap::new();
         let mut params = FrontParams {
@@ -400,14 +551,17 @@ impl CarmenImport {
             let line = entry.line;
             match entry.value {
                 Record::Param(p) => params.take(&p.name, &p.value, line),
-                Record::Odometry(o) => timed.push((
-                    Timed::Odometry,
-                    StampInput {
-                        stream: Stream::Odometry,
-                        line,
-                        time: o.stamps.map(|s| s.logger),
-                    },
-                )),
+                Record::Odometry(o) => {
+                    poses.entry(PoseStream::Odom).or_default().see(&o.pose);
+                    timed.push((
+                        Timed::Odometry,
+                        StampInput {
+                            stream: Stream::Odometry,
+                            line,
+                            time: o.stamps.map(|s| s.logger),
+                        },
+                    ));
+                }
                 Record::Laser(scan) => {
                     let source = match scan.laser {
                         LaserId::Front => LaserSource::Flaser,
@@ -422,6 +576,10 @@ impl CarmenImport {
                         .or_default()
                         .entry(scan.ranges_m.len())
                         .or_default() += 1;
+                    poses
+                        .entry(PoseStream::Scan(source))
+                        .or_default()
+                        .see(&scan.odometry_pose);
                     timed.push((
                         Timed::Scan(source),
                         StampInput {
@@ -430,6 +588,10 @@ impl CarmenImport {
                             time: scan.stamps.map(|s| s.logger),
                         },
                     ));
+                    if limit_reached(&beams, options.max_scans) {
+                        cut_short = true;
+                        break;
+                    }
                 }
             }
         }
@@ -479,16 +641,29 @@ impl CarmenImport {
             Some((range, line)) => (range, Some(line)),
             None => (options.default_max_range_m, None),
         };
+        let pose_stream = match odometry {
+            OdometrySource::OdomLines => PoseStream::Odom,
+            OdometrySource::ScanPoses => PoseStream::Scan(source),
+        };
+        let goal = options.goal.unwrap_or_else(|| {
+            poses
+                .get(&pose_stream)
+                .and_then(|p| p.farthest.as_ref())
+                .map_or((0.0, 0.0), |(_, pose)| (pose.x, pose.y))
+        });
+        let geometry = geometry
+            .remove(&source)
+            .unwrap_or_else(|| BeamGeometry::old_format(0));
+        let beam_counts = beams.remove(&source).unwrap_or_default();
+        let distance_span_deg = span_deg(geometry, &beam_counts, &params.mount);
         let report = ImportReport {
             gzip: reader.is_gzip(),
             malformed: reader.errors().to_vec(),
             scans_not_imported: all_scans - counts.scans_of(source.id()),
             laser: LaserSummary {
                 source,
-                beam_counts: beams.remove(&source).unwrap_or_default(),
-                geometry: geometry
-                    .remove(&source)
-                    .unwrap_or_else(|| BeamGeometry::old_format(0)),
+                beam_counts,
+                geometry,
                 max_range_m,
                 max_range_line,
                 mount: params.mount,
@@ -499,6 +674,10 @@ impl CarmenImport {
             odometry_rate_hz,
             sonar: options.sonar,
             distance_sectors: options.distance_sectors,
+            distance_span_deg,
+            heartbeat_period_ns: options.heartbeat_period_ns,
+            goal,
+            cut_short,
             parameter_problems: params.problems,
             timing: retimed.report,
             path: path.clone(),
@@ -531,6 +710,12 @@ impl CarmenImport {
     /// Never for now; kept fallible for symmetry with [`CarmenImport::messages`].
     pub fn messages_from(&self, reader: LogReader) -> Result<Messages<'_>, ImportError> {
         let laser = &self.report.laser;
+        let distance = RangeToDistance::from_params(&self.report.distance_params())
+            .map_err(ImportError::Option)?;
+        let mut sources = vec![BASE, LASER];
+        if self.report.sonar.is_some() {
+            sources.push(SONAR);
+        }
         Ok(Messages {
             import: self,
             reader,
@@ -546,6 +731,9 @@ impl CarmenImport {
                 max_range_m: laser.max_range_m,
                 distance_sectors: self.options.distance_sectors,
             },
+            distance,
+            sources,
+            next_heartbeat_ns: None,
             done: false,
         })
     }
@@ -563,6 +751,10 @@ pub struct Messages<'a> {
     last_pose: Option<Pose2D>,
     distance_travelled_m: f64,
     setup: LaserSetup,
+    distance: RangeToDistance,
+    /// The sources whose heartbeats are written.
+    sources: Vec<&'static str>,
+    next_heartbeat_ns: Option<i64>,
     done: bool,
 }
 
@@ -601,6 +793,29 @@ impl Messages<'_> {
         });
     }
 
+    /// The heartbeats of every source due at or before `time_ns`, from the first record's
+    /// time on, every heartbeat period.
+    fn heartbeats_until(&mut self, time_ns: i64) {
+        let period = self.import.report.heartbeat_period_ns.max(1);
+        let mut next = *self.next_heartbeat_ns.get_or_insert(time_ns);
+        while next <= time_ns {
+            for provider in self.sources.clone() {
+                let message = Health {
+                    header: self.header(provider, Health::NAME, next),
+                    state: "ok".to_owned(),
+                    reason: String::new(),
+                };
+                self.pending.push_back(ImportedMessage {
+                    time_ns: next,
+                    channel: health_channel(provider),
+                    payload: Payload::Health(message),
+                });
+            }
+            next = next.saturating_add(period);
+        }
+        self.next_heartbeat_ns = Some(next);
+    }
+
     fn next_time(&mut self) -> Result<i64, ImportError> {
         let t = self
             .import
@@ -615,6 +830,7 @@ impl Messages<'_> {
     }
 
     fn egomotion(&mut self, time_ns: i64, pose: Pose2D, tv: f64, rv: f64) {
+        self.heartbeats_until(time_ns);
         if let Some(last) = &self.last_pose {
             self.distance_travelled_m += (pose.x - last.x).hypot(pose.y - last.y);
         }
@@ -630,6 +846,7 @@ impl Messages<'_> {
     }
 
     fn scan(&mut self, time_ns: i64, scan: LaserScan) {
+        self.heartbeats_until(time_ns);
         let geometry = beam_geometry(&scan);
         let mut setup = self.setup;
         if let (Some(g), None) = (scan.geometry, self.import.report.laser.max_range_line)
@@ -639,26 +856,24 @@ impl Messages<'_> {
         }
         let mut laser = range_finder(&scan.ranges_m, geometry, &setup, &mut self.readings);
         laser.header = self.header(LASER, RangeFinder::NAME, time_ns);
-        let span = field_of_view(&laser);
-        let mut distance = laser_distance(&laser, setup.distance_sectors);
-        distance.header = self.header(LASER, Distance::NAME, time_ns);
+        // What the `distance` service publishes when this reading reaches it.
+        let mut distance = self.distance.distance(&laser);
+        distance.header = self.header(DISTANCE, Distance::NAME, time_ns);
+        distance.header.inputs = vec![InputRef {
+            channel: data_channel(LASER, RangeFinder::NAME),
+            seq: laser.header.seq,
+        }];
         let sonar = self.import.options.sonar.filter(|s| {
             self.scans
                 .is_multiple_of(u64::from(s.every_nth_scan.max(1)))
         });
-        let sonar_messages = sonar.map(|options| {
-            let reading = derived_sonar(&laser, &options);
-            let distance = sonar_distance(&reading, span, setup.distance_sectors);
-            (reading, distance)
-        });
+        let sonar_reading = sonar.map(|options| derived_sonar(&laser, &options));
         self.scans += 1;
         self.emit(LASER, time_ns, Payload::RangeFinder(laser));
-        self.emit(LASER, time_ns, Payload::Distance(distance));
-        if let Some((mut reading, mut distance)) = sonar_messages {
+        self.emit(DISTANCE, time_ns, Payload::Distance(distance));
+        if let Some(mut reading) = sonar_reading {
             reading.header = self.header(SONAR, RangeFinder::NAME, time_ns);
-            distance.header = self.header(SONAR, Distance::NAME, time_ns);
             self.emit(SONAR, time_ns, Payload::RangeFinder(reading));
-            self.emit(SONAR, time_ns, Payload::Distance(distance));
         }
         if self.import.report.odometry == OdometrySource::ScanPoses {
             self.egomotion(time_ns, scan.odometry_pose, 0.0, 0.0);
@@ -668,6 +883,10 @@ impl Messages<'_> {
     fn fill(&mut self) -> Result<(), ImportError> {
         let wanted = self.import.report.laser.source.id();
         while self.pending.is_empty() {
+            // A log cut short (`max_scans`) ends with its last timed record.
+            if self.import.report.cut_short && self.next_time == self.import.times_ns.len() {
+                return Ok(());
+            }
             let Some(entry) = self.reader.next_record()? else {
                 if self.next_time != self.import.times_ns.len() {
                     return Err(ImportError::Changed {

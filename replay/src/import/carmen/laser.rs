@@ -18,9 +18,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use lewis_interfaces::msg::{Distance, Pose3D, RangeFinder};
-
-use super::distance::{SectorSpan, distance_over};
+use lewis_interfaces::msg::{Pose3D, RangeFinder};
 
 /// The SICK LMS's largest reading in cm mode, in m: the max range when the log does not
 /// say (no `robot_front_laser_max` parameter).
@@ -191,8 +189,18 @@ pub fn range_finder(
     }
 }
 
+/// A span of bearings in the robot frame, counter-clockwise from `from_rad` to `to_rad`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SectorSpan {
+    /// Where the span starts, in rad.
+    pub from_rad: f64,
+    /// Where it ends, in rad.
+    pub to_rad: f64,
+}
+
 /// The bearings (robot frame) covered by a uniform scan: from half a beam before the first
-/// beam to half a beam after the last, the span both Distance readings are cut over.
+/// beam to half a beam after the last: the span of the derived sonar's transducers and of
+/// the imported robot's Distance sectors.
 #[must_use]
 pub fn field_of_view(scan: &RangeFinder) -> SectorSpan {
     let last = scan.ranges.len().saturating_sub(1);
@@ -203,12 +211,6 @@ pub fn field_of_view(scan: &RangeFinder) -> SectorSpan {
         from_rad: scan.theta_offset.min(last_beam) - half,
         to_rad: scan.theta_offset.max(last_beam) + half,
     }
-}
-
-/// The laser's Distance: `sectors` sectors over its field of view.
-#[must_use]
-pub fn laser_distance(scan: &RangeFinder, sectors: usize) -> Distance {
-    distance_over(scan, field_of_view(scan), sectors)
 }
 
 /// The sonar-like fallback derived from the laser: **not a real sensor.** The logs have no
@@ -278,13 +280,6 @@ pub fn derived_sonar(laser: &RangeFinder, options: &SonarOptions) -> RangeFinder
         sensor_positions,
         ..RangeFinder::default()
     }
-}
-
-/// The derived sonar's Distance: the same sectors as the laser's, so that a client of
-/// Distance sees the same layout whichever provider it is bound to.
-#[must_use]
-pub fn sonar_distance(sonar: &RangeFinder, laser_span: SectorSpan, sectors: usize) -> Distance {
-    distance_over(sonar, laser_span, sectors)
 }
 
 #[cfg(test)]
@@ -412,19 +407,10 @@ mod tests {
     }
 
     #[test]
-    fn distance_sectors_cover_the_field_of_view() {
-        let mut ranges = vec![81.91; 180];
-        ranges[0] = 3.0; // rightmost beam, -90 degrees
-        let laser = scan(&ranges);
-        let d = laser_distance(&laser, 2);
-        assert_eq!(d.sector_count, 2);
-        assert_eq!(d.sector_distances, [3.0, 80.0]);
-        assert!((d.min_bearing + FRAC_PI_2).abs() < 1e-9);
-        let sonar = derived_sonar(&laser, &SonarOptions::default());
-        let sd = sonar_distance(&sonar, field_of_view(&laser), 2);
-        assert_eq!(
-            (sd.first_sector_angle, sd.sector_width),
-            (d.first_sector_angle, d.sector_width)
-        );
+    fn the_field_of_view_spans_half_a_beam_beyond_the_outer_beams() {
+        let laser = scan(&vec![81.91; 180]);
+        let span = field_of_view(&laser);
+        assert!((span.from_rad.to_degrees() + 90.5).abs() < 1e-9, "{span:?}");
+        assert!((span.to_rad.to_degrees() - 89.5).abs() < 1e-9, "{span:?}");
     }
 }
