@@ -10,7 +10,8 @@ use lewis_replay::{InfoOptions, inspect};
 /// `lewis info FILE.mcap`
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// The recording.
+    /// The recording (a rotated recording's parts index, `RUN.parts.json`, describes each
+    /// of its parts in turn).
     pub file: PathBuf,
     /// Print the report as JSON.
     #[arg(long)]
@@ -24,20 +25,43 @@ pub struct InfoArgs {
 }
 
 /// Prints the report; a damaged (truncated) file exits 1, after saying how to recover it.
+/// With a parts index, one report per part (a JSON array with `--json`).
 pub fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
     let options = InfoOptions {
         messages: args.messages,
         scan: args.scan,
     };
-    let report = inspect(&args.file, &options)?;
+    let index = args.file.extension().is_some_and(|e| e == "json");
+    let files = lewis_replay::recording::expand_inputs(std::slice::from_ref(&args.file))?;
+    let mut reports = Vec::new();
+    for file in &files {
+        reports.push(inspect(file, &options)?);
+    }
     let mut out = std::io::stdout().lock();
-    if args.json {
-        serde_json::to_writer_pretty(&mut out, &report)?;
+    if args.json && index {
+        serde_json::to_writer_pretty(&mut out, &reports)?;
         writeln!(out)?;
     } else {
-        write!(out, "{report}")?;
+        for (i, report) in reports.iter().enumerate() {
+            if args.json {
+                serde_json::to_writer_pretty(&mut out, report)?;
+                writeln!(out)?;
+            } else {
+                if index {
+                    let separator = if i == 0 { "" } else { "\n" };
+                    writeln!(
+                        out,
+                        "{separator}part {} of {} ({}):",
+                        i + 1,
+                        reports.len(),
+                        args.file.display()
+                    )?;
+                }
+                write!(out, "{report}")?;
+            }
+        }
     }
-    Ok(if report.damage.is_some() {
+    Ok(if reports.iter().any(|r| r.damage.is_some()) {
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS

@@ -21,7 +21,8 @@ use lewis_viewer::{
                   the first recording."
 )]
 pub struct ViewArgs {
-    /// The recording; several files are parts of one run, in order.
+    /// The recording; several files are parts of one run, in order (a rotated recording's
+    /// parts index, `RUN.parts.json`, stands for its parts).
     #[arg(required = true, value_name = "RUN.mcap")]
     pub files: Vec<PathBuf>,
     /// Write a Rerun file (the same recording always gives the same file).
@@ -39,6 +40,7 @@ pub struct ViewArgs {
 /// Converts and reports; a recording with undecodable messages or damage still exits 0
 /// (what could be shown was shown, and the report says what was not).
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
+    let files = lewis_replay::recording::expand_inputs(&args.files)?;
     let mut hint = false;
     let target = if let Some(path) = &args.save {
         Target::Save(path.clone())
@@ -47,7 +49,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
     } else if args.spawn || rerun_on_path() {
         Target::Spawn
     } else {
-        let Some(first) = args.files.first() else {
+        let Some(first) = files.first() else {
             bail!("no recording given");
         };
         hint = true;
@@ -57,7 +59,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
         target: target.clone(),
         progress: true,
     };
-    let report = view(&args.files, &options)?;
+    let report = view(&files, &options)?;
     let mut out = std::io::stdout().lock();
     write!(out, "{report}")?;
     if hint && let Target::Save(path) = &target {

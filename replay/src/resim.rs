@@ -163,12 +163,14 @@ pub enum ReplayError {
     },
 }
 
-/// Where the replay of `input` goes by default: `RUN.replay.mcap` beside `RUN.mcap`.
+/// Where the replay of `input` goes by default: `RUN.replay.mcap` beside `RUN.mcap` (and
+/// beside `RUN.parts.json`, the parts index of a rotated `RUN.mcap`).
 #[must_use]
 pub fn default_output(input: &Path) -> PathBuf {
     let stem = input
         .file_stem()
         .map_or_else(|| "run".to_owned(), |s| s.to_string_lossy().into_owned());
+    let stem = stem.strip_suffix(".parts").unwrap_or(&stem);
     input.with_file_name(format!("{stem}.replay.mcap"))
 }
 
@@ -303,7 +305,9 @@ pub fn replay(
         .output
         .clone()
         .unwrap_or_else(|| default_output(&options.inputs[0]));
-    prepare_output(&output, &options.inputs)?;
+    // The files read, parts indexes expanded: none of them may be replaced.
+    let read: Vec<PathBuf> = recording.paths().map(Path::to_path_buf).collect();
+    prepare_output(&output, &read)?;
 
     let (file_name, toml) = recording.robot_toml();
     let mut recorder_options = RecorderOptions::new(&output);

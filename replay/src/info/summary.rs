@@ -45,7 +45,7 @@ pub(crate) fn read_summary(
 }
 
 /// The Header record, which follows the magic at the start of every MCAP file.
-pub(super) fn read_header(
+pub(crate) fn read_header(
     file: &mut File,
     file_size: u64,
 ) -> io::Result<Result<Header, McapError>> {

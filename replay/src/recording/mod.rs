@@ -3,6 +3,11 @@
 //! messages merged in one total order: log time, then topic, then the header's sequence
 //! number (then file and position, so that even identical keys have a fixed order).
 //!
+//! The files may be given one by one, in any order, or as the parts index of a rotated
+//! recording (`STEM.parts.json`, written by the recorder), which stands for its parts
+//! ([`expand_inputs`]). [`RecordingFiles`] is the recording without the robot (what
+//! `lewis play` needs: it plays foreign ROS 2 bags too); [`Recording`] requires the robot.
+//!
 //! Messages are streamed chunk by chunk through each file's indexes
 //! ([`mcap::sans_io::IndexedReader`]), so memory does not grow with the recording: only the
 //! messages that share one log time are held at once. A file without a summary (a recorder
@@ -15,10 +20,11 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use lewis_recorder::index::{IndexError, PartsIndex};
 use lewis_runtime::robot::{self, Robot, RobotError};
 use mcap::Summary;
 
-use crate::info::summary::{SummaryFailure, read_metadata, read_summary};
+use crate::info::summary::{SummaryFailure, read_header, read_metadata, read_summary};
 
 pub use stream::{Messages, RecordedMessage};
 
@@ -32,12 +38,13 @@ pub enum RecordingError {
     #[error("no recording given: name at least one MCAP file")]
     NoFiles,
     /// A file cannot be opened or read.
-    #[error("cannot read {path}: {source}")]
+    // Not a `source`: the message says it, and a chain would say it twice.
+    #[error("cannot read {path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
         /// What the system said.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A file is not a readable MCAP file.
     #[error("{path} is not a readable MCAP file: {reason}")]
@@ -57,11 +64,33 @@ pub enum RecordingError {
     },
     /// No file holds a robot description.
     #[error(
-        "{paths} hold no robot description (metadata `lewis.robot`): only recordings made by `lewis up` or `lewis import` say which services ran"
+        "{paths}: no robot description (metadata `lewis.robot`){origin}, so there is nothing to re-simulate: only recordings made by `lewis up`, `lewis record --robot` or `lewis import` say which services ran. Publish it into live IPC with `lewis play {first}`, or see what it holds with `lewis info {first}`"
     )]
     NoRobot {
         /// The files, comma-separated.
         paths: String,
+        /// Who wrote the first file, as its header says (`; written by rosbag2 (profile
+        /// ros2)`), or nothing.
+        origin: String,
+        /// The first file.
+        first: String,
+    },
+    /// A parts index cannot be used.
+    #[error(transparent)]
+    Index(#[from] IndexError),
+    /// A parts index lists no part.
+    #[error("the parts index {path} lists no part: the recording it indexes never started")]
+    EmptyIndex {
+        /// The index.
+        path: PathBuf,
+    },
+    /// The same file is given twice (directly or through a parts index).
+    #[error(
+        "{path} is given twice (by name or through a parts index): give each part of a run once"
+    )]
+    Duplicate {
+        /// The file.
+        path: PathBuf,
     },
     /// The stored robot description is not valid.
     #[error("the robot description stored in {path}: {source}")]
@@ -104,26 +133,57 @@ pub struct Topic {
     pub message_count: u64,
 }
 
-/// An opened recording: its files, topics, robot and time span.
+/// The files of a parts index stand for it; other paths are kept. Every file once.
+///
+/// A path is a parts index when it ends in `.json` (`STEM.parts.json`, see
+/// [`lewis_recorder::index`]); its parts are listed in recording order.
+///
+/// # Errors
+/// When an index cannot be read, lists no part, or a file is given twice.
+pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, RecordingError> {
+    let mut out: Vec<PathBuf> = Vec::new();
+    let mut seen = std::collections::BTreeSet::new();
+    for path in paths {
+        let parts = if path.extension().is_some_and(|e| e == "json") {
+            let index = PartsIndex::read(path)?;
+            if index.parts.is_empty() {
+                return Err(RecordingError::EmptyIndex { path: path.clone() });
+            }
+            index.part_paths(path)
+        } else {
+            vec![path.clone()]
+        };
+        for part in parts {
+            let key = part.canonicalize().unwrap_or_else(|_| part.clone());
+            if !seen.insert(key) {
+                return Err(RecordingError::Duplicate { path: part });
+            }
+            out.push(part);
+        }
+    }
+    Ok(out)
+}
+
+/// The files of a recording, read through their summaries: topics, time span, and the
+/// robot description if one is stored. No robot is required (see [`Recording`]).
 #[derive(Debug)]
-pub struct Recording {
+pub struct RecordingFiles {
     files: Vec<(PathBuf, Summary)>,
     topics: BTreeMap<Arc<str>, Topic>,
-    robot: Robot,
-    robot_file_name: String,
-    robot_toml: String,
+    robot_text: Option<(PathBuf, String, String)>,
     start_ns: i64,
     end_ns: i64,
     message_count: u64,
 }
 
-impl Recording {
-    /// Opens the files of a recording: reads each summary and the robot description.
+impl RecordingFiles {
+    /// Opens the files (parts indexes expanded, see [`expand_inputs`]): reads each summary
+    /// and the first robot description found.
     ///
     /// # Errors
-    /// When a file cannot be read, has no summary, carries non-CDR channels, or no file
-    /// holds a valid robot description.
+    /// When a file cannot be read, has no summary, or carries non-CDR channels.
     pub fn open(paths: &[PathBuf]) -> Result<Self, RecordingError> {
+        let paths = expand_inputs(paths)?;
         if paths.is_empty() {
             return Err(RecordingError::NoFiles);
         }
@@ -131,10 +191,10 @@ impl Recording {
         let mut topics = BTreeMap::new();
         let mut robot_text: Option<(PathBuf, String, String)> = None;
         let (mut start_ns, mut end_ns, mut message_count) = (i64::MAX, i64::MIN, 0u64);
-        for path in paths {
-            let io = |source| RecordingError::Io {
+        for path in &paths {
+            let io = |error| RecordingError::Io {
                 path: path.clone(),
-                source,
+                error,
             };
             let mut file = File::open(path).map_err(io)?;
             let size = file.metadata().map_err(io)?.len();
@@ -199,50 +259,17 @@ impl Recording {
             }
             files.push((path.clone(), summary));
         }
-        let Some((robot_path, robot_file_name, robot_toml)) = robot_text else {
-            return Err(RecordingError::NoRobot {
-                paths: paths
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            });
-        };
-        let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
-            .iter()
-            .map(|i| i.name)
-            .collect();
-        let origin = robot_path.join(ROBOT_METADATA);
-        let robot =
-            robot::parse(&robot_toml, &origin, &known).map_err(|source| RecordingError::Robot {
-                path: robot_path.clone(),
-                source,
-            })?;
         if start_ns > end_ns {
             (start_ns, end_ns) = (0, 0);
         }
         Ok(Self {
             files,
             topics,
-            robot,
-            robot_file_name,
-            robot_toml,
+            robot_text,
             start_ns,
             end_ns,
             message_count,
         })
-    }
-
-    /// The robot description stored in the recording.
-    #[must_use]
-    pub fn robot(&self) -> &Robot {
-        &self.robot
-    }
-
-    /// The robot description's file name and TOML text, as stored.
-    #[must_use]
-    pub fn robot_toml(&self) -> (&str, &str) {
-        (&self.robot_file_name, &self.robot_toml)
     }
 
     /// Every topic, by name.
@@ -269,9 +296,17 @@ impl Recording {
         self.message_count
     }
 
-    /// The files, in the order given.
+    /// The files, in the order given (parts indexes expanded).
     pub fn paths(&self) -> impl Iterator<Item = &Path> {
         self.files.iter().map(|(p, _)| p.as_path())
+    }
+
+    /// The robot description's file name and TOML text, as stored, if any.
+    #[must_use]
+    pub fn robot_toml(&self) -> Option<(&str, &str)> {
+        self.robot_text
+            .as_ref()
+            .map(|(_, name, text)| (name.as_str(), text.as_str()))
     }
 
     /// Every message, in the total order (see the module documentation).
@@ -289,6 +324,132 @@ impl Recording {
     pub fn messages_on(&self, topics: &[&str]) -> Result<Messages, RecordingError> {
         Messages::open(&self.files, Some(topics))
     }
+
+    /// The error for files that hold no robot description: who wrote them and what to do.
+    fn no_robot(&self) -> RecordingError {
+        let paths: Vec<String> = self.paths().map(|p| p.display().to_string()).collect();
+        let first = paths.first().cloned().unwrap_or_default();
+        let origin = self
+            .files
+            .first()
+            .and_then(|(path, _)| {
+                let mut file = File::open(path).ok()?;
+                let size = file.metadata().ok()?.len();
+                read_header(&mut file, size).ok()?.ok()
+            })
+            .map(|h| {
+                let library = if h.library.is_empty() {
+                    "an unnamed library"
+                } else {
+                    h.library.as_str()
+                };
+                format!("; written by {library} (profile `{}`)", h.profile)
+            })
+            .unwrap_or_default();
+        RecordingError::NoRobot {
+            paths: paths.join(", "),
+            origin,
+            first,
+        }
+    }
+}
+
+/// An opened recording that says which services ran: its files, topics, robot and time
+/// span.
+#[derive(Debug)]
+pub struct Recording {
+    files: RecordingFiles,
+    robot: Robot,
+    robot_file_name: String,
+    robot_toml: String,
+}
+
+impl Recording {
+    /// Opens the files of a recording (parts indexes expanded, see [`expand_inputs`]): reads
+    /// each summary and the robot description.
+    ///
+    /// # Errors
+    /// When a file cannot be read, has no summary, carries non-CDR channels, or no file
+    /// holds a valid robot description.
+    pub fn open(paths: &[PathBuf]) -> Result<Self, RecordingError> {
+        let files = RecordingFiles::open(paths)?;
+        let Some((robot_path, robot_file_name, robot_toml)) = files.robot_text.clone() else {
+            return Err(files.no_robot());
+        };
+        let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+            .iter()
+            .map(|i| i.name)
+            .collect();
+        let origin = robot_path.join(ROBOT_METADATA);
+        let robot =
+            robot::parse(&robot_toml, &origin, &known).map_err(|source| RecordingError::Robot {
+                path: robot_path.clone(),
+                source,
+            })?;
+        Ok(Self {
+            files,
+            robot,
+            robot_file_name,
+            robot_toml,
+        })
+    }
+
+    /// The robot description stored in the recording.
+    #[must_use]
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The robot description's file name and TOML text, as stored.
+    #[must_use]
+    pub fn robot_toml(&self) -> (&str, &str) {
+        (&self.robot_file_name, &self.robot_toml)
+    }
+
+    /// Every topic, by name.
+    #[must_use]
+    pub fn topics(&self) -> &BTreeMap<Arc<str>, Topic> {
+        self.files.topics()
+    }
+
+    /// The log time of the first message, in nanoseconds.
+    #[must_use]
+    pub fn start_ns(&self) -> i64 {
+        self.files.start_ns()
+    }
+
+    /// The log time of the last message, in nanoseconds.
+    #[must_use]
+    pub fn end_ns(&self) -> i64 {
+        self.files.end_ns()
+    }
+
+    /// Messages in the recording (from the summaries' statistics).
+    #[must_use]
+    pub fn message_count(&self) -> u64 {
+        self.files.message_count()
+    }
+
+    /// The files, in the order given (parts indexes expanded).
+    pub fn paths(&self) -> impl Iterator<Item = &Path> {
+        self.files.paths()
+    }
+
+    /// Every message, in the total order (see the module documentation).
+    ///
+    /// # Errors
+    /// When a file cannot be opened again.
+    pub fn messages(&self) -> Result<Messages, RecordingError> {
+        self.files.messages()
+    }
+
+    /// The messages of some topics only, in the same order.
+    ///
+    /// # Errors
+    /// When a file cannot be opened again.
+    pub fn messages_on(&self, topics: &[&str]) -> Result<Messages, RecordingError> {
+        self.files.messages_on(topics)
+    }
 }
 
 fn as_ns(t: u64) -> i64 {
@@ -297,9 +458,9 @@ fn as_ns(t: u64) -> i64 {
 
 fn failure_error(path: &Path, failure: SummaryFailure) -> RecordingError {
     match failure {
-        SummaryFailure::Io(source) => RecordingError::Io {
+        SummaryFailure::Io(error) => RecordingError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         },
         SummaryFailure::Format(e) => RecordingError::Format {
             path: path.to_path_buf(),

@@ -62,9 +62,9 @@ impl FileStream {
             };
             let (offset, length) = request;
             self.chunk.resize(length, 0);
-            let io = |source| RecordingError::Io {
+            let io = |error| RecordingError::Io {
                 path: self.path.clone(),
-                source,
+                error,
             };
             self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
             self.file.read_exact(&mut self.chunk).map_err(io)?;
@@ -122,9 +122,9 @@ impl Messages {
                     reason: e.to_string(),
                 }
             })?;
-            let file = File::open(path).map_err(|source| RecordingError::Io {
+            let file = File::open(path).map_err(|error| RecordingError::Io {
                 path: path.clone(),
-                source,
+                error,
             })?;
             let topics = summary
                 .channels
