@@ -15,6 +15,7 @@ mod idl;
 mod import;
 mod info;
 mod mission;
+mod play;
 mod record;
 mod recover;
 mod replay;
@@ -65,6 +66,9 @@ pub enum Command {
     /// Re-simulate a recording in lockstep: services and broker on a virtual clock, faults
     /// injected, outputs compared with the recording (a regression test with --check).
     Replay(replay::ReplayArgs),
+    /// Publish a recording into live IPC at its recorded pace (like `ros2 bag play`), with a
+    /// clock on /lewis/clock; space pauses, `s` steps, `q` quits.
+    Play(play::PlayArgs),
     /// Start the broker and a robot's services; run until Ctrl-C or --duration.
     Up(up::UpArgs),
     /// Run one service of a robot in this process (what `lewis up` starts).
@@ -97,6 +101,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Record(args) => record::run(&args),
         Command::Recover(args) => recover::run(&args),
         Command::Import(command) => import::run(command),
+        Command::Play(args) => play::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),
         Command::Service(args) => service::run(&args),

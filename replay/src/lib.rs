@@ -7,6 +7,8 @@
 //!   virtual clock, fed from a recording.
 //! - [`resim`]: `lewis replay`, the re-simulation of a recording into a new one with a
 //!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
+//! - [`play`]: `lewis play`, a recording published into live IPC at its recorded pace.
+//! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
 
 pub mod compare;
 pub mod fault;
@@ -15,6 +17,7 @@ pub mod info;
 pub mod json;
 pub mod lockstep;
 pub mod mission_log;
+pub mod play;
 pub mod recording;
 pub mod report;
 pub mod resim;
