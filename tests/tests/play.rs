@@ -198,3 +198,82 @@ fn lewis_record_records_a_played_recording_with_the_bytes_it_was_recorded_with()
         );
     }
 }
+
+#[test]
+fn the_terminals_keys_step_and_resume_a_paused_playback() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = import(dir.path(), 6);
+    let recorded = Recording::read(std::slice::from_ref(&file));
+    let scans: Vec<&[u8]> = recorded
+        .of("/laser/RangeFinder")
+        .iter()
+        .map(|m| m.data.as_slice())
+        .collect();
+    let namespace = Namespace::unique("play-keys");
+    let ipc = open_ipc(&namespace, "test-subscriber");
+    let topic = "/laser/RangeFinder";
+    let mut subscriber = ipc
+        .subscriber(topic, &names::channel_config(topic))
+        .unwrap();
+    // The player's stdin is a real terminal: the slave side of a pseudo-terminal.
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let mut child = Command::new(lewis_exe())
+        .arg("play")
+        .arg(&file)
+        .args([
+            "--namespace",
+            namespace.as_str(),
+            "--paused",
+            "--rate",
+            "20",
+        ])
+        .args(["--topics", topic])
+        .stdin(Stdio::from(pty.slave.try_clone().unwrap()))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("lewis play starts");
+    let mut keys = std::fs::File::from(pty.master);
+    let mut next = || {
+        let started = Instant::now();
+        loop {
+            if let Some(sample) = subscriber.receive().unwrap() {
+                return sample.bytes().to_vec();
+            }
+            assert!(started.elapsed() < WATCHDOG, "no scan came");
+            WaitSet::new(WakeMode::Event)
+                .wait(&[&subscriber], Some(Instant::now() + WATCHDOG))
+                .unwrap();
+        }
+    };
+    // `s` publishes one scan at a time; each is awaited before the next key.
+    for scan in &scans[..2] {
+        std::io::Write::write_all(&mut keys, b"s").unwrap();
+        assert_eq!(next(), *scan);
+    }
+    // Space resumes: the rest plays to the end.
+    std::io::Write::write_all(&mut keys, b" ").unwrap();
+    for scan in &scans[2..] {
+        assert_eq!(next(), *scan);
+    }
+    let status = wait_child(&mut child);
+    let output = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains(&format!("{topic}: {}", scans.len())),
+        "{stdout}"
+    );
+    // The terminal is given back as it was: line by line, with echo.
+    let mode = nix::sys::termios::tcgetattr(&pty.slave).unwrap();
+    let line_mode = nix::sys::termios::LocalFlags::ICANON | nix::sys::termios::LocalFlags::ECHO;
+    assert!(
+        mode.local_flags.contains(line_mode),
+        "{:?}",
+        mode.local_flags
+    );
+}
