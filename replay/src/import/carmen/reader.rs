@@ -50,15 +50,16 @@ impl std::error::Error for LineError {}
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
     /// The file cannot be opened.
-    #[error("cannot open {}: {source}", path.display())]
+    // Not a `source`: the message says it, and a chain would say it twice.
+    #[error("cannot open {}: {error}", path.display())]
     Open {
         /// The log.
         path: PathBuf,
         /// Why.
-        source: io::Error,
+        error: io::Error,
     },
     /// Reading failed part-way (a damaged gzip stream, an I/O error).
-    #[error("{}: reading failed after line {line}: {source}{}", path.display(), if *gzip { " (is the gzip file damaged or cut short?)" } else { "" })]
+    #[error("{}: reading failed after line {line}: {error}{}", path.display(), if *gzip { " (is the gzip file damaged or cut short?)" } else { "" })]
     Read {
         /// The log.
         path: PathBuf,
@@ -67,7 +68,7 @@ pub enum ReadError {
         /// Whether the file is gzip-compressed.
         gzip: bool,
         /// Why.
-        source: io::Error,
+        error: io::Error,
     },
 }
 
@@ -149,9 +150,9 @@ impl LogReader {
     /// # Errors
     /// The file cannot be opened or its first bytes cannot be read.
     pub fn open(path: &Path) -> Result<Self, ReadError> {
-        let file = File::open(path).map_err(|source| ReadError::Open {
+        let file = File::open(path).map_err(|error| ReadError::Open {
             path: path.to_owned(),
-            source,
+            error,
         })?;
         Self::from_reader(path.to_owned(), Box::new(file))
     }
@@ -166,7 +167,7 @@ impl LogReader {
             match raw.fill_buf() {
                 Ok(head) => break head,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(source) => return Err(ReadError::Open { path, source }),
+                Err(error) => return Err(ReadError::Open { path, error }),
             }
         };
         let gzip = head.starts_with(&GZIP_MAGIC);
@@ -224,13 +225,13 @@ impl LogReader {
             let too_long = match self.read_line() {
                 Ok(None) => return Ok(None),
                 Ok(Some(too_long)) => too_long,
-                Err(source) => {
+                Err(error) => {
                     self.failed = true;
                     return Err(ReadError::Read {
                         path: self.path.clone(),
                         line: self.line,
                         gzip: self.gzip,
-                        source,
+                        error,
                     });
                 }
             };
