@@ -25,6 +25,7 @@ mod fault_spec;
 mod health;
 mod link;
 mod port;
+pub mod pose_file;
 mod pty;
 mod receiver;
 mod retry;
@@ -39,9 +40,10 @@ pub use fake_device::{
     Emulated, EmulatorStats, FakeDevice, FakeDeviceError, FakeRflex, FakeSick, HostRates,
     RflexEmulation, RflexEmulatorOptions, SickEmulation,
 };
-pub use fault_spec::{FaultSpecError, parse_faults};
+pub use fault_spec::{FAULT_SYNTAX, FaultPlan, FaultSpecError, Unplug, parse_faults};
 pub use health::DriverHealth;
 pub use port::{LineParity, PortError, open_port};
+pub use pose_file::{POSE_FILE_NAME, PoseFile, PoseFileError};
 pub use pty::{Pty, PtyError};
 pub use receiver::{RflexReceiver, SickReceived, SickReceiver};
 pub use rflex_driver::{RflexDriver, RflexDriverConfig, RflexDriverError, RflexEvent, RflexStats};
@@ -52,4 +54,4 @@ pub use sick_reader::{
     SCAN_QUEUE, STATUS_QUEUE, SickNews, SickReader, SickReaderError, SickReaderStatus, StatusReport,
 };
 pub use standalone::{DeviceKind, Standalone, StandaloneError, StandaloneOptions};
-pub use world_source::{SharedPose, WorldLaserSource, WorldSonarSource};
+pub use world_source::{PoseFeed, PoseFileFeed, SharedPose, WorldLaserSource, WorldSonarSource};
