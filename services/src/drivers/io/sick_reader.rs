@@ -176,7 +176,13 @@ impl SickReader {
         let thread_shared = Arc::clone(&shared);
         let thread = std::thread::Builder::new()
             .name("sick-reader".to_owned())
-            .spawn(move || run(&config, &thread_shared, &cancel))
+            .spawn(move || {
+                let _ended = Ended {
+                    shared: &thread_shared,
+                    cancel: &cancel,
+                };
+                run(&config, &thread_shared, &cancel);
+            })
             .map_err(SickReaderError::Thread)?;
         Ok(Self {
             shared,
@@ -224,6 +230,26 @@ impl std::fmt::Debug for SickReader {
         f.debug_struct("SickReader")
             .field("status", &self.shared.lock().last_status)
             .finish_non_exhaustive()
+    }
+}
+
+/// Says so when the reader thread ends without being asked to (a bug, a panic): the service
+/// must not wait for news that will never come.
+struct Ended<'a> {
+    shared: &'a Shared,
+    cancel: &'a Cancel,
+}
+
+impl Drop for Ended<'_> {
+    fn drop(&mut self) {
+        if !self.cancel.is_set() {
+            self.shared
+                .report(SickReaderStatus::Trouble(DriverHealth::NotSetUp {
+                reason:
+                    "the SICK device reader stopped (a bug: see the log): restart the laser service"
+                        .to_owned(),
+            }));
+        }
     }
 }
 

@@ -429,7 +429,61 @@ impl Service for SickService {
 
 #[cfg(test)]
 mod tests {
+    use std::path::{Path, PathBuf};
+    use std::time::Duration;
+
     use super::*;
+    use crate::drivers::io::{DriverHealth, SetupStep};
+
+    #[test]
+    fn the_readers_status_becomes_the_services_health() {
+        let path = Path::new("/dev/ttyS0");
+        let probing = SickReaderStatus::SettingUp(SetupStep::Probing(BaudRate::B9600));
+        let no_data = SickReaderStatus::Trouble(DriverHealth::NoData {
+            path: PathBuf::from(path),
+            silent_for: Duration::from_millis(1200),
+            deadline: Duration::from_secs(1),
+        });
+        let out = |why: &str| Health::OutOfService(why.to_owned());
+        let check =
+            |status: &SickReaderStatus, current: &Health, streamed: bool, expected: &Health| {
+                assert_eq!(
+                    &health_for(status, current, streamed, path),
+                    expected,
+                    "{status:?} from {current:?}, streamed {streamed}"
+                );
+            };
+        // A first set-up: clients wait (degraded, not out of service).
+        check(
+            &probing,
+            &Health::Ok,
+            false,
+            &Health::Degraded(
+                "setting up the SICK scanner on /dev/ttyS0: probing at 9600 baud".to_owned(),
+            ),
+        );
+        // Once it streamed, setting it up again is out of service.
+        check(
+            &probing,
+            &Health::Ok,
+            true,
+            &out("lost the SICK scanner on /dev/ttyS0; setting it up again: probing at 9600 baud"),
+        );
+        // A set-up step never lifts an out-of-service: only scans do.
+        check(&probing, &out("silent"), false, &out("silent"));
+        check(
+            &SickReaderStatus::Streaming(BaudRate::B38400),
+            &out("silent"),
+            true,
+            &Health::Ok,
+        );
+        check(
+            &no_data,
+            &Health::Ok,
+            true,
+            &out("no valid data on /dev/ttyS0 for 1.200 s (deadline 1.000 s)"),
+        );
+    }
 
     fn params(extra: &str) -> Result<SickDriverConfig, String> {
         let text = format!("port = \"/dev/ttyS0\"\n{extra}");
