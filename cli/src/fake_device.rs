@@ -59,10 +59,9 @@ Faults (--fault), comma-separated, later ones overriding earlier ones:
 Examples:
   lewis fake-device sick --pty /tmp/ttySICK --fault noise=8,bad-crc-every=10
   lewis fake-device rflex --pty /tmp/ttyRFLEX --fault unplug@5s-8s
-  lewis fake-device rflex --pty /tmp/ttyRFLEX --world robots/worlds/conference \
-      --start 3,12.5,0 --robot-state /tmp/b21r &
-  lewis fake-device sick --pty /tmp/ttySICK --world robots/worlds/conference \
-      --start 3,12.5,0 --robot-state /tmp/b21r";
+Both emulators of one robot in a world, sharing the base's pose:
+  lewis fake-device rflex --pty /tmp/ttyRFLEX --world W --start 3,12.5,0 --robot-state D &
+  lewis fake-device sick --pty /tmp/ttySICK --world W --start 3,12.5,0 --robot-state D";
 
 /// The devices `lewis fake-device` emulates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
