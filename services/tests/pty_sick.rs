@@ -282,7 +282,7 @@ fn a_crc_error_rate_over_the_threshold_is_reported() {
 
 /// How late after its deadline the reader may notice a silence: the thread wakes at the
 /// deadline, so this is only the scheduling of one thread on a loaded machine, with room.
-const NOTICE_MARGIN: Duration = Duration::from_millis(300);
+const NOTICE_MARGIN: Duration = Duration::from_millis(500);
 
 /// Takes the reader's news until `pick` accepts a status; the scans seen meanwhile come too.
 fn await_status<T>(
