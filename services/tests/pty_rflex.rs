@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use lewis_services::drivers::io::{
     DriverHealth, FakeRflex, RflexDriver, RflexDriverConfig, RflexEmulatorOptions, RflexEvent,
-    SharedPose, WorldSonarSource,
+    SharedPose, Unplug, WorldSonarSource,
 };
 use lewis_services::drivers::rflex::{
     Axis, Pose2, RflexCommand, RflexDevice, RflexDeviceConfig, StartupParams, startup_sequence,
@@ -307,6 +307,7 @@ fn a_world_backed_base_reports_the_simulated_sonar_at_its_pose() {
         RflexEmulatorOptions {
             origin,
             shared_pose: Some(shared_pose.clone()),
+            pose_file: None,
         },
         Some(&link),
     )
@@ -388,5 +389,28 @@ fn unplugging_and_replugging_the_base_reconnects_and_restarts_it() {
         matches!(event, RflexEvent::Odometry { .. }).then_some(())
     });
     assert_eq!(driver.health(), DriverHealth::Ok);
+    assert_eq!(driver.stats().reconnects, 1);
+}
+
+#[test]
+fn a_scheduled_unplug_closes_the_port_and_brings_it_back_at_the_same_path() {
+    let bench = bench();
+    let mut driver = open_started(&bench);
+    // Counted from the emulator's start, which is already past: the window opens at once.
+    bench.fake.schedule_unplugs(&[Unplug {
+        at: Duration::ZERO,
+        until: Some(Duration::from_millis(200)),
+    }]);
+    assert!(
+        bench
+            .fake
+            .wait_stats(WATCHDOG, |stats| stats.replugs == 1 && stats.plugged),
+        "{:?}",
+        bench.fake.stats()
+    );
+    assert_eq!(bench.fake.path(), bench.link);
+    await_event(&mut driver, "the reconnection", |_, event| {
+        (event == RflexEvent::Reconnected).then_some(())
+    });
     assert_eq!(driver.stats().reconnects, 1);
 }

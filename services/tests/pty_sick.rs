@@ -12,14 +12,14 @@ use std::time::Duration;
 
 use lewis_services::drivers::faults::Faults;
 use lewis_services::drivers::io::{
-    DriverHealth, FakeSick, LaserScan, LineParity, SharedPose, SickDriver, SickDriverConfig,
-    WorldLaserSource, open_port,
+    DriverHealth, FakeSick, LaserScan, LineParity, SetupStep, SharedPose, SickDriver,
+    SickDriverConfig, SickReader, SickReaderStatus, StatusReport, WorldLaserSource, open_port,
 };
 use lewis_services::drivers::sick::{
     AngularResolution, BaudRate, RangeUnit, ScanLayout, ScanWidth, SickDeviceConfig,
 };
 use lewis_services::sim::{LaserConfig, Pose2, SimLaser};
-use pty_common::{WATCHDOG, await_some, conference_world};
+use pty_common::{WATCHDOG, await_some, conference_world, next_news};
 
 const ONE_DEGREE: ScanLayout = ScanLayout {
     width: ScanWidth::Deg180,
@@ -280,39 +280,119 @@ fn a_crc_error_rate_over_the_threshold_is_reported() {
     assert!(error_rate > 0.5);
 }
 
+/// How late after its deadline the reader may notice a silence: the thread wakes at the
+/// deadline, so this is only the scheduling of one thread on a loaded machine, with room.
+const NOTICE_MARGIN: Duration = Duration::from_millis(500);
+
+/// Takes the reader's news until `pick` accepts a status; the scans seen meanwhile come too.
+fn await_status<T>(
+    reader: &SickReader,
+    scans: &mut Vec<LaserScan>,
+    mut pick: impl FnMut(&StatusReport) -> Option<T>,
+) -> T {
+    loop {
+        let news = next_news(reader);
+        scans.extend(news.scans);
+        if let Some(picked) = news.statuses.iter().find_map(&mut pick) {
+            return picked;
+        }
+    }
+}
+
 #[test]
 fn silence_makes_the_driver_report_no_data_within_its_deadline() {
     let bench = bench();
-    let mut driver = SickDriver::open(config(&bench.link)).unwrap();
-    read_scans(&mut driver, 1);
+    let reader = SickReader::spawn(config(&bench.link)).unwrap();
+    let mut scans = Vec::new();
+    await_status(&reader, &mut scans, |report| {
+        matches!(report.status, SickReaderStatus::Streaming(BaudRate::B38400)).then_some(())
+    });
+    while scans.is_empty() {
+        scans.extend(next_news(&reader).scans);
+    }
     let faults = Faults {
         silent: true,
         ..Faults::default()
     };
     bench.fake.with_device(|device| device.set_faults(faults));
-    pump_until_health(&mut driver, "the no-data health", |health| {
-        matches!(health, DriverHealth::NoData { .. })
+    let report = await_status(&reader, &mut scans, |report| match &report.status {
+        SickReaderStatus::Trouble(health @ DriverHealth::NoData { deadline, .. }) => {
+            Some((report.at, health.clone(), *deadline))
+        }
+        SickReaderStatus::Streaming(_) => None,
+        other => panic!("silence is no data, not {other:?}"),
     });
-    let DriverHealth::NoData {
-        silent_for,
-        deadline,
-        ..
-    } = driver.health()
-    else {
-        unreachable!()
-    };
+    let (noticed_at, health, deadline) = report;
     assert_eq!(deadline, Duration::from_millis(600));
-    assert!(silent_for > deadline);
-    assert!(driver.health().reason().unwrap().contains("no valid data"));
+    assert!(health.reason().unwrap().contains("no valid data"));
+    // Judged by the driver's own clock: its last scan, and when its reader said so.
+    let last_scan = scans.last().expect("scans came before the silence");
+    let late_by = noticed_at.duration_since(last_scan.received_at);
+    assert!(
+        late_by >= deadline,
+        "reported {late_by:?} after the last scan, before the deadline"
+    );
+    assert!(
+        late_by <= deadline + NOTICE_MARGIN,
+        "reported {late_by:?} after the last scan: the deadline is {deadline:?}"
+    );
 
     bench
         .fake
         .with_device(|device| device.set_faults(Faults::default()));
-    read_scans(&mut driver, 1);
-    assert_eq!(
-        driver.health(),
-        DriverHealth::Ok,
-        "data again is health again"
+    await_status(&reader, &mut scans, |report| {
+        matches!(report.status, SickReaderStatus::Streaming(_)).then_some(())
+    });
+    let before = scans.len();
+    while scans.len() == before {
+        scans.extend(next_news(&reader).scans);
+    }
+}
+
+#[test]
+fn a_mute_scanner_is_probed_at_every_rate_in_the_reader_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("ttySICK");
+    let mute = SickDeviceConfig {
+        faults: Faults {
+            silent: true,
+            ..Faults::default()
+        },
+        ..SickDeviceConfig::default()
+    };
+    let _fake = FakeSick::start(mute, |_| Vec::new(), Some(&link)).unwrap();
+    let reader = SickReader::spawn(SickDriverConfig {
+        reply_timeout: Duration::from_millis(100),
+        attempts: 1,
+        ..config(&link)
+    })
+    .unwrap();
+    // Every step comes as news while the reader waits; the service's thread never does.
+    let mut steps = Vec::new();
+    let trouble = await_status(&reader, &mut Vec::new(), |report| match &report.status {
+        SickReaderStatus::SettingUp(step) => {
+            steps.push(*step);
+            None
+        }
+        SickReaderStatus::Trouble(health) => Some(health.clone()),
+        SickReaderStatus::Streaming(_) => panic!("a mute scanner does not stream"),
+    });
+    let probes: Vec<BaudRate> = steps
+        .iter()
+        .filter_map(|step| match step {
+            SetupStep::Probing(rate) => Some(*rate),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(probes, BaudRate::ALL, "{steps:?}");
+    let DriverHealth::NotSetUp { reason } = &trouble else {
+        panic!("a mute scanner is not set up: {trouble:?}");
+    };
+    assert!(
+        reason.contains("no SICK scanner answered")
+            && reason.contains(&*link.to_string_lossy())
+            && reason.contains("9600, 38400, 19200, 500000"),
+        "{reason}"
     );
 }
 

@@ -2,8 +2,11 @@
 
 #![allow(dead_code)]
 
+use std::os::fd::BorrowedFd;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+
+use lewis_services::drivers::io::{SickNews, SickReader};
 
 /// The longest any awaited condition may take before a test fails (a watchdog, not a timing
 /// assertion: the conditions normally hold within a fraction of it).
@@ -39,4 +42,20 @@ pub fn conference_world() -> lewis_services::sim::World {
         dir.display()
     );
     lewis_services::sim::World::load(&dir).unwrap()
+}
+
+/// Waits (watchdog) for the reader to have news and takes it.
+pub fn next_news(reader: &SickReader) -> SickNews {
+    assert!(
+        wait_readable(reader.fd(), WATCHDOG),
+        "the SICK reader had no news within {WATCHDOG:?}: {reader:?}"
+    );
+    reader.take()
+}
+
+/// Waits at most `timeout` for `fd` to be readable; whether it was.
+pub fn wait_readable(fd: BorrowedFd<'_>, timeout: Duration) -> bool {
+    let mut fds = [nix::poll::PollFd::new(fd, nix::poll::PollFlags::POLLIN)];
+    let timeout = nix::poll::PollTimeout::try_from(timeout).unwrap_or(nix::poll::PollTimeout::MAX);
+    matches!(nix::poll::poll(&mut fds, timeout), Ok(n) if n > 0)
 }

@@ -17,6 +17,12 @@ pub enum DriverHealth {
         /// What happened last.
         reason: String,
     },
+    /// The port is open but the device could not be set up (no answer at any rate, a
+    /// refused command); the driver retries.
+    NotSetUp {
+        /// The set-up's error, which names the port and what to check.
+        reason: String,
+    },
     /// No valid data for longer than the deadline.
     NoData {
         /// The port.
@@ -50,6 +56,7 @@ impl DriverHealth {
             Self::Disconnected { path, reason } => {
                 Some(format!("{} disconnected: {reason}", path.display()))
             }
+            Self::NotSetUp { reason } => Some(reason.clone()),
             Self::NoData {
                 path,
                 silent_for,

@@ -1,13 +1,16 @@
 //! A driver's serial link: the open port (or none while the device is away), reads bounded by a
-//! timeout, writes, and the reason the link went down.
+//! timeout (and ended early by a [`Cancel`], for a device reader whose owner goes away),
+//! writes, and the reason the link went down.
 
 use std::io::{Read, Write};
 use std::os::fd::{AsRawFd, BorrowedFd};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use nix::poll::{PollFd, PollFlags};
 use serialport::{ClearBuffer, SerialPort, TTYPort};
 
+use super::cancel::{Cancel, poll_fds};
 use super::port::{LineParity, PortError, open_port, set_baud};
 
 /// How long a write may wait for room in the port's buffer.
@@ -17,6 +20,8 @@ const WRITE_TIMEOUT: Duration = Duration::from_secs(1);
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(crate) struct LinkDown {
     pub(crate) reason: String,
+    /// The owner asked the reader to stop: the port is still open and fine.
+    pub(crate) stopped: bool,
 }
 
 /// A serial port that may be closed (device away) and reopened at the same path.
@@ -26,6 +31,7 @@ pub(crate) struct SerialLink {
     parity: LineParity,
     baud_bps: u32,
     port: Option<TTYPort>,
+    cancel: Option<Cancel>,
 }
 
 impl SerialLink {
@@ -37,7 +43,13 @@ impl SerialLink {
             parity,
             baud_bps,
             port: Some(port),
+            cancel: None,
         })
+    }
+
+    /// Makes reads end as soon as `cancel` is set, with [`LinkDown::stopped`].
+    pub(crate) fn set_cancel(&mut self, cancel: Option<Cancel>) {
+        self.cancel = cancel;
     }
 
     /// The speed last set.
@@ -108,7 +120,31 @@ impl SerialLink {
     /// Reads what arrives within `timeout` into `buf`: the byte count, 0 when nothing came.
     /// A hang-up or an error closes the link.
     pub(crate) fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkDown> {
+        let cancel = self.cancel.clone();
+        let path = self.path.clone();
         let port = self.port_mut()?;
+        let mut timeout = timeout;
+        if let Some(cancel) = cancel {
+            let port_fd = port.as_raw_fd();
+            // SAFETY: the port owns the descriptor and outlives this borrow.
+            let port_fd = unsafe { BorrowedFd::borrow_raw(port_fd) };
+            let mut fds = [
+                PollFd::new(port_fd, PollFlags::POLLIN),
+                PollFd::new(cancel.fd(), PollFlags::POLLIN),
+            ];
+            poll_fds(&mut fds, timeout);
+            if fds[1].revents().is_some_and(|events| !events.is_empty()) {
+                return Err(LinkDown {
+                    reason: format!("{}: the reader was stopped", path.display()),
+                    stopped: true,
+                });
+            }
+            if fds[0].revents().is_none_or(|events| events.is_empty()) {
+                return Ok(0);
+            }
+            // Readable (or hung up): the read below does not wait.
+            timeout = Duration::ZERO;
+        }
         let result = port
             .set_timeout(timeout)
             .map_err(std::io::Error::from)
@@ -128,6 +164,7 @@ impl SerialLink {
     fn port_mut(&mut self) -> Result<&mut TTYPort, LinkDown> {
         self.port.as_mut().ok_or_else(|| LinkDown {
             reason: format!("{} is not open", self.path.display()),
+            stopped: false,
         })
     }
 
@@ -135,6 +172,7 @@ impl SerialLink {
         self.port = None;
         LinkDown {
             reason: format!("{}: {reason}", self.path.display()),
+            stopped: false,
         }
     }
 }

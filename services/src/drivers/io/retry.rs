@@ -4,6 +4,8 @@
 
 use std::time::{Duration, Instant};
 
+use super::cancel::Cancel;
+
 /// The reconnection schedule of one driver.
 #[derive(Debug, Clone)]
 pub(crate) struct Retry {
@@ -26,14 +28,19 @@ impl Retry {
     }
 
     /// Whether a retry is due: if so, schedules the one after it and returns true; if not,
-    /// waits for it, at most until `deadline` (there is no descriptor to wait on while the
-    /// port is away), and returns false.
-    pub(crate) fn due_or_wait(&mut self, deadline: Instant) -> bool {
+    /// waits for it, at most until `deadline` or until `cancel` is set (there is no
+    /// descriptor to wait on while the port is away), and returns false.
+    pub(crate) fn due_or_wait(&mut self, deadline: Instant, cancel: Option<&Cancel>) -> bool {
         let now = Instant::now();
         if now < self.next_at {
             let until = self.next_at.min(deadline);
             if until > now {
-                std::thread::sleep(until - now);
+                match cancel {
+                    Some(cancel) => {
+                        cancel.wait(until - now);
+                    }
+                    None => std::thread::sleep(until - now),
+                }
             }
             return false;
         }
@@ -49,14 +56,14 @@ mod tests {
     #[test]
     fn a_retry_is_due_at_once_then_after_the_interval() {
         let mut retry = Retry::new(Duration::from_secs(3600));
-        assert!(retry.due_or_wait(Instant::now()));
+        assert!(retry.due_or_wait(Instant::now(), None));
         assert!(
-            !retry.due_or_wait(Instant::now()),
+            !retry.due_or_wait(Instant::now(), None),
             "not again within the hour"
         );
         retry.now();
         assert!(
-            retry.due_or_wait(Instant::now()),
+            retry.due_or_wait(Instant::now(), None),
             "due again once the port went away"
         );
     }

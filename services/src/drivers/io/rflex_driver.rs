@@ -591,7 +591,7 @@ impl RflexDriver {
     /// Tries to reopen the port and start the base up again when a retry is due; otherwise
     /// waits for the retry (at most until `deadline`).
     fn reconnect(&mut self, deadline: Instant) {
-        if !self.retry.due_or_wait(deadline) {
+        if !self.retry.due_or_wait(deadline, None) {
             return;
         }
         if let Err(error) = self.link.reopen(RFLEX_BAUD_BPS) {

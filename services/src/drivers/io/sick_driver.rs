@@ -3,15 +3,20 @@
 //! then hand out decoded scans, with counters of what was skipped, health, and reconnection
 //! when the port comes back.
 //!
-//! Reads block for at most a caller's timeout ([`SickDriver::read_scan`]); a live service can
-//! also wait on [`SickDriver::fd`] itself. Setting the scanner up (at open and after a
-//! reconnection) blocks for up to a few reply timeouts per candidate rate.
+//! Reads block for at most a caller's timeout ([`SickDriver::read_scan`]); a caller can also
+//! wait on [`SickDriver::fd`] itself. Setting the scanner up (at open, after a reconnection,
+//! and again when a scanner on an open port has been silent past its deadline: a scanner
+//! power-cycled behind a fixed serial port comes back at 9600 baud, not streaming) blocks for
+//! up to a few reply timeouts per candidate rate: a live service never calls this on its own
+//! thread but runs it in its device reader ([`super::sick_reader`]), which reports each
+//! set-up step ([`SetupStep`]) as it goes.
 
 use std::collections::VecDeque;
 use std::os::fd::BorrowedFd;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use super::cancel::Cancel;
 use super::health::DriverHealth;
 use super::link::{LinkDown, SerialLink};
 use super::port::{LineParity, PortError};
@@ -137,6 +142,53 @@ pub enum SickDriverError {
     },
 }
 
+/// A step of setting the scanner up, as a device reader reports it while it waits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SetupStep {
+    /// Opening the port.
+    Opening,
+    /// Asking for an answer at this rate.
+    Probing(BaudRate),
+    /// Moving the scanner and the port to this rate.
+    Switching(BaudRate),
+    /// Setting angle and resolution.
+    SettingLayout,
+    /// Reading the configuration, and changing the range unit if needed (an EEPROM write).
+    SettingUnit,
+    /// Asking for continuous streaming.
+    StartingStream,
+}
+
+impl std::fmt::Display for SetupStep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Opening => write!(f, "opening the port"),
+            Self::Probing(rate) => write!(f, "probing at {} baud", rate.bits_per_second()),
+            Self::Switching(rate) => write!(f, "switching to {} baud", rate.bits_per_second()),
+            Self::SettingLayout => write!(f, "setting angle and resolution"),
+            Self::SettingUnit => write!(f, "setting the range unit"),
+            Self::StartingStream => write!(f, "starting the stream"),
+        }
+    }
+}
+
+/// What a device reader hands the driver: a report of each set-up step, and a stop request
+/// that ends every wait of the driver at once.
+#[derive(Default)]
+pub(crate) struct SickHooks {
+    pub(crate) progress: Option<Box<dyn FnMut(SetupStep) + Send>>,
+    pub(crate) cancel: Option<Cancel>,
+}
+
+impl std::fmt::Debug for SickHooks {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SickHooks")
+            .field("progress", &self.progress.is_some())
+            .field("cancel", &self.cancel)
+            .finish()
+    }
+}
+
 /// A decoded scan with its angles.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LaserScan {
@@ -179,6 +231,8 @@ pub struct SickStats {
     pub frames: DeframerStats,
     /// Times the port came back and the scanner was set up again.
     pub reconnects: u64,
+    /// Times a scanner silent past its deadline on an open port was set up again.
+    pub resetups: u64,
 }
 
 /// The driver of one scanner.
@@ -193,19 +247,37 @@ pub struct SickDriver {
     streaming_since: Instant,
     last_scan_at: Option<Instant>,
     down_reason: Option<String>,
+    /// Why the last set-up on the open port failed (cleared by one that succeeds).
+    setup_error: Option<String>,
+    /// When the last set-up attempt ended.
+    last_setup_at: Option<Instant>,
     retry: Retry,
+    hooks: SickHooks,
     buf: Vec<u8>,
 }
 
 impl SickDriver {
     /// Opens the port and sets the scanner up; it streams when this returns.
     pub fn open(config: SickDriverConfig) -> Result<Self, SickDriverError> {
+        Self::open_with(config, SickHooks::default())
+    }
+
+    /// As [`SickDriver::open`], reporting each set-up step (now and at every later set-up)
+    /// to `hooks.progress` and ending every wait when `hooks.cancel` is set.
+    pub(crate) fn open_with(
+        config: SickDriverConfig,
+        mut hooks: SickHooks,
+    ) -> Result<Self, SickDriverError> {
+        if let Some(progress) = &mut hooks.progress {
+            progress(SetupStep::Opening);
+        }
         let first = config
             .probe_rates
             .first()
             .copied()
             .unwrap_or(BaudRate::B9600);
-        let link = SerialLink::open(&config.path, first.bits_per_second(), config.parity)?;
+        let mut link = SerialLink::open(&config.path, first.bits_per_second(), config.parity)?;
+        link.set_cancel(hooks.cancel.clone());
         let now = Instant::now();
         let mut driver = Self {
             receiver: SickReceiver::new(config.layout, config.crc_window),
@@ -218,6 +290,9 @@ impl SickDriver {
             streaming_since: now,
             last_scan_at: None,
             down_reason: None,
+            setup_error: None,
+            last_setup_at: None,
+            hooks,
             buf: vec![0; 4096],
         };
         driver.setup()?;
@@ -228,11 +303,18 @@ impl SickDriver {
     /// none came. Problems do not end the stream: they show in [`SickDriver::health`], and a
     /// port that went away is reopened (and the scanner set up again) every
     /// `reconnect_interval` while this is called.
+    ///
+    /// A scanner silent past the scan deadline on an open port is set up again (probed from
+    /// the power-up rate) one `reconnect_interval` after the deadline, and every interval
+    /// after a failed attempt: this call then blocks for the set-up.
     pub fn read_scan(&mut self, timeout: Duration) -> Option<LaserScan> {
         let deadline = Instant::now() + timeout;
         loop {
             if let Some(scan) = self.pending.pop_front() {
                 return Some(scan);
+            }
+            if self.hooks.cancel.as_ref().is_some_and(Cancel::is_set) {
+                return None;
             }
             if !self.link.is_open() {
                 self.reconnect(deadline);
@@ -241,14 +323,61 @@ impl SickDriver {
                 }
                 continue;
             }
-            let remaining = deadline.saturating_duration_since(Instant::now());
-            match self.read_some(remaining) {
+            let now = Instant::now();
+            let resetup_at = self.resetup_due();
+            if resetup_at <= now {
+                self.resetup();
+                continue;
+            }
+            let remaining = deadline.saturating_duration_since(now);
+            let wait = remaining.min(resetup_at.saturating_duration_since(now));
+            match self.read_some(wait) {
                 // Past the deadline: only what has arrived, even if bytes keep coming.
                 Ok(_) if remaining.is_zero() => return self.pending.pop_front(),
                 Ok(_) => {}
+                Err(down) if down.stopped => return self.pending.pop_front(),
                 Err(down) => self.lost(down),
             }
         }
+    }
+
+    /// When a silent scanner on the open port is next set up again.
+    fn resetup_due(&self) -> Instant {
+        let interval = self.config.reconnect_interval;
+        let first = self.silent_since() + self.config.scan_deadline + interval;
+        match self.last_setup_at {
+            Some(at) if self.setup_error.is_some() => first.max(at + interval),
+            _ => first,
+        }
+    }
+
+    /// Sets a silent scanner up again on the open port.
+    fn resetup(&mut self) {
+        match self.setup() {
+            Ok(()) => {
+                self.setup_error = None;
+                self.stats.resetups += 1;
+            }
+            Err(SickDriverError::Lost { reason }) => {
+                self.lost(LinkDown {
+                    reason,
+                    stopped: false,
+                });
+            }
+            Err(error) => self.setup_error = Some(error.to_string()),
+        }
+    }
+
+    /// Since when no valid scan came (or since the stream started).
+    fn silent_since(&self) -> Instant {
+        self.last_scan_at
+            .map_or(self.streaming_since, |last| last.max(self.streaming_since))
+    }
+
+    /// Since when the scanner has been silent (its last scan, or the start of the stream),
+    /// and the deadline after which that is [`DriverHealth::NoData`].
+    pub fn silence(&self) -> (Instant, Duration) {
+        (self.silent_since(), self.config.scan_deadline)
     }
 
     /// What the driver thinks of the scanner now.
@@ -260,10 +389,12 @@ impl SickDriver {
                 reason: reason.clone(),
             };
         }
-        let since = self
-            .last_scan_at
-            .map_or(self.streaming_since, |last| last.max(self.streaming_since));
-        let silent_for = since.elapsed();
+        if let Some(reason) = &self.setup_error {
+            return DriverHealth::NotSetUp {
+                reason: reason.clone(),
+            };
+        }
+        let silent_for = self.silent_since().elapsed();
         if silent_for > self.config.scan_deadline {
             return DriverHealth::NoData {
                 path,
@@ -308,12 +439,26 @@ impl SickDriver {
         self.link.fd()
     }
 
+    /// Reports a set-up step to the reader, if one listens.
+    fn step(&mut self, step: SetupStep) {
+        if let Some(progress) = &mut self.hooks.progress {
+            progress(step);
+        }
+    }
+
     fn setup(&mut self) -> Result<(), SickDriverError> {
+        let result = self.setup_steps();
+        self.last_setup_at = Some(Instant::now());
+        result
+    }
+
+    fn setup_steps(&mut self) -> Result<(), SickDriverError> {
         self.baud = None;
         let found = self.probe()?;
         let target = self.config.baud;
         let timeout = self.config.reply_timeout;
         if found != target {
+            self.step(SetupStep::Switching(target));
             let reply = self.transact(&SickCommand::SwitchBaud(target), timeout)?;
             self.expect_mode_ok(&reply, "the baud-rate switch")?;
             self.switch_port(target)?;
@@ -321,6 +466,7 @@ impl SickDriver {
             self.transact(&SickCommand::StopStreaming, timeout)?;
         }
         self.baud = Some(target);
+        self.step(SetupStep::SettingLayout);
         let layout = self.config.layout;
         match self
             .transact(&SickCommand::set_layout(layout), timeout)?
@@ -329,6 +475,7 @@ impl SickDriver {
             ReplyBody::Layout { accepted: true, .. } => {}
             other => return Err(self.refused("the angle and resolution", &other)),
         }
+        self.step(SetupStep::SettingUnit);
         let current = match self.transact(&SickCommand::GetConfig, timeout)?.body {
             ReplyBody::Config(config) => config,
             other => return Err(self.refused("the configuration request", &other)),
@@ -352,6 +499,7 @@ impl SickDriver {
             }
         }
         self.pending.clear();
+        self.step(SetupStep::StartingStream);
         let reply = self.transact(&SickCommand::StartStreaming, timeout)?;
         self.expect_mode_ok(&reply, "continuous streaming")?;
         self.streaming_since = Instant::now();
@@ -364,6 +512,7 @@ impl SickDriver {
     fn probe(&mut self) -> Result<BaudRate, SickDriverError> {
         let rates = self.config.probe_rates.clone();
         for rate in &rates {
+            self.step(SetupStep::Probing(*rate));
             self.switch_port(*rate)?;
             match self.transact(&SickCommand::StopStreaming, self.config.reply_timeout) {
                 Ok(_) => return Ok(*rate),
@@ -489,15 +638,17 @@ impl SickDriver {
         self.link.close();
         self.baud = None;
         self.down_reason = Some(down.reason);
+        self.setup_error = None;
         self.retry.now();
     }
 
     /// Tries to reopen the port and set the scanner up when a retry is due; otherwise waits
     /// for the retry (at most until `deadline`).
     fn reconnect(&mut self, deadline: Instant) {
-        if !self.retry.due_or_wait(deadline) {
+        if !self.retry.due_or_wait(deadline, self.hooks.cancel.as_ref()) {
             return;
         }
+        self.step(SetupStep::Opening);
         let first = self
             .config
             .probe_rates

@@ -4,16 +4,21 @@
 //! Without a world the scanner sees the 6 m by 4 m room of `test-range` from its centre line
 //! ([`Room::DEFAULT`]), and the base's sonar ring sees the same room around it wherever the
 //! base has driven (the room moves with it: this is a line check, not a simulation). With a
-//! world, the scanner sees the world from `start`, and the base drives through it from
-//! `start` with its sonar seeing what the simulator's sonar would. Two processes do not share
-//! a pose: a world-backed scanner stays at `start` however the base moves.
+//! world, the base drives through it from `start` with its sonar seeing what the simulator's
+//! sonar would, and the scanner sees the world from `start`; given a robot-state directory
+//! (the same for both processes), the base writes its true pose there ([`PoseFile`]) as it
+//! moves and the scanner renders from the latest one, so its ranges follow the drive.
+//!
+//! Faults come from a [`FaultPlan`]: the device's from the start, and the cable pulled and
+//! put back at the plan's times.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::fake_device::{FakeDeviceError, FakeRflex, FakeSick, RflexEmulatorOptions};
-use super::world_source::{SharedPose, WorldLaserSource, WorldSonarSource};
-use crate::drivers::faults::Faults;
+use super::fault_spec::FaultPlan;
+use super::pose_file::{PoseFile, PoseFileError};
+use super::world_source::{PoseFileFeed, SharedPose, WorldLaserSource, WorldSonarSource};
 use crate::drivers::rflex::{self, RflexDeviceConfig};
 use crate::drivers::sick::{ScanLayout, SickDeviceConfig};
 use crate::sim::{self, LaserConfig, SimSonar, SonarConfig, World, b21r_sonar_ring};
@@ -33,12 +38,15 @@ pub enum DeviceKind {
 pub struct StandaloneOptions {
     /// Where to link the device (`None`: print the slave's own path).
     pub link: Option<PathBuf>,
-    /// Faults from the start.
-    pub faults: Faults,
+    /// Faults, and when the cable is pulled.
+    pub faults: FaultPlan,
     /// A world folder of the simulator to see (`None`: the plain room).
     pub world: Option<PathBuf>,
     /// Where the robot stands in the world.
     pub start: sim::Pose2,
+    /// A directory shared by the base's and the laser's emulators, where the base writes its
+    /// true pose and the laser reads it (with a world only).
+    pub robot_state: Option<PathBuf>,
     /// Seed of the simulated noise.
     pub seed: u64,
 }
@@ -57,6 +65,12 @@ pub enum StandaloneError {
     /// The simulated sensor refused its configuration.
     #[error("cannot build the simulated sensor: {0}")]
     Sensor(#[from] sim::SensorConfigError),
+    /// The robot-state directory is given without a world to move in.
+    #[error("--robot-state shares the robot's pose in a world: give --world too")]
+    RobotStateWithoutWorld,
+    /// The robot-state directory cannot be used.
+    #[error(transparent)]
+    RobotState(#[from] PoseFileError),
     /// The emulator could not start.
     #[error(transparent)]
     Device(#[from] FakeDeviceError),
@@ -89,15 +103,31 @@ impl Standalone {
                     })
             })
             .transpose()?;
+        let pose_file = match (&options.robot_state, &world) {
+            (Some(_), None) => return Err(StandaloneError::RobotStateWithoutWorld),
+            (Some(dir), Some(_)) => Some(PoseFile::in_dir(dir)),
+            (None, _) => None,
+        };
         let link = options.link.as_deref();
-        match kind {
+        let faults = options.faults.faults;
+        let started = match kind {
             DeviceKind::Sick => {
                 let config = SickDeviceConfig {
-                    faults: options.faults,
+                    faults,
                     ..SickDeviceConfig::default()
                 };
-                let fake = match world {
-                    Some(world) => FakeSick::start(
+                let fake = match (world, pose_file) {
+                    (Some(world), Some(file)) => FakeSick::start(
+                        config,
+                        WorldLaserSource::new(
+                            world,
+                            LaserConfig::default(),
+                            options.seed,
+                            PoseFileFeed::new(file, options.start),
+                        ),
+                        link,
+                    )?,
+                    (Some(world), None) => FakeSick::start(
                         config,
                         WorldLaserSource::new(
                             world,
@@ -107,17 +137,21 @@ impl Standalone {
                         ),
                         link,
                     )?,
-                    None => FakeSick::start(config, room_scan, link)?,
+                    (None, _) => FakeSick::start(config, room_scan, link)?,
                 };
-                Ok(Self::Sick(fake))
+                Self::Sick(fake)
             }
             DeviceKind::Rflex => {
                 let config = RflexDeviceConfig {
-                    faults: options.faults,
+                    faults,
                     ..RflexDeviceConfig::default()
                 };
                 let fake = match world {
                     Some(world) => {
+                        if let Some(file) = &pose_file {
+                            // Fails here, clearly, when the directory cannot be written.
+                            file.write(options.start)?;
+                        }
                         let sonar = SimSonar::new(SonarConfig::default(), options.seed)?;
                         FakeRflex::start(
                             config,
@@ -125,6 +159,7 @@ impl Standalone {
                             RflexEmulatorOptions {
                                 origin: options.start,
                                 shared_pose: None,
+                                pose_file,
                             },
                             link,
                         )?
@@ -133,9 +168,14 @@ impl Standalone {
                         FakeRflex::start(config, room_sonar, RflexEmulatorOptions::default(), link)?
                     }
                 };
-                Ok(Self::Rflex(fake))
+                Self::Rflex(fake)
             }
+        };
+        match &started {
+            Self::Sick(fake) => fake.schedule_unplugs(&options.faults.unplugs),
+            Self::Rflex(fake) => fake.schedule_unplugs(&options.faults.unplugs),
         }
+        Ok(started)
     }
 
     /// The path a driver opens.
@@ -144,6 +184,24 @@ impl Standalone {
         match self {
             Self::Sick(fake) => fake.path(),
             Self::Rflex(fake) => fake.path(),
+        }
+    }
+
+    /// The scanner's emulator, if this is one (tests inspect and steer it).
+    #[must_use]
+    pub fn sick(&self) -> Option<&FakeSick> {
+        match self {
+            Self::Sick(fake) => Some(fake),
+            Self::Rflex(_) => None,
+        }
+    }
+
+    /// The base's emulator, if this is one.
+    #[must_use]
+    pub fn rflex(&self) -> Option<&FakeRflex> {
+        match self {
+            Self::Rflex(fake) => Some(fake),
+            Self::Sick(_) => None,
         }
     }
 

@@ -1,9 +1,11 @@
 //! Range sources backed by the simulator's world, so that the emulators see what the simulated
 //! laser and sonar would: the base's emulator moves its true pose through the world, and the
-//! laser's emulator reads that pose through a [`SharedPose`].
+//! laser's emulator reads that pose ([`PoseFeed`]): through a [`SharedPose`] in one process,
+//! or through the [`PoseFile`] that the base's emulator writes when they are two processes.
 
 use std::sync::{Arc, Mutex, PoisonError};
 
+use super::pose_file::PoseFile;
 use crate::drivers::rflex::{self, SonarSource};
 use crate::drivers::sick::{RangeSource, ScanLayout};
 use crate::sim::{self, LaserConfig, SimLaser, SimSonar, World};
@@ -29,6 +31,45 @@ impl SharedPose {
     }
 }
 
+/// Where a world-backed laser learns the robot's true pose at each scan.
+pub trait PoseFeed: std::fmt::Debug {
+    /// The robot's world pose now.
+    fn pose(&mut self) -> sim::Pose2;
+}
+
+impl PoseFeed for SharedPose {
+    fn pose(&mut self) -> sim::Pose2 {
+        self.get()
+    }
+}
+
+/// The pose that another process's base emulator writes to a [`PoseFile`]; until it has
+/// written one (and whenever the file cannot be read), the last pose known, at first
+/// `start`.
+#[derive(Debug, Clone)]
+pub struct PoseFileFeed {
+    file: PoseFile,
+    last: sim::Pose2,
+}
+
+impl PoseFileFeed {
+    /// Reads `file`, assuming `start` until there is a pose in it.
+    pub fn new(file: PoseFile, start: sim::Pose2) -> Self {
+        Self { file, last: start }
+    }
+}
+
+impl PoseFeed for PoseFileFeed {
+    fn pose(&mut self) -> sim::Pose2 {
+        // The writer replaces the file atomically: an error is a file not written yet or
+        // removed, and the last pose is the best guess.
+        if let Ok(Some(pose)) = self.file.read() {
+            self.last = pose;
+        }
+        self.last
+    }
+}
+
 /// The protocol layer's pose as the simulator's.
 pub(crate) fn to_sim_pose(pose: rflex::Pose2) -> sim::Pose2 {
     sim::Pose2::new(pose.x_m, pose.y_m, pose.heading_rad)
@@ -41,19 +82,24 @@ pub struct WorldLaserSource {
     world: Arc<World>,
     config: LaserConfig,
     seed: u64,
-    pose: SharedPose,
+    pose: Box<dyn PoseFeed + Send>,
     laser: Option<(ScanLayout, SimLaser)>,
 }
 
 impl WorldLaserSource {
     /// A source seeing `world` from `pose` (the robot's, the laser's mount is in `config`).
     /// `config`'s beam count and field of view are replaced by the scanner's layout.
-    pub fn new(world: Arc<World>, config: LaserConfig, seed: u64, pose: SharedPose) -> Self {
+    pub fn new(
+        world: Arc<World>,
+        config: LaserConfig,
+        seed: u64,
+        pose: impl PoseFeed + Send + 'static,
+    ) -> Self {
         Self {
             world,
             config,
             seed,
-            pose,
+            pose: Box::new(pose),
             laser: None,
         }
     }
@@ -79,7 +125,7 @@ impl RangeSource for WorldLaserSource {
         let Some((_, laser)) = &mut self.laser else {
             return Vec::new();
         };
-        laser.scan(&self.world, self.pose.get()).ranges
+        laser.scan(&self.world, self.pose.pose()).ranges
     }
 }
 

@@ -1,13 +1,14 @@
 //! The iRobot RFlex base protocol (PROTOCOLS.md, "RFlex"): packets with an XOR checksum, a
 //! resynchronising deframer, typed commands (start-up, velocity, brake, sonar) and reports
-//! (odometry, sonar, digital I/O, system status), an odometry integrator, and [`RflexDevice`],
-//! the base's side used by the emulator.
+//! (odometry, sonar, digital I/O, system status), an odometry integrator, the bumper panels
+//! read from digital I/O reports, and [`RflexDevice`], the base's side used by the emulator.
 //!
 //! Facts not in PROTOCOLS.md come from Player's and CARMEN's rflex drivers and are marked
 //! "guessed" where they are defined; test them on the real base before relying on them.
 //! One of them deserves care: a public ROS reader of the protocol treats `1B 00` and `1B 01`
 //! inside packets as escape sequences, which PROTOCOLS.md (no byte stuffing) does not.
 
+mod bumpers;
 #[cfg(test)]
 mod codec_tests;
 mod command;
@@ -18,6 +19,7 @@ mod odometry;
 mod packet;
 mod report;
 
+pub use bumpers::{BumperLayout, BumperStyle, Bumpers};
 pub use command::{
     Axis, RflexCommand, SonarRun, StartupParams, VelocityCommand, avoid_escape_bytes,
     startup_sequence,

@@ -26,9 +26,17 @@
 //! low_charge_fraction = 0.2
 //! distance_sectors = 24
 //! rate_hz = 10.0                    # Synchrodrive, Egomotion and Power publications
-//! # transducers = [ { x_m = 0.26, y_m = 0.0, heading_deg = 0.0, height_m = 0.62 }, ... ]
-//! #   (default: the B21r's 48, two rings of 24, in RFlex numbering)
+//! sonar_count = 48                  # transducers the base reports
+//! transducers = [ { x_m = 0.26, y_m = 0.0, heading_deg = 0.0, height_m = 0.62 }, ... ]
+//!                                   # one per transducer in RFlex order (default: the B21r's
+//!                                   # two rings of 24); there must be `sonar_count` of them
+//! bumper_address = 64               # the DIO address of the first bumper panel (0x40)
+//! bumper_count = 14                 # panels (Synchrodrive's `bumpers`)
+//! bumper_style = "address"          # "address": one address per panel; "bit": 8 per address
 //! ```
+//!
+//! Bumpers are published in Synchrodrive (`bumpers`, one per panel, true while pressed), at
+//! once when a panel changes and with every periodic publication.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -48,7 +56,9 @@ use serde::Deserialize;
 
 use super::{Mount, declare, health_of, invalid, millis, provides, publish, sector_count};
 use crate::drivers::io::{RflexDriver, RflexDriverConfig, RflexEvent};
-use crate::drivers::rflex::{OdometryConversion, Pose2, SONAR_UNITS_PER_M};
+use crate::drivers::rflex::{
+    BumperLayout, BumperStyle, Bumpers, OdometryConversion, Pose2, SONAR_COUNT, SONAR_UNITS_PER_M,
+};
 use crate::sim::{SectorLayout, SensorMount, b21r_sonar_ring, distance_from_range_finder};
 
 /// The kind name in robot files.
@@ -112,9 +122,21 @@ pub struct RflexParams {
     /// Rate of the Synchrodrive, Egomotion and Power publications, in Hz.
     #[serde(default = "defaults::rate_hz")]
     pub rate_hz: f64,
+    /// Transducers the base reports.
+    #[serde(default = "defaults::sonar_count")]
+    pub sonar_count: usize,
     /// The sonar transducers in RFlex order (default: the B21r's 48).
     #[serde(default)]
     pub transducers: Option<Vec<Mount>>,
+    /// The DIO address of the first bumper panel.
+    #[serde(default = "defaults::bumper_address")]
+    pub bumper_address: u8,
+    /// Bumper panels.
+    #[serde(default = "defaults::bumper_count")]
+    pub bumper_count: usize,
+    /// How panels map to DIO addresses: "address" (one each) or "bit" (8 per address).
+    #[serde(default = "defaults::bumper_style")]
+    pub bumper_style: String,
 }
 
 mod defaults {
@@ -165,6 +187,18 @@ mod defaults {
     pub(super) fn rate_hz() -> f64 {
         10.0
     }
+    pub(super) fn sonar_count() -> usize {
+        super::SONAR_COUNT
+    }
+    pub(super) fn bumper_address() -> u8 {
+        super::BumperLayout::B21R.first_address
+    }
+    pub(super) fn bumper_count() -> usize {
+        super::BumperLayout::B21R.count
+    }
+    pub(super) fn bumper_style() -> String {
+        "address".to_owned()
+    }
 }
 
 /// The `rflex` service.
@@ -180,6 +214,7 @@ pub struct RflexService {
     last_open_error: Option<String>,
     distance_travelled_m: f64,
     last_pose: Option<Pose2>,
+    bumpers: Bumpers,
     outputs: Outputs,
 }
 
@@ -294,12 +329,8 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         distance_units_per_m: positive("distance_units_per_m", params.distance_units_per_m)?,
         angle_units_per_rad: positive("angle_units_per_rad", params.angle_units_per_rad)?,
     };
-    let transducers: Vec<SensorMount> = params
-        .transducers
-        .as_ref()
-        .map_or_else(b21r_sonar_ring, |mounts| {
-            mounts.iter().map(|m| m.to_sensor_mount()).collect()
-        });
+    let transducers = transducers(config, &params)?;
+    let bumpers = bumper_layout(config, &params)?;
     if !(params.rate_hz.is_finite() && (1.0..=1000.0).contains(&params.rate_hz)) {
         return Err(invalid(
             config,
@@ -351,6 +382,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         last_open_error: None,
         distance_travelled_m: 0.0,
         last_pose: None,
+        bumpers: Bumpers::new(bumpers),
         outputs: Outputs {
             synchrodrive: provides::<Synchrodrive>(config),
             egomotion: provides::<Egomotion>(config),
@@ -359,6 +391,91 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
             distance: provides::<Distance>(config),
         },
     }))
+}
+
+/// The sonar ring of the robot file, or the B21r's when it gives none; checked against
+/// `sonar_count`.
+fn transducers(
+    config: &ServiceConfig<'_>,
+    params: &RflexParams,
+) -> Result<Vec<SensorMount>, BuildError> {
+    if !(1..=usize::from(u8::MAX) + 1).contains(&params.sonar_count) {
+        return Err(invalid(
+            config,
+            format!(
+                "`sonar_count` is {}: give 1 to 256 (transducer ids are one byte)",
+                params.sonar_count
+            ),
+        ));
+    }
+    let Some(mounts) = &params.transducers else {
+        let ring = b21r_sonar_ring();
+        if ring.len() != params.sonar_count {
+            return Err(invalid(
+                config,
+                format!(
+                    "`sonar_count` is {} but no `transducers` are given and the B21r's default ring has {}: give one `transducers` entry per transducer",
+                    params.sonar_count,
+                    ring.len()
+                ),
+            ));
+        }
+        return Ok(ring);
+    };
+    if mounts.len() != params.sonar_count {
+        return Err(invalid(
+            config,
+            format!(
+                "`transducers` has {} entries but `sonar_count` is {}: give one entry per transducer, in RFlex order",
+                mounts.len(),
+                params.sonar_count
+            ),
+        ));
+    }
+    for (index, mount) in mounts.iter().enumerate() {
+        let values = [mount.x_m, mount.y_m, mount.heading_deg, mount.height_m];
+        if !values.iter().all(|v| v.is_finite()) {
+            return Err(invalid(
+                config,
+                format!("`transducers[{index}]` has a value that is not a finite number"),
+            ));
+        }
+    }
+    Ok(mounts.iter().map(|m| m.to_sensor_mount()).collect())
+}
+
+/// The bumper panels of the robot file.
+fn bumper_layout(
+    config: &ServiceConfig<'_>,
+    params: &RflexParams,
+) -> Result<BumperLayout, BuildError> {
+    let style = match params.bumper_style.as_str() {
+        "address" => BumperStyle::Address,
+        "bit" => BumperStyle::Bit,
+        other => {
+            return Err(invalid(
+                config,
+                format!(
+                    "`bumper_style` is `{other}`: give \"address\" (one DIO address per panel, the B21r) or \"bit\" (8 panels per address)"
+                ),
+            ));
+        }
+    };
+    let layout = BumperLayout {
+        first_address: params.bumper_address,
+        count: params.bumper_count,
+        style,
+    };
+    if params.bumper_count > 0 && layout.report_for(params.bumper_count - 1, true).is_none() {
+        return Err(invalid(
+            config,
+            format!(
+                "{} bumper panels from DIO address {} go past address 255: lower `bumper_address` or `bumper_count`",
+                params.bumper_count, params.bumper_address
+            ),
+        ));
+    }
+    Ok(layout)
 }
 
 impl RflexService {
@@ -421,7 +538,14 @@ impl RflexService {
                     ctx.info("the RFlex port came back: start-up sequence sent again");
                     self.last_pose = None;
                 }
-                RflexEvent::Status { .. } | RflexEvent::Dio(_) | RflexEvent::Other(_) => {}
+                RflexEvent::Dio(report) => {
+                    let before = self.bumpers.clone();
+                    if self.bumpers.update(&report) && self.bumpers != before {
+                        // A bump is news for whoever drives: publish at once.
+                        self.next_state_ns = ctx.now();
+                    }
+                }
+                RflexEvent::Status { .. } | RflexEvent::Other(_) => {}
             }
         }
         declare(ctx, health_of(&driver.health()));
@@ -447,6 +571,8 @@ impl RflexService {
                     commanded_translation_velocity: commanded_translation,
                     commanded_rotation_velocity: commanded_rotation,
                     brake_on: driver.brake_engaged().unwrap_or(true),
+                    bumper_count: i32::try_from(self.bumpers.pressed().len()).unwrap_or(i32::MAX),
+                    bumpers: self.bumpers.pressed().to_vec(),
                     ..Synchrodrive::default()
                 },
             );
@@ -514,6 +640,8 @@ impl Service for RflexService {
 
     fn on_device(&mut self, ctx: &mut Context<'_>) {
         self.drain(ctx);
+        // A bumper that changed is published now, not at the next tick.
+        self.publish_state(ctx);
     }
 
     fn on_stop(&mut self, ctx: &mut Context<'_>) {
@@ -616,7 +744,127 @@ impl Service for RflexService {
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
+    use lewis_runtime::robot::{self, Robot};
+    use lewis_runtime::service::ServiceRegistry;
+
     use super::*;
+
+    fn robot(text: &str, path: &Path) -> Robot {
+        let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+            .iter()
+            .map(|i| i.name)
+            .collect();
+        robot::parse(text, path, &known).unwrap()
+    }
+
+    /// Builds service `base` of `text`.
+    fn build_base(text: &str) -> Result<Box<dyn Service>, BuildError> {
+        let robot = robot(text, Path::new("rflex-test.toml"));
+        let mut registry = ServiceRegistry::new();
+        super::super::register(&mut registry);
+        registry.build(&ServiceConfig {
+            spec: robot.service("base").unwrap(),
+            heartbeat_period_ms: 100,
+        })
+    }
+
+    /// A robot whose base has `parameters` besides its port.
+    fn base_with(parameters: &str) -> String {
+        format!(
+            r#"
+[robot]
+name = "rflex-test"
+
+[[services]]
+name = "base"
+kind = "rflex"
+provides = [{{ interface = "Synchrodrive", quality = 10, cost = 1 }}]
+
+[services.parameters]
+port = "/dev/ttyS1"
+{parameters}
+"#
+        )
+    }
+
+    fn check_refused(parameters: &str, needle: &str) {
+        match build_base(&base_with(parameters)) {
+            Ok(_) => panic!("{parameters}: accepted"),
+            Err(error) => {
+                let message = error.to_string();
+                assert!(message.contains(needle), "{parameters}: {message}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_b21r_robot_file_gives_its_sonar_ring_and_bumpers() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/b21r.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let robot = robot(&text, &path);
+        let spec = robot.service("base").unwrap();
+        let config = ServiceConfig {
+            spec,
+            heartbeat_period_ms: 100,
+        };
+        let params: RflexParams = config.parameters().unwrap();
+        let ring = transducers(&config, &params).unwrap();
+        assert_eq!(ring.len(), 48);
+        // The robot file writes out the B21r's ring, to the 0.1 mm it is given with.
+        for (index, (given, default)) in ring.iter().zip(b21r_sonar_ring()).enumerate() {
+            assert!(
+                (given.pose.x_m - default.pose.x_m).abs() < 1e-4
+                    && (given.pose.y_m - default.pose.y_m).abs() < 1e-4
+                    && (given.pose.heading_rad - default.pose.heading_rad).abs() < 1e-9
+                    && (given.height_m - default.height_m).abs() < 1e-9,
+                "transducer {index}: {given:?} against {default:?}"
+            );
+        }
+        assert_eq!(bumper_layout(&config, &params).unwrap(), BumperLayout::B21R);
+    }
+
+    #[test]
+    fn a_sonar_ring_that_does_not_match_its_count_is_refused() {
+        assert!(build_base(&base_with("")).is_ok(), "the defaults build");
+        check_refused(
+            "sonar_count = 24",
+            "`sonar_count` is 24 but no `transducers` are given",
+        );
+        check_refused(
+            "transducers = [ { x_m = 0.26 }, { x_m = 0.25 } ]",
+            "`transducers` has 2 entries but `sonar_count` is 48",
+        );
+        check_refused("sonar_count = 0", "`sonar_count` is 0");
+        assert!(
+            build_base(&base_with(
+                "sonar_count = 2\ntransducers = [ { x_m = 0.26 }, { x_m = 0.25 } ]"
+            ))
+            .is_ok(),
+            "two transducers when the count says two"
+        );
+    }
+
+    #[test]
+    fn bumper_parameters_are_checked() {
+        check_refused("bumper_style = \"corner\"", "`bumper_style` is `corner`");
+        check_refused(
+            "bumper_address = 250\nbumper_count = 14",
+            "go past address 255",
+        );
+        assert!(
+            build_base(&base_with(
+                "bumper_address = 250\nbumper_count = 14\nbumper_style = \"bit\""
+            ))
+            .is_ok(),
+            "by bit, 14 panels need 2 addresses"
+        );
+        assert!(
+            build_base(&base_with("bumper_count = 0")).is_ok(),
+            "no bumpers"
+        );
+    }
 
     #[test]
     fn the_battery_charge_is_linear_between_empty_and_full() {

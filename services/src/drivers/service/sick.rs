@@ -19,11 +19,14 @@
 //! reconnect_interval_ms = 1000
 //! ```
 //!
-//! Setting the scanner up (at start and after the port comes back) blocks the service for up
-//! to a reply timeout per command, and up to two per candidate rate while probing.
+//! Everything that waits for the scanner (opening the port, probing its rate, setting it up,
+//! reading, reconnecting) happens in the service's device reader ([`SickReader`], a thread),
+//! so the service's own thread never blocks and its heartbeats keep flowing. While the
+//! scanner is first set up the service is degraded (its clients stay and wait); once it has
+//! streamed, any trouble (silence past the deadline, too many bad CRCs, the port gone, a
+//! set-up that fails) is out of service, until scans flow again.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use lewis_interfaces::msg::{
     Distance, DistanceCommand, DistanceSetSectorCountReply, RangeFinder, RangeFinderCommand,
@@ -36,15 +39,14 @@ use lewis_runtime::service::{
 use serde::Deserialize;
 
 use super::{Mount, declare, health_of, invalid, millis, provides, publish, sector_count};
-use crate::drivers::io::{LaserScan, LineParity, SickDriver, SickDriverConfig};
+use crate::drivers::io::{
+    LaserScan, LineParity, SickDriverConfig, SickNews, SickReader, SickReaderStatus,
+};
 use crate::drivers::sick::{AngularResolution, BaudRate, RangeUnit, ScanLayout, ScanWidth};
 use crate::sim::{SectorLayout, distance_from_range_finder};
 
 /// The kind name in robot files.
 pub const KIND: &str = "sick";
-
-/// How often the service looks at the driver's health and retries a port that went away.
-const TICK_NS: i64 = 100_000_000;
 
 /// The parameters of `sick`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -239,13 +241,15 @@ impl LaserPublisher {
 #[derive(Debug)]
 pub struct SickService {
     config: SickDriverConfig,
-    driver: Option<SickDriver>,
+    reader: Option<SickReader>,
     publisher: LaserPublisher,
     publish_range_finder: bool,
     publish_distance: bool,
-    /// When the next attempt to open the port is due (while there is no driver).
-    next_open_ns: i64,
-    last_open_error: Option<String>,
+    /// The rate the scanner streams at, while it does.
+    baud: Option<BaudRate>,
+    /// Whether scans have flowed since the start: trouble after that is out of service,
+    /// a first set-up only degraded.
+    streamed: bool,
 }
 
 /// Builds a `sick` service from its robot-file entry.
@@ -267,87 +271,109 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     let sectors = sector_count(config, params.distance_sectors)?;
     Ok(Box::new(SickService {
         config: driver_config,
-        driver: None,
+        reader: None,
         publisher: LaserPublisher::new(params.mount, sectors),
         publish_range_finder: provides::<RangeFinder>(config),
         publish_distance: provides::<Distance>(config),
-        next_open_ns: 0,
-        last_open_error: None,
+        baud: None,
+        streamed: false,
     }))
 }
 
+/// The runtime's health for the reader's `status`, given the health declared now and
+/// whether the scanner has streamed since the start. A set-up step never lifts an
+/// out-of-service (the scanner has not proven itself yet): only streaming does.
+#[must_use]
+pub fn health_for(
+    status: &SickReaderStatus,
+    current: &Health,
+    streamed: bool,
+    path: &std::path::Path,
+) -> Health {
+    match status {
+        SickReaderStatus::Streaming(_) => Health::Ok,
+        SickReaderStatus::Trouble(trouble) => health_of(trouble),
+        SickReaderStatus::SettingUp(_) if current.is_out_of_service() => current.clone(),
+        SickReaderStatus::SettingUp(step) if streamed => Health::OutOfService(format!(
+            "lost the SICK scanner on {}; setting it up again: {step}",
+            path.display()
+        )),
+        SickReaderStatus::SettingUp(step) => Health::Degraded(format!(
+            "setting up the SICK scanner on {}: {step}",
+            path.display()
+        )),
+    }
+}
+
 impl SickService {
-    /// Opens the port and sets the scanner up when an attempt is due.
-    fn open(&mut self, ctx: &mut Context<'_>) {
-        if ctx.now() < self.next_open_ns {
+    /// Publishes the scans that arrived and declares what the reader says.
+    fn take_news(&mut self, ctx: &mut Context<'_>) {
+        let Some(reader) = &self.reader else {
             return;
-        }
-        let interval_ns =
-            i64::try_from(self.config.reconnect_interval.as_nanos()).unwrap_or(i64::MAX);
-        self.next_open_ns = ctx.now().saturating_add(interval_ns);
-        match SickDriver::open(self.config.clone()) {
-            Ok(driver) => {
-                ctx.info(&format!(
-                    "SICK scanner on {} streaming at {} baud",
-                    self.config.path.display(),
-                    driver.baud().map_or(0, BaudRate::bits_per_second)
-                ));
-                self.last_open_error = None;
-                self.driver = Some(driver);
-            }
-            Err(error) => {
-                let reason = error.to_string();
-                if self.last_open_error.as_deref() != Some(reason.as_str()) {
-                    ctx.warn(&reason);
+        };
+        let SickNews { scans, statuses } = reader.take();
+        for report in statuses {
+            if let SickReaderStatus::Streaming(baud) = report.status {
+                if !self.streamed || self.baud != Some(baud) {
+                    ctx.info(&format!(
+                        "SICK scanner on {} streaming at {} baud",
+                        self.config.path.display(),
+                        baud.bits_per_second()
+                    ));
                 }
-                declare(ctx, Health::OutOfService(reason.clone()));
-                self.last_open_error = Some(reason);
+                self.streamed = true;
+                self.baud = Some(baud);
+            } else {
+                self.baud = None;
             }
+            let health = health_for(
+                &report.status,
+                ctx.health(),
+                self.streamed,
+                &self.config.path,
+            );
+            declare(ctx, health);
+        }
+        for scan in &scans {
+            self.publish_scan(ctx, scan);
         }
     }
 
-    /// Publishes every scan that has arrived, then declares the driver's health.
-    fn drain(&mut self, ctx: &mut Context<'_>) {
-        let Some(driver) = &mut self.driver else {
-            return;
-        };
-        while let Some(scan) = driver.read_scan(Duration::ZERO) {
-            let mut range_finder = self.publisher.range_finder(&scan);
-            if self.publish_distance {
-                publish(ctx, &mut self.publisher.distance(&range_finder));
-            }
-            if self.publish_range_finder {
-                publish(ctx, &mut range_finder);
-            }
+    fn publish_scan(&self, ctx: &mut Context<'_>, scan: &LaserScan) {
+        let mut range_finder = self.publisher.range_finder(scan);
+        if self.publish_distance {
+            publish(ctx, &mut self.publisher.distance(&range_finder));
         }
-        declare(ctx, health_of(&driver.health()));
+        if self.publish_range_finder {
+            publish(ctx, &mut range_finder);
+        }
     }
 }
 
 impl Service for SickService {
-    fn tick_period_ns(&self) -> Option<i64> {
-        Some(TICK_NS)
-    }
-
     fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.open(ctx);
+        declare(
+            ctx,
+            Health::Degraded(format!(
+                "setting up the SICK scanner on {}",
+                self.config.path.display()
+            )),
+        );
+        self.reader = Some(SickReader::spawn(self.config.clone()).map_err(|e| e.to_string())?);
         Ok(())
     }
 
-    fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        if self.driver.is_none() {
-            self.open(ctx);
-        }
-        // Also reopens a port that went away (the driver retries while it is read).
-        self.drain(ctx);
-    }
-
     fn device(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
-        self.driver.as_ref().and_then(SickDriver::fd)
+        self.reader.as_ref().map(SickReader::fd)
     }
 
     fn on_device(&mut self, ctx: &mut Context<'_>) {
-        self.drain(ctx);
+        self.take_news(ctx);
+    }
+
+    fn on_stop(&mut self, _ctx: &mut Context<'_>) {
+        // Stops the reader, which tells the scanner to stop streaming.
+        self.reader = None;
     }
 
     fn on_command(
@@ -359,8 +385,7 @@ impl Service for SickService {
             "RangeFinder" => match command.decode::<RangeFinder>()? {
                 RangeFinderCommand::GetGeometry(_) => {
                     let layout = self.config.layout;
-                    let baud = self.driver.as_ref().and_then(SickDriver::baud);
-                    let rate = baud.map_or(0.0, |baud| {
+                    let rate = self.baud.map_or(0.0, |baud| {
                         // One telegram of the layout's values at the line's rate.
                         let bytes = 7 + 2 * layout.value_count() + 3;
                         let ns = baud.transmit_time_ns(bytes, self.config.parity.bits_per_byte());
@@ -404,7 +429,61 @@ impl Service for SickService {
 
 #[cfg(test)]
 mod tests {
+    use std::path::{Path, PathBuf};
+    use std::time::Duration;
+
     use super::*;
+    use crate::drivers::io::{DriverHealth, SetupStep};
+
+    #[test]
+    fn the_readers_status_becomes_the_services_health() {
+        let path = Path::new("/dev/ttyS0");
+        let probing = SickReaderStatus::SettingUp(SetupStep::Probing(BaudRate::B9600));
+        let no_data = SickReaderStatus::Trouble(DriverHealth::NoData {
+            path: PathBuf::from(path),
+            silent_for: Duration::from_millis(1200),
+            deadline: Duration::from_secs(1),
+        });
+        let out = |why: &str| Health::OutOfService(why.to_owned());
+        let check =
+            |status: &SickReaderStatus, current: &Health, streamed: bool, expected: &Health| {
+                assert_eq!(
+                    &health_for(status, current, streamed, path),
+                    expected,
+                    "{status:?} from {current:?}, streamed {streamed}"
+                );
+            };
+        // A first set-up: clients wait (degraded, not out of service).
+        check(
+            &probing,
+            &Health::Ok,
+            false,
+            &Health::Degraded(
+                "setting up the SICK scanner on /dev/ttyS0: probing at 9600 baud".to_owned(),
+            ),
+        );
+        // Once it streamed, setting it up again is out of service.
+        check(
+            &probing,
+            &Health::Ok,
+            true,
+            &out("lost the SICK scanner on /dev/ttyS0; setting it up again: probing at 9600 baud"),
+        );
+        // A set-up step never lifts an out-of-service: only scans do.
+        check(&probing, &out("silent"), false, &out("silent"));
+        check(
+            &SickReaderStatus::Streaming(BaudRate::B38400),
+            &out("silent"),
+            true,
+            &Health::Ok,
+        );
+        check(
+            &no_data,
+            &Health::Ok,
+            true,
+            &out("no valid data on /dev/ttyS0 for 1.200 s (deadline 1.000 s)"),
+        );
+    }
 
     fn params(extra: &str) -> Result<SickDriverConfig, String> {
         let text = format!("port = \"/dev/ttyS0\"\n{extra}");

@@ -51,6 +51,7 @@ use nix::fcntl::OFlag;
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 
 use super::clock::MonotonicClock;
+use super::fault_spec::Unplug;
 use super::pty::{Pty, PtyError};
 
 /// Output queued for the host beyond this is dropped (the host is not reading).
@@ -170,6 +171,8 @@ struct State<E> {
     host_log: VecDeque<u8>,
     path: PathBuf,
     plug_request: Option<bool>,
+    /// Plugging changes due at emulator times (ns), in time order.
+    plug_schedule: VecDeque<(i64, bool)>,
     stop: bool,
     failure: Option<String>,
 }
@@ -221,6 +224,7 @@ impl<E: Emulated> FakeDevice<E> {
                 host_log: VecDeque::new(),
                 path: pty.path().to_path_buf(),
                 plug_request: None,
+                plug_schedule: VecDeque::new(),
                 stop: false,
                 failure: None,
             }),
@@ -286,6 +290,32 @@ impl<E: Emulated> FakeDevice<E> {
         }
     }
 
+    /// Waits until `done` holds for the line's counters (plugging included), at most
+    /// `timeout`; whether it held. Checked after every step of the emulator thread.
+    pub fn wait_stats(
+        &self,
+        timeout: Duration,
+        mut done: impl FnMut(&EmulatorStats) -> bool,
+    ) -> bool {
+        let deadline = Instant::now() + timeout;
+        let mut state = self.shared.lock();
+        loop {
+            if done(&state.stats) {
+                return true;
+            }
+            let now = Instant::now();
+            if now >= deadline || state.failure.is_some() {
+                return false;
+            }
+            state = self
+                .shared
+                .changed
+                .wait_timeout(state, deadline - now)
+                .unwrap_or_else(PoisonError::into_inner)
+                .0;
+        }
+    }
+
     /// The line's counters.
     pub fn stats(&self) -> EmulatorStats {
         self.shared.lock().stats.clone()
@@ -315,6 +345,22 @@ impl<E: Emulated> FakeDevice<E> {
     /// Plugs the cable back in: a new pseudo-terminal, at the same link path if there is one.
     pub fn replug(&self) -> Result<(), FakeDeviceError> {
         self.request_plug(true, "replug")
+    }
+
+    /// Pulls the cable at the start of each window and puts it back at its end (never, for a
+    /// window without one), counted from the emulator's start; replaces an earlier schedule.
+    pub fn schedule_unplugs(&self, unplugs: &[Unplug]) {
+        let nanos = |time: Duration| i64::try_from(time.as_nanos()).unwrap_or(i64::MAX);
+        let mut changes: Vec<(i64, bool)> = Vec::new();
+        for unplug in unplugs {
+            changes.push((nanos(unplug.at), false));
+            if let Some(until) = unplug.until {
+                changes.push((nanos(until), true));
+            }
+        }
+        changes.sort_by_key(|&(at, _)| at);
+        self.shared.lock().plug_schedule = changes.into();
+        self.wake();
     }
 
     /// Stops the thread and closes the port; reports an error that had stopped the thread.
@@ -426,6 +472,13 @@ impl<E: Emulated> Runner<E> {
                 if state.stop {
                     return Ok(());
                 }
+                if state.plug_request.is_none()
+                    && let Some(&(at_ns, plugged)) = state.plug_schedule.front()
+                    && at_ns <= now_ns
+                {
+                    state.plug_schedule.pop_front();
+                    state.plug_request = Some(plugged);
+                }
                 if let Some(plugged) = state.plug_request.take() {
                     if plugged && pty.is_none() {
                         let fresh = Pty::open(self.link.as_deref())?;
@@ -452,11 +505,12 @@ impl<E: Emulated> Runner<E> {
                         self.output.push(&mut state.stats, &bytes, line_bps);
                         state.emulation.next_event_ns()
                     }
-                    // Nothing moves while unplugged: wait for the handle.
+                    // Nothing moves while unplugged: wait for the handle or the schedule.
                     None => None,
                 };
+                let next_plug_ns = state.plug_schedule.front().map(|&(at_ns, _)| at_ns);
                 self.shared.changed.notify_all();
-                next_ns
+                next_ns.into_iter().chain(next_plug_ns).min()
             };
             if let Some(pty) = &pty {
                 self.output.write(pty.master(), pty.host_baud_bps())?;

@@ -1,11 +1,12 @@
 //! The RFlex base behind a pseudo-terminal: [`RflexDevice`] at 115200 baud, its reports due
 //! as time passes, its sonar from a [`SonarSource`], and its true pose shared with a world-backed
-//! laser when asked.
+//! laser when asked: in the same process ([`SharedPose`]) or in another ([`PoseFile`]).
 
 use std::path::Path;
 
 use super::{Emulated, FakeDevice, FakeDeviceError, HostRates};
 use crate::drivers::io::clock::MonotonicClock;
+use crate::drivers::io::pose_file::PoseFile;
 use crate::drivers::io::world_source::{SharedPose, to_sim_pose};
 use crate::drivers::rflex::{RflexDevice, RflexDeviceConfig, SonarSource};
 use crate::sim;
@@ -23,6 +24,9 @@ pub struct RflexEmulatorOptions {
     pub origin: sim::Pose2,
     /// Set to the base's true world pose as it moves (a world-backed laser reads it).
     pub shared_pose: Option<SharedPose>,
+    /// Written with the base's true world pose whenever it moves (a laser emulator in
+    /// another process reads it).
+    pub pose_file: Option<PoseFile>,
 }
 
 /// The base as the emulator thread drives it.
@@ -30,6 +34,8 @@ pub struct RflexEmulation {
     device: RflexDevice,
     sonar: Box<dyn SonarSource + Send>,
     options: RflexEmulatorOptions,
+    /// The pose last written to the pose file.
+    written: Option<sim::Pose2>,
 }
 
 impl RflexEmulation {
@@ -40,22 +46,32 @@ impl RflexEmulation {
         options: RflexEmulatorOptions,
         now_ns: i64,
     ) -> Self {
-        let emulation = Self {
+        let mut emulation = Self {
             device: RflexDevice::new(config, now_ns),
             sonar: Box::new(sonar),
             options,
+            written: None,
         };
         emulation.publish_pose();
         emulation
     }
 
-    fn publish_pose(&self) {
+    fn publish_pose(&mut self) {
+        let pose = self
+            .options
+            .origin
+            .compose(to_sim_pose(self.device.true_pose()));
         if let Some(shared) = &self.options.shared_pose {
-            shared.set(
-                self.options
-                    .origin
-                    .compose(to_sim_pose(self.device.true_pose())),
-            );
+            shared.set(pose);
+        }
+        if let Some(file) = &self.options.pose_file
+            && self.written != Some(pose)
+        {
+            // A failed write is tried again at the next step; the reader keeps the last
+            // pose meanwhile (`lewis fake-device` checks the directory at start).
+            if file.write(pose).is_ok() {
+                self.written = Some(pose);
+            }
         }
     }
 }
