@@ -77,7 +77,7 @@ pub mod terminal;
 
 pub use check::{CheckedScript, check_file, check_script, check_with};
 pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
-pub use fsm::{Decision, Event, EventError, Sequencer};
+pub use fsm::{Decision, Event, EventError, Sequencer, Supervision};
 pub use gui::{GuiError, GuiServer, GuiSink};
 pub use live::{
     Command, ControlReceiver, Controller, Outcome, RunError, RunOptions, SignalForwarder,

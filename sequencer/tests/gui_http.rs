@@ -53,7 +53,8 @@ impl Feeder {
     }
 
     fn start(gui: &GuiServer) -> Self {
-        let (sequencer, decisions) = Sequencer::start(mission());
+        let (sequencer, decisions) =
+            Sequencer::start(mission(), lewis_sequencer::Supervision::Page);
         let mut feeder = Self {
             sequencer,
             sink: gui.sink(),
@@ -63,6 +64,7 @@ impl Feeder {
             script: "m.seq".into(),
             states: vec!["a".into(), "b".into(), "r".into()],
             use_gui: true,
+            supervision: Some(lewis_sequencer::Supervision::Page),
         });
         for decision in decisions {
             feeder.emit(Entry::Decided { decision });

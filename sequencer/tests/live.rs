@@ -338,7 +338,10 @@ fn on_the_terminal_an_unknown_state_is_refused_and_a_known_one_resumes() {
         .with(lewis_sequencer::ChannelSink(tx));
     let outcome = lewis_sequencer::run_mission(
         mission,
-        lewis_sequencer::RunOptions::new(&script),
+        lewis_sequencer::RunOptions {
+            supervision: lewis_sequencer::Supervision::Terminal,
+            ..lewis_sequencer::RunOptions::new(&script)
+        },
         &control,
         &mut tee,
     )
@@ -394,6 +397,7 @@ fn when_the_terminal_input_ends_while_asked_the_mission_aborts() {
         mission,
         lewis_sequencer::RunOptions {
             stop_grace: Duration::from_millis(500),
+            supervision: lewis_sequencer::Supervision::Terminal,
             ..lewis_sequencer::RunOptions::new(&script)
         },
         &control,

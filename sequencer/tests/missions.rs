@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use lewis_sequencer::{FileSystem, Sequencer, TrustingResolver, check_with};
+use lewis_sequencer::{FileSystem, Sequencer, Supervision, TrustingResolver, check_with};
 
 fn missions() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/missions")
@@ -25,7 +25,7 @@ fn the_challenge_script_is_the_papers_and_checks_clean() {
     assert_eq!(names, ["door", "sign", "queue", "register", "oops"]);
     assert_eq!(checked.mission.start().restart_limit, 3);
     assert!(checked.mission.use_gui());
-    let (_, decisions) = Sequencer::start(checked.mission);
+    let (_, decisions) = Sequencer::start(checked.mission, Supervision::Page);
     assert_eq!(
         decisions[0].to_string(),
         format!(
