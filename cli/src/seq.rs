@@ -176,6 +176,20 @@ pub(crate) fn execute(
         how.no_gui,
         std::io::stdin().is_terminal(),
     );
+    if echo {
+        // `lewis up` has the driver's log line; `lewis seq run` logs nothing else.
+        let line = match supervision {
+            Supervision::Unattended => {
+                "seq: nobody can answer (no supervisor's page, and the standard input is not a \
+                 terminal): after recovery the recovery state's actions apply"
+            }
+            Supervision::Terminal => "seq: the supervisor is asked on this terminal after recovery",
+            Supervision::Page => "",
+        };
+        if !line.is_empty() {
+            writeln!(std::io::stderr(), "{line}")?;
+        }
+    }
     let gui = if supervision == Supervision::Page {
         let gui = GuiServer::start(
             SocketAddr::new(how.gui_bind, how.gui_port),

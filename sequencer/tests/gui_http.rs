@@ -176,7 +176,8 @@ fn the_view_follows_the_mission_and_choices_are_taken_only_when_asked() {
         .iter()
         .map(|h| h["kind"].as_str().unwrap())
         .collect();
-    assert_eq!(kinds, ["restart", "recovery", "ask"]);
+    assert_eq!(kinds, ["start", "restart", "recovery", "ask"]);
+    assert_eq!(asking["history"][0]["text"], "start at a");
 
     let unknown = choose(addr, "nowhere");
     assert_eq!(unknown.status, 400);

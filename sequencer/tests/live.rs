@@ -132,7 +132,7 @@ fn a_program_that_outlives_its_timeout_is_killed_and_counts_as_a_crash() {
         outcome,
         Outcome::Aborted {
             reason: "`fast` ran past its 300ms timeout after 1 restart, and the script has no \
-                     recovery state"
+                     recovery state; nobody can be asked where to resume (unattended)"
                 .into()
         }
     );
@@ -368,8 +368,9 @@ fn on_the_terminal_an_unknown_state_is_refused_and_a_known_one_resumes() {
     assert!(outcome.is_finished());
     let printed = String::from_utf8(typist.chooser.output().clone()).unwrap();
     assert!(
-        printed
-            .contains("Type the state to resume from (a, r) or `stop` (the script suggests stop)"),
+        printed.contains(
+            "Type the state to resume from (a, r) or `stop` (the script suggests stop: just Enter)"
+        ),
         "{printed}"
     );
     assert!(printed.contains("not a state of the mission"), "{printed}");
