@@ -1,5 +1,6 @@
 //! The layout the viewer opens with: the world on the left with the plots under it; the
-//! robot frame, the camera, the state lanes and the text logs on the right.
+//! robot frame, the camera, the state lanes and the text logs on the right. For a replay's
+//! output, the re-simulated lanes and logs get views of their own beside the recorded ones.
 //!
 //! Built from Rerun's blueprint archetypes with ids numbered from the layout (not random,
 //! as the SDK's blueprint builder makes them), so that the .rrd file stays the same for
@@ -53,14 +54,26 @@ const CAMERA: View<'static> = View {
 };
 const STATES: View<'static> = View {
     class: "StateTimeline",
-    name: "Bindings, services, health",
+    name: "Bindings, services, health, sequencer",
     origin: "/status",
-    contents: &["+ $origin/**"],
+    contents: &["+ $origin/**", "- $origin/replay/**"],
 };
 const EVENTS: View<'static> = View {
     class: "TextLog",
     name: "Events",
     origin: "/events",
+    contents: &["+ $origin/**", "- $origin/replay/**"],
+};
+const REPLAY_STATES: View<'static> = View {
+    class: "StateTimeline",
+    name: "Re-simulated: bindings, services, health, faults",
+    origin: "/status/replay",
+    contents: &["+ $origin/**"],
+};
+const REPLAY_EVENTS: View<'static> = View {
+    class: "TextLog",
+    name: "Re-simulated events and injected faults",
+    origin: "/events/replay",
     contents: &["+ $origin/**"],
 };
 const TOPICS: View<'static> = View {
@@ -103,15 +116,27 @@ fn uuid_text(n: u64) -> String {
     format!("1e715000-0000-4000-8000-{n:012x}")
 }
 
+/// What the recording holds that changes the layout.
+pub(crate) struct Contents<'a> {
+    /// Camera images: a camera view.
+    pub camera: bool,
+    /// A replay's outputs: views of the re-simulated lanes and logs beside the recorded.
+    pub replay: bool,
+    /// Topics with plots: one plot each (one scale per interface: volts and metres per
+    /// second do not share an axis well).
+    pub plotted_topics: &'a [String],
+}
+
 /// The blueprint's messages, and the command that makes it the default and active layout.
-/// `with_camera` adds the camera view (only when the recording has images); each of
-/// `plotted_topics` gets its own plot (one scale per interface: volts and metres per
-/// second do not share an axis well).
 pub(crate) fn blueprint(
     recording_id: &str,
-    with_camera: bool,
-    plotted_topics: &[String],
+    contents: &Contents<'_>,
 ) -> Result<(Vec<LogMsg>, BlueprintActivationCommand), ViewError> {
+    let Contents {
+        camera: with_camera,
+        replay,
+        plotted_topics,
+    } = *contents;
     let store = store_id(StoreKind::Blueprint, &format!("{recording_id}-layout"));
     let mut layout = Layout {
         next: 0,
@@ -137,10 +162,24 @@ pub(crate) fn blueprint(
         layout.container(ContainerKind::Vertical, &[world, plots], &[0.65, 0.35])
     };
     let robot = layout.view(&ROBOT);
-    let states = layout.view(&STATES);
+    let mut states = layout.view(&STATES);
     let events = layout.view(&EVENTS);
     let topics = layout.view(&TOPICS);
-    let logs = layout.container(ContainerKind::Tabs, &[events, topics], &[]);
+    let mut logs = layout.container(ContainerKind::Tabs, &[events, topics], &[]);
+    if replay {
+        let replay_states = layout.view(&REPLAY_STATES);
+        let replay_events = layout.view(&REPLAY_EVENTS);
+        states = layout.container(
+            ContainerKind::Horizontal,
+            &[states, replay_states],
+            &[0.5, 0.5],
+        );
+        logs = layout.container(
+            ContainerKind::Horizontal,
+            &[logs, replay_events],
+            &[0.5, 0.5],
+        );
+    }
     let right = if with_camera {
         let camera = layout.view(&CAMERA);
         let top = layout.container(ContainerKind::Horizontal, &[robot, camera], &[0.5, 0.5]);

@@ -1,5 +1,5 @@
 //! Text logs and state lanes: broker decisions, bindings, health, services' output lines,
-//! commands, the Mover's status and the sequencer.
+//! commands and the Mover's status, each under its [`Side`] (recorded or re-simulated).
 
 use std::collections::BTreeMap;
 
@@ -7,7 +7,7 @@ use lewis_interfaces::dynamic::Value;
 use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Mover};
 use rerun::{StateChange, TextLog};
 
-use super::{entity, topic_entity};
+use super::{Side, topic_entity};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
 
@@ -17,9 +17,8 @@ const MAX_ITEMS_SHOWN: usize = 8;
 /// What was last shown, so that heartbeats and repeated statuses log only their changes.
 #[derive(Debug, Default)]
 pub(super) struct EventState {
-    health: BTreeMap<String, (String, String)>,
-    mover_status: BTreeMap<String, String>,
-    sequencer_state: Option<String>,
+    health: BTreeMap<(Side, String), (String, String)>,
+    mover_status: BTreeMap<(Side, String), String>,
 }
 
 impl EventState {
@@ -28,18 +27,20 @@ impl EventState {
         &mut self,
         rows: &mut Rows,
         sink: &mut dyn ChunkSink,
+        side: Side,
         stamp: Stamp,
         health: &Health,
     ) -> Result<(), ViewError> {
         let service = health.header.provider.clone();
         let now = (health.state.clone(), health.reason.clone());
-        if self.health.get(&service) == Some(&now) {
+        let key = (side, service.clone());
+        if self.health.get(&key) == Some(&now) {
             return Ok(());
         }
-        self.health.insert(service.clone(), now);
+        self.health.insert(key, now);
         rows.log(
             sink,
-            &entity(["status", "health", &service]),
+            &side.entity("status", &["health", &service]),
             stamp,
             &StateChange::single(health.state.clone()),
             64,
@@ -56,7 +57,7 @@ impl EventState {
         };
         rows.log(
             sink,
-            &entity(["events", "health"]),
+            &side.entity("events", &["health"]),
             stamp,
             &TextLog::new(format!("{service} is {}{reason}", health.state)).with_level(level),
             128,
@@ -68,18 +69,20 @@ impl EventState {
         &mut self,
         rows: &mut Rows,
         sink: &mut dyn ChunkSink,
+        side: Side,
         topic: &str,
         stamp: Stamp,
         mover: &Mover,
     ) -> Result<(), ViewError> {
         let shown = format!("{} goal {}", mover.status, mover.goal_id);
-        if self.mover_status.get(topic) == Some(&shown) {
+        let key = (side, topic.to_owned());
+        if self.mover_status.get(&key) == Some(&shown) {
             return Ok(());
         }
-        self.mover_status.insert(topic.to_owned(), shown);
+        self.mover_status.insert(key, shown);
         rows.log(
             sink,
-            &topic_entity(&["status", "mover"], topic, &[]),
+            &side.topic_entity("status", &["mover"], topic),
             stamp,
             &StateChange::single(mover.status.clone()),
             64,
@@ -91,7 +94,7 @@ impl EventState {
         };
         rows.log(
             sink,
-            &topic_entity(&["events", "mover"], topic, &[]),
+            &side.topic_entity("events", &["mover"], topic),
             stamp,
             &TextLog::new(format!(
                 "{} goal {} at ({:.2}, {:.2}), {:.2} m to go",
@@ -101,43 +104,20 @@ impl EventState {
             128,
         )
     }
-
-    /// A sequencer record: its `state` field, when it has one, as a state lane.
-    pub(super) fn sequencer(
-        &mut self,
-        rows: &mut Rows,
-        sink: &mut dyn ChunkSink,
-        stamp: Stamp,
-        value: &Value,
-    ) -> Result<(), ViewError> {
-        let Some(state) = value.get("state").and_then(Value::as_str) else {
-            return Ok(());
-        };
-        if self.sequencer_state.as_deref() == Some(state) {
-            return Ok(());
-        }
-        self.sequencer_state = Some(state.to_owned());
-        rows.log(
-            sink,
-            &entity(["status", "sequencer"]),
-            stamp,
-            &StateChange::single(state.to_owned()),
-            64,
-        )
-    }
 }
 
 /// A broker decision: a text line, and the binding or service state lanes it changes.
 pub(super) fn broker(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     d: &Broker,
 ) -> Result<(), ViewError> {
     let (text, level) = broker_line(d);
     rows.log(
         sink,
-        &entity(["events", "broker"]),
+        &side.entity("events", &["broker"]),
         stamp,
         &TextLog::new(text).with_level(level),
         128,
@@ -154,7 +134,7 @@ pub(super) fn broker(
     {
         rows.log(
             sink,
-            &entity(["status", "bindings", &d.client, &d.interface]),
+            &side.entity("status", &["bindings", &d.client, &d.interface]),
             stamp,
             &StateChange::single(service),
             64,
@@ -172,7 +152,7 @@ pub(super) fn broker(
     {
         rows.log(
             sink,
-            &entity(["status", "services", &d.service]),
+            &side.entity("status", &["services", &d.service]),
             stamp,
             &StateChange::single(state),
             64,
@@ -217,6 +197,7 @@ fn broker_line(d: &Broker) -> (String, &'static str) {
 pub(super) fn log_line(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     line: &LogLine,
 ) -> Result<(), ViewError> {
@@ -239,7 +220,7 @@ pub(super) fn log_line(
     };
     rows.log(
         sink,
-        &entity(["events", "log", service]),
+        &side.entity("events", &["log", service]),
         stamp,
         &log,
         line.text.len() + 32,
@@ -250,6 +231,7 @@ pub(super) fn log_line(
 pub(super) fn command(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     command: &CommandLog,
 ) -> Result<(), ViewError> {
@@ -270,7 +252,7 @@ pub(super) fn command(
     };
     rows.log(
         sink,
-        &entity(["events", "commands", service]),
+        &side.entity("events", &["commands", service]),
         stamp,
         &TextLog::new(text).with_level(level),
         128,

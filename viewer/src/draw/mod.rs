@@ -5,23 +5,30 @@
 //! | `world/robot/pose`, `world/robot/path` | the true pose (GroundTruth) and its whole path |
 //! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path |
 //! | `world/scans/<topic>` | every RangeFinder's hits placed in the world with the pose above |
+//! | `world/map` | the simulated world's map, for all times, under everything else |
 //! | `world/mover/goal`, `world/mover/waypoint` | where the Mover is going |
 //! | `world/blobs3d/<topic>`, `world/signs/<topic>` | perception placed in the world |
 //! | `robot/body`, `robot/scans/<topic>` | the robot frame: outline, hits and (sonar) rays |
 //! | `camera/<topic>/image`, `.../blobs/<topic>`, `.../signs/<topic>` | images, with boxes |
-//! | `events/broker`, `events/log/<service>`, `events/commands/<service>`, `events/health` | text logs |
-//! | `status/bindings/<client>/<interface>`, `status/services/<service>`, `status/health/<service>` | state lanes |
+//! | `events/broker`, `events/sequencer`, `events/log/<service>`, `events/commands/<service>`, `events/health`, `events/mover/<topic>` | text logs |
+//! | `status/bindings/<client>/<interface>`, `status/services/<service>`, `status/health/<service>`, `status/sequencer`, `status/mover/<topic>` | state lanes (markers on the timeline) |
+//! | `events/replay/...`, `status/replay/...`, `world/replay/...` | the same for a replay's re-simulated outputs (`/replay/...` channels), beside the recorded ones |
+//! | `events/replay/faults`, `status/replay/faults/<service>`, `world/replay/faults` | the faults a replay injected: text, timeline marker, where the robot was |
 //! | `plots/<topic>/<field>` | every numeric field of interfaces without a drawing, and velocities |
 //! | `topics/<topic>` | every other decodable message, as text |
 //!
 //! The world frame is the simulator's (GroundTruth) when the recording has it, else the
-//! odometry frame. Scans are placed with the last pose received before them.
+//! odometry frame. Scans are placed with the last pose received before them. A replay's
+//! re-simulated poses (only with `lewis replay --all`) are drawn at `world/replay/...` and
+//! place nothing.
 
 mod camera;
 mod events;
+mod faults;
 mod geometry;
 mod plots;
 mod scans;
+mod sequencer;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -46,6 +53,57 @@ pub(crate) fn entity<'a>(parts: impl IntoIterator<Item = &'a str>) -> EntityPath
             .map(EntityPathPart::new)
             .collect(),
     )
+}
+
+/// Where a channel's data comes from: the robot, as recorded, or a replay's re-simulation
+/// (`/replay/...` channels, which `lewis replay` writes beside the recorded ones). Entities
+/// with fixed paths (broker, bindings, health, logs, mover, sequencer) get a `replay`
+/// branch for re-simulated data, so the two are shown side by side, never mixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Side {
+    /// Recorded live.
+    Recorded,
+    /// Written by a replay.
+    Replayed,
+}
+
+/// The branch of re-simulated data under each root.
+pub(crate) const REPLAY_BRANCH: &str = "replay";
+
+/// The prefix of the channels a replay writes.
+const REPLAY_TOPIC_PREFIX: &str = "/replay/";
+
+impl Side {
+    /// The side of the channel `topic`.
+    pub(crate) fn of(topic: &str) -> Self {
+        if topic.starts_with(REPLAY_TOPIC_PREFIX) {
+            Self::Replayed
+        } else {
+            Self::Recorded
+        }
+    }
+
+    /// `root/prefix.../<topic's parts>`, with [`REPLAY_BRANCH`] after the root for
+    /// re-simulated data and the topic without its `/replay` prefix.
+    pub(crate) fn topic_entity(self, root: &str, prefix: &[&str], topic: &str) -> EntityPath {
+        let recorded = topic.strip_prefix("/replay").unwrap_or(topic);
+        let parts: Vec<&str> = prefix
+            .iter()
+            .copied()
+            .chain(topic_parts(recorded))
+            .collect();
+        self.entity(root, &parts)
+    }
+
+    /// `root/rest...`, with [`REPLAY_BRANCH`] after the root for re-simulated data.
+    pub(crate) fn entity(self, root: &str, rest: &[&str]) -> EntityPath {
+        let branch = (self == Self::Replayed).then_some(REPLAY_BRANCH);
+        entity(
+            std::iter::once(root)
+                .chain(branch)
+                .chain(rest.iter().copied()),
+        )
+    }
 }
 
 /// The parts of a topic: `/laser/RangeFinder` is `laser`, `RangeFinder`.
@@ -81,6 +139,9 @@ pub(crate) struct Scene {
     plotted_topics: BTreeSet<String>,
     has_images: bool,
     events: events::EventState,
+    sequencer: sequencer::SequencerState,
+    faults: faults::FaultMarks,
+    has_replay: bool,
     camera: camera::CameraState,
     /// Messages drawn, shown generically, not decodable.
     pub counts: Counts,
@@ -113,6 +174,9 @@ impl Scene {
             plotted_topics: BTreeSet::new(),
             has_images: false,
             events: events::EventState::default(),
+            sequencer: sequencer::SequencerState::default(),
+            faults: faults::FaultMarks::default(),
+            has_replay: false,
             camera: camera::CameraState::default(),
             counts: Counts::default(),
             failures: BTreeMap::new(),
@@ -127,6 +191,11 @@ impl Scene {
     /// The topics with plots, in order.
     pub(crate) fn plotted_topics(&self) -> Vec<String> {
         self.plotted_topics.iter().cloned().collect()
+    }
+
+    /// Whether the recording holds a replay's outputs (`/replay/...` channels).
+    pub(crate) fn has_replay(&self) -> bool {
+        self.has_replay
     }
 
     /// Whether the recording has camera images.
@@ -186,6 +255,8 @@ impl Scene {
         drawn: Drawn,
     ) -> Result<(), ViewError> {
         let topic = channel.topic.as_str();
+        let side = Side::of(topic);
+        self.has_replay |= side == Side::Replayed;
         let rows = &mut self.rows;
         match drawn {
             Drawn::RangeFinder(scan) => {
@@ -200,6 +271,22 @@ impl Scene {
                     self.world_pose.as_ref(),
                 )
             }
+            Drawn::GroundTruth(truth) if side == Side::Replayed => scans::log_pose(
+                rows,
+                sink,
+                &side.entity("world", &["robot", "pose"]),
+                stamp,
+                &truth.pose,
+                true,
+            ),
+            Drawn::Egomotion(odometry) if side == Side::Replayed => scans::log_pose(
+                rows,
+                sink,
+                &side.entity("world", &["odometry", "pose"]),
+                stamp,
+                &odometry.pose,
+                false,
+            ),
             Drawn::GroundTruth(truth) => {
                 self.has_truth = true;
                 self.world_pose = Some(truth.pose.clone());
@@ -207,7 +294,7 @@ impl Scene {
                 scans::log_pose(
                     rows,
                     sink,
-                    &["world", "robot", "pose"],
+                    &entity(["world", "robot", "pose"]),
                     stamp,
                     &truth.pose,
                     true,
@@ -221,7 +308,7 @@ impl Scene {
                 scans::log_pose(
                     rows,
                     sink,
-                    &["world", "odometry", "pose"],
+                    &entity(["world", "odometry", "pose"]),
                     stamp,
                     &odometry.pose,
                     false,
@@ -252,13 +339,18 @@ impl Scene {
                 self.world_pose.as_ref(),
             ),
             Drawn::Mover(mover) => {
-                scans::log_mover(rows, sink, stamp, &mover)?;
-                self.events.mover(rows, sink, topic, stamp, &mover)
+                scans::log_mover(rows, sink, side, stamp, &mover)?;
+                self.events.mover(rows, sink, side, topic, stamp, &mover)
             }
-            Drawn::Broker(decision) => events::broker(rows, sink, stamp, &decision),
-            Drawn::Health(health) => self.events.health(rows, sink, stamp, &health),
-            Drawn::LogLine(line) => events::log_line(rows, sink, stamp, &line),
-            Drawn::CommandLog(command) => events::command(rows, sink, stamp, &command),
+            Drawn::Broker(decision) => events::broker(rows, sink, side, stamp, &decision),
+            Drawn::Health(health) => self.events.health(rows, sink, side, stamp, &health),
+            Drawn::LogLine(line) if topic == faults::FAULTS_TOPIC => {
+                self.faults
+                    .fault(rows, sink, stamp, &line, self.world_pose.as_ref())
+            }
+            Drawn::LogLine(line) => events::log_line(rows, sink, side, stamp, &line),
+            Drawn::CommandLog(command) => events::command(rows, sink, side, stamp, &command),
+            Drawn::Sequencer(record) => self.sequencer.record(rows, sink, side, stamp, &record),
         }
     }
 
@@ -275,9 +367,7 @@ impl Scene {
         if !compiled_in {
             events::generic_text(&mut self.rows, sink, &channel.topic, stamp, value)?;
         }
-        if channel.topic == lewis_names::SEQUENCER_CHANNEL {
-            self.events.sequencer(&mut self.rows, sink, stamp, value)?;
-        }
+        self.has_replay |= Side::of(&channel.topic) == Side::Replayed;
         self.plot(sink, &channel.topic, stamp, value)
     }
 
@@ -324,13 +414,6 @@ impl Scene {
         }
         self.rows.flush(sink)
     }
-}
-
-/// The names of the runtime's channels that the viewer treats specially (the viewer does
-/// not depend on the runtime: `lewis_runtime::names` has the same).
-mod lewis_names {
-    /// Where the sequencer publishes its records.
-    pub const SEQUENCER_CHANNEL: &str = "/lewis/sequencer";
 }
 
 fn push_path(path: &mut Vec<Point>, pose: &Pose2D) {

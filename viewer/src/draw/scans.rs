@@ -1,9 +1,9 @@
 //! The robot, its scans and what it perceives, in the robot frame and in the world.
 
 use lewis_interfaces::msg::{Blobs3D, Mover, Pose2D, RangeFinder, Signs};
-use rerun::{Arrows2D, Color, LineStrips2D, Points2D};
+use rerun::{Arrows2D, Color, EntityPath, LineStrips2D, Points2D};
 
-use super::{Point, entity, topic_entity};
+use super::{Point, Side, entity, topic_entity};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
 
@@ -37,7 +37,7 @@ pub(super) fn log_robot_body(rows: &mut Rows, sink: &mut dyn ChunkSink) -> Resul
 pub(super) fn log_pose(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
-    path: &[&str],
+    path: &EntityPath,
     stamp: Stamp,
     pose: &Pose2D,
     truth: bool,
@@ -56,7 +56,7 @@ pub(super) fn log_pose(
         .with_origins([origin.to_f32()])
         .with_colors([colour])
         .with_radii([0.03_f32]);
-    rows.log(sink, &entity(path.iter().copied()), stamp, &arrow, 64)
+    rows.log(sink, path, stamp, &arrow, 64)
 }
 
 /// One beam: where it starts and where it hit, in the robot frame.
@@ -223,6 +223,7 @@ pub(super) fn log_signs_in_world(
 pub(super) fn log_mover(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     mover: &Mover,
 ) -> Result<(), ViewError> {
@@ -233,7 +234,7 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &entity(["world", "mover", "goal"]),
+        &side.entity("world", &["mover", "goal"]),
         stamp,
         &Points2D::new(goal)
             .with_colors([Color::from_rgb(220, 0, 120)])
@@ -248,7 +249,7 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &entity(["world", "mover", "waypoint"]),
+        &side.entity("world", &["mover", "waypoint"]),
         stamp,
         &Points2D::new(waypoint)
             .with_colors([Color::from_rgb(250, 140, 200)])
