@@ -77,16 +77,24 @@ impl Output {
         })
     }
 
-    /// Starts a viewer (the `rerun` binary on the PATH) and connects to it.
-    pub(crate) fn spawn(recording_id: &str) -> Result<Self, ViewError> {
+    /// Starts a viewer (the `rerun` binary on the PATH) on `port` and connects to it; a
+    /// process already listening there is taken for a viewer and used.
+    pub(crate) fn spawn(recording_id: &str, port: u16) -> Result<Self, ViewError> {
+        let options = rerun::SpawnOptions {
+            port,
+            // A viewer starting on a busy machine takes longer than the connection's own
+            // patience (5 s); waiting for its port first makes the start reliable.
+            wait_for_bind: true,
+            ..rerun::SpawnOptions::default()
+        };
         let stream = RecordingStreamBuilder::new(APPLICATION_ID)
             .recording_id(recording_id)
-            .spawn()
+            .spawn_opts(&options)
             .map_err(|e| ViewError::Spawn {
                 detail: e.to_string(),
             })?;
         Ok(Self::Viewer {
-            address: "the spawned viewer".to_owned(),
+            address: format!("the Rerun viewer on port {port}"),
             stream,
         })
     }
