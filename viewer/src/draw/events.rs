@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use lewis_interfaces::dynamic::Value;
 use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Mover};
-use rerun::{StateChange, TextLog};
+use rerun::TextLog;
 
 use super::{Side, topic_entity};
 use crate::ViewError;
@@ -38,12 +38,11 @@ impl EventState {
             return Ok(());
         }
         self.health.insert(key, now);
-        rows.log(
+        rows.lane(
             sink,
             &side.entity("status", &["health", &service]),
             stamp,
-            &StateChange::single(health.state.clone()),
-            64,
+            &health.state,
         )?;
         let level = match health.state.as_str() {
             "ok" => "INFO",
@@ -80,12 +79,11 @@ impl EventState {
             return Ok(());
         }
         self.mover_status.insert(key, shown);
-        rows.log(
+        rows.lane(
             sink,
             &side.topic_entity("status", &["mover"], topic),
             stamp,
-            &StateChange::single(mover.status.clone()),
-            64,
+            &mover.status,
         )?;
         let level = match mover.status.as_str() {
             "blocked" => "WARN",
@@ -132,12 +130,11 @@ pub(super) fn broker(
         && !d.client.is_empty()
         && !d.interface.is_empty()
     {
-        rows.log(
+        rows.lane(
             sink,
             &side.entity("status", &["bindings", &d.client, &d.interface]),
             stamp,
-            &StateChange::single(service),
-            64,
+            &service,
         )?;
     }
     let service_state = match d.action.as_str() {
@@ -150,12 +147,11 @@ pub(super) fn broker(
     if let Some(state) = service_state
         && !d.service.is_empty()
     {
-        rows.log(
+        rows.lane(
             sink,
             &side.entity("status", &["services", &d.service]),
             stamp,
-            &StateChange::single(state),
-            64,
+            state,
         )?;
     }
     Ok(())

@@ -5,7 +5,7 @@
 //! fault began (`world/replay/faults`).
 
 use lewis_interfaces::msg::{LogLine, Pose2D};
-use rerun::{Color, Points2D, StateChange, TextLog};
+use rerun::{Color, Points2D, TextLog};
 
 use super::{Point, Side};
 use crate::ViewError;
@@ -52,12 +52,11 @@ impl FaultMarks {
         } else {
             "no fault".to_owned()
         };
-        rows.log(
+        rows.lane(
             sink,
             &Side::Replayed.entity("status", &["faults", service]),
             stamp,
-            &StateChange::single(lane),
-            64,
+            &lane,
         )?;
         let Some(pose) = world_pose.filter(|_| starts) else {
             return Ok(());

@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 
 use lewis_interfaces::msg::Sequencer;
-use rerun::{StateChange, TextLog};
+use rerun::TextLog;
 
 use super::Side;
 use crate::ViewError;
@@ -53,13 +53,7 @@ impl SequencerState {
             return Ok(());
         }
         self.lane.insert(side, lane.clone());
-        rows.log(
-            sink,
-            &side.entity("status", &["sequencer"]),
-            stamp,
-            &StateChange::single(lane),
-            64,
-        )
+        rows.lane(sink, &side.entity("status", &["sequencer"]), stamp, &lane)
     }
 }
 
