@@ -3,10 +3,10 @@
 //! | entity | what |
 //! |---|---|
 //! | `world/robot/pose`, `world/robot/path` | the true pose (GroundTruth) and its whole path |
-//! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path |
+//! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path, in the odometry frame (`world/odometry` places it in the world: where the odometry started on the true path) |
 //! | `world/scans/<topic>` | every RangeFinder's hits placed in the world with the pose above |
 //! | `world/map` | the simulated world's map, for all times, under everything else |
-//! | `world/mover/goal`, `world/mover/waypoint` | where the Mover is going |
+//! | `world/odometry/mover/goal`, `.../waypoint` | where the Mover is going (odometry frame) |
 //! | `world/blobs3d/<topic>`, `world/signs/<topic>` | perception placed in the world |
 //! | `robot/body`, `robot/scans/<topic>` | the robot frame: outline, hits and (sonar) rays |
 //! | `camera/<topic>/image`, `.../blobs/<topic>`, `.../signs/<topic>` | images, with boxes |
@@ -18,14 +18,18 @@
 //! | `topics/<topic>` | every other decodable message, as text |
 //!
 //! The world frame is the simulator's (GroundTruth) when the recording has it, else the
-//! odometry frame. Scans are placed with the last pose received before them. A replay's
+//! odometry frame. Scans are placed with the last pose received before them, and taken off
+//! when their sensor has been silent for a second (`freshness`), so a dead laser's last
+//! scan does not stay on screen. A replay's
 //! re-simulated poses (only with `lewis replay --all`) are drawn at `world/replay/...` and
 //! place nothing.
 
 mod camera;
 mod events;
 mod faults;
+mod freshness;
 mod geometry;
+mod lanes;
 mod plots;
 mod scans;
 mod sequencer;
@@ -122,6 +126,11 @@ pub(crate) fn topic_entity(prefix: &[&str], topic: &str, suffix: &[&str]) -> Ent
     )
 }
 
+/// The world view frames the path with this much room around it (about the sonar's reach)…
+const WORLD_MARGIN_M: f64 = 4.0;
+/// …and shows at least this much on each side of its centre.
+const WORLD_MIN_HALF_SIZE_M: f64 = 5.0;
+
 /// Paths are kept with points this far apart at least: enough for a drawing, and a long
 /// run stays small.
 const PATH_STEP_M: f64 = 0.01;
@@ -139,6 +148,11 @@ pub(crate) struct Scene {
     plotted_topics: BTreeSet<String>,
     has_images: bool,
     events: events::EventState,
+    freshness: freshness::Freshness,
+    /// The last true pose and the last odometry pose, until the odometry frame is placed.
+    first_truth: Option<Pose2D>,
+    first_odometry: Option<Pose2D>,
+    odometry_placed: bool,
     sequencer: sequencer::SequencerState,
     faults: faults::FaultMarks,
     has_replay: bool,
@@ -174,6 +188,10 @@ impl Scene {
             plotted_topics: BTreeSet::new(),
             has_images: false,
             events: events::EventState::default(),
+            freshness: freshness::Freshness::default(),
+            first_truth: None,
+            first_odometry: None,
+            odometry_placed: false,
             sequencer: sequencer::SequencerState::default(),
             faults: faults::FaultMarks::default(),
             has_replay: false,
@@ -191,6 +209,31 @@ impl Scene {
     /// The topics with plots, in order.
     pub(crate) fn plotted_topics(&self) -> Vec<String> {
         self.plotted_topics.iter().cloned().collect()
+    }
+
+    /// Where the robot went (its true path, else its odometry's), with room around it for
+    /// what it saw: what the world view frames. `None` without a path.
+    pub(crate) fn world_bounds(&self) -> Option<crate::blueprint::Bounds> {
+        let path = if self.truth_path.is_empty() {
+            &self.odometry_path
+        } else {
+            &self.truth_path
+        };
+        let first = path.first()?;
+        let (mut x, mut y) = ([first.x; 2], [first.y; 2]);
+        for p in path {
+            x = [x[0].min(p.x), x[1].max(p.x)];
+            y = [y[0].min(p.y), y[1].max(p.y)];
+        }
+        let widen = |[low, high]: [f64; 2]| {
+            let centre = (low + high) / 2.0;
+            let half = ((high - low) / 2.0 + WORLD_MARGIN_M).max(WORLD_MIN_HALF_SIZE_M);
+            [centre - half, centre + half]
+        };
+        Some(crate::blueprint::Bounds {
+            x_m: widen(x),
+            y_m: widen(y),
+        })
     }
 
     /// Whether the recording holds a replay's outputs (`/replay/...` channels).
@@ -222,6 +265,8 @@ impl Scene {
         decoded: Decoded,
     ) -> Result<(), ViewError> {
         self.counts.messages += 1;
+        self.freshness.clear_stale(&mut self.rows, sink, stamp)?;
+        self.place_odometry(sink)?;
         match decoded {
             Decoded::Drawn(drawn, value) => {
                 self.counts.drawn += 1;
@@ -261,6 +306,7 @@ impl Scene {
         match drawn {
             Drawn::RangeFinder(scan) => {
                 let colour = scan_colour(&mut self.scan_colours, topic);
+                self.freshness.drawn(topic, stamp);
                 scans::log_scan(
                     rows,
                     sink,
@@ -289,6 +335,7 @@ impl Scene {
             ),
             Drawn::GroundTruth(truth) => {
                 self.has_truth = true;
+                self.first_truth.get_or_insert_with(|| truth.pose.clone());
                 self.world_pose = Some(truth.pose.clone());
                 push_path(&mut self.truth_path, &truth.pose);
                 scans::log_pose(
@@ -301,6 +348,8 @@ impl Scene {
                 )
             }
             Drawn::Egomotion(odometry) => {
+                self.first_odometry
+                    .get_or_insert_with(|| odometry.pose.clone());
                 if !self.has_truth {
                     self.world_pose = Some(odometry.pose.clone());
                 }
@@ -352,6 +401,27 @@ impl Scene {
             Drawn::CommandLog(command) => events::command(rows, sink, side, stamp, &command),
             Drawn::Sequencer(record) => self.sequencer.record(rows, sink, side, stamp, &record),
         }
+    }
+
+    /// Places the odometry frame in the world once both the first true pose and the first
+    /// odometry pose are known: the odometry started where the robot truly was. Without a
+    /// true pose, the odometry frame is the world frame.
+    fn place_odometry(&mut self, sink: &mut dyn ChunkSink) -> Result<(), ViewError> {
+        if self.odometry_placed {
+            return Ok(());
+        }
+        let (Some(truth), Some(odometry)) = (&self.first_truth, &self.first_odometry) else {
+            return Ok(());
+        };
+        self.odometry_placed = true;
+        let Some(placement) = geometry::Placement::between(truth, odometry) else {
+            return Ok(());
+        };
+        self.rows.log_static(
+            sink,
+            &entity(["world", "odometry"]),
+            &placement.to_transform(),
+        )
     }
 
     fn generic(
@@ -412,6 +482,7 @@ impl Scene {
                 )?;
             }
         }
+        lanes::configure(&mut self.rows, sink)?;
         self.rows.flush(sink)
     }
 }

@@ -219,7 +219,7 @@ pub(super) fn log_signs_in_world(
     )
 }
 
-/// The Mover's goal and the waypoint it heads for (odometry frame).
+/// The Mover's goal and the waypoint it heads for, in the odometry frame.
 pub(super) fn log_mover(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
@@ -234,7 +234,7 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &side.entity("world", &["mover", "goal"]),
+        &mover_entity(side, "goal"),
         stamp,
         &Points2D::new(goal)
             .with_colors([Color::from_rgb(220, 0, 120)])
@@ -249,13 +249,21 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &side.entity("world", &["mover", "waypoint"]),
+        &mover_entity(side, "waypoint"),
         stamp,
         &Points2D::new(waypoint)
             .with_colors([Color::from_rgb(250, 140, 200)])
             .with_radii([0.06_f32]),
         32,
     )
+}
+
+/// Where the Mover's `what` is drawn: in the odometry frame, where its goals are given.
+fn mover_entity(side: Side, what: &str) -> EntityPath {
+    match side {
+        Side::Recorded => entity(["world", "odometry", "mover", what]),
+        Side::Replayed => entity(["world", "odometry", super::REPLAY_BRANCH, "mover", what]),
+    }
 }
 
 /// A `0xRRGGBB` colour.
