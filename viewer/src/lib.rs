@@ -212,6 +212,7 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
             camera: scene.has_images(),
             replay: scene.has_replay(),
             plotted_topics: &plotted_topics,
+            world_bounds: scene.world_bounds(),
         },
     )?;
     output.finish(layout, activation)?;

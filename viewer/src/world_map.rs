@@ -12,7 +12,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use rerun::components::DrawOrder;
-use rerun::{EncodedImage, Transform3D};
+use rerun::{Image, Transform3D};
 
 use crate::ViewError;
 use crate::draw::entity;
@@ -23,6 +23,13 @@ pub(crate) const ROBOT_METADATA: &str = "lewis.robot";
 
 /// Drawn under everything else of the world view.
 const MAP_DRAW_ORDER: f32 = -100.0;
+
+/// Pixels darker than this (luma, 0 to 255) are walls, as the simulator reads the map.
+const WALL_LUMA: u8 = 128;
+
+/// How walls are drawn: light grey on the viewer's dark background; free space is left
+/// transparent, so that the path and the scans stand out.
+const WALL_RGBA: [u8; 4] = [185, 185, 185, 255];
 
 /// What became of the world map.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -118,8 +125,8 @@ fn candidates(world: &str, recording: &Path) -> Vec<PathBuf> {
 pub(crate) struct WorldMap {
     /// The image file.
     pub image: PathBuf,
-    /// Its PNG bytes.
-    pub png: Vec<u8>,
+    /// The walls as RGBA pixels, top row first (free space transparent).
+    pub walls_rgba: Vec<u8>,
     /// Its size.
     pub width_px: u32,
     /// Its size.
@@ -171,12 +178,23 @@ fn load(folder: &Path) -> Result<WorldMap, String> {
         },
     };
     let image = folder.join(map);
-    let png = std::fs::read(&image).map_err(|e| format!("{}: {e}", image.display()))?;
-    let (width_px, height_px) =
-        png_size(&png).ok_or_else(|| format!("{}: not a PNG image", image.display()))?;
+    let luma = image::open(&image)
+        .map_err(|e| format!("{}: {e}", image.display()))?
+        .into_luma8();
+    let (width_px, height_px) = luma.dimensions();
+    let walls_rgba = luma
+        .pixels()
+        .flat_map(|p| {
+            if p.0[0] < WALL_LUMA {
+                WALL_RGBA
+            } else {
+                [0; 4]
+            }
+        })
+        .collect();
     Ok(WorldMap {
         image,
-        png,
+        walls_rgba,
         width_px,
         height_px,
         metres_per_pixel,
@@ -188,17 +206,6 @@ fn number(value: &toml::Value) -> Option<f64> {
     value
         .as_float()
         .or_else(|| value.as_integer().map(|i| i as f64))
-}
-
-/// The size a PNG's header gives, if the bytes start as a PNG does.
-fn png_size(png: &[u8]) -> Option<(u32, u32)> {
-    const SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
-    if png.len() < 24 || !png.starts_with(SIGNATURE) || &png[12..16] != b"IHDR" {
-        return None;
-    }
-    let word = |at: usize| u32::from_be_bytes([png[at], png[at + 1], png[at + 2], png[at + 3]]);
-    let (width, height) = (word(16), word(20));
-    (width > 0 && height > 0).then_some((width, height))
 }
 
 /// Draws `map` at `world/map`, for all times, under the paths and scans: the image's pixels
@@ -224,10 +231,8 @@ pub(crate) fn log(
     rows.log_static(
         sink,
         &path,
-        &EncodedImage::new(map.png.clone())
-            .with_media_type(rerun::MediaType::png())
-            .with_draw_order(DrawOrder::from(MAP_DRAW_ORDER))
-            .with_opacity(0.6),
+        &Image::from_rgba32(map.walls_rgba.clone(), [map.width_px, map.height_px])
+            .with_draw_order(DrawOrder::from(MAP_DRAW_ORDER)),
     )?;
     Ok(())
 }
