@@ -37,6 +37,16 @@ fn set_store_info(store_id: StoreId, tuid: u128) -> LogMsg {
     })
 }
 
+/// Waits until the viewer behind `stream` is connected, or says why it cannot be. The SDK
+/// queues a bounded number of messages while it connects and then blocks the sender: with
+/// no viewer there, a recording of more than that many chunks would wait forever.
+fn reachable(stream: &RecordingStream, address: &str) -> Result<(), ViewError> {
+    stream.flush_blocking().map_err(|e| ViewError::Connect {
+        address: address.to_owned(),
+        detail: e.to_string(),
+    })
+}
+
 /// An open output.
 pub(crate) enum Output {
     /// An .rrd file.
@@ -93,10 +103,9 @@ impl Output {
             .map_err(|e| ViewError::Spawn {
                 detail: e.to_string(),
             })?;
-        Ok(Self::Viewer {
-            address: format!("the Rerun viewer on port {port}"),
-            stream,
-        })
+        let address = format!("the Rerun viewer on port {port}");
+        reachable(&stream, &address)?;
+        Ok(Self::Viewer { address, stream })
     }
 
     /// Connects to a running viewer at `address` (`rerun+http://127.0.0.1:9876/proxy`).
@@ -108,6 +117,7 @@ impl Output {
                 address: address.to_owned(),
                 detail: e.to_string(),
             })?;
+        reachable(&stream, address)?;
         Ok(Self::Viewer {
             address: address.to_owned(),
             stream,

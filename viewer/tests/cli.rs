@@ -15,7 +15,9 @@ use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use lewis_tests::{Watched, lewis_exe, python_tool, repo_root, run_ok, wait_child};
+use std::time::{Duration, Instant};
+
+use lewis_tests::{WATCHDOG, Watched, lewis_exe, python_tool, repo_root, run_ok, wait_child};
 
 /// The folders every test's PATH has besides its own: the system's tools, never a `rerun`.
 const SYSTEM_PATH: &str = "/usr/bin:/bin";
@@ -76,7 +78,11 @@ impl Drop for ViewerGuard {
     }
 }
 
-/// A free TCP port on localhost, for a viewer of this test only.
+/// Held by a test while it uses a port from [`free_port`]: a port found free and let go
+/// could be found free again by a test running beside it.
+static PORTS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// A free TCP port on localhost, for a viewer of this test only (hold [`PORTS`]).
 fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0")
         .unwrap()
@@ -101,6 +107,37 @@ fn fake_rerun(bin: &Path) {
     std::fs::set_permissions(&script, std::fs::Permissions::from_mode(0o755)).unwrap();
 }
 
+/// What Rerun's reader finds in the file a viewer saves as it receives, once it holds the
+/// blueprint (sent last); watchdog [`WATCHDOG`]. Nothing announces the write: the file is
+/// read again every 200 ms.
+fn wait_saved(saved: &Path) -> serde_json::Value {
+    let script = repo_root().join("viewer/tests/python/check_rrd.py");
+    let deadline = Instant::now() + WATCHDOG;
+    let mut last = String::new();
+    loop {
+        if saved.is_file() {
+            let out = python_tool("python")
+                .arg(&script)
+                .arg(saved)
+                .output()
+                .unwrap();
+            last = String::from_utf8_lossy(&out.stdout).into_owned()
+                + &String::from_utf8_lossy(&out.stderr);
+            if let Ok(read) = serde_json::from_slice::<serde_json::Value>(&out.stdout)
+                && read["blueprints"] == 1
+            {
+                return read;
+            }
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the viewer never saved the whole run to {}; last read:\n{last}",
+            saved.display()
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
 #[test]
 fn with_rerun_on_the_path_lewis_view_starts_it_and_sends_the_run() {
     let dir = tempfile::tempdir().unwrap();
@@ -112,6 +149,9 @@ fn with_rerun_on_the_path_lewis_view_starts_it_and_sends_the_run() {
         dir.path().join("rerun.pid"),
         dir.path().join("received.rrd"),
     );
+    let _ports = PORTS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let real = repo_root().join(".venv/bin/rerun");
     assert!(
         real.is_file(),
@@ -134,11 +174,13 @@ fn with_rerun_on_the_path_lewis_view_starts_it_and_sends_the_run() {
             ("LEWIS_TEST_RERUN_REAL", &real),
         ],
     );
-    // The viewer outlives `lewis view`, as a viewer should; stop it (its process group,
-    // which the SDK made for it) so that it writes out what it received.
+    // The viewer outlives `lewis view`, as a viewer should. It writes what it received
+    // at its own pace: wait until the file holds the layout, sent last, then stop it (its
+    // process group, which the SDK made for it).
     let group = guard
         .group()
         .unwrap_or_else(|| panic!("the viewer was not started: {}", output.printed()));
+    let read = wait_saved(&saved);
     let watched = Watched::new(u32::try_from(group.as_raw()).unwrap());
     nix::sys::signal::killpg(group, nix::sys::signal::Signal::SIGINT).unwrap();
     assert!(watched.wait_gone(), "the viewer {group} did not stop");
@@ -164,9 +206,6 @@ fn with_rerun_on_the_path_lewis_view_starts_it_and_sends_the_run() {
         !run.with_extension("rrd").exists(),
         "no file is written when a viewer is there"
     );
-    let script = repo_root().join("viewer/tests/python/check_rrd.py");
-    let read: serde_json::Value =
-        serde_json::from_str(&run_ok(python_tool("python").arg(script).arg(&saved))).unwrap();
     assert_eq!(read["rows"]["/world/robot/pose"], 20, "{read}");
     assert_eq!(read["rows"]["/events/broker"], 1, "{read}");
     assert_eq!(read["blueprints"], 1, "the layout was sent too: {read}");
@@ -209,6 +248,9 @@ fn without_rerun_on_the_path_lewis_view_writes_run_rrd_and_says_how_to_open_it()
 fn connecting_where_no_viewer_listens_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let run = common::failover_run(dir.path());
+    let _ports = PORTS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let address = format!("rerun+http://127.0.0.1:{}/proxy", free_port());
     let output = lewis_view(
         dir.path(),
