@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::{BufReader, IsTerminal, Write};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -19,7 +19,9 @@ use lewis_sequencer::live::{
 use lewis_sequencer::record::{Entry, JsonLinesSink, Record, RecordSink, Tee};
 use lewis_sequencer::replay::{Recording, compare, read_json_lines, split_missions};
 use lewis_sequencer::resolve::{ProgramResolver, SystemResolver, TrustingResolver};
-use lewis_sequencer::{FileSystem, Mission, Outcome, Publisher, TerminalChooser, check_with};
+use lewis_sequencer::{
+    FileSystem, Mission, Outcome, Publisher, Supervision, TerminalChooser, check_with,
+};
 
 /// `lewis seq ...`
 #[derive(Debug, Subcommand)]
@@ -55,7 +57,9 @@ pub struct RunArgs {
 /// How a mission runs, for `lewis seq run` and `lewis up --script`.
 #[derive(Debug, Clone, Args)]
 pub struct MissionArgs {
-    /// Ask the supervisor on the terminal instead of the page.
+    /// Do not serve the supervisor's page even with `use gui`: ask on the terminal when the
+    /// standard input is one. Without a page and a terminal (a service, CI), nobody is
+    /// asked: the recovery state's actions apply.
     #[arg(long)]
     pub no_gui: bool,
     /// The supervisor page's port (0 picks a free one).
@@ -142,7 +146,8 @@ pub(crate) fn load_mission(path: &Path) -> anyhow::Result<Mission> {
 
 /// Runs `mission` (from `script`) to its end: the programs in `namespace` (their
 /// `LEWIS_NAMESPACE`), every record published on /lewis/sequencer there and written to
-/// `--events`; the supervisor asked on the page or the terminal. With `echo`, the decisions
+/// `--events`; the supervisor asked on the page, on the terminal, or nobody
+/// ([`Supervision::decide`]). With `echo`, the decisions
 /// and the programs' lines (`[state] text`) are printed too; without, they go to the logs
 /// only (`lewis up`, whose logs already show them). Commands come from `control` (the
 /// caller catches the signals).
@@ -166,7 +171,26 @@ pub(crate) fn execute(
             None
         }
     };
-    let gui = if mission.use_gui() && !how.no_gui {
+    let supervision = Supervision::decide(
+        mission.use_gui(),
+        how.no_gui,
+        std::io::stdin().is_terminal(),
+    );
+    if echo {
+        // `lewis up` has the driver's log line; `lewis seq run` logs nothing else.
+        let line = match supervision {
+            Supervision::Unattended => {
+                "seq: nobody can answer (no supervisor's page, and the standard input is not a \
+                 terminal): after recovery the recovery state's actions apply"
+            }
+            Supervision::Terminal => "seq: the supervisor is asked on this terminal after recovery",
+            Supervision::Page => "",
+        };
+        if !line.is_empty() {
+            writeln!(std::io::stderr(), "{line}")?;
+        }
+    }
+    let gui = if supervision == Supervision::Page {
         let gui = GuiServer::start(
             SocketAddr::new(how.gui_bind, how.gui_port),
             &mission,
@@ -177,7 +201,7 @@ pub(crate) fn execute(
     } else {
         None
     };
-    let terminal = if mission.use_gui() && gui.is_none() {
+    let terminal = if supervision == Supervision::Terminal {
         let stdin = BufReader::new(std::io::stdin());
         Some(TerminalChooser::start(
             stdin,
@@ -223,6 +247,7 @@ pub(crate) fn execute(
     let options = RunOptions {
         log_lines: lines,
         env: BTreeMap::from([(NAMESPACE_ENV.to_owned(), namespace.as_str().to_owned())]),
+        supervision,
         ..RunOptions::new(std::path::absolute(script)?)
     };
     let outcome = run_mission(mission, options, control, &mut tee);

@@ -1,13 +1,14 @@
 //! `lewis view`: a recording in the Rerun viewer.
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::bail;
 use clap::Args;
 use lewis_viewer::{
-    RERUN_SDK_PIP_VERSION, Target, ViewOptions, default_rrd_path, rerun_on_path, view,
+    DEFAULT_VIEWER_PORT, RERUN_SDK_PIP_VERSION, Target, ViewOptions, default_rrd_path,
+    rerun_on_path, view,
 };
 
 /// `lewis view RUN.mcap [more.mcap ...] [--save OUT.rrd | --spawn | --connect ADDR]`
@@ -35,26 +36,44 @@ pub struct ViewArgs {
     #[arg(long, value_name = "ADDR", num_args = 0..=1,
           default_missing_value = "rerun+http://127.0.0.1:9876/proxy")]
     pub connect: Option<String>,
+    /// The port of the viewer to start (or to reuse, when one listens there already).
+    #[arg(long, default_value_t = DEFAULT_VIEWER_PORT, conflicts_with_all = ["save", "connect"])]
+    pub port: u16,
+}
+
+/// Where the recording goes, and whether it is the default file (so that the user is told
+/// how to open it): `--save`, `--connect`, `--spawn` as asked; without any, a viewer when
+/// `rerun` is on the PATH (`rerun_found`), else `RUN.rrd` next to the first recording (`files`, the
+/// inputs with parts indexes expanded).
+fn target(args: &ViewArgs, files: &[PathBuf], rerun_found: bool) -> anyhow::Result<(Target, bool)> {
+    Ok(if let Some(path) = &args.save {
+        (Target::Save(path.clone()), false)
+    } else if let Some(address) = &args.connect {
+        (Target::Connect(address.clone()), false)
+    } else if args.spawn || rerun_found {
+        (Target::Spawn { port: args.port }, false)
+    } else {
+        let Some(first) = files.first() else {
+            bail!("no recording given");
+        };
+        (Target::Save(default_rrd_path(first)), true)
+    })
+}
+
+/// How to open `rrd` when no viewer was found.
+fn open_hint(rrd: &Path) -> String {
+    format!(
+        "no `rerun` viewer on the PATH: install it with `pip install rerun-sdk=={RERUN_SDK_PIP_VERSION}`, \
+         then run `rerun {}`",
+        rrd.display()
+    )
 }
 
 /// Converts and reports; a recording with undecodable messages or damage still exits 0
 /// (what could be shown was shown, and the report says what was not).
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
     let files = lewis_replay::recording::expand_inputs(&args.files)?;
-    let mut hint = false;
-    let target = if let Some(path) = &args.save {
-        Target::Save(path.clone())
-    } else if let Some(address) = &args.connect {
-        Target::Connect(address.clone())
-    } else if args.spawn || rerun_on_path() {
-        Target::Spawn
-    } else {
-        let Some(first) = files.first() else {
-            bail!("no recording given");
-        };
-        hint = true;
-        Target::Save(default_rrd_path(first))
-    };
+    let (target, hint) = target(args, &files, rerun_on_path())?;
     let options = ViewOptions {
         target: target.clone(),
         progress: true,
@@ -63,12 +82,62 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
     let mut out = std::io::stdout().lock();
     write!(out, "{report}")?;
     if hint && let Target::Save(path) = &target {
-        writeln!(
-            out,
-            "no `rerun` viewer on the PATH: install it with `pip install rerun-sdk=={RERUN_SDK_PIP_VERSION}`, \
-             then run `rerun {}`",
-            path.display()
-        )?;
+        writeln!(out, "{}", open_hint(path))?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    #[derive(Parser)]
+    struct Command {
+        #[command(flatten)]
+        view: ViewArgs,
+    }
+
+    fn decide(args: &[&str], rerun_found: bool) -> (Target, bool) {
+        let command = Command::try_parse_from(std::iter::once("view").chain(args.iter().copied()))
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        target(&command.view, &command.view.files, rerun_found).unwrap_or_else(|e| panic!("{args:?}: {e}"))
+    }
+
+    #[test]
+    fn the_target_follows_the_flags_then_the_path() {
+        let spawn = |port| Target::Spawn { port };
+        let save = |p: &str| Target::Save(p.into());
+        assert_eq!(decide(&["r.mcap"], true), (spawn(9876), false));
+        assert_eq!(
+            decide(&["r.mcap", "--port", "9000"], true),
+            (spawn(9000), false)
+        );
+        assert_eq!(decide(&["logs/r.mcap"], false), (save("logs/r.rrd"), true));
+        assert_eq!(decide(&["r.mcap", "--spawn"], false), (spawn(9876), false));
+        assert_eq!(
+            decide(&["r.mcap", "--save", "o.rrd"], true),
+            (save("o.rrd"), false)
+        );
+        assert_eq!(
+            decide(&["r.mcap", "--connect"], true),
+            (
+                Target::Connect("rerun+http://127.0.0.1:9876/proxy".into()),
+                false
+            )
+        );
+        assert!(
+            Command::try_parse_from(["view", "r.mcap", "--save", "o.rrd", "--port", "1"]).is_err()
+        );
+    }
+
+    #[test]
+    fn the_hint_says_which_version_to_install_and_how_to_open_the_file() {
+        assert_eq!(
+            open_hint(Path::new("logs/run.rrd")),
+            "no `rerun` viewer on the PATH: install it with `pip install rerun-sdk==0.36.3`, \
+             then run `rerun logs/run.rrd`"
+        );
+    }
 }

@@ -40,6 +40,7 @@ try {
   await page.evaluate(() => { window.__sameDocument = true; });
   await page.locator('#status[data-phase="running"]').waitFor();
   await page.locator('#diagram .box.current[data-state="door"]').waitFor();
+  await page.locator("#history li.start", { hasText: "start at door" }).waitFor();
   step("the page shows `door` running");
   await page.screenshot({ path: join(shots, "running.png") });
 
@@ -57,12 +58,22 @@ try {
     throw new Error(`the queue button is too small for a finger: ${JSON.stringify(box)}`);
   }
   await page.screenshot({ path: join(shots, "asking.png") });
+  // A 7-inch panel, as on many robots: the buttons stay finger-sized.
+  await page.setViewportSize({ width: 800, height: 480 });
+  const small = await page.locator('#choices [data-choice="queue"]').boundingBox();
+  if (!small || small.height < 72 || small.width < 120) {
+    throw new Error(`on 800x480 the queue button is too small for a finger: ${JSON.stringify(small)}`);
+  }
+  await page.screenshot({ path: join(shots, "asking-800x480.png") });
+  await page.setViewportSize({ width: 1280, height: 800 });
 
   await page.locator('#choices [data-choice="queue"]').tap();
   await page.locator('#status[data-phase="finished"]').waitFor();
   await page.locator("#history li.resume", { hasText: "resume at queue" }).waitFor();
   await page.locator("#history li.transition", { hasText: "transition register -> stop" }).waitFor();
   await page.locator("#diagram .stopnode.reached").waitFor();
+  await page.locator("#outcome", { hasText: "The mission reached stop" }).waitFor();
+  await page.locator("#history li.start", { hasText: "start at door" }).waitFor();
   step("after the tap on `queue` the mission resumed there and finished");
   if (!(await page.evaluate(() => window.__sameDocument === true))) {
     throw new Error("the page was reloaded: updates must arrive live");

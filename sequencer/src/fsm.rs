@@ -2,6 +2,10 @@
 //! decisions out (run, restart, recover, ask, transition, finish). No I/O and no clock, so
 //! the live driver and the replay of a recording decide identically.
 //!
+//! Whether anyone can answer a question ([`Supervision`]) is given to the core at the start
+//! by the driver (which knows whether a page is served or a terminal is attached) and is
+//! recorded, so that a replay decides as the live run did.
+//!
 //! Every decision that starts a program is a [`Decision::Run`], preceded by the decision
 //! that explains it ([`Decision::Transition`], [`Decision::Restart`],
 //! [`Decision::EnterRecovery`], [`Decision::Resume`]); the driver runs the programs and
@@ -15,6 +19,66 @@ use serde::{Deserialize, Serialize};
 
 use crate::mission::{Mission, MissionState, Target};
 use crate::script::format_duration_ns;
+
+/// Who answers when the sequencer asks where to resume (after recovery, or when recovery
+/// itself failed), decided once by the driver before the mission starts.
+///
+/// Serialised in snake case: `"page"`, `"terminal"`, `"unattended"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Supervision {
+    /// The supervisor's page (`use gui`, without `--no-gui`).
+    Page,
+    /// The terminal the sequencer runs on (its standard input is a terminal).
+    Terminal,
+    /// Nobody can answer (no page, and the standard input is not a terminal: a service, a
+    /// CI job): the recovery state's own actions apply, and a failed recovery aborts.
+    Unattended,
+}
+
+impl Supervision {
+    /// Whether someone can be asked.
+    #[must_use]
+    pub fn is_attended(self) -> bool {
+        !matches!(self, Self::Unattended)
+    }
+
+    /// Who answers for a mission: the page when the script says `use gui` and the page is
+    /// not turned off (`--no-gui`); else the terminal when the standard input is one; else
+    /// nobody. Reading answers from a pipe or `/dev/null` would turn a closed input into an
+    /// aborted mission, so a run under a service manager or in CI is unattended.
+    #[must_use]
+    pub fn decide(use_gui: bool, no_gui: bool, stdin_is_terminal: bool) -> Self {
+        if use_gui && !no_gui {
+            Self::Page
+        } else if stdin_is_terminal {
+            Self::Terminal
+        } else {
+            Self::Unattended
+        }
+    }
+
+    /// The supervision of a run recorded before it was recorded: the sequencer then asked
+    /// only with `use gui` (on the page, or the terminal with `--no-gui`).
+    #[must_use]
+    pub fn before_recorded(use_gui: bool) -> Self {
+        if use_gui {
+            Self::Page
+        } else {
+            Self::Unattended
+        }
+    }
+}
+
+impl fmt::Display for Supervision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Page => "the supervisor's page",
+            Self::Terminal => "the terminal",
+            Self::Unattended => "nobody (unattended)",
+        })
+    }
+}
 
 /// What happened, as the driver reports it.
 ///
@@ -285,6 +349,7 @@ enum Failure {
 #[derive(Debug, Clone)]
 pub struct Sequencer {
     mission: Mission,
+    supervision: Supervision,
     phase: Phase,
 }
 
@@ -295,12 +360,14 @@ fn is_abnormal_exit(code: i32) -> bool {
 }
 
 impl Sequencer {
-    /// Starts `mission`: the sequencer and its first decisions (running the start state).
+    /// Starts `mission`, with `supervision` saying whether anyone can be asked: the
+    /// sequencer and its first decisions (running the start state).
     #[must_use]
-    pub fn start(mission: Mission) -> (Self, Vec<Decision>) {
+    pub fn start(mission: Mission, supervision: Supervision) -> (Self, Vec<Decision>) {
         let start = mission.start_index();
         let mut sequencer = Self {
             mission,
+            supervision,
             phase: Phase::Finished,
         };
         let reason = format!("the mission starts at `{}`", sequencer.name(start));
@@ -312,6 +379,12 @@ impl Sequencer {
     #[must_use]
     pub fn mission(&self) -> &Mission {
         &self.mission
+    }
+
+    /// Who answers the sequencer's questions.
+    #[must_use]
+    pub fn supervision(&self) -> Supervision {
+        self.supervision
     }
 
     /// The state whose program is running, and its attempt, if one is.
@@ -470,20 +543,24 @@ impl Sequencer {
         };
         let from = state.name.clone();
         let is_recovery = self.mission.recovery_index() == Some(index);
-        if is_recovery && self.mission.use_gui() {
+        if is_recovery && self.supervision.is_attended() {
             return self.ask(
                 Some(target.name().to_owned()),
                 format!("recovery `{from}` is over (exit code {code})"),
             );
         }
+        let mut reason = format!(
+            "`{from}` exited with code {code}, which leads to `{}`",
+            target.name()
+        );
+        if is_recovery {
+            reason.push_str("; nobody can be asked where to resume (unattended)");
+        }
         let transition = Decision::Transition {
             from: from.clone(),
             to: target.name().to_owned(),
             code,
-            reason: format!(
-                "`{from}` exited with code {code}, which leads to `{}`",
-                target.name()
-            ),
+            reason,
         };
         match target {
             Target::Stop => {
@@ -546,13 +623,16 @@ impl Sequencer {
         }
     }
 
-    /// The end of automatic handling: ask the supervisor with `use gui`, else abort.
+    /// The end of automatic handling: ask the supervisor when someone can answer, else
+    /// abort.
     fn give_up(&mut self, why: String) -> Vec<Decision> {
-        if self.mission.use_gui() {
+        if self.supervision.is_attended() {
             self.ask(None, why)
         } else {
             self.phase = Phase::Aborted;
-            vec![Decision::Aborted { reason: why }]
+            vec![Decision::Aborted {
+                reason: format!("{why}; nobody can be asked where to resume (unattended)"),
+            }]
         }
     }
 

@@ -47,14 +47,22 @@
 //!   without restarting. A listed code is always a transition.
 //! - The restart count is per visit: a transition into a state (even the same one) starts
 //!   again from attempt 1.
+//! - Who answers ([`Supervision`]) is decided once, when the mission starts, and recorded:
+//!   the page when the script says `use gui` (unless `--no-gui`); otherwise the terminal,
+//!   when the sequencer's standard input is one (without `use gui` too: the paper's "the
+//!   supervisor chooses" should not depend on having a touch screen); otherwise nobody
+//!   (unattended: a service manager, CI, a pipe), which the sequencer says in a log line
+//!   at the start. A closed pipe is not a supervisor, so input that is not a terminal is
+//!   never read.
 //! - The recovery state is restarted on a crash like any other. When it fails (beyond its
-//!   limit or on an unlisted code), recovery is not entered again: with `use gui` the
-//!   supervisor is asked, otherwise the mission aborts.
-//! - With `use gui`, whenever the recovery state exits with a listed code, the supervisor
-//!   is asked where to resume, the listed target (often `stop`) being the suggestion.
-//!   Without it, the listed transition is followed.
-//! - A missing `recovery` is a warning: failures then ask the supervisor (`use gui`) or
-//!   abort. States unreachable from `start` are warnings even with `use gui` (where the
+//!   limit or on an unlisted code), recovery is not entered again: the supervisor is asked
+//!   when someone can answer; unattended, the mission aborts.
+//! - Whenever the recovery state exits with a listed code, the supervisor (when someone
+//!   can answer) is asked where to resume, the listed target (often `stop`) being the
+//!   suggestion (on the terminal, an empty line takes it). Unattended, the listed
+//!   transition is followed, and its reason says that nobody could be asked.
+//! - A missing `recovery` is a warning: failures then ask the supervisor, or abort when
+//!   unattended. States unreachable from `start` are warnings even with `use gui` (where the
 //!   supervisor could still choose them), and so are states with no chain of actions to
 //!   `stop`.
 
@@ -77,7 +85,7 @@ pub mod terminal;
 
 pub use check::{CheckedScript, check_file, check_script, check_with};
 pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
-pub use fsm::{Decision, Event, EventError, Sequencer};
+pub use fsm::{Decision, Event, EventError, Sequencer, Supervision};
 pub use gui::{GuiError, GuiServer, GuiSink};
 pub use live::{
     Command, ControlReceiver, Controller, Outcome, RunError, RunOptions, SignalForwarder,

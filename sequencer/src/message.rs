@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 use lewis_interfaces::msg::{Header, Sequencer as SequencerMessage};
 
-use crate::fsm::{Decision, Event};
+use crate::fsm::{Decision, Event, Supervision};
 use crate::record::{Entry, Record};
 
 /// The provider named in the header of the sequencer's publications.
@@ -38,7 +38,7 @@ pub enum MessageError {
     UnknownKind {
         /// The record's number.
         seq: u64,
-        /// `event` or `decision`.
+        /// `event`, `decision` or `supervision`.
         what: &'static str,
         /// The kind given.
         kind: String,
@@ -72,10 +72,15 @@ pub fn to_message(record: &Record) -> SequencerMessage {
             script,
             states,
             use_gui,
+            supervision,
         } => {
             m.program = script.to_string_lossy().into_owned();
             set_states(&mut m, states);
             m.use_gui = *use_gui;
+            m.supervision = supervision
+                .map(supervision_name)
+                .unwrap_or_default()
+                .to_owned();
             "mission_started"
         }
         Entry::Observed { event } => {
@@ -210,6 +215,7 @@ pub fn from_message(m: &SequencerMessage) -> Result<Record, MessageError> {
             script: PathBuf::from(&m.program),
             states: m.states.clone(),
             use_gui: m.use_gui,
+            supervision: supervision_of(seq, &m.supervision)?,
         },
         "observed" => Entry::Observed {
             event: event_of(seq, m)?,
@@ -238,6 +244,30 @@ pub fn from_message(m: &SequencerMessage) -> Result<Record, MessageError> {
         time_ns: m.header.publish_time_ns,
         entry,
     })
+}
+
+fn supervision_name(supervision: Supervision) -> &'static str {
+    match supervision {
+        Supervision::Page => "page",
+        Supervision::Terminal => "terminal",
+        Supervision::Unattended => "unattended",
+    }
+}
+
+fn supervision_of(seq: u64, name: &str) -> Result<Option<Supervision>, MessageError> {
+    Ok(Some(match name {
+        "" => return Ok(None),
+        "page" => Supervision::Page,
+        "terminal" => Supervision::Terminal,
+        "unattended" => Supervision::Unattended,
+        other => {
+            return Err(MessageError::UnknownKind {
+                seq,
+                what: "supervision",
+                kind: other.to_owned(),
+            });
+        }
+    }))
 }
 
 fn event_of(seq: u64, m: &SequencerMessage) -> Result<Event, MessageError> {

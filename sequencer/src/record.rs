@@ -14,7 +14,7 @@ use std::sync::mpsc::Sender;
 
 use serde::{Deserialize, Serialize};
 
-use crate::fsm::{Decision, Event};
+use crate::fsm::{Decision, Event, Supervision};
 
 /// One thing the sequencer did or saw, in order.
 ///
@@ -41,8 +41,12 @@ pub enum Entry {
         script: PathBuf,
         /// The states, in script order.
         states: Vec<String>,
-        /// Whether the supervisor is asked after recovery (`use gui`).
+        /// Whether the script says `use gui`.
         use_gui: bool,
+        /// Who answered the sequencer's questions; absent in records made before it was
+        /// recorded (see [`Supervision::before_recorded`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        supervision: Option<Supervision>,
     },
     /// An event the FSM accepted; the decisions it led to follow.
     Observed {

@@ -9,7 +9,7 @@ use std::fmt;
 use std::io::BufRead;
 use std::path::PathBuf;
 
-use crate::fsm::{Decision, Event, EventError, Sequencer};
+use crate::fsm::{Decision, Event, EventError, Sequencer, Supervision};
 use crate::mission::Mission;
 use crate::record::{Entry, Record};
 
@@ -110,6 +110,9 @@ pub struct Step {
 pub struct Recording {
     /// The script it ran.
     pub script: PathBuf,
+    /// Who could answer the sequencer's questions, as recorded (or as the sequencer of
+    /// the time decided it, for older records).
+    pub supervision: Supervision,
     /// The start, then every accepted event, each with its decisions.
     pub steps: Vec<Step>,
 }
@@ -122,7 +125,13 @@ impl Recording {
     /// When the records are empty, cut before the start, or hold two missions.
     pub fn from_records(records: &[Record]) -> Result<Self, RecordingError> {
         let (first, rest) = records.split_first().ok_or(RecordingError::Empty)?;
-        let Entry::MissionStarted { script, .. } = &first.entry else {
+        let Entry::MissionStarted {
+            script,
+            use_gui,
+            supervision,
+            ..
+        } = &first.entry
+        else {
             return Err(RecordingError::NoStart { seq: first.seq });
         };
         let mut steps = vec![Step {
@@ -152,6 +161,7 @@ impl Recording {
         }
         Ok(Self {
             script: script.clone(),
+            supervision: supervision.unwrap_or_else(|| Supervision::before_recorded(*use_gui)),
             steps,
         })
     }
@@ -211,12 +221,12 @@ pub struct Comparison {
     pub difference: Option<Difference>,
 }
 
-/// Feeds the recorded events to `mission`'s FSM and compares its decisions with the
-/// recorded ones, reasons aside ([`Decision::without_reason`]); stops at the first
-/// difference.
+/// Feeds the recorded events to `mission`'s FSM, with the recorded supervision, and
+/// compares its decisions with the recorded ones, reasons aside
+/// ([`Decision::without_reason`]); stops at the first difference.
 #[must_use]
 pub fn compare(mission: Mission, recording: &Recording) -> Comparison {
-    let (mut sequencer, start) = Sequencer::start(mission);
+    let (mut sequencer, start) = Sequencer::start(mission, recording.supervision);
     let mut comparison = Comparison {
         identical_steps: 0,
         identical_decisions: 0,

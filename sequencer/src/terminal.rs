@@ -1,5 +1,7 @@
-//! The supervisor's choice on the terminal, for `--no-gui`: the question is printed when the
-//! FSM asks, and each line read (a state's name, or `stop`) is sent as the choice.
+//! The supervisor's choice on the terminal (without `use gui`, or with `--no-gui`, when the
+//! standard input is a terminal): the question is printed when the FSM asks, and each line
+//! read (a state's name, or `stop`) is sent as the choice; an empty line takes the script's
+//! suggestion (the recovery state's listed target), when there is one.
 
 use std::io::{self, BufRead, Write};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -11,6 +13,8 @@ use crate::record::{Entry, Record, RecordSink};
 #[derive(Default)]
 struct Shared {
     asking: bool,
+    /// What an empty answer chooses while asking.
+    suggested: Option<String>,
     input_closed: bool,
 }
 
@@ -59,10 +63,11 @@ impl<W: Write> TerminalChooser<W> {
         let input_closed = {
             let mut shared = self.shared.lock().unwrap_or_else(PoisonError::into_inner);
             shared.asking = true;
+            shared.suggested = suggested.cloned();
             shared.input_closed
         };
         let suggestion = suggested
-            .map(|s| format!(" (the script suggests {s})"))
+            .map(|s| format!(" (the script suggests {s}: just Enter)"))
             .unwrap_or_default();
         let _ = write!(
             self.out,
@@ -81,10 +86,16 @@ impl<W: Write> TerminalChooser<W> {
 fn read_answers(input: impl BufRead, shared: &Mutex<Shared>, controller: &Controller) {
     for line in input.lines() {
         let Ok(line) = line else { break };
-        let answer = line.trim();
-        if answer.is_empty() {
-            continue;
-        }
+        let answer = match line.trim() {
+            "" => {
+                let shared = shared.lock().unwrap_or_else(PoisonError::into_inner);
+                match (&shared.suggested, shared.asking) {
+                    (Some(suggested), true) => suggested.clone(),
+                    _ => continue,
+                }
+            }
+            answer => answer.to_owned(),
+        };
         if !controller.choose(answer) {
             return;
         }
@@ -111,10 +122,9 @@ impl<W: Write> RecordSink for TerminalChooser<W> {
                     },
             } => self.ask(choices, suggested.as_ref(), reason),
             Entry::Decided { .. } => {
-                self.shared
-                    .lock()
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .asking = false;
+                let mut shared = self.shared.lock().unwrap_or_else(PoisonError::into_inner);
+                shared.asking = false;
+                shared.suggested = None;
             }
             Entry::Refused {
                 event: Event::SupervisorChose { .. },

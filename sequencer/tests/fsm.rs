@@ -4,7 +4,7 @@ use std::path::Path;
 
 use expect_test::{Expect, expect};
 use lewis_sequencer::{
-    Event, EventError, MemorySources, Mission, Sequencer, TrustingResolver, check_with,
+    Event, EventError, MemorySources, Mission, Sequencer, Supervision, TrustingResolver, check_with,
 };
 
 const PAPER: &str = "\
@@ -52,9 +52,23 @@ fn chose(state: &str) -> Event {
     }
 }
 
-/// Starts `script`, feeds `events` and shows every decision (and every refused event).
+/// Starts `script` as `lewis seq run` does with no terminal (asked on the page with `use
+/// gui`, unattended without), feeds `events` and shows every decision (and every refused
+/// event).
 fn check(script: &str, events: &[Event], expected: &Expect) {
-    let (mut sequencer, decisions) = Sequencer::start(mission(script));
+    let mission = mission(script);
+    let supervision = Supervision::decide(mission.use_gui(), false, false);
+    check_supervised(mission, supervision, events, expected);
+}
+
+/// As [`check`], with `supervision` given.
+fn check_supervised(
+    mission: Mission,
+    supervision: Supervision,
+    events: &[Event],
+    expected: &Expect,
+) {
+    let (mut sequencer, decisions) = Sequencer::start(mission, supervision);
     let mut out: Vec<String> = Vec::new();
     for decision in decisions {
         out.push(format!("{decision}"));
@@ -355,25 +369,25 @@ fn a_state_restart_override_beats_the_global_limit() {
 }
 
 #[test]
-fn without_the_gui_recovery_follows_its_listed_transition() {
+fn unattended_without_the_gui_recovery_follows_its_listed_transition() {
     let script = PAPER.replace("use gui\n", "");
     check(
         &script,
         &[exited(5), exited(0)],
         &expect![[r#"
-        run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
-        > exit code 5
-        recover from door | `door` exited with code 5, which the script does not list
-        run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
-        > exit code 0
-        transition oops -> stop on 0 | `oops` exited with code 0, which leads to `stop`
-        finished | `oops` led to `stop`
-    "#]],
+            run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
+            > exit code 5
+            recover from door | `door` exited with code 5, which the script does not list
+            run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
+            > exit code 0
+            transition oops -> stop on 0 | `oops` exited with code 0, which leads to `stop`; nobody can be asked where to resume (unattended)
+            finished | `oops` led to `stop`
+        "#]],
     );
 }
 
 #[test]
-fn a_failing_recovery_asks_the_supervisor_with_the_gui_and_aborts_without() {
+fn a_failing_recovery_asks_the_supervisor_with_the_gui_and_aborts_unattended() {
     check(
         PAPER,
         &[exited(5), exited(3)],
@@ -397,27 +411,27 @@ fn a_failing_recovery_asks_the_supervisor_with_the_gui_and_aborts_without() {
             signalled(11),
         ],
         &expect![[r#"
-        run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
-        > exit code 5
-        recover from door | `door` exited with code 5, which the script does not list
-        run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
-        > signal 11
-        restart oops attempt 2 | `oops` was killed by signal 11; restart 1 of 3
-        run oops attempt 2: /usr/bin/Recovery | `oops` was killed by signal 11; restart 1 of 3
-        > signal 11
-        restart oops attempt 3 | `oops` was killed by signal 11; restart 2 of 3
-        run oops attempt 3: /usr/bin/Recovery | `oops` was killed by signal 11; restart 2 of 3
-        > signal 11
-        restart oops attempt 4 | `oops` was killed by signal 11; restart 3 of 3
-        run oops attempt 4: /usr/bin/Recovery | `oops` was killed by signal 11; restart 3 of 3
-        > signal 11
-        aborted | recovery failed: `oops` was killed by signal 11 after 3 restarts
-    "#]],
+            run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
+            > exit code 5
+            recover from door | `door` exited with code 5, which the script does not list
+            run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
+            > signal 11
+            restart oops attempt 2 | `oops` was killed by signal 11; restart 1 of 3
+            run oops attempt 2: /usr/bin/Recovery | `oops` was killed by signal 11; restart 1 of 3
+            > signal 11
+            restart oops attempt 3 | `oops` was killed by signal 11; restart 2 of 3
+            run oops attempt 3: /usr/bin/Recovery | `oops` was killed by signal 11; restart 2 of 3
+            > signal 11
+            restart oops attempt 4 | `oops` was killed by signal 11; restart 3 of 3
+            run oops attempt 4: /usr/bin/Recovery | `oops` was killed by signal 11; restart 3 of 3
+            > signal 11
+            aborted | recovery failed: `oops` was killed by signal 11 after 3 restarts; nobody can be asked where to resume (unattended)
+        "#]],
     );
 }
 
 #[test]
-fn without_a_recovery_state_a_failure_asks_or_aborts() {
+fn without_a_recovery_state_a_failure_asks_or_aborts_unattended() {
     let script = "start a\nuse gui\nstate a ./a\n  action 0 trans stop\n";
     check(
         script,
@@ -438,10 +452,10 @@ fn without_a_recovery_state_a_failure_asks_or_aborts() {
         &script.replace("use gui\n", ""),
         &[exited(3)],
         &expect![[r#"
-        run a attempt 1: ./a | the mission starts at `a`
-        > exit code 3
-        aborted | `a` exited with code 3, which the script does not list, and the script has no recovery state
-    "#]],
+            run a attempt 1: ./a | the mission starts at `a`
+            > exit code 3
+            aborted | `a` exited with code 3, which the script does not list, and the script has no recovery state; nobody can be asked where to resume (unattended)
+        "#]],
     );
 }
 
@@ -503,7 +517,7 @@ fn events_that_do_not_fit_are_refused_and_change_nothing() {
 #[test]
 fn decisions_carry_everything_the_driver_needs() {
     let script = "start a\nrecovery a\nenv G=1\nstate a ./bin/a --x \"y z\"\n  env S=2\n  timeout 500ms\n  action 0 trans stop\n";
-    let (sequencer, decisions) = Sequencer::start(mission(script));
+    let (sequencer, decisions) = Sequencer::start(mission(script), Supervision::Page);
     assert_eq!(
         decisions,
         [lewis_sequencer::Decision::Run {
@@ -527,7 +541,7 @@ fn decisions_carry_everything_the_driver_needs() {
 
 #[test]
 fn after_the_end_every_event_is_refused() {
-    let (mut sequencer, _) = Sequencer::start(mission(PAPER));
+    let (mut sequencer, _) = Sequencer::start(mission(PAPER), Supervision::Page);
     for code in [0, 1, 0, 0] {
         sequencer.handle(&exited(code)).unwrap();
     }
@@ -557,7 +571,7 @@ fn an_interruption_aborts_while_running_and_while_asking_but_not_after_the_end()
             refused: an interruption (SIGINT) is unexpected while the mission is aborted
         "#]],
     );
-    let (mut sequencer, _) = Sequencer::start(mission(PAPER));
+    let (mut sequencer, _) = Sequencer::start(mission(PAPER), Supervision::Page);
     for event in [
         signalled(11),
         signalled(11),
@@ -574,4 +588,84 @@ fn an_interruption_aborts_while_running_and_while_asking_but_not_after_the_end()
         "aborted | the sequencer was interrupted (SIGINT) while the supervisor was asked"
     );
     assert!(sequencer.is_over());
+}
+
+#[test]
+fn on_a_terminal_without_use_gui_the_supervisor_is_asked_after_recovery() {
+    let script = PAPER.replace("use gui\n", "");
+    check_supervised(
+        mission(&script),
+        Supervision::Terminal,
+        &[exited(5), exited(0), chose("sign"), exited(1)],
+        &expect![[r#"
+            run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
+            > exit code 5
+            recover from door | `door` exited with code 5, which the script does not list
+            run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
+            > exit code 0
+            ask the supervisor: door, sign, queue, register, oops or stop (suggested stop) | recovery `oops` is over (exit code 0)
+            > the supervisor's choice of `sign`
+            resume at sign | the supervisor chose `sign`
+            run sign attempt 1: /usr/bin/SignFollower | the supervisor chose `sign`
+            > exit code 1
+            transition sign -> queue on 1 | `sign` exited with code 1, which leads to `queue`
+            run queue attempt 1: /usr/bin/QueueStander | transition from `sign` on exit code 1
+        "#]],
+    );
+}
+
+#[test]
+fn unattended_with_use_gui_the_recovery_actions_apply_and_the_reason_says_why() {
+    check_supervised(
+        mission(PAPER),
+        Supervision::Unattended,
+        &[exited(5), exited(0)],
+        &expect![[r#"
+            run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
+            > exit code 5
+            recover from door | `door` exited with code 5, which the script does not list
+            run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
+            > exit code 0
+            transition oops -> stop on 0 | `oops` exited with code 0, which leads to `stop`; nobody can be asked where to resume (unattended)
+            finished | `oops` led to `stop`
+        "#]],
+    );
+    check_supervised(
+        mission(PAPER),
+        Supervision::Unattended,
+        &[exited(5), exited(3)],
+        &expect![[r#"
+            run door attempt 1: /usr/bin/DoorNavigator | the mission starts at `door`
+            > exit code 5
+            recover from door | `door` exited with code 5, which the script does not list
+            run oops attempt 1: /usr/bin/Recovery | recovery `oops`: `door` exited with code 5, which the script does not list
+            > exit code 3
+            aborted | recovery failed: `oops` exited with code 3, which the script does not list; nobody can be asked where to resume (unattended)
+        "#]],
+    );
+}
+
+#[test]
+fn the_page_with_use_gui_else_a_terminal_else_nobody_answers() {
+    use Supervision::{Page, Terminal, Unattended};
+    let got: Vec<(bool, bool, bool, Supervision)> = [false, true]
+        .into_iter()
+        .flat_map(|gui| [false, true].map(move |no_gui| (gui, no_gui)))
+        .flat_map(|(gui, no_gui)| [false, true].map(move |tty| (gui, no_gui, tty)))
+        .map(|(gui, no_gui, tty)| (gui, no_gui, tty, Supervision::decide(gui, no_gui, tty)))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (false, false, false, Unattended),
+            (false, false, true, Terminal),
+            (false, true, false, Unattended),
+            (false, true, true, Terminal),
+            (true, false, false, Page),
+            (true, false, true, Page),
+            (true, true, false, Unattended),
+            (true, true, true, Terminal),
+        ]
+    );
+    assert!(Page.is_attended() && Terminal.is_attended() && !Unattended.is_attended());
 }

@@ -19,7 +19,7 @@ use std::sync::mpsc;
 use common::write_script;
 use lewis_sequencer::live::{RunOptions, control_channel, run_mission};
 use lewis_sequencer::record::{ChannelSink, Entry, Tee};
-use lewis_sequencer::{Decision, GuiServer};
+use lewis_sequencer::{Decision, GuiServer, Supervision};
 
 const SCRIPT: &str = "\
 start door
@@ -87,9 +87,12 @@ fn the_supervisor_resumes_the_mission_from_the_page_in_a_real_browser() {
     let (tx, rx) = mpsc::channel();
     let mut sink = Tee::new().with(gui.sink()).with(ChannelSink(tx));
     let (outcome, browser) = std::thread::scope(|scope| {
-        let (script, sink) = (&script, &mut sink);
-        let driver =
-            scope.spawn(move || run_mission(mission, RunOptions::new(script), &control, sink));
+        let options = RunOptions {
+            supervision: Supervision::Page,
+            ..RunOptions::new(&script)
+        };
+        let sink = &mut sink;
+        let driver = scope.spawn(move || run_mission(mission, options, &control, sink));
         let browser = Command::new("node")
             .arg(gui_test_dir().join("drive.mjs"))
             .arg(gui.url())

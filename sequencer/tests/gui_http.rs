@@ -53,7 +53,8 @@ impl Feeder {
     }
 
     fn start(gui: &GuiServer) -> Self {
-        let (sequencer, decisions) = Sequencer::start(mission());
+        let (sequencer, decisions) =
+            Sequencer::start(mission(), lewis_sequencer::Supervision::Page);
         let mut feeder = Self {
             sequencer,
             sink: gui.sink(),
@@ -63,6 +64,7 @@ impl Feeder {
             script: "m.seq".into(),
             states: vec!["a".into(), "b".into(), "r".into()],
             use_gui: true,
+            supervision: Some(lewis_sequencer::Supervision::Page),
         });
         for decision in decisions {
             feeder.emit(Entry::Decided { decision });
@@ -174,7 +176,8 @@ fn the_view_follows_the_mission_and_choices_are_taken_only_when_asked() {
         .iter()
         .map(|h| h["kind"].as_str().unwrap())
         .collect();
-    assert_eq!(kinds, ["restart", "recovery", "ask"]);
+    assert_eq!(kinds, ["start", "restart", "recovery", "ask"]);
+    assert_eq!(asking["history"][0]["text"], "start at a");
 
     let unknown = choose(addr, "nowhere");
     assert_eq!(unknown.status, 400);

@@ -132,7 +132,7 @@ fn a_program_that_outlives_its_timeout_is_killed_and_counts_as_a_crash() {
         outcome,
         Outcome::Aborted {
             reason: "`fast` ran past its 300ms timeout after 1 restart, and the script has no \
-                     recovery state"
+                     recovery state; nobody can be asked where to resume (unattended)"
                 .into()
         }
     );
@@ -338,7 +338,10 @@ fn on_the_terminal_an_unknown_state_is_refused_and_a_known_one_resumes() {
         .with(lewis_sequencer::ChannelSink(tx));
     let outcome = lewis_sequencer::run_mission(
         mission,
-        lewis_sequencer::RunOptions::new(&script),
+        lewis_sequencer::RunOptions {
+            supervision: lewis_sequencer::Supervision::Terminal,
+            ..lewis_sequencer::RunOptions::new(&script)
+        },
         &control,
         &mut tee,
     )
@@ -365,8 +368,9 @@ fn on_the_terminal_an_unknown_state_is_refused_and_a_known_one_resumes() {
     assert!(outcome.is_finished());
     let printed = String::from_utf8(typist.chooser.output().clone()).unwrap();
     assert!(
-        printed
-            .contains("Type the state to resume from (a, r) or `stop` (the script suggests stop)"),
+        printed.contains(
+            "Type the state to resume from (a, r) or `stop` (the script suggests stop: just Enter)"
+        ),
         "{printed}"
     );
     assert!(printed.contains("not a state of the mission"), "{printed}");
@@ -394,6 +398,7 @@ fn when_the_terminal_input_ends_while_asked_the_mission_aborts() {
         mission,
         lewis_sequencer::RunOptions {
             stop_grace: Duration::from_millis(500),
+            supervision: lewis_sequencer::Supervision::Terminal,
             ..lewis_sequencer::RunOptions::new(&script)
         },
         &control,

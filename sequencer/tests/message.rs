@@ -9,7 +9,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::Sequencer as SequencerMessage;
 use lewis_sequencer::message::{MessageError, PROVIDER, from_message, to_message};
 use lewis_sequencer::record::{Entry, Record};
-use lewis_sequencer::{Decision, Event};
+use lewis_sequencer::{Decision, Event, Supervision};
 use proptest::prelude::*;
 
 fn name() -> impl Strategy<Value = String> {
@@ -89,13 +89,23 @@ fn entry() -> impl Strategy<Value = Entry> {
         (
             "/[a-z/]{1,12}",
             prop::collection::vec(name(), 0..5),
-            any::<bool>()
+            any::<bool>(),
+            prop::option::of(prop::sample::select(
+                &[
+                    Supervision::Page,
+                    Supervision::Terminal,
+                    Supervision::Unattended
+                ][..]
+            ))
         )
-            .prop_map(|(script, states, use_gui)| Entry::MissionStarted {
-                script: PathBuf::from(script),
-                states,
-                use_gui
-            }),
+            .prop_map(
+                |(script, states, use_gui, supervision)| Entry::MissionStarted {
+                    script: PathBuf::from(script),
+                    states,
+                    use_gui,
+                    supervision,
+                }
+            ),
         event().prop_map(|event| Entry::Observed { event }),
         (event(), text()).prop_map(|(event, error)| Entry::Refused { event, error }),
         decision().prop_map(|decision| Entry::Decided { decision }),

@@ -123,13 +123,15 @@ fn started() -> Entry {
         script: "m.seq".into(),
         states: vec!["a".into()],
         use_gui: false,
+        supervision: None,
     }
 }
 
 #[test]
 fn a_script_that_decides_more_than_was_recorded_is_a_difference() {
     let with_gui = "start a\nrecovery r\nuse gui\nstate a x\n  action 0 trans stop\nstate r y\n  action 0 trans stop\n";
-    let (_, start) = lewis_sequencer::Sequencer::start(mission(with_gui));
+    let (_, start) =
+        lewis_sequencer::Sequencer::start(mission(with_gui), lewis_sequencer::Supervision::Page);
     let mut records = vec![record(0, started())];
     records.extend(
         start

@@ -2,7 +2,9 @@
 
 use std::path::Path;
 
-use lewis_sequencer::{Decision, Event, MemorySources, Sequencer, TrustingResolver, check_with};
+use lewis_sequencer::{
+    Decision, Event, MemorySources, Sequencer, Supervision, TrustingResolver, check_with,
+};
 use proptest::prelude::*;
 
 /// Words that make lines the parser has to think about.
@@ -91,6 +93,12 @@ fn event() -> impl Strategy<Value = Event> {
 /// Parses and checks `main` (which may include `b.seq` or itself) and, when it is a valid
 /// mission, runs `events` through the FSM, checking what must always hold.
 fn exercise(main: &str, other: &str, events: &[Event]) {
+    for supervision in [Supervision::Page, Supervision::Unattended] {
+        exercise_supervised(main, other, events, supervision);
+    }
+}
+
+fn exercise_supervised(main: &str, other: &str, events: &[Event], supervision: Supervision) {
     let sources = MemorySources::new()
         .with("a.seq", main)
         .with("b.seq", other);
@@ -104,7 +112,7 @@ fn exercise(main: &str, other: &str, events: &[Event]) {
         }
     };
     let _ = checked.warnings.to_string();
-    let (mut sequencer, mut decisions) = Sequencer::start(checked.mission.clone());
+    let (mut sequencer, mut decisions) = Sequencer::start(checked.mission.clone(), supervision);
     for event in events {
         let was_over = sequencer.is_over();
         let before = format!("{:?} {:?}", sequencer.running(), sequencer.is_asking());

@@ -1,5 +1,13 @@
-//! The layout the viewer opens with: the world on the left with the plots under it; the
-//! robot frame, the camera, the state lanes and the text logs on the right.
+//! The layout the viewer opens with: the world on the left with the state lanes under it
+//! (bindings, services, health, the sequencer's state: a failover is a lane changing
+//! colour); the robot frame and the camera, the text logs (decisions first, then the
+//! commands and the services' output) and the plots on the right. For a replay's
+//! output, the re-simulated lanes and logs get views of their own beside the recorded ones.
+//!
+//! The viewer opens at the end of the run on the `log_time` timeline (the whole path, and
+//! the scans of the end; scrub back to see the failover), the world view framed on where
+//! the robot went, the robot frame on the sensors' reach, and the side panels collapsed so
+//! the views get the room.
 //!
 //! Built from Rerun's blueprint archetypes with ids numbered from the layout (not random,
 //! as the SDK's blueprint builder makes them), so that the .rrd file stays the same for
@@ -9,13 +17,14 @@ use rerun::external::re_log_types::{
     BlueprintActivationCommand, LogMsg, SetStoreInfo, StoreInfo, StoreSource,
 };
 use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, ViewBlueprint, ViewContents, ViewportBlueprint,
+    ContainerBlueprint, PanelBlueprint, TimePanelBlueprint, ViewBlueprint, ViewContents,
+    ViewportBlueprint, VisualBounds2D,
 };
 use rerun::external::re_sdk_types::blueprint::components::{
-    ColumnShare, ContainerKind, IncludedContent, QueryExpression, RootContainer, RowShare,
-    ViewClass,
+    ColumnShare, ContainerKind, IncludedContent, PanelState, PlayState, QueryExpression,
+    RootContainer, RowShare, ViewClass,
 };
-use rerun::external::re_sdk_types::datatypes::Uuid;
+use rerun::external::re_sdk_types::datatypes::{Range1D, Range2D, Uuid};
 use rerun::external::re_tuid::Tuid;
 use rerun::log::{Chunk, ChunkId, RowId};
 use rerun::{AsComponents, Transform3D};
@@ -32,6 +41,32 @@ struct View<'a> {
     origin: &'a str,
     contents: &'a [&'a str],
 }
+
+/// A rectangle of a frame, metres, x then y (y up, as the robot's frames are).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Bounds {
+    /// Least and greatest x.
+    pub x_m: [f64; 2],
+    /// Least and greatest y.
+    pub y_m: [f64; 2],
+}
+
+impl Bounds {
+    /// The bounds as the 2D view sees them: its origin is above the frame's y mirror.
+    fn in_view(self) -> Range2D {
+        Range2D {
+            x_range: Range1D(self.x_m),
+            y_range: Range1D([-self.y_m[1], -self.y_m[0]]),
+        }
+    }
+}
+
+/// What the robot frame view shows: the outline and the sensors' reach around it (the
+/// laser's 8 m ahead, the sonar's 5 m all round).
+const ROBOT_FRAME_BOUNDS: Bounds = Bounds {
+    x_m: [-5.5, 8.5],
+    y_m: [-6.0, 6.0],
+};
 
 const WORLD: View<'static> = View {
     class: "2D",
@@ -53,15 +88,51 @@ const CAMERA: View<'static> = View {
 };
 const STATES: View<'static> = View {
     class: "StateTimeline",
-    name: "Bindings, services, health",
+    name: "Bindings, services, health, sequencer",
     origin: "/status",
-    contents: &["+ $origin/**"],
+    contents: &["+ $origin/**", "- $origin/replay/**"],
 };
 const EVENTS: View<'static> = View {
     class: "TextLog",
-    name: "Events",
+    name: "Broker, health, sequencer",
     origin: "/events",
+    contents: &[
+        "+ $origin/**",
+        "- $origin/commands/**",
+        "- $origin/log/**",
+        "- $origin/mover/**",
+        "- $origin/replay/**",
+    ],
+};
+const MOTION: View<'static> = View {
+    class: "TextLog",
+    name: "Motion",
+    origin: "/events/mover",
     contents: &["+ $origin/**"],
+};
+const COMMANDS: View<'static> = View {
+    class: "TextLog",
+    name: "Commands",
+    origin: "/events/commands",
+    contents: &["+ $origin/**"],
+};
+const OUTPUT: View<'static> = View {
+    class: "TextLog",
+    name: "Services' output",
+    origin: "/events/log",
+    contents: &["+ $origin/**"],
+};
+const REPLAY_STATES: View<'static> = View {
+    class: "StateTimeline",
+    name: "Re-simulated: bindings, services, health, faults",
+    origin: "/status/replay",
+    contents: &["+ $origin/**"],
+};
+const REPLAY_EVENTS: View<'static> = View {
+    class: "TextLog",
+    name: "Re-simulated events and injected faults",
+    origin: "/events/replay",
+    contents: &["+ $origin/**", "- $origin/commands/**"],
 };
 const TOPICS: View<'static> = View {
     class: "TextLog",
@@ -103,21 +174,77 @@ fn uuid_text(n: u64) -> String {
     format!("1e715000-0000-4000-8000-{n:012x}")
 }
 
+/// What the recording holds that changes the layout.
+pub(crate) struct Contents<'a> {
+    /// Camera images: a camera view.
+    pub camera: bool,
+    /// A replay's outputs: views of the re-simulated lanes and logs beside the recorded.
+    pub replay: bool,
+    /// Topics with plots: one plot each (one scale per interface: volts and metres per
+    /// second do not share an axis well).
+    pub plotted_topics: &'a [String],
+    /// What the world view frames (where the robot went), or the data's own bounds.
+    pub world_bounds: Option<Bounds>,
+}
+
 /// The blueprint's messages, and the command that makes it the default and active layout.
-/// `with_camera` adds the camera view (only when the recording has images); each of
-/// `plotted_topics` gets its own plot (one scale per interface: volts and metres per
-/// second do not share an axis well).
 pub(crate) fn blueprint(
     recording_id: &str,
-    with_camera: bool,
-    plotted_topics: &[String],
+    contents: &Contents<'_>,
 ) -> Result<(Vec<LogMsg>, BlueprintActivationCommand), ViewError> {
+    let Contents {
+        camera: with_camera,
+        replay,
+        plotted_topics,
+        world_bounds,
+    } = *contents;
     let store = store_id(StoreKind::Blueprint, &format!("{recording_id}-layout"));
     let mut layout = Layout {
         next: 0,
         rows: Vec::new(),
     };
     let world = layout.view(&WORLD);
+    if let Some(bounds) = world_bounds {
+        layout.bounds(&world, bounds);
+    }
+    let mut states = layout.view(&STATES);
+    if replay {
+        let replay_states = layout.view(&REPLAY_STATES);
+        states = layout.container(
+            ContainerKind::Horizontal,
+            &[states, replay_states],
+            &[0.5, 0.5],
+        );
+    }
+    // The lanes under the world, wide: a failover is a lane changing colour.
+    let left = layout.container(ContainerKind::Vertical, &[world, states], &[0.6, 0.4]);
+
+    let robot = layout.view(&ROBOT);
+    layout.bounds(&robot, ROBOT_FRAME_BOUNDS);
+    let top = if with_camera {
+        let camera = layout.view(&CAMERA);
+        layout.container(ContainerKind::Horizontal, &[robot, camera], &[0.5, 0.5])
+    } else {
+        robot
+    };
+    let decisions = layout.view(&EVENTS);
+    let motion = layout.view(&MOTION);
+    let commands = layout.view(&COMMANDS);
+    let output = layout.view(&OUTPUT);
+    let topics = layout.view(&TOPICS);
+    let mut logs = layout.container(
+        ContainerKind::Tabs,
+        &[decisions, motion, commands, output, topics],
+        &[],
+    );
+    if replay {
+        let replay_events = layout.view(&REPLAY_EVENTS);
+        logs = layout.container(
+            ContainerKind::Horizontal,
+            &[logs, replay_events],
+            &[0.5, 0.5],
+        );
+    }
     let plot_views: Vec<Part> = plotted_topics
         .iter()
         .map(|topic| {
@@ -130,33 +257,32 @@ pub(crate) fn blueprint(
             })
         })
         .collect();
-    let left = if plot_views.is_empty() {
-        world
+    let right = if plot_views.is_empty() {
+        layout.container(ContainerKind::Vertical, &[top, logs], &[0.55, 0.45])
     } else {
         let plots = layout.container(ContainerKind::Tabs, &plot_views, &[]);
-        layout.container(ContainerKind::Vertical, &[world, plots], &[0.65, 0.35])
-    };
-    let robot = layout.view(&ROBOT);
-    let states = layout.view(&STATES);
-    let events = layout.view(&EVENTS);
-    let topics = layout.view(&TOPICS);
-    let logs = layout.container(ContainerKind::Tabs, &[events, topics], &[]);
-    let right = if with_camera {
-        let camera = layout.view(&CAMERA);
-        let top = layout.container(ContainerKind::Horizontal, &[robot, camera], &[0.5, 0.5]);
         layout.container(
             ContainerKind::Vertical,
-            &[top, states, logs],
-            &[0.45, 0.25, 0.3],
-        )
-    } else {
-        layout.container(
-            ContainerKind::Vertical,
-            &[robot, states, logs],
-            &[0.45, 0.25, 0.3],
+            &[top, logs, plots],
+            &[0.4, 0.32, 0.28],
         )
     };
     let root = layout.container(ContainerKind::Horizontal, &[left, right], &[0.55, 0.45]);
+    for panel in ["blueprint_panel", "selection_panel"] {
+        layout.rows.push((
+            EntityPath::from_single_string(panel),
+            Box::new(PanelBlueprint::new().with_state(PanelState::Collapsed)),
+        ));
+    }
+    layout.rows.push((
+        EntityPath::from_single_string("time_panel"),
+        Box::new(
+            TimePanelBlueprint::new()
+                .with_state(PanelState::Collapsed)
+                .with_timeline(crate::LOG_TIME)
+                .with_play_state(PlayState::Following),
+        ),
+    ));
     layout.rows.push((
         EntityPath::from_single_string("viewport"),
         Box::new(
@@ -235,6 +361,14 @@ impl Layout {
             ),
         ));
         Part(path, n)
+    }
+
+    /// Frames the 2D view `view` on `bounds`.
+    fn bounds(&mut self, view: &Part, bounds: Bounds) {
+        self.rows.push((
+            EntityPath::parse_forgiving(&format!("{}/VisualBounds2D", view.0)),
+            Box::new(VisualBounds2D::new(bounds.in_view())),
+        ));
     }
 
     fn container(&mut self, kind: ContainerKind, children: &[Part], shares: &[f32]) -> Part {

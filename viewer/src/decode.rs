@@ -7,7 +7,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::dynamic::{Decoder, Value};
 use lewis_interfaces::msg::{
     Blobs, Blobs3D, Broker, CommandLog, Egomotion, GroundTruth, Health, ImageSource, LogLine,
-    Mover, RangeFinder, Signs,
+    Mover, RangeFinder, Sequencer, Signs,
 };
 
 use crate::source::ChannelInfo;
@@ -39,6 +39,8 @@ pub(crate) enum Drawn {
     LogLine(LogLine),
     /// A command a service answered.
     CommandLog(CommandLog),
+    /// A record of the sequencer.
+    Sequencer(Sequencer),
 }
 
 /// What a message became.
@@ -73,6 +75,7 @@ enum Kind {
     Health,
     LogLine,
     CommandLog,
+    Sequencer,
     Other,
 }
 
@@ -91,6 +94,7 @@ impl Kind {
             Health::SCHEMA_NAME => Self::Health,
             LogLine::SCHEMA_NAME => Self::LogLine,
             CommandLog::SCHEMA_NAME => Self::CommandLog,
+            Sequencer::SCHEMA_NAME => Self::Sequencer,
             _ => Self::Other,
         }
     }
@@ -151,6 +155,7 @@ impl ChannelDecoder {
             Kind::Health => typed(data, Drawn::Health),
             Kind::LogLine => typed(data, Drawn::LogLine),
             Kind::CommandLog => typed(data, Drawn::CommandLog),
+            Kind::Sequencer => typed(data, Drawn::Sequencer),
             Kind::Other => None,
         };
         match drawn {

@@ -32,6 +32,7 @@ mod output;
 mod report;
 mod rows;
 mod source;
+mod world_map;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -43,6 +44,7 @@ pub use error::ViewError;
 pub use output::APPLICATION_ID;
 pub use report::ViewReport;
 pub use rows::{LOG_TIME, PUBLISH_TIME};
+pub use world_map::MapStatus;
 
 use decode::ChannelDecoder;
 use output::Output;
@@ -60,8 +62,13 @@ pub const RERUN_SDK_PIP_VERSION: &str = RERUN_VERSION;
 pub enum Target {
     /// Written to this .rrd file (replaced if it exists).
     Save(PathBuf),
-    /// Sent to a Rerun viewer started for it (the `rerun` binary on the PATH).
-    Spawn,
+    /// Sent to a Rerun viewer started for it (the `rerun` binary on the PATH) listening on
+    /// this port ([`DEFAULT_VIEWER_PORT`] usually), or to the viewer that already listens
+    /// there.
+    Spawn {
+        /// The viewer's gRPC port.
+        port: u16,
+    },
     /// Sent to a running Rerun viewer at this gRPC address
     /// (`rerun+http://127.0.0.1:9876/proxy`).
     Connect(String),
@@ -76,13 +83,17 @@ pub struct ViewOptions {
     pub progress: bool,
 }
 
-/// Whether a `rerun` binary is on the PATH, so that [`Target::Spawn`] can work.
+/// The port a Rerun viewer listens on for SDKs unless told otherwise.
+pub const DEFAULT_VIEWER_PORT: u16 = 9876;
+
+/// Whether an executable `rerun` is on the PATH, so that [`Target::Spawn`] can work.
 #[must_use]
 pub fn rerun_on_path() -> bool {
+    use std::os::unix::fs::PermissionsExt;
     std::env::var_os("PATH").is_some_and(|paths| {
         std::env::split_paths(&paths).any(|dir| {
-            let candidate = dir.join("rerun");
-            candidate.is_file()
+            std::fs::metadata(dir.join("rerun"))
+                .is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
         })
     })
 }
@@ -126,7 +137,7 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
     }
     let mut output = match &options.target {
         Target::Save(path) => Output::file(path, &recording_id)?,
-        Target::Spawn => Output::spawn(&recording_id)?,
+        Target::Spawn { port } => Output::spawn(&recording_id, *port)?,
         Target::Connect(address) => Output::connect(address, &recording_id)?,
     };
     let bar = if options.progress {
@@ -145,6 +156,7 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
     blueprint::log_frames(scene.rows_mut(), &mut output)?;
     scene.start(&mut output)?;
     let mut damage = Vec::new();
+    let mut map = None;
     let mut channels = 0;
     let mut done_bytes = 0;
     for input in inputs {
@@ -175,11 +187,34 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
         if let Some(reason) = outcome.damage {
             damage.push((input.clone(), reason));
         }
+        if map.is_none()
+            && let Some(world) = world_map::named_world(&outcome.metadata)
+        {
+            map = Some(match world_map::find(&world, input) {
+                Ok(found) => {
+                    world_map::log(scene.rows_mut(), &mut output, &found)?;
+                    MapStatus::Drawn {
+                        image: found.image,
+                        width_px: found.width_px,
+                        height_px: found.height_px,
+                    }
+                }
+                Err(missing) => missing,
+            });
+        }
     }
     scene.finish(&mut output)?;
     bar.finish_and_clear();
-    let (layout, activation) =
-        blueprint::blueprint(&recording_id, scene.has_images(), &scene.plotted_topics())?;
+    let plotted_topics = scene.plotted_topics();
+    let (layout, activation) = blueprint::blueprint(
+        &recording_id,
+        &blueprint::Contents {
+            camera: scene.has_images(),
+            replay: scene.has_replay(),
+            plotted_topics: &plotted_topics,
+            world_bounds: scene.world_bounds(),
+        },
+    )?;
     output.finish(layout, activation)?;
     Ok(ViewReport {
         inputs: inputs.to_vec(),
@@ -189,5 +224,6 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
         entities: scene.row_counts().clone(),
         failures: scene.failures.clone(),
         damage,
+        map,
     })
 }

@@ -37,6 +37,16 @@ fn set_store_info(store_id: StoreId, tuid: u128) -> LogMsg {
     })
 }
 
+/// Waits until the viewer behind `stream` is connected, or says why it cannot be. The SDK
+/// queues a bounded number of messages while it connects and then blocks the sender: with
+/// no viewer there, a recording of more than that many chunks would wait forever.
+fn reachable(stream: &RecordingStream, address: &str) -> Result<(), ViewError> {
+    stream.flush_blocking().map_err(|e| ViewError::Connect {
+        address: address.to_owned(),
+        detail: e.to_string(),
+    })
+}
+
 /// An open output.
 pub(crate) enum Output {
     /// An .rrd file.
@@ -77,18 +87,25 @@ impl Output {
         })
     }
 
-    /// Starts a viewer (the `rerun` binary on the PATH) and connects to it.
-    pub(crate) fn spawn(recording_id: &str) -> Result<Self, ViewError> {
+    /// Starts a viewer (the `rerun` binary on the PATH) on `port` and connects to it; a
+    /// process already listening there is taken for a viewer and used.
+    pub(crate) fn spawn(recording_id: &str, port: u16) -> Result<Self, ViewError> {
+        let options = rerun::SpawnOptions {
+            port,
+            // A viewer starting on a busy machine takes longer than the connection's own
+            // patience (5 s); waiting for its port first makes the start reliable.
+            wait_for_bind: true,
+            ..rerun::SpawnOptions::default()
+        };
         let stream = RecordingStreamBuilder::new(APPLICATION_ID)
             .recording_id(recording_id)
-            .spawn()
+            .spawn_opts(&options)
             .map_err(|e| ViewError::Spawn {
                 detail: e.to_string(),
             })?;
-        Ok(Self::Viewer {
-            address: "the spawned viewer".to_owned(),
-            stream,
-        })
+        let address = format!("the Rerun viewer on port {port}");
+        reachable(&stream, &address)?;
+        Ok(Self::Viewer { address, stream })
     }
 
     /// Connects to a running viewer at `address` (`rerun+http://127.0.0.1:9876/proxy`).
@@ -100,6 +117,7 @@ impl Output {
                 address: address.to_owned(),
                 detail: e.to_string(),
             })?;
+        reachable(&stream, address)?;
         Ok(Self::Viewer {
             address: address.to_owned(),
             stream,

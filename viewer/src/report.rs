@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::PathBuf;
 
-use crate::{Counts, Target};
+use crate::{Counts, MapStatus, Target};
 
 /// What [`crate::view`] did.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -23,6 +23,8 @@ pub struct ViewReport {
     pub failures: BTreeMap<String, (u64, String)>,
     /// Inputs that end in damage (a writer that died), with what the reader met.
     pub damage: Vec<(PathBuf, String)>,
+    /// The world map, when the recording names a simulated world.
+    pub map: Option<MapStatus>,
 }
 
 impl fmt::Display for ViewReport {
@@ -48,9 +50,17 @@ impl fmt::Display for ViewReport {
                 path.display()
             )?;
         }
+        if let Some(map) = &self.map {
+            writeln!(f, "{map}")?;
+        }
         match &self.target {
             Target::Save(path) => writeln!(f, "wrote {}", path.display()),
-            Target::Spawn => writeln!(f, "sent to the spawned Rerun viewer"),
+            Target::Spawn { port } => {
+                writeln!(
+                    f,
+                    "sent to the Rerun viewer on port {port} (started if none was)"
+                )
+            }
             Target::Connect(address) => writeln!(f, "sent to the Rerun viewer at {address}"),
         }
     }

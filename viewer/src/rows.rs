@@ -9,7 +9,8 @@ use std::collections::BTreeMap;
 
 use rerun::log::{Chunk, ChunkId, RowId};
 use rerun::{
-    AsComponents, EntityPath, SerializedComponentBatch, TimeCell, TimePoint, TimelineName,
+    AsComponents, EntityPath, SerializedComponentBatch, StateChange, TimeCell, TimePoint,
+    TimelineName,
 };
 
 use crate::ViewError;
@@ -34,12 +35,15 @@ pub(crate) struct Stamp {
 }
 
 impl Stamp {
+    /// The row's times; a publish time of 0 (a sender that does not say when it sent, as
+    /// for some foreign messages) is left off its timeline rather than put in 1970.
     fn time_point(self) -> TimePoint {
         let cell = |ns: u64| TimeCell::from_timestamp_nanos_since_epoch(clamp_ns(ns));
-        TimePoint::from([
-            (TimelineName::from(LOG_TIME), cell(self.log_time_ns)),
-            (TimelineName::from(PUBLISH_TIME), cell(self.publish_time_ns)),
-        ])
+        let log = TimePoint::from([(TimelineName::from(LOG_TIME), cell(self.log_time_ns))]);
+        if self.publish_time_ns == 0 {
+            return log;
+        }
+        log.with_index(TimelineName::from(PUBLISH_TIME), cell(self.publish_time_ns))
     }
 }
 
@@ -68,6 +72,8 @@ pub(crate) struct Rows {
     pending: BTreeMap<String, Pending>,
     counter: u64,
     row_counts: BTreeMap<String, u64>,
+    /// Per state lane: its values, in the order they first appeared.
+    lanes: BTreeMap<String, (EntityPath, Vec<String>)>,
 }
 
 impl Rows {
@@ -76,7 +82,38 @@ impl Rows {
             pending: BTreeMap::new(),
             counter: 0,
             row_counts: BTreeMap::new(),
+            lanes: BTreeMap::new(),
         }
+    }
+
+    /// Sets the state lane at `path` to `value` from `stamp` on (a [`StateChange`]),
+    /// remembering the values each lane took, for their colours.
+    pub(crate) fn lane(
+        &mut self,
+        sink: &mut dyn ChunkSink,
+        path: &EntityPath,
+        stamp: Stamp,
+        value: &str,
+    ) -> Result<(), ViewError> {
+        let (_, values) = self
+            .lanes
+            .entry(path.to_string())
+            .or_insert_with(|| (path.clone(), Vec::new()));
+        if !values.iter().any(|v| v == value) {
+            values.push(value.to_owned());
+        }
+        self.log(
+            sink,
+            path,
+            stamp,
+            &StateChange::single(value.to_owned()),
+            64,
+        )
+    }
+
+    /// Every state lane and its values in order of first appearance.
+    pub(crate) fn take_lanes(&mut self) -> Vec<(EntityPath, Vec<String>)> {
+        std::mem::take(&mut self.lanes).into_values().collect()
     }
 
     /// Rows logged per entity path so far (static rows included).
@@ -101,6 +138,22 @@ impl Rows {
         let key = path.to_string();
         *self.row_counts.entry(key.clone()).or_default() += 1;
         let row_id = RowId::from_u128(self.next_id(stamp.log_time_ns));
+        let time_point = stamp.time_point();
+        // Every row of a chunk has the same timelines: a row without a publish time starts
+        // a chunk of its own.
+        let same_timelines = |pending: &Pending| {
+            pending.rows.first().is_none_or(|(_, first, _)| {
+                first
+                    .iter()
+                    .map(|(name, _)| name)
+                    .eq(time_point.iter().map(|(name, _)| name))
+            })
+        };
+        if self.pending.get(&key).is_some_and(|p| !same_timelines(p))
+            && let Some(pending) = self.pending.remove(&key)
+        {
+            self.emit(sink, pending)?;
+        }
         let pending = self.pending.entry(key).or_insert_with(|| Pending {
             path: path.clone(),
             first_ns: stamp.log_time_ns,
@@ -109,7 +162,7 @@ impl Rows {
         });
         pending
             .rows
-            .push((row_id, stamp.time_point(), data.as_serialized_batches()));
+            .push((row_id, time_point, data.as_serialized_batches()));
         pending.bytes += bytes;
         if pending.rows.len() >= MAX_ROWS_PER_CHUNK || pending.bytes >= MAX_BYTES_PER_CHUNK {
             let key = path.to_string();

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use lewis_tests::{python_tool, repo_root, run_ok, shared_data};
-use lewis_viewer::{Target, ViewError, ViewOptions, ViewReport, view};
+use lewis_viewer::{MapStatus, Target, ViewError, ViewOptions, ViewReport, view};
 
 fn save(inputs: &[PathBuf], out: &Path) -> Result<ViewReport, ViewError> {
     view(
@@ -41,29 +41,60 @@ const FAILOVER_ROWS: &[(&str, u64)] = &[
     ("/world/odometry/pose", 20),
     ("/world/odometry/path", 1),
     ("/robot/body", 1),
-    ("/robot/scans/laser/RangeFinder", 10),
-    ("/world/scans/laser/RangeFinder", 10),
+    // 10 scans, then cleared a second after the last one: the laser is gone.
+    ("/robot/scans/laser/RangeFinder", 11),
+    ("/world/scans/laser/RangeFinder", 11),
     ("/robot/scans/laser/RangeFinder/rays", 0),
     ("/robot/scans/sonar/RangeFinder", 10),
     ("/robot/scans/sonar/RangeFinder/rays", 10),
     ("/world/scans/sonar/RangeFinder", 10),
     ("/world/scans/sonar/RangeFinder/rays", 10),
     ("/events/broker", 1),
-    ("/status/bindings/avoider/RangeFinder", 1),
-    ("/status/health/laser", 2),
+    // The lanes have their colours besides their changes, for all times.
+    ("/status/bindings/avoider/RangeFinder", 1 + 1),
+    ("/status/health/laser", 2 + 1),
     ("/events/health", 2),
     ("/events/log/laser", 1),
     ("/camera/camera/ImageSource/image", 1),
     ("/camera/camera/ImageSource/blobs/blobs/Blobs", 1),
-    ("/world/mover/goal", 20),
-    ("/world/mover/waypoint", 20),
-    ("/status/mover/mover/Mover", 2),
+    ("/world/odometry/mover/goal", 20),
+    ("/world/odometry/mover/waypoint", 20),
+    ("/status/mover/mover/Mover", 2 + 1),
     ("/events/mover/mover/Mover", 2),
     ("/plots/mover/Mover/distance_to_goal", 20),
     ("/plots/sim-base/Egomotion/translation_velocity", 20),
     ("/plots/sim-base/GroundTruth/pose/theta", 20),
     ("/plots/base/Power/voltage", 20),
     ("/plots/base/Power/charging", 20),
+    ("/world/map", 2),
+    ("/world/blobs3d/blobfinder3d/Blobs3D", 1),
+    ("/world/signs/signs/Signs", 1),
+    ("/camera/camera/ImageSource/signs/signs/Signs", 1),
+    ("/camera/camera/ImageSource/signs/signs/Signs/arrows", 1),
+    ("/events/sequencer", common::MISSION_RECORDS),
+    // door, sign (its restart stays on sign), oops, asking the supervisor, sign, stop.
+    ("/status/sequencer", 6 + 1),
+];
+
+/// The expected rows of the replay's output (`common::replay_run`): the recorded broker
+/// and mover and the re-simulated ones on entities of their own, the fault marked.
+const REPLAY_ROWS: &[(&str, u64)] = &[
+    ("/events/broker", 1),
+    ("/status/bindings/avoider/RangeFinder", 1 + 1),
+    ("/events/replay/broker", 2),
+    ("/status/replay/bindings/avoider/RangeFinder", 2 + 1),
+    ("/status/replay/health/laser", 1 + 1),
+    ("/events/replay/health", 1),
+    ("/world/odometry/mover/goal", 20),
+    ("/world/odometry/replay/mover/goal", 20),
+    ("/status/mover/mover/Mover", 1 + 1),
+    ("/status/replay/mover/mover/Mover", 1 + 1),
+    ("/events/replay/faults", 2),
+    ("/status/replay/faults/laser", 2 + 1),
+    ("/world/replay/faults", 1),
+    ("/events/log/laser", 0),
+    ("/events/replay/log/laser", 0),
+    ("/world/map", 0),
 ];
 
 #[test]
@@ -75,6 +106,121 @@ fn a_failover_run_draws_every_interface_on_its_entity() {
     assert_eq!(report.counts.failed, 0, "{report}");
     assert!(report.damage.is_empty(), "{report}");
     assert!(report.failures.is_empty(), "{report}");
+    assert!(
+        !report
+            .entities
+            .keys()
+            .any(|e| e.starts_with("/plots/lewis/sequencer")),
+        "sequencer records are not plotted: {report}"
+    );
+}
+
+#[test]
+fn the_world_map_named_by_the_robot_description_is_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = common::failover_run(dir.path());
+    let report = save(&[run], &dir.path().join("run.rrd")).unwrap();
+    assert_eq!(
+        report.map,
+        Some(MapStatus::Drawn {
+            image: PathBuf::from(common::conference_world()).join("map.png"),
+            width_px: 800,
+            height_px: 500,
+        })
+    );
+    assert!(report.to_string().contains("world map "), "{report}");
+}
+
+#[test]
+fn a_relative_world_is_found_above_the_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let world = dir.path().join("worlds/copy");
+    std::fs::create_dir_all(&world).unwrap();
+    let conference = PathBuf::from(common::conference_world());
+    for file in ["world.toml", "map.png"] {
+        std::fs::copy(conference.join(file), world.join(file)).unwrap();
+    }
+    let logs = dir.path().join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    let run = common::failover_run_in(&logs, Some("worlds/copy"));
+    let report = save(&[run], &dir.path().join("run.rrd")).unwrap();
+    assert!(
+        matches!(&report.map, Some(MapStatus::Drawn { image, .. }) if image.ends_with("worlds/copy/map.png")),
+        "{report}"
+    );
+    assert_eq!(report.entities.get("/world/map"), Some(&2), "{report}");
+}
+
+#[test]
+fn a_world_that_is_not_found_is_reported_and_the_rest_is_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = common::failover_run_in(dir.path(), Some("robots/worlds/nowhere"));
+    let report = save(&[run], &dir.path().join("run.rrd")).unwrap();
+    let Some(MapStatus::Missing { world, detail }) = &report.map else {
+        panic!("the map is not reported missing: {report}");
+    };
+    assert_eq!(world, "robots/worlds/nowhere");
+    assert!(
+        detail.contains("no world.toml in robots/worlds/nowhere"),
+        "{detail}"
+    );
+    assert!(
+        report
+            .to_string()
+            .contains("no world map drawn for world `robots/worlds/nowhere`"),
+        "{report}"
+    );
+    assert_eq!(report.entities.get("/world/map"), None, "{report}");
+    assert_eq!(
+        report.entities.get("/world/robot/pose"),
+        Some(&20),
+        "{report}"
+    );
+}
+
+#[test]
+fn a_recording_without_a_world_names_no_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = common::failover_run_in(dir.path(), None);
+    let report = save(&[run], &dir.path().join("run.rrd")).unwrap();
+    assert_eq!(report.map, None, "{report}");
+}
+
+#[test]
+fn a_replays_outputs_are_drawn_beside_the_recorded_ones_and_faults_are_marked() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = common::replay_run(dir.path());
+    let rrd = dir.path().join("replay.rrd");
+    let report = save(&[run], &rrd).unwrap();
+    check_rows(&report.entities, REPLAY_ROWS);
+    assert_eq!(report.counts.failed, 0, "{report}");
+    let read = rerun_reads(&rrd);
+    check_rows(&read.rows, REPLAY_ROWS);
+    assert_eq!(
+        read.texts["/events/replay/faults"],
+        [
+            "fault injected: laser stall (laser@1s-1.5s:stall)",
+            "fault ends: laser recovers (laser@1s-1.5s:stall)"
+        ]
+    );
+    assert_eq!(
+        read.states["/status/replay/faults/laser"],
+        ["fault: stall", "no fault"]
+    );
+    assert_eq!(
+        read.states["/status/bindings/avoider/RangeFinder"],
+        ["laser"]
+    );
+    assert_eq!(
+        read.states["/status/replay/bindings/avoider/RangeFinder"],
+        ["laser", "sonar"]
+    );
+    let names: Vec<&str> = read.views.iter().map(|v| v.name.as_str()).collect();
+    assert!(
+        names.contains(&"Re-simulated: bindings, services, health, faults")
+            && names.contains(&"Re-simulated events and injected faults"),
+        "{names:?}"
+    );
 }
 
 /// The bytes of an .rrd file before its footer (Rerun's `End` message and stream footer),
@@ -107,18 +253,33 @@ fn the_same_recording_gives_the_same_rrd_messages() {
     assert!(a == b, "two conversions of one recording differ");
 }
 
-/// What Rerun's own reader finds in an .rrd file: rows per entity (static rows included).
-fn rerun_reads(rrd: &Path) -> BTreeMap<String, u64> {
+/// A view of the blueprint, as Rerun's reader finds it.
+#[derive(Debug, serde::Deserialize)]
+struct BlueprintView {
+    name: String,
+    class: String,
+    origin: String,
+    contents: Vec<String>,
+}
+
+/// What Rerun's own reader finds in an .rrd file.
+#[derive(Debug, serde::Deserialize)]
+struct RerunRead {
+    /// Rows per entity (static rows included).
+    rows: BTreeMap<String, u64>,
+    /// The texts of every text log, in row order.
+    texts: BTreeMap<String, Vec<String>>,
+    /// The values of every state lane, in row order.
+    states: BTreeMap<String, Vec<String>>,
+    /// The blueprint's views.
+    views: Vec<BlueprintView>,
+}
+
+fn rerun_reads(rrd: &Path) -> RerunRead {
     let script = repo_root().join("viewer/tests/python/check_rrd.py");
     let out = run_ok(python_tool("python").arg(script).arg(rrd));
-    let json: serde_json::Value = serde_json::from_str(&out)
-        .unwrap_or_else(|e| panic!("check_rrd.py printed no JSON ({e}):\n{out}"));
-    json["rows"]
-        .as_object()
-        .unwrap_or_else(|| panic!("no rows in {json}"))
-        .iter()
-        .map(|(path, rows)| (path.clone(), rows.as_u64().unwrap()))
-        .collect()
+    serde_json::from_str(&out)
+        .unwrap_or_else(|e| panic!("check_rrd.py printed no JSON I can read ({e}):\n{out}"))
 }
 
 #[test]
@@ -128,7 +289,81 @@ fn rerun_reads_the_rrd_with_the_expected_entities_and_rows() {
     let rrd = dir.path().join("run.rrd");
     save(&[run], &rrd).unwrap();
     let _ = run_ok(python_tool("rerun").args(["rrd", "verify"]).arg(&rrd));
-    check_rows(&rerun_reads(&rrd), FAILOVER_ROWS);
+    let read = rerun_reads(&rrd);
+    check_rows(&read.rows, FAILOVER_ROWS);
+    assert_eq!(
+        read.states["/status/sequencer"],
+        [
+            "door",
+            "sign",
+            "oops",
+            "asking the supervisor",
+            "sign",
+            "stop"
+        ]
+    );
+    let sequencer = &read.texts["/events/sequencer"];
+    for line in [
+        "mission challenge.seq started: states door, sign, oops; the supervisor: page",
+        "door exited with code 0",
+        "transition door -> sign on exit code 0",
+        "sign was killed by signal 11",
+        "restart sign attempt 2",
+        "recovery from sign",
+        "help: the supervisor is asked where to resume (door, sign, oops or stop, suggested \
+         stop): recovery `oops` is over (exit code 0)",
+        "the supervisor chose sign",
+        "resume at sign",
+        "transition sign -> stop on exit code 0",
+        "mission finished",
+        "started sign attempt 1 (pid 4242)",
+    ] {
+        assert!(
+            sequencer.iter().any(|l| l == line),
+            "no `{line}` in {sequencer:#?}"
+        );
+    }
+}
+
+#[test]
+fn the_blueprint_opens_on_the_views_of_a_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = common::failover_run(dir.path());
+    let rrd = dir.path().join("run.rrd");
+    save(&[run], &rrd).unwrap();
+    let views: Vec<String> = rerun_reads(&rrd)
+        .views
+        .iter()
+        .map(|v| {
+            format!(
+                "{} | {} | {} | {}",
+                v.name,
+                v.class,
+                v.origin,
+                v.contents.join(", ")
+            )
+        })
+        .collect();
+    assert_eq!(
+        views,
+        [
+            "World | 2D | / | + /world/**",
+            "Bindings, services, health, sequencer | StateTimeline | /status | + $origin/**, - $origin/replay/**",
+            "Robot frame | 2D | / | + /robot/**",
+            "Camera | 2D | /camera | + $origin/**",
+            "Broker, health, sequencer | TextLog | /events | + $origin/**, - $origin/commands/**, - $origin/log/**, - $origin/mover/**, - $origin/replay/**",
+            "Motion | TextLog | /events/mover | + $origin/**",
+            "Commands | TextLog | /events/commands | + $origin/**",
+            "Services' output | TextLog | /events/log | + $origin/**",
+            "Other topics | TextLog | /topics | + $origin/**",
+            "/base/Power | TimeSeries | /plots/base/Power | + $origin/**",
+            "/lewis/recorder/stats | TimeSeries | /plots/lewis/recorder/stats | + $origin/**",
+            "/mover/Mover | TimeSeries | /plots/mover/Mover | + $origin/**",
+            "/sim-base/Egomotion | TimeSeries | /plots/sim-base/Egomotion | + $origin/**",
+            "/sim-base/GroundTruth | TimeSeries | /plots/sim-base/GroundTruth | + $origin/**",
+        ],
+        "{views:#?}"
+    );
 }
 
 #[test]

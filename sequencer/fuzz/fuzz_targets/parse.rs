@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use lewis_sequencer::{Event, MemorySources, Sequencer, TrustingResolver, check_with};
+use lewis_sequencer::{Event, MemorySources, Sequencer, Supervision, TrustingResolver, check_with};
 use libfuzzer_sys::fuzz_target;
 
 fn event(kind: u8, value: u8) -> Event {
@@ -44,7 +44,12 @@ fuzz_target!(|data: &[u8]| {
     match check_with(Path::new("a.seq"), &sources, &TrustingResolver) {
         Ok(checked) => {
             let _ = checked.warnings.to_string();
-            let (mut sequencer, _) = Sequencer::start(checked.mission);
+            let supervision = if events.len() % 2 == 0 {
+                Supervision::Page
+            } else {
+                Supervision::Unattended
+            };
+            let (mut sequencer, _) = Sequencer::start(checked.mission, supervision);
             for pair in events.chunks(2) {
                 let decisions =
                     sequencer.handle(&event(pair[0], pair.get(1).copied().unwrap_or(0)));

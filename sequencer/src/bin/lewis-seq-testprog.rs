@@ -16,6 +16,12 @@
 //! follows the first plan, run 2 the second, and the last plan repeats. So
 //! `--runs c signal:SEGV signal:SEGV signal:SEGV signal:SEGV exit:0` crashes four times,
 //! then succeeds.
+//!
+//! **Stand-in mode.** Called by another name (a symbolic link `bin/DoorNavigator` to this
+//! program, so that a shipped mission script runs unchanged in a test), it ignores its
+//! arguments (it prints them, `PROGRAM args: ...`) and reads its plans from the file
+//! `PROGRAM.plans` beside the link, one plan per line, counting its runs in
+//! `PROGRAM.runs`.
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -24,9 +30,20 @@ use std::time::Duration;
 
 use nix::sys::signal::{self, SigHandler, Signal};
 
+/// This program's own name; any other name is a stand-in.
+const OWN_NAME: &str = "lewis-seq-testprog";
+
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match run(&args) {
+    let mut argv = std::env::args();
+    let called = argv.next().unwrap_or_default();
+    let args: Vec<String> = argv.collect();
+    let result = match Path::new(&called).file_name().and_then(|n| n.to_str()) {
+        Some(name) if name != OWN_NAME && !name.starts_with(&format!("{OWN_NAME}-")) => {
+            stand_in(&called, &args)
+        }
+        _ => run(&args),
+    };
+    match result {
         Ok(code) => code,
         Err(message) => {
             #[allow(clippy::print_stderr)]
@@ -57,6 +74,30 @@ fn run(args: &[String]) -> Result<ExitCode, String> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Runs as the program `called` (a link to this one): the plans of `called.plans`, the
+/// counter `called.runs`.
+fn stand_in(called: &str, args: &[String]) -> Result<ExitCode, String> {
+    let name = Path::new(called)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    #[allow(clippy::print_stdout)]
+    {
+        println!("{name} args: {args:?}");
+    }
+    let plans_path = format!("{called}.plans");
+    let plans: Vec<String> = std::fs::read_to_string(&plans_path)
+        .map_err(|e| format!("stand-in {name}: {plans_path}: {e}"))?
+        .lines()
+        .map(str::trim)
+        .filter(|line| !line.is_empty())
+        .map(str::to_owned)
+        .collect();
+    let mut args = vec!["--runs".to_owned(), format!("{called}.runs")];
+    args.extend(plans);
+    run(&args)
 }
 
 /// Reads, increments and writes back the run counter; returns this run's number from 1.

@@ -129,8 +129,8 @@ pub struct HistoryLine {
     pub seq: u64,
     /// When (ns since the Unix epoch).
     pub time_ns: i64,
-    /// What kind of line (`transition`, `restart`, `recovery`, `ask`, `resume`, `finished`,
-    /// `aborted`, `refused`), for its colour.
+    /// What kind of line (`start`, `transition`, `restart`, `recovery`, `ask`, `resume`,
+    /// `finished`, `aborted`, `refused`), for its colour.
     pub kind: &'static str,
     /// What happened, short.
     pub text: String,
@@ -157,6 +157,10 @@ pub struct View {
     pub visited: Vec<String>,
     /// The most recent history lines, oldest first.
     pub history: VecDeque<HistoryLine>,
+    /// Whether the first program has been run (its run is the history's first line; later
+    /// runs follow a line that explains them).
+    #[serde(skip)]
+    started: bool,
 }
 
 impl View {
@@ -172,6 +176,7 @@ impl View {
             outcome: None,
             visited: Vec::new(),
             history: VecDeque::new(),
+            started: false,
         }
     }
 
@@ -206,7 +211,13 @@ impl View {
                 if !self.visited.contains(state) {
                     self.visited.push(state.clone());
                 }
-                // The decision that explains a run is in the history already.
+                if self.started {
+                    // The decision that explains a run is in the history already.
+                    return;
+                }
+                self.started = true;
+                let text = format!("start at {state}");
+                self.push(record, "start", text, reason);
                 return;
             }
             Decision::Restart { .. } => "restart",
@@ -221,7 +232,13 @@ impl View {
                     suggested: suggested.clone(),
                     reason: reason.clone(),
                 });
-                "ask"
+                // The choices are on the buttons; the history says only that help was asked.
+                let text = suggested.as_ref().map_or_else(
+                    || "ask the supervisor".to_owned(),
+                    |s| format!("ask the supervisor (suggested {s})"),
+                );
+                self.push(record, "ask", text, reason);
+                return;
             }
             Decision::Resume { .. } => "resume",
             Decision::Transition { .. } => "transition",

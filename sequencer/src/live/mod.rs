@@ -30,7 +30,7 @@ pub use control::{Command, ControlReceiver, Controller, control_channel};
 pub use lewis_runtime::supervise::{LogLine, Stream};
 pub use signals::SignalForwarder;
 
-use crate::fsm::{Decision, Event, Sequencer};
+use crate::fsm::{Decision, Event, Sequencer, Supervision};
 use crate::mission::Mission;
 use crate::record::{Entry, Record, RecordSink};
 
@@ -47,10 +47,14 @@ pub struct RunOptions {
     /// Variables set for every program before the script's own `env` (which win): what the
     /// caller knows and the script should not have to say, such as `LEWIS_NAMESPACE`.
     pub env: BTreeMap<String, String>,
+    /// Who answers the sequencer's questions; the caller serves the page or reads the
+    /// terminal (a [`crate::gui::GuiSink`], a [`crate::TerminalChooser`]) and says so here.
+    pub supervision: Supervision,
 }
 
 impl RunOptions {
-    /// Options for the mission of `script`: the default grace, output to `tracing` only.
+    /// Options for the mission of `script`: the default grace, output to `tracing` only,
+    /// nobody to ask ([`Supervision::Unattended`]).
     #[must_use]
     pub fn new(script: impl Into<PathBuf>) -> Self {
         Self {
@@ -58,6 +62,7 @@ impl RunOptions {
             stop_grace: DEFAULT_STOP_GRACE,
             log_lines: None,
             env: BTreeMap::new(),
+            supervision: Supervision::Unattended,
         }
     }
 }
@@ -121,12 +126,21 @@ pub fn run_mission(
         stop_grace: options.stop_grace,
         env: options.env,
     };
+    match options.supervision {
+        Supervision::Unattended => tracing::warn!(
+            "nobody can answer the sequencer (no supervisor's page, and the standard input \
+             is not a terminal): after recovery the recovery state's actions apply, and a \
+             failed recovery aborts the mission"
+        ),
+        asked => tracing::info!("the supervisor is asked on {asked} after recovery"),
+    }
     driver.recorder.emit(Entry::MissionStarted {
         script: options.script,
         states: mission.states().iter().map(|s| s.name.clone()).collect(),
         use_gui: mission.use_gui(),
+        supervision: Some(options.supervision),
     });
-    let (mut sequencer, decisions) = Sequencer::start(mission);
+    let (mut sequencer, decisions) = Sequencer::start(mission, options.supervision);
     for decision in decisions {
         driver.apply(decision);
     }

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use lewis_sequencer::live::{Controller, LogLine, RunOptions, control_channel, run_mission};
 use lewis_sequencer::record::{ChannelSink, Entry, Record, RecordSink, Tee};
-use lewis_sequencer::{Decision, Mission, Outcome, check_file};
+use lewis_sequencer::{Decision, Mission, Outcome, Supervision, check_file};
 
 /// The test program built with this crate.
 pub const TESTPROG: &str = env!("CARGO_BIN_EXE_lewis-seq-testprog");
@@ -69,6 +69,8 @@ pub fn run_live(
     let (tx, rx) = mpsc::channel();
     let options = options(RunOptions {
         stop_grace: Duration::from_millis(500),
+        // As `lewis seq run` without a terminal: the page with `use gui`, else nobody.
+        supervision: Supervision::decide(mission.use_gui(), false, false),
         ..RunOptions::new(script)
     });
     std::thread::scope(|scope| {

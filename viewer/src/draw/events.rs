@@ -1,13 +1,13 @@
 //! Text logs and state lanes: broker decisions, bindings, health, services' output lines,
-//! commands, the Mover's status and the sequencer.
+//! commands and the Mover's status, each under its [`Side`] (recorded or re-simulated).
 
 use std::collections::BTreeMap;
 
 use lewis_interfaces::dynamic::Value;
 use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Mover};
-use rerun::{StateChange, TextLog};
+use rerun::TextLog;
 
-use super::{entity, topic_entity};
+use super::{Side, topic_entity};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
 
@@ -17,9 +17,8 @@ const MAX_ITEMS_SHOWN: usize = 8;
 /// What was last shown, so that heartbeats and repeated statuses log only their changes.
 #[derive(Debug, Default)]
 pub(super) struct EventState {
-    health: BTreeMap<String, (String, String)>,
-    mover_status: BTreeMap<String, String>,
-    sequencer_state: Option<String>,
+    health: BTreeMap<(Side, String), (String, String)>,
+    mover_status: BTreeMap<(Side, String), String>,
 }
 
 impl EventState {
@@ -28,21 +27,22 @@ impl EventState {
         &mut self,
         rows: &mut Rows,
         sink: &mut dyn ChunkSink,
+        side: Side,
         stamp: Stamp,
         health: &Health,
     ) -> Result<(), ViewError> {
         let service = health.header.provider.clone();
         let now = (health.state.clone(), health.reason.clone());
-        if self.health.get(&service) == Some(&now) {
+        let key = (side, service.clone());
+        if self.health.get(&key) == Some(&now) {
             return Ok(());
         }
-        self.health.insert(service.clone(), now);
-        rows.log(
+        self.health.insert(key, now);
+        rows.lane(
             sink,
-            &entity(["status", "health", &service]),
+            &side.entity("status", &["health", &service]),
             stamp,
-            &StateChange::single(health.state.clone()),
-            64,
+            &health.state,
         )?;
         let level = match health.state.as_str() {
             "ok" => "INFO",
@@ -56,7 +56,7 @@ impl EventState {
         };
         rows.log(
             sink,
-            &entity(["events", "health"]),
+            &side.entity("events", &["health"]),
             stamp,
             &TextLog::new(format!("{service} is {}{reason}", health.state)).with_level(level),
             128,
@@ -68,21 +68,22 @@ impl EventState {
         &mut self,
         rows: &mut Rows,
         sink: &mut dyn ChunkSink,
+        side: Side,
         topic: &str,
         stamp: Stamp,
         mover: &Mover,
     ) -> Result<(), ViewError> {
         let shown = format!("{} goal {}", mover.status, mover.goal_id);
-        if self.mover_status.get(topic) == Some(&shown) {
+        let key = (side, topic.to_owned());
+        if self.mover_status.get(&key) == Some(&shown) {
             return Ok(());
         }
-        self.mover_status.insert(topic.to_owned(), shown);
-        rows.log(
+        self.mover_status.insert(key, shown);
+        rows.lane(
             sink,
-            &topic_entity(&["status", "mover"], topic, &[]),
+            &side.topic_entity("status", &["mover"], topic),
             stamp,
-            &StateChange::single(mover.status.clone()),
-            64,
+            &mover.status,
         )?;
         let level = match mover.status.as_str() {
             "blocked" => "WARN",
@@ -91,7 +92,7 @@ impl EventState {
         };
         rows.log(
             sink,
-            &topic_entity(&["events", "mover"], topic, &[]),
+            &side.topic_entity("events", &["mover"], topic),
             stamp,
             &TextLog::new(format!(
                 "{} goal {} at ({:.2}, {:.2}), {:.2} m to go",
@@ -101,43 +102,20 @@ impl EventState {
             128,
         )
     }
-
-    /// A sequencer record: its `state` field, when it has one, as a state lane.
-    pub(super) fn sequencer(
-        &mut self,
-        rows: &mut Rows,
-        sink: &mut dyn ChunkSink,
-        stamp: Stamp,
-        value: &Value,
-    ) -> Result<(), ViewError> {
-        let Some(state) = value.get("state").and_then(Value::as_str) else {
-            return Ok(());
-        };
-        if self.sequencer_state.as_deref() == Some(state) {
-            return Ok(());
-        }
-        self.sequencer_state = Some(state.to_owned());
-        rows.log(
-            sink,
-            &entity(["status", "sequencer"]),
-            stamp,
-            &StateChange::single(state.to_owned()),
-            64,
-        )
-    }
 }
 
 /// A broker decision: a text line, and the binding or service state lanes it changes.
 pub(super) fn broker(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     d: &Broker,
 ) -> Result<(), ViewError> {
     let (text, level) = broker_line(d);
     rows.log(
         sink,
-        &entity(["events", "broker"]),
+        &side.entity("events", &["broker"]),
         stamp,
         &TextLog::new(text).with_level(level),
         128,
@@ -152,12 +130,11 @@ pub(super) fn broker(
         && !d.client.is_empty()
         && !d.interface.is_empty()
     {
-        rows.log(
+        rows.lane(
             sink,
-            &entity(["status", "bindings", &d.client, &d.interface]),
+            &side.entity("status", &["bindings", &d.client, &d.interface]),
             stamp,
-            &StateChange::single(service),
-            64,
+            &service,
         )?;
     }
     let service_state = match d.action.as_str() {
@@ -170,12 +147,11 @@ pub(super) fn broker(
     if let Some(state) = service_state
         && !d.service.is_empty()
     {
-        rows.log(
+        rows.lane(
             sink,
-            &entity(["status", "services", &d.service]),
+            &side.entity("status", &["services", &d.service]),
             stamp,
-            &StateChange::single(state),
-            64,
+            state,
         )?;
     }
     Ok(())
@@ -217,6 +193,7 @@ fn broker_line(d: &Broker) -> (String, &'static str) {
 pub(super) fn log_line(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     line: &LogLine,
 ) -> Result<(), ViewError> {
@@ -239,7 +216,7 @@ pub(super) fn log_line(
     };
     rows.log(
         sink,
-        &entity(["events", "log", service]),
+        &side.entity("events", &["log", service]),
         stamp,
         &log,
         line.text.len() + 32,
@@ -250,6 +227,7 @@ pub(super) fn log_line(
 pub(super) fn command(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     command: &CommandLog,
 ) -> Result<(), ViewError> {
@@ -270,7 +248,7 @@ pub(super) fn command(
     };
     rows.log(
         sink,
-        &entity(["events", "commands", service]),
+        &side.entity("events", &["commands", service]),
         stamp,
         &TextLog::new(text).with_level(level),
         128,

@@ -3,25 +3,36 @@
 //! | entity | what |
 //! |---|---|
 //! | `world/robot/pose`, `world/robot/path` | the true pose (GroundTruth) and its whole path |
-//! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path |
+//! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path, in the odometry frame (`world/odometry` places it in the world: where the odometry started on the true path) |
 //! | `world/scans/<topic>` | every RangeFinder's hits placed in the world with the pose above |
-//! | `world/mover/goal`, `world/mover/waypoint` | where the Mover is going |
+//! | `world/map` | the simulated world's map, for all times, under everything else |
+//! | `world/odometry/mover/goal`, `.../waypoint` | where the Mover is going (odometry frame) |
 //! | `world/blobs3d/<topic>`, `world/signs/<topic>` | perception placed in the world |
 //! | `robot/body`, `robot/scans/<topic>` | the robot frame: outline, hits and (sonar) rays |
 //! | `camera/<topic>/image`, `.../blobs/<topic>`, `.../signs/<topic>` | images, with boxes |
-//! | `events/broker`, `events/log/<service>`, `events/commands/<service>`, `events/health` | text logs |
-//! | `status/bindings/<client>/<interface>`, `status/services/<service>`, `status/health/<service>` | state lanes |
+//! | `events/broker`, `events/sequencer`, `events/log/<service>`, `events/commands/<service>`, `events/health`, `events/mover/<topic>` | text logs |
+//! | `status/bindings/<client>/<interface>`, `status/services/<service>`, `status/health/<service>`, `status/sequencer`, `status/mover/<topic>` | state lanes (markers on the timeline) |
+//! | `events/replay/...`, `status/replay/...`, `world/replay/...` | the same for a replay's re-simulated outputs (`/replay/...` channels), beside the recorded ones |
+//! | `events/replay/faults`, `status/replay/faults/<service>`, `world/replay/faults` | the faults a replay injected: text, timeline marker, where the robot was |
 //! | `plots/<topic>/<field>` | every numeric field of interfaces without a drawing, and velocities |
 //! | `topics/<topic>` | every other decodable message, as text |
 //!
 //! The world frame is the simulator's (GroundTruth) when the recording has it, else the
-//! odometry frame. Scans are placed with the last pose received before them.
+//! odometry frame. Scans are placed with the last pose received before them, and taken off
+//! when their sensor has been silent for a second (`freshness`), so a dead laser's last
+//! scan does not stay on screen. A replay's
+//! re-simulated poses (only with `lewis replay --all`) are drawn at `world/replay/...` and
+//! place nothing.
 
 mod camera;
 mod events;
+mod faults;
+mod freshness;
 mod geometry;
+mod lanes;
 mod plots;
 mod scans;
+mod sequencer;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -48,6 +59,57 @@ pub(crate) fn entity<'a>(parts: impl IntoIterator<Item = &'a str>) -> EntityPath
     )
 }
 
+/// Where a channel's data comes from: the robot, as recorded, or a replay's re-simulation
+/// (`/replay/...` channels, which `lewis replay` writes beside the recorded ones). Entities
+/// with fixed paths (broker, bindings, health, logs, mover, sequencer) get a `replay`
+/// branch for re-simulated data, so the two are shown side by side, never mixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Side {
+    /// Recorded live.
+    Recorded,
+    /// Written by a replay.
+    Replayed,
+}
+
+/// The branch of re-simulated data under each root.
+pub(crate) const REPLAY_BRANCH: &str = "replay";
+
+/// The prefix of the channels a replay writes.
+const REPLAY_TOPIC_PREFIX: &str = "/replay/";
+
+impl Side {
+    /// The side of the channel `topic`.
+    pub(crate) fn of(topic: &str) -> Self {
+        if topic.starts_with(REPLAY_TOPIC_PREFIX) {
+            Self::Replayed
+        } else {
+            Self::Recorded
+        }
+    }
+
+    /// `root/prefix.../<topic's parts>`, with [`REPLAY_BRANCH`] after the root for
+    /// re-simulated data and the topic without its `/replay` prefix.
+    pub(crate) fn topic_entity(self, root: &str, prefix: &[&str], topic: &str) -> EntityPath {
+        let recorded = topic.strip_prefix("/replay").unwrap_or(topic);
+        let parts: Vec<&str> = prefix
+            .iter()
+            .copied()
+            .chain(topic_parts(recorded))
+            .collect();
+        self.entity(root, &parts)
+    }
+
+    /// `root/rest...`, with [`REPLAY_BRANCH`] after the root for re-simulated data.
+    pub(crate) fn entity(self, root: &str, rest: &[&str]) -> EntityPath {
+        let branch = (self == Self::Replayed).then_some(REPLAY_BRANCH);
+        entity(
+            std::iter::once(root)
+                .chain(branch)
+                .chain(rest.iter().copied()),
+        )
+    }
+}
+
 /// The parts of a topic: `/laser/RangeFinder` is `laser`, `RangeFinder`.
 pub(crate) fn topic_parts(topic: &str) -> impl Iterator<Item = &str> {
     topic.split('/').filter(|part| !part.is_empty())
@@ -63,6 +125,11 @@ pub(crate) fn topic_entity(prefix: &[&str], topic: &str, suffix: &[&str]) -> Ent
             .chain(suffix.iter().copied()),
     )
 }
+
+/// The world view frames the path with this much room around it (about the sonar's reach)…
+const WORLD_MARGIN_M: f64 = 4.0;
+/// …and shows at least this much on each side of its centre.
+const WORLD_MIN_HALF_SIZE_M: f64 = 5.0;
 
 /// Paths are kept with points this far apart at least: enough for a drawing, and a long
 /// run stays small.
@@ -81,6 +148,14 @@ pub(crate) struct Scene {
     plotted_topics: BTreeSet<String>,
     has_images: bool,
     events: events::EventState,
+    freshness: freshness::Freshness,
+    /// The last true pose and the last odometry pose, until the odometry frame is placed.
+    first_truth: Option<Pose2D>,
+    first_odometry: Option<Pose2D>,
+    odometry_placed: bool,
+    sequencer: sequencer::SequencerState,
+    faults: faults::FaultMarks,
+    has_replay: bool,
     camera: camera::CameraState,
     /// Messages drawn, shown generically, not decodable.
     pub counts: Counts,
@@ -113,6 +188,13 @@ impl Scene {
             plotted_topics: BTreeSet::new(),
             has_images: false,
             events: events::EventState::default(),
+            freshness: freshness::Freshness::default(),
+            first_truth: None,
+            first_odometry: None,
+            odometry_placed: false,
+            sequencer: sequencer::SequencerState::default(),
+            faults: faults::FaultMarks::default(),
+            has_replay: false,
             camera: camera::CameraState::default(),
             counts: Counts::default(),
             failures: BTreeMap::new(),
@@ -127,6 +209,36 @@ impl Scene {
     /// The topics with plots, in order.
     pub(crate) fn plotted_topics(&self) -> Vec<String> {
         self.plotted_topics.iter().cloned().collect()
+    }
+
+    /// Where the robot went (its true path, else its odometry's), with room around it for
+    /// what it saw: what the world view frames. `None` without a path.
+    pub(crate) fn world_bounds(&self) -> Option<crate::blueprint::Bounds> {
+        let path = if self.truth_path.is_empty() {
+            &self.odometry_path
+        } else {
+            &self.truth_path
+        };
+        let first = path.first()?;
+        let (mut x, mut y) = ([first.x; 2], [first.y; 2]);
+        for p in path {
+            x = [x[0].min(p.x), x[1].max(p.x)];
+            y = [y[0].min(p.y), y[1].max(p.y)];
+        }
+        let widen = |[low, high]: [f64; 2]| {
+            let centre = (low + high) / 2.0;
+            let half = ((high - low) / 2.0 + WORLD_MARGIN_M).max(WORLD_MIN_HALF_SIZE_M);
+            [centre - half, centre + half]
+        };
+        Some(crate::blueprint::Bounds {
+            x_m: widen(x),
+            y_m: widen(y),
+        })
+    }
+
+    /// Whether the recording holds a replay's outputs (`/replay/...` channels).
+    pub(crate) fn has_replay(&self) -> bool {
+        self.has_replay
     }
 
     /// Whether the recording has camera images.
@@ -153,6 +265,8 @@ impl Scene {
         decoded: Decoded,
     ) -> Result<(), ViewError> {
         self.counts.messages += 1;
+        self.freshness.clear_stale(&mut self.rows, sink, stamp)?;
+        self.place_odometry(sink)?;
         match decoded {
             Decoded::Drawn(drawn, value) => {
                 self.counts.drawn += 1;
@@ -186,10 +300,13 @@ impl Scene {
         drawn: Drawn,
     ) -> Result<(), ViewError> {
         let topic = channel.topic.as_str();
+        let side = Side::of(topic);
+        self.has_replay |= side == Side::Replayed;
         let rows = &mut self.rows;
         match drawn {
             Drawn::RangeFinder(scan) => {
                 let colour = scan_colour(&mut self.scan_colours, topic);
+                self.freshness.drawn(topic, stamp);
                 scans::log_scan(
                     rows,
                     sink,
@@ -200,20 +317,39 @@ impl Scene {
                     self.world_pose.as_ref(),
                 )
             }
+            Drawn::GroundTruth(truth) if side == Side::Replayed => scans::log_pose(
+                rows,
+                sink,
+                &side.entity("world", &["robot", "pose"]),
+                stamp,
+                &truth.pose,
+                true,
+            ),
+            Drawn::Egomotion(odometry) if side == Side::Replayed => scans::log_pose(
+                rows,
+                sink,
+                &side.entity("world", &["odometry", "pose"]),
+                stamp,
+                &odometry.pose,
+                false,
+            ),
             Drawn::GroundTruth(truth) => {
                 self.has_truth = true;
+                self.first_truth.get_or_insert_with(|| truth.pose.clone());
                 self.world_pose = Some(truth.pose.clone());
                 push_path(&mut self.truth_path, &truth.pose);
                 scans::log_pose(
                     rows,
                     sink,
-                    &["world", "robot", "pose"],
+                    &entity(["world", "robot", "pose"]),
                     stamp,
                     &truth.pose,
                     true,
                 )
             }
             Drawn::Egomotion(odometry) => {
+                self.first_odometry
+                    .get_or_insert_with(|| odometry.pose.clone());
                 if !self.has_truth {
                     self.world_pose = Some(odometry.pose.clone());
                 }
@@ -221,7 +357,7 @@ impl Scene {
                 scans::log_pose(
                     rows,
                     sink,
-                    &["world", "odometry", "pose"],
+                    &entity(["world", "odometry", "pose"]),
                     stamp,
                     &odometry.pose,
                     false,
@@ -252,14 +388,40 @@ impl Scene {
                 self.world_pose.as_ref(),
             ),
             Drawn::Mover(mover) => {
-                scans::log_mover(rows, sink, stamp, &mover)?;
-                self.events.mover(rows, sink, topic, stamp, &mover)
+                scans::log_mover(rows, sink, side, stamp, &mover)?;
+                self.events.mover(rows, sink, side, topic, stamp, &mover)
             }
-            Drawn::Broker(decision) => events::broker(rows, sink, stamp, &decision),
-            Drawn::Health(health) => self.events.health(rows, sink, stamp, &health),
-            Drawn::LogLine(line) => events::log_line(rows, sink, stamp, &line),
-            Drawn::CommandLog(command) => events::command(rows, sink, stamp, &command),
+            Drawn::Broker(decision) => events::broker(rows, sink, side, stamp, &decision),
+            Drawn::Health(health) => self.events.health(rows, sink, side, stamp, &health),
+            Drawn::LogLine(line) if topic == faults::FAULTS_TOPIC => {
+                self.faults
+                    .fault(rows, sink, stamp, &line, self.world_pose.as_ref())
+            }
+            Drawn::LogLine(line) => events::log_line(rows, sink, side, stamp, &line),
+            Drawn::CommandLog(command) => events::command(rows, sink, side, stamp, &command),
+            Drawn::Sequencer(record) => self.sequencer.record(rows, sink, side, stamp, &record),
         }
+    }
+
+    /// Places the odometry frame in the world once both the first true pose and the first
+    /// odometry pose are known: the odometry started where the robot truly was. Without a
+    /// true pose, the odometry frame is the world frame.
+    fn place_odometry(&mut self, sink: &mut dyn ChunkSink) -> Result<(), ViewError> {
+        if self.odometry_placed {
+            return Ok(());
+        }
+        let (Some(truth), Some(odometry)) = (&self.first_truth, &self.first_odometry) else {
+            return Ok(());
+        };
+        self.odometry_placed = true;
+        let Some(placement) = geometry::Placement::between(truth, odometry) else {
+            return Ok(());
+        };
+        self.rows.log_static(
+            sink,
+            &entity(["world", "odometry"]),
+            &placement.to_transform(),
+        )
     }
 
     fn generic(
@@ -275,9 +437,7 @@ impl Scene {
         if !compiled_in {
             events::generic_text(&mut self.rows, sink, &channel.topic, stamp, value)?;
         }
-        if channel.topic == lewis_names::SEQUENCER_CHANNEL {
-            self.events.sequencer(&mut self.rows, sink, stamp, value)?;
-        }
+        self.has_replay |= Side::of(&channel.topic) == Side::Replayed;
         self.plot(sink, &channel.topic, stamp, value)
     }
 
@@ -322,15 +482,9 @@ impl Scene {
                 )?;
             }
         }
+        lanes::configure(&mut self.rows, sink)?;
         self.rows.flush(sink)
     }
-}
-
-/// The names of the runtime's channels that the viewer treats specially (the viewer does
-/// not depend on the runtime: `lewis_runtime::names` has the same).
-mod lewis_names {
-    /// Where the sequencer publishes its records.
-    pub const SEQUENCER_CHANNEL: &str = "/lewis/sequencer";
 }
 
 fn push_path(path: &mut Vec<Point>, pose: &Pose2D) {

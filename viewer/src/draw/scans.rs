@@ -1,9 +1,9 @@
 //! The robot, its scans and what it perceives, in the robot frame and in the world.
 
 use lewis_interfaces::msg::{Blobs3D, Mover, Pose2D, RangeFinder, Signs};
-use rerun::{Arrows2D, Color, LineStrips2D, Points2D};
+use rerun::{Arrows2D, Color, EntityPath, LineStrips2D, Points2D};
 
-use super::{Point, entity, topic_entity};
+use super::{Point, Side, entity, topic_entity};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
 
@@ -37,7 +37,7 @@ pub(super) fn log_robot_body(rows: &mut Rows, sink: &mut dyn ChunkSink) -> Resul
 pub(super) fn log_pose(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
-    path: &[&str],
+    path: &EntityPath,
     stamp: Stamp,
     pose: &Pose2D,
     truth: bool,
@@ -56,7 +56,7 @@ pub(super) fn log_pose(
         .with_origins([origin.to_f32()])
         .with_colors([colour])
         .with_radii([0.03_f32]);
-    rows.log(sink, &entity(path.iter().copied()), stamp, &arrow, 64)
+    rows.log(sink, path, stamp, &arrow, 64)
 }
 
 /// One beam: where it starts and where it hit, in the robot frame.
@@ -219,10 +219,11 @@ pub(super) fn log_signs_in_world(
     )
 }
 
-/// The Mover's goal and the waypoint it heads for (odometry frame).
+/// The Mover's goal and the waypoint it heads for, in the odometry frame.
 pub(super) fn log_mover(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
+    side: Side,
     stamp: Stamp,
     mover: &Mover,
 ) -> Result<(), ViewError> {
@@ -233,7 +234,7 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &entity(["world", "mover", "goal"]),
+        &mover_entity(side, "goal"),
         stamp,
         &Points2D::new(goal)
             .with_colors([Color::from_rgb(220, 0, 120)])
@@ -248,13 +249,21 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &entity(["world", "mover", "waypoint"]),
+        &mover_entity(side, "waypoint"),
         stamp,
         &Points2D::new(waypoint)
             .with_colors([Color::from_rgb(250, 140, 200)])
             .with_radii([0.06_f32]),
         32,
     )
+}
+
+/// Where the Mover's `what` is drawn: in the odometry frame, where its goals are given.
+fn mover_entity(side: Side, what: &str) -> EntityPath {
+    match side {
+        Side::Recorded => entity(["world", "odometry", "mover", what]),
+        Side::Replayed => entity(["world", "odometry", super::REPLAY_BRANCH, "mover", what]),
+    }
 }
 
 /// A `0xRRGGBB` colour.

@@ -1,6 +1,12 @@
-//! A small recording of a run with a failover, written with the recorder as a live run
-//! would be: the robot drives for 2 s while the laser scans; at 1 s the laser goes out of
-//! service and the broker rebinds the avoider to the sonar.
+//! Small recordings written with the recorder as a live run would be.
+//!
+//! - [`failover_run`]: the robot drives for 2 s in the simulated conference world while the
+//!   laser scans; at 1 s the laser goes out of service and the broker rebinds the avoider to
+//!   the sonar. A camera image with blobs and a sign, blobs placed in space, and a mission
+//!   of the sequencer with a restart, recovery and the supervisor's choice.
+//! - [`replay_run`]: what `lewis replay --inject-fault laser@1s-1.5s:stall` writes: the
+//!   recorded channels, and on `/replay/...` the re-simulated broker decisions, health,
+//!   mover and the injected fault.
 
 #![allow(dead_code)]
 
@@ -9,11 +15,12 @@ use std::path::{Path, PathBuf};
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
-    Blob, Blobs, Broker, Egomotion, GroundTruth, Header, Health, ImageSource, InputRef, LogLine,
-    Mover, Point2D, Pose2D, Pose3D, Power, RangeFinder,
+    Blob, Blob3D, Blobs, Blobs3D, Broker, Egomotion, GroundTruth, Header, Health, ImageSource,
+    InputRef, LogLine, Mover, Point2D, Point3D, Pose2D, Pose3D, Power, RangeFinder, Sequencer,
+    Sign, Signs,
 };
 use lewis_interfaces::{Interface, interface_info};
-use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, Sample};
+use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
 
 /// Log time of the first message: 2023-11-14, as a live run's clock would say.
 pub const START_NS: i64 = 1_700_000_000_000_000_000;
@@ -117,19 +124,49 @@ fn sonar_scan() -> RangeFinder {
     }
 }
 
-/// Writes the run to `dir/run.mcap` and returns its path.
-pub fn failover_run(dir: &Path) -> PathBuf {
-    let path = dir.join("run.mcap");
+/// A robot description whose simulated base lives in `world`, as `lewis up` stores it.
+pub fn robot_toml(world: &str) -> String {
+    format!(
+        "[robot]\nname = \"sim\"\n\n[[services]]\nname = \"sim-base\"\nkind = \"sim-base\"\n\n\
+         [services.parameters]\nworld = \"{world}\"\n"
+    )
+}
+
+/// The conference world of the repository, by its absolute path.
+pub fn conference_world() -> String {
+    lewis_tests::repo_root()
+        .join("robots/worlds/conference")
+        .display()
+        .to_string()
+}
+
+fn writer(path: &Path, robot_toml: Option<String>) -> Writer {
     // Small chunks, so that a file cut short still has complete ones.
     let options = RecorderOptions {
         chunk_size_bytes: 16 * 1024,
-        ..RecorderOptions::new(&path)
+        robot_description: robot_toml.map(|toml| RobotDescription {
+            file_name: "sim.toml".to_owned(),
+            toml,
+        }),
+        ..RecorderOptions::new(path)
     };
-    let recorder = Recorder::create(options).unwrap();
-    let mut w = Writer {
-        recorder,
+    Writer {
+        recorder: Recorder::create(options).unwrap(),
         seqs: BTreeMap::new(),
-    };
+    }
+}
+
+/// Writes the run to `dir/run.mcap` in the repository's conference world and returns its
+/// path.
+pub fn failover_run(dir: &Path) -> PathBuf {
+    failover_run_in(dir, Some(&conference_world()))
+}
+
+/// Writes the run to `dir/run.mcap`, its robot description naming `world` (or none), and
+/// returns its path.
+pub fn failover_run_in(dir: &Path, world: Option<&str>) -> PathBuf {
+    let path = dir.join("run.mcap");
+    let mut w = writer(&path, world.map(robot_toml));
     let truth = w.channel::<GroundTruth>("sim-base", "/sim-base/GroundTruth");
     let odometry = w.channel::<Egomotion>("sim-base", "/sim-base/Egomotion");
     let laser = w.channel::<RangeFinder>("laser", "/laser/RangeFinder");
@@ -141,6 +178,10 @@ pub fn failover_run(dir: &Path) -> PathBuf {
     let blobs = w.channel::<Blobs>("blobs", "/blobs/Blobs");
     let mover = w.channel::<Mover>("mover", "/mover/Mover");
     let power = w.channel::<Power>("base", "/base/Power");
+    let blobs3d = w.channel::<Blobs3D>("blobfinder3d", "/blobfinder3d/Blobs3D");
+    let signs = w.channel::<Signs>("signs", "/signs/Signs");
+    let sequencer = w.channel::<Sequencer>("lewis-sequencer", "/lewis/sequencer");
+    let mission = mission();
 
     for k in 0..STEPS {
         let t = START_NS + k * STEP_NS;
@@ -261,10 +302,46 @@ pub fn failover_run(dir: &Path) -> PathBuf {
                     image_width: width as i32,
                     image_height: height as i32,
                     blob_count: 1,
-                    blobs: vec![blob],
+                    blobs: vec![blob.clone()],
                 },
                 t + 7_000,
             );
+            w.write(blobs3d, blobs_in_space(&blob), t + 7_500);
+            w.write(
+                signs,
+                Signs {
+                    header: Header {
+                        inputs: vec![InputRef {
+                            channel: "/camera/ImageSource".to_owned(),
+                            seq: 1,
+                        }],
+                        ..header("signs")
+                    },
+                    sign_count: 1,
+                    signs: vec![Sign {
+                        position: Point3D {
+                            x: 2.0,
+                            y: -0.5,
+                            z: 1.5,
+                        },
+                        arrow_direction: std::f64::consts::PI,
+                        arrow: "left".to_owned(),
+                        confidence: 0.9,
+                        board: Blob {
+                            left: 1,
+                            top: 1,
+                            right: 6,
+                            bottom: 4,
+                            ..Blob::default()
+                        },
+                    }],
+                },
+                t + 7_600,
+            );
+        }
+        // The mission's records, a few per step, in order.
+        for record in mission.iter().skip(usize::try_from(k).unwrap() * 2).take(2) {
+            w.write(sequencer, record.clone(), t + 9_500);
         }
         w.write(
             mover,
@@ -295,6 +372,199 @@ pub fn failover_run(dir: &Path) -> PathBuf {
             },
             t + 9_000,
         );
+    }
+    w.recorder.close().unwrap();
+    path
+}
+
+/// The blobs seen at step 5 placed in space: one with a range, one without.
+fn blobs_in_space(blob: &Blob) -> Blobs3D {
+    let placed = |range_valid: bool, y: f64| Blob3D {
+        blob: blob.clone(),
+        range_valid,
+        position: Point3D { x: 1.5, y, z: 0.3 },
+        width: 0.2,
+        height: 0.2,
+    };
+    Blobs3D {
+        header: header("blobfinder3d"),
+        blob_count: 2,
+        blobs: vec![placed(true, 0.4), placed(false, -0.4)],
+    }
+}
+
+/// One record of the sequencer.
+fn record(entry: &str, kind: &str, state: &str) -> Sequencer {
+    Sequencer {
+        header: header("lewis-sequencer"),
+        entry: entry.to_owned(),
+        kind: kind.to_owned(),
+        state: state.to_owned(),
+        ..Sequencer::default()
+    }
+}
+
+/// The number of records of [`mission`].
+pub const MISSION_RECORDS: u64 = 20;
+
+/// A mission as the sequencer records it: `door` exits 0 to `sign`, `sign` crashes, is
+/// restarted, exits with an unlisted code, `oops` recovers, the supervisor chooses `sign`,
+/// which leads to `stop`.
+fn mission() -> Vec<Sequencer> {
+    let mut started = record("mission_started", "", "");
+    started.program = "challenge.seq".to_owned();
+    started.states = vec!["door".into(), "sign".into(), "oops".into()];
+    started.state_count = 3;
+    started.use_gui = true;
+    started.supervision = "page".to_owned();
+    let run = |state: &str, attempt: u32| Sequencer {
+        attempt,
+        program: format!("./bin/{state}"),
+        ..record("decided", "run", state)
+    };
+    let exited = |code: i32| Sequencer {
+        code,
+        ..record("observed", "exited", "")
+    };
+    let mut ask = record("decided", "ask_supervisor", "");
+    ask.states = vec!["door".into(), "sign".into(), "oops".into()];
+    ask.state_count = 3;
+    ask.suggested = "stop".to_owned();
+    ask.reason = "recovery `oops` is over (exit code 0)".to_owned();
+    let transition = |from: &str, to: &str| Sequencer {
+        to: to.to_owned(),
+        ..record("decided", "transition", from)
+    };
+    let records = vec![
+        started,
+        run("door", 1),
+        exited(0),
+        transition("door", "sign"),
+        run("sign", 1),
+        Sequencer {
+            code: 11,
+            ..record("observed", "signalled", "")
+        },
+        Sequencer {
+            attempt: 2,
+            ..record("decided", "restart", "sign")
+        },
+        run("sign", 2),
+        exited(5),
+        record("decided", "enter_recovery", "sign"),
+        run("oops", 1),
+        exited(0),
+        ask,
+        record("observed", "supervisor_chose", "sign"),
+        record("decided", "resume", "sign"),
+        run("sign", 1),
+        exited(0),
+        transition("sign", "stop"),
+        record("decided", "finished", ""),
+        Sequencer {
+            pid: 4242,
+            attempt: 1,
+            ..record("program_started", "", "sign")
+        },
+    ];
+    assert_eq!(records.len() as u64, MISSION_RECORDS);
+    records
+}
+
+/// The broker's decision to bind the avoider's RangeFinder to `service`, or to move it.
+fn binding(action: &str, from: &str, to: &str, at_ns: i64) -> Broker {
+    Broker {
+        header: header("broker"),
+        action: action.to_owned(),
+        reason: "test".to_owned(),
+        client: "avoider".to_owned(),
+        interface: "RangeFinder".to_owned(),
+        service: to.to_owned(),
+        from_service: from.to_owned(),
+        to_service: to.to_owned(),
+        at_ns,
+    }
+}
+
+/// Writes a replay's output to `dir/replay.mcap` (see the module's documentation) and
+/// returns its path. No world is named.
+pub fn replay_run(dir: &Path) -> PathBuf {
+    let path = dir.join("replay.mcap");
+    let mut w = writer(&path, None);
+    let truth = w.channel::<GroundTruth>("sim-base", "/sim-base/GroundTruth");
+    let broker = w.channel::<Broker>("broker", "/lewis/broker");
+    let laser = w.channel::<RangeFinder>("laser", "/laser/RangeFinder");
+    let mover = w.channel::<Mover>("mover", "/mover/Mover");
+    let replay_broker = w.channel::<Broker>("broker", "/replay/lewis/broker");
+    let replay_health = w.channel::<Health>("laser", "/replay/lewis/health/laser");
+    let replay_mover = w.channel::<Mover>("mover", "/replay/mover/Mover");
+    let faults = w.channel::<LogLine>("lewis-replay", "/replay/lewis/faults");
+    for k in 0..STEPS {
+        let t = START_NS + k * STEP_NS;
+        w.write(
+            truth,
+            GroundTruth {
+                header: header("sim-base"),
+                pose: pose(k),
+                ..GroundTruth::default()
+            },
+            t,
+        );
+        if k == 0 {
+            w.write(broker, binding("bind", "", "laser", t), t + 1_000);
+            w.write(replay_broker, binding("bind", "", "laser", t), t + 1_000);
+        }
+        w.write(laser, laser_scan(), t + 2_000);
+        let moving = Mover {
+            header: header("mover"),
+            goal_id: 1,
+            goal: Pose2D {
+                x: 3.0,
+                y: 1.0,
+                theta: 0.0,
+            },
+            status: "moving".to_owned(),
+            ..Mover::default()
+        };
+        w.write(mover, moving.clone(), t + 3_000);
+        w.write(replay_mover, moving, t + 3_000);
+        let fault = |text: String| LogLine {
+            header: header("lewis-replay"),
+            service: "laser".to_owned(),
+            stream: "fault".to_owned(),
+            level: "warn".to_owned(),
+            text,
+        };
+        if k == FAILOVER_STEP {
+            w.write(
+                faults,
+                fault("fault injected: laser stall (laser@1s-1.5s:stall)".to_owned()),
+                t + 4_000,
+            );
+        }
+        if k == FAILOVER_STEP + 1 {
+            w.write(
+                replay_health,
+                Health {
+                    header: header("laser"),
+                    state: "out-of-service".to_owned(),
+                    reason: "missed its heartbeat".to_owned(),
+                },
+                t + 5_000,
+            );
+            w.write(
+                replay_broker,
+                binding("rebind", "laser", "sonar", t),
+                t + 6_000,
+            );
+        }
+        if k == FAILOVER_STEP + 5 {
+            w.write(
+                faults,
+                fault("fault ends: laser recovers (laser@1s-1.5s:stall)".to_owned()),
+                t + 4_000,
+            );
+        }
     }
     w.recorder.close().unwrap();
     path
