@@ -22,6 +22,7 @@ mod replay;
 mod seq;
 mod service;
 mod status;
+mod stress;
 mod tune;
 mod up;
 #[cfg(feature = "viewer")]
@@ -87,6 +88,9 @@ pub enum Command {
     /// or pick a colour from an image.
     #[command(subcommand)]
     Tune(tune::TuneCommand),
+    /// Publish the recorder's stress mix (a test and measurement tool).
+    #[command(hide = true)]
+    StressPublish(stress::StressArgs),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -111,5 +115,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Fault(args) => fault::run(&args),
         Command::FakeDevice(args) => fake_device::run(&args),
         Command::Tune(command) => tune::run(command),
+        Command::StressPublish(args) => stress::run(&args),
     }
 }

@@ -33,8 +33,9 @@ pub struct RecordArgs {
     /// name, `**` across levels): `--topics '/laser/*' '/lewis/**'`.
     #[arg(long, num_args = 1.., value_name = "GLOB")]
     pub topics: Vec<String>,
-    /// The robot description: its providers' channels, health and commands are recorded
-    /// (without it, only `/lewis/broker` and `/lewis/log`), and it is stored in the file.
+    /// The robot description: its providers' channels, health and commands are recorded,
+    /// and it is stored in the file. Without it, the namespace's broker is asked which
+    /// robot it runs (at once, and until it answers).
     #[arg(long, value_name = "FILE")]
     pub robot: Option<PathBuf>,
     /// Chunk compression.
@@ -63,6 +64,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
     init_logs();
     let namespace = namespace(args.namespace.as_deref())?;
     let robot = args.robot.as_deref().map(load_robot).transpose()?;
+    // Without --robot the robot is not known yet: the default name says `recording`.
     let robot_name = robot.as_ref().map_or("recording", |r| r.name.as_str());
     let path = match &args.output {
         Some(path) => path.clone(),
@@ -84,11 +86,6 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
             toml: std::fs::read_to_string(file)
                 .with_context(|| format!("cannot read {}", file.display()))?,
         });
-    }
-    if robot.is_none() {
-        tracing::warn!(
-            "no --robot: only /lewis/broker and /lewis/log are recorded; give the robot file to record its services"
-        );
     }
     let options = LiveOptions {
         namespace,
@@ -125,6 +122,14 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
     if let Some(index) = &recording.index {
         let _ = writeln!(summary, "parts index: {}", index.display());
     }
+    if let Some(peak) = peak_resident_kib() {
+        #[allow(clippy::cast_precision_loss)]
+        let _ = writeln!(
+            summary,
+            "peak resident memory {:.1} MiB (VmHWM)",
+            peak as f64 / 1024.0
+        );
+    }
     for (topic, counts) in &recording.counts {
         if counts.lost > 0 || counts.dropped > 0 {
             let _ = writeln!(
@@ -142,13 +147,29 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
 /// Says on stdout that every channel is subscribed.
 fn announce_ready(ready: &Ready) {
     let mut out = std::io::stdout().lock();
+    let robot = ready
+        .robot
+        .as_deref()
+        .map_or_else(|| "no robot yet".to_owned(), |r| format!("robot {r}"));
     let _ = writeln!(
         out,
-        "{READY_LINE} {} topics to {}",
+        "{READY_LINE} {} topics to {} ({robot})",
         ready.topics.len(),
         ready.path.display()
     );
     let _ = out.flush();
+}
+
+/// The peak resident memory of this process (`VmHWM` of `/proc/self/status`), in KiB.
+fn peak_resident_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 /// `SECS` as nanoseconds, refusing what is not a finite positive number.

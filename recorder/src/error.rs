@@ -52,6 +52,19 @@ pub enum RecordError {
         /// Whether the file was closed with its summary (true), or is left truncated.
         closed_valid: bool,
     },
+    /// The file reached the largest size allowed: the process's file size limit (`ulimit
+    /// -f`, `LimitFSIZE=`) or its file system's.
+    #[error("{}: the file reached the largest size allowed (the process's file size limit, `ulimit -f`, or its file system's); {}", path.display(), if *closed_valid {
+        "the file was closed valid up to its last complete chunk; record with --split-size below the limit"
+    } else {
+        "the file could not be closed: run `lewis recover` on it, and record with --split-size below the limit"
+    })]
+    FileTooLarge {
+        /// The file being written.
+        path: PathBuf,
+        /// Whether the file was closed with its summary (true), or is left truncated.
+        closed_valid: bool,
+    },
     /// Any other input/output error.
     #[error("cannot write {}: {source}; the file is readable up to its last complete chunk (`lewis recover` repairs it)", path.display())]
     Io {
@@ -99,6 +112,7 @@ impl RecordError {
             | Self::ReadOnly { path, .. }
             | Self::AlreadyExists { path }
             | Self::DiskFull { path, .. }
+            | Self::FileTooLarge { path, .. }
             | Self::Io { path, .. }
             | Self::Mcap { path, .. }
             | Self::Stopped { path }
@@ -121,24 +135,39 @@ impl RecordError {
             io::ErrorKind::PermissionDenied | io::ErrorKind::ReadOnlyFilesystem => {
                 Self::ReadOnly { path, source }
             }
-            _ if is_disk_full(&source) => Self::DiskFull {
-                path,
-                closed_valid: false,
+            _ => match no_room(&source) {
+                Some(why) => Self::no_room(why, path, false),
+                None => Self::Io { path, source },
             },
-            _ => Self::Io { path, source },
+        }
+    }
+
+    /// The error for a file that has no more room, for `why`.
+    pub(crate) fn no_room(why: NoRoom, path: PathBuf, closed_valid: bool) -> Self {
+        match why {
+            NoRoom::DiskFull => Self::DiskFull { path, closed_valid },
+            NoRoom::FileSizeLimit => Self::FileTooLarge { path, closed_valid },
+        }
+    }
+
+    /// Why the file has no more room, when that is the error.
+    pub(crate) fn no_room_reason(&self) -> Option<NoRoom> {
+        match self {
+            Self::DiskFull { .. } => Some(NoRoom::DiskFull),
+            Self::FileTooLarge { .. } => Some(NoRoom::FileSizeLimit),
+            _ => None,
         }
     }
 
     /// Classifies an error of the MCAP writer on `path`.
     pub(crate) fn writing(path: &Path, source: mcap::McapError) -> Self {
         match source {
-            mcap::McapError::Io(io) if is_disk_full(&io) => Self::DiskFull {
-                path: path.to_path_buf(),
-                closed_valid: false,
-            },
-            mcap::McapError::Io(source) => Self::Io {
-                path: path.to_path_buf(),
-                source,
+            mcap::McapError::Io(source) => match no_room(&source) {
+                Some(why) => Self::no_room(why, path.to_path_buf(), false),
+                None => Self::Io {
+                    path: path.to_path_buf(),
+                    source,
+                },
             },
             source => Self::Mcap {
                 path: path.to_path_buf(),
@@ -148,10 +177,20 @@ impl RecordError {
     }
 }
 
-/// Whether the system said that the disk (or the user's quota) is full.
-pub(crate) fn is_disk_full(error: &io::Error) -> bool {
-    matches!(
-        error.kind(),
-        io::ErrorKind::StorageFull | io::ErrorKind::QuotaExceeded | io::ErrorKind::FileTooLarge
-    )
+/// Why a file has no more room.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum NoRoom {
+    /// The disk (or the user's quota) is full.
+    DiskFull,
+    /// The file reached the process's file size limit or its file system's largest file.
+    FileSizeLimit,
+}
+
+/// Whether the system said that the file has no more room, and why.
+pub(crate) fn no_room(error: &io::Error) -> Option<NoRoom> {
+    match error.kind() {
+        io::ErrorKind::StorageFull | io::ErrorKind::QuotaExceeded => Some(NoRoom::DiskFull),
+        io::ErrorKind::FileTooLarge => Some(NoRoom::FileSizeLimit),
+        _ => None,
+    }
 }

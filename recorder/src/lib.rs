@@ -40,6 +40,8 @@ mod queue;
 mod recorder;
 mod recover;
 mod sink;
+pub mod stress;
+mod syncer;
 
 pub use channel::{
     ChannelId, ChannelSpec, MESSAGE_ENCODING, META_INTERFACE, META_INTERFACE_VERSION,

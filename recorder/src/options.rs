@@ -102,7 +102,8 @@ pub struct RecorderOptions {
     /// chunk's tail and indexes plus the summary: a few chunk sizes is plenty.
     pub disk_reserve_bytes: u64,
     /// Sync the file to the disk at every time-based flush (survives a power cut, not
-    /// only a crash of the recorder).
+    /// only a crash of the recorder). The sync runs on a thread of its own, so that the
+    /// writer never waits for the disk; the file is synced completely when it is closed.
     pub sync_on_flush: bool,
     /// The provider name in the header of the recorder's own stats messages.
     pub recorder_name: String,

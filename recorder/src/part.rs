@@ -3,19 +3,19 @@
 //! the disk.
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use mcap::records::{MessageHeader, Metadata};
 use mcap::{WriteOptions, Writer};
 
 use crate::channel::{ChannelSpec, MESSAGE_ENCODING, SCHEMA_ENCODING};
-use crate::error::RecordError;
+use crate::error::{NoRoom, RecordError};
 use crate::options::RecorderOptions;
-use crate::sink::PartFile;
+use crate::sink::{PartFile, RoomFlag};
+use crate::syncer::Syncer;
 
 /// The MCAP profile: ROS 2 conventions (cdr messages, ros2msg schemas).
 pub const PROFILE: &str = "ros2";
@@ -31,8 +31,8 @@ const FILE_BUFFER_BYTES: usize = 256 * 1024;
 pub(crate) struct Part {
     path: PathBuf,
     writer: Writer<BufWriter<PartFile>>,
-    sync: Option<File>,
-    disk_full: Arc<AtomicBool>,
+    sync: Option<Syncer>,
+    room: RoomFlag,
     size: Arc<AtomicU64>,
     /// The MCAP channel id of each registered channel, by [`crate::ChannelId`].
     channel_ids: Vec<u16>,
@@ -53,11 +53,12 @@ impl Part {
         metadata: &[Metadata],
     ) -> Result<Self, RecordError> {
         let file = PartFile::create(path, options.disk_reserve_bytes)?;
-        let disk_full = file.disk_full_flag();
+        let room = file.room_flag();
         let size = file.size_handle();
         let sync = if options.sync_on_flush {
             Some(
                 file.sync_handle()
+                    .and_then(Syncer::start)
                     .map_err(|e| RecordError::opening(path, e))?,
             )
         } else {
@@ -70,7 +71,7 @@ impl Part {
             path: path.to_path_buf(),
             writer,
             sync,
-            disk_full,
+            room,
             size,
             channel_ids: Vec::new(),
             pending_bytes: 0,
@@ -96,9 +97,10 @@ impl Part {
         self.size.load(Ordering::Relaxed)
     }
 
-    /// Whether the disk was found full (the reserve is then spent: close now).
-    pub(crate) fn disk_full(&self) -> bool {
-        self.disk_full.load(Ordering::Acquire)
+    /// Why the file has no more room, once it has none (the reserve or the headroom
+    /// below the file size limit is then all that is left: close now).
+    pub(crate) fn no_room(&self) -> Option<NoRoom> {
+        self.room.get()
     }
 
     /// Adds the channel that comes next in registration order.
@@ -163,16 +165,16 @@ impl Part {
         self.messages > self.durable_messages
     }
 
-    /// Closes the open chunk and hands everything to the system; with `sync`, also to
-    /// the disk.
+    /// Closes the open chunk and hands everything to the system; with `sync`, also asks
+    /// for it to reach the disk (on the syncer's thread: this does not wait for the disk).
     pub(crate) fn flush(&mut self, sync: bool) -> Result<(), RecordError> {
         self.writer
             .flush()
             .map_err(|e| RecordError::writing(&self.path, e))?;
         self.pending_bytes = 0;
         self.durable_messages = self.messages;
-        if sync && let Some(file) = &self.sync {
-            file.sync_data().map_err(|source| RecordError::Io {
+        if sync && let Some(syncer) = &self.sync {
+            syncer.request().map_err(|source| RecordError::Io {
                 path: self.path.clone(),
                 source,
             })?;
@@ -197,17 +199,19 @@ impl Part {
             .finish()
             .map_err(|e| RecordError::writing(&self.path, e))?;
         self.durable_messages = self.messages;
-        if let Some(file) = &self.sync {
-            file.sync_all().map_err(|source| RecordError::Io {
-                path: self.path.clone(),
-                source,
-            })?;
-        }
+        let syncer = self.sync.take();
         let mut file = self.writer.into_inner();
         file.flush().map_err(|source| RecordError::Io {
             path: self.path.clone(),
             source,
         })?;
+        // After the last bytes left the buffer: the file is on the disk when this returns.
+        if let Some(syncer) = syncer {
+            syncer.finish().map_err(|source| RecordError::Io {
+                path: self.path.clone(),
+                source,
+            })?;
+        }
         if let Ok(mut file) = file.into_inner() {
             file.release_reserve();
         }

@@ -3,9 +3,11 @@
 //!
 //! **Policy**: the tap never waits. [`Tap::try_record`] copies the bytes and hands them to
 //! the queue if it has room for one more message *and* for its bytes; otherwise the
-//! message is dropped, counted per channel, and `Err(Dropped)` returned. A dropped
-//! message also shows in the file as a gap in its channel's sequence numbers, which is
-//! what the recorder counts as lost. The bounds ([`QueueOptions`]) cap the recorder's
+//! message is dropped, counted per channel, and `Err(Dropped)` returned. Messages the tap
+//! never received (its IPC buffer overflowed) are counted the same way
+//! ([`Tap::count_missed`]): `dropped` is everything the recorder itself failed to take. A
+//! dropped message also shows in the file as a gap in its channel's sequence numbers, which
+//! is what the recorder counts as lost. The bounds ([`QueueOptions`]) cap the recorder's
 //! memory whatever the length of the run: about `capacity_bytes` plus one chunk.
 
 use std::path::PathBuf;
@@ -19,6 +21,7 @@ use thiserror::Error;
 
 use crate::channel::{ChannelId, ChannelSpec, Sample};
 use crate::error::RecordError;
+use crate::options::RobotDescription;
 use crate::recorder::{Recorder, RecordingReport};
 
 /// How long the writer thread waits for a message before it lets time pass
@@ -71,6 +74,8 @@ struct Registered {
 
 struct Shared {
     channels: Mutex<Vec<Arc<Registered>>>,
+    /// A robot description found after the start, for the writer to store.
+    robot: Mutex<Option<RobotDescription>>,
     queued_bytes: AtomicUsize,
     capacity_bytes: usize,
     dropped: AtomicU64,
@@ -80,6 +85,13 @@ impl Shared {
     fn channels(&self) -> std::sync::MutexGuard<'_, Vec<Arc<Registered>>> {
         // A panic while holding this lock leaves the list valid: keep using it.
         self.channels.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn take_robot(&self) -> Option<RobotDescription> {
+        self.robot
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
     }
 }
 
@@ -115,6 +127,17 @@ impl Tap {
         ChannelId(u32::try_from(channels.len() - 1).unwrap_or(u32::MAX))
     }
 
+    /// Hands the writer a robot description found after the recording started; it is
+    /// stored in the file before the first message of any channel registered after this
+    /// call. Never waits.
+    pub fn set_robot_description(&self, robot: RobotDescription) {
+        *self
+            .shared
+            .robot
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = Some(robot);
+    }
+
     /// Queues a copy of the message for the writer thread, or drops and counts it.
     ///
     /// # Errors
@@ -124,7 +147,8 @@ impl Tap {
         let before = self.shared.queued_bytes.fetch_add(len, Ordering::AcqRel);
         if before > 0 && before + len > self.shared.capacity_bytes {
             self.shared.queued_bytes.fetch_sub(len, Ordering::AcqRel);
-            return Err(self.drop_one(sample.channel, Dropped::QueueFull));
+            self.count_dropped(sample.channel, 1);
+            return Err(Dropped::QueueFull);
         }
         let entry = Entry::Message(Owned {
             channel: sample.channel,
@@ -137,11 +161,11 @@ impl Tap {
             Ok(()) => Ok(()),
             Err(error) => {
                 self.shared.queued_bytes.fetch_sub(len, Ordering::AcqRel);
-                let reason = match error {
+                self.count_dropped(sample.channel, 1);
+                Err(match error {
                     TrySendError::Full(_) => Dropped::QueueFull,
                     TrySendError::Disconnected(_) => Dropped::Stopped,
-                };
-                Err(self.drop_one(sample.channel, reason))
+                })
             }
         }
     }
@@ -166,15 +190,23 @@ impl Tap {
         self.shared.dropped.load(Ordering::Relaxed)
     }
 
-    fn drop_one(&self, channel: ChannelId, reason: Dropped) -> Dropped {
-        self.shared.dropped.fetch_add(1, Ordering::Relaxed);
+    /// Counts `count` messages of `channel` that the tap never received: the IPC buffer in
+    /// front of it overflowed while it was not scheduled. They are dropped by the recorder
+    /// like those its full queue refuses, and show as gaps like them.
+    pub fn count_missed(&self, channel: ChannelId, count: u64) {
+        if count > 0 {
+            self.count_dropped(channel, count);
+        }
+    }
+
+    fn count_dropped(&self, channel: ChannelId, count: u64) {
+        self.shared.dropped.fetch_add(count, Ordering::Relaxed);
         if let Some(registered) = usize::try_from(channel.0)
             .ok()
             .and_then(|i| self.shared.channels().get(i).cloned())
         {
-            registered.dropped.fetch_add(1, Ordering::Relaxed);
+            registered.dropped.fetch_add(count, Ordering::Relaxed);
         }
-        reason
     }
 }
 
@@ -230,6 +262,7 @@ pub fn spawn(
         .collect();
     let shared = Arc::new(Shared {
         channels: Mutex::new(channels),
+        robot: Mutex::new(None),
         queued_bytes: AtomicUsize::new(0),
         capacity_bytes: queue.capacity_bytes,
         dropped: AtomicU64::new(0),
@@ -314,7 +347,8 @@ fn drain(
     recorder.close()
 }
 
-/// Registers with the recorder the channels the tap registered since.
+/// Registers with the recorder the channels the tap registered since, after the robot
+/// description handed over before them.
 fn add_new_channels(recorder: &mut Recorder, shared: &Shared) -> Result<(), RecordError> {
     let new: Vec<ChannelSpec> = shared
         .channels()
@@ -322,6 +356,11 @@ fn add_new_channels(recorder: &mut Recorder, shared: &Shared) -> Result<(), Reco
         .skip(recorder.channel_count())
         .map(|c| c.spec.clone())
         .collect();
+    // Taken after the channels: a description handed over before a channel was
+    // registered is seen with it.
+    if let Some(robot) = shared.take_robot() {
+        recorder.set_robot_description(robot)?;
+    }
     for spec in new {
         recorder.add_channel(spec)?;
     }

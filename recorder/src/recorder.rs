@@ -14,7 +14,7 @@ use crate::channel::{ChannelId, ChannelSpec, Sample};
 use crate::error::RecordError;
 use crate::index::{self, PartEntry, PartsIndex};
 use crate::loss::{ChannelCounts, SequenceTracker};
-use crate::options::RecorderOptions;
+use crate::options::{RecorderOptions, RobotDescription};
 use crate::part::{Part, metadata};
 
 /// The topic of the recorder's own accounting ([`RecorderStats`]).
@@ -159,8 +159,9 @@ impl Recorder {
     /// stats message when due.
     ///
     /// # Errors
-    /// [`RecordError::UnknownChannel`]; [`RecordError::DiskFull`] (the file is then
-    /// closed); another write error. After an error the recorder is stopped.
+    /// [`RecordError::UnknownChannel`]; [`RecordError::DiskFull`] or
+    /// [`RecordError::FileTooLarge`] (the file is then closed); another write error. After
+    /// an error the recorder is stopped.
     pub fn write(&mut self, sample: &Sample<'_>) -> Result<(), RecordError> {
         self.ensure_running()?;
         let index = usize::try_from(sample.channel.0).unwrap_or(usize::MAX);
@@ -207,6 +208,24 @@ impl Recorder {
             state.part.dropped += count;
             state.total.dropped += count;
         }
+    }
+
+    /// Stores the robot description from now on, for a robot found after the recording
+    /// started: written at once into the current file (`lewis.robot`, which closes the
+    /// open chunk) and into every later part.
+    ///
+    /// # Errors
+    /// As [`Self::write`].
+    pub fn set_robot_description(&mut self, robot: RobotDescription) -> Result<(), RecordError> {
+        self.ensure_running()?;
+        let record = robot_metadata(&robot);
+        self.options.robot_description = Some(robot);
+        self.file_metadata = file_metadata(&self.options);
+        let result = match &mut self.part {
+            Some(part) => part.write_metadata(&record),
+            None => Ok(()),
+        };
+        self.guard(result)
     }
 
     /// Lets time pass with no message: flushes, writes stats and rotates by duration
@@ -281,22 +300,25 @@ impl Recorder {
         }
     }
 
-    /// Stops on an error; on a full disk (seen in `result` or by the file's reserve),
-    /// closes the file first.
+    /// Stops on an error; when the file has no more room (seen in `result`, or by the
+    /// file's reserve or headroom below the file size limit), closes the file first.
     fn guard(&mut self, result: Result<(), RecordError>) -> Result<(), RecordError> {
         if self.closing {
             return result;
         }
-        let disk_full = matches!(result, Err(RecordError::DiskFull { .. }))
-            || self.part.as_ref().is_some_and(Part::disk_full);
-        if disk_full {
+        let no_room = match &result {
+            Err(error) => error.no_room_reason(),
+            Ok(()) => None,
+        }
+        .or_else(|| self.part.as_ref().and_then(Part::no_room));
+        if let Some(why) = no_room {
             let path = self.current_path().to_path_buf();
-            // The MCAP writer refuses everything after a failed write: only a full disk
-            // caught by the reserve (no failed write) can still be closed.
+            // The MCAP writer refuses everything after a failed write: only a full file
+            // caught by the reserve or the headroom (no failed write) can still be closed.
             let closed_valid = result.is_ok() && self.close_part().is_ok();
             self.part = None;
             self.stopped = true;
-            return Err(RecordError::DiskFull { path, closed_valid });
+            return Err(RecordError::no_room(why, path, closed_valid));
         }
         if result.is_err() {
             self.stopped = true;
@@ -514,12 +536,17 @@ fn file_metadata(options: &RecorderOptions) -> Vec<Metadata> {
         .collect();
     let mut records = vec![metadata(INTERFACES_METADATA, interfaces)];
     if let Some(robot) = &options.robot_description {
-        records.push(metadata(
-            ROBOT_METADATA,
-            BTreeMap::from([(robot.file_name.clone(), robot.toml.clone())]),
-        ));
+        records.push(robot_metadata(robot));
     }
     records
+}
+
+/// `lewis.robot`: the robot description keyed by its file name.
+fn robot_metadata(robot: &RobotDescription) -> Metadata {
+    metadata(
+        ROBOT_METADATA,
+        BTreeMap::from([(robot.file_name.clone(), robot.toml.clone())]),
+    )
 }
 
 fn file_name(path: &Path) -> String {

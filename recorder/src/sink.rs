@@ -1,14 +1,19 @@
 //! The file under the MCAP writer: it keeps a reserve of disk space beside the recording,
 //! and gives it back the moment the disk is full, so that the recorder can still close the
 //! file with its summary (the one thing a full disk must not cost).
+//!
+//! A process may also have a file size limit (`ulimit -f`, systemd's `LimitFSIZE=`): past
+//! it, `write` fails with `EFBIG` and nothing can be added to the file. So the same
+//! reserve is kept as headroom below the limit: a file that reaches the limit minus the
+//! reserve is treated as a full disk while its end still fits.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
-use crate::error::{RecordError, is_disk_full};
+use crate::error::{NoRoom, RecordError, no_room};
 
 /// Bytes written at a time into the reserve file.
 const RESERVE_BLOCK_BYTES: usize = 64 * 1024;
@@ -45,12 +50,40 @@ impl Reserve {
     }
 }
 
+/// Why a part has no more room, shared with the writer's owner: 0 while it has room.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RoomFlag(Arc<AtomicU8>);
+
+impl RoomFlag {
+    fn set(&self, why: NoRoom) {
+        let value = match why {
+            NoRoom::DiskFull => 1,
+            NoRoom::FileSizeLimit => 2,
+        };
+        // The first reason stays.
+        let _ = self
+            .0
+            .compare_exchange(0, value, Ordering::AcqRel, Ordering::Acquire);
+    }
+
+    /// Why the part has no more room, once it has none.
+    pub(crate) fn get(&self) -> Option<NoRoom> {
+        match self.0.load(Ordering::Acquire) {
+            1 => Some(NoRoom::DiskFull),
+            2 => Some(NoRoom::FileSizeLimit),
+            _ => None,
+        }
+    }
+}
+
 /// The output file of one part, as the MCAP writer sees it.
 #[derive(Debug)]
 pub(crate) struct PartFile {
     file: File,
     reserve: Option<Reserve>,
-    disk_full: Arc<AtomicBool>,
+    /// Where the file counts as full below the process's file size limit.
+    size_cap: Option<u64>,
+    room: RoomFlag,
     position: u64,
     size: Arc<AtomicU64>,
 }
@@ -63,6 +96,11 @@ impl PartFile {
             .create_new(true)
             .open(path)
             .map_err(|e| RecordError::opening(path, e))?;
+        let size_cap = if reserve_bytes == 0 {
+            None
+        } else {
+            file_size_limit().map(|limit| limit.saturating_sub(reserve_bytes))
+        };
         let reserve = if reserve_bytes == 0 {
             None
         } else {
@@ -79,15 +117,17 @@ impl PartFile {
         Ok(Self {
             file,
             reserve,
-            disk_full: Arc::new(AtomicBool::new(false)),
+            size_cap,
+            room: RoomFlag::default(),
             position: 0,
             size: Arc::new(AtomicU64::new(0)),
         })
     }
 
-    /// Set once the disk was found full (the reserve has then been given back).
-    pub(crate) fn disk_full_flag(&self) -> Arc<AtomicBool> {
-        Arc::clone(&self.disk_full)
+    /// Set once the file has no more room: the disk was found full (the reserve has then
+    /// been given back), or the file reached its headroom below the file size limit.
+    pub(crate) fn room_flag(&self) -> RoomFlag {
+        self.room.clone()
     }
 
     /// The size of the file as written so far (bytes handed to the system).
@@ -108,7 +148,7 @@ impl PartFile {
     }
 
     fn on_full(&mut self, error: io::Error) -> io::Result<()> {
-        self.disk_full.store(true, Ordering::Release);
+        self.room.set(NoRoom::DiskFull);
         match self.reserve.take() {
             Some(reserve) => {
                 reserve.release();
@@ -127,12 +167,25 @@ impl Drop for PartFile {
 
 impl Write for PartFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        if self
+            .size_cap
+            .is_some_and(|cap| self.position + buf.len() as u64 > cap)
+        {
+            // The write still fits below the limit: the headroom takes the file's end.
+            self.room.set(NoRoom::FileSizeLimit);
+        }
         let written = match self.file.write(buf) {
-            Err(error) if is_disk_full(&error) => {
+            Err(error) if no_room(&error) == Some(NoRoom::DiskFull) => {
                 self.on_full(error)?;
                 self.file.write(buf)?
             }
-            result => result?,
+            Err(error) => {
+                if let Some(why) = no_room(&error) {
+                    self.room.set(why);
+                }
+                return Err(error);
+            }
+            Ok(written) => written,
         };
         self.position += written as u64;
         self.size.fetch_max(self.position, Ordering::Relaxed);
@@ -151,6 +204,24 @@ impl Seek for PartFile {
     }
 }
 
+/// The process's file size limit in bytes (the soft limit of `RLIMIT_FSIZE`, as
+/// `/proc/self/limits` says it), when it has one.
+fn file_size_limit() -> Option<u64> {
+    let limits = fs::read_to_string("/proc/self/limits").ok()?;
+    parse_file_size_limit(&limits)
+}
+
+/// The soft `Max file size` of a `/proc/PID/limits` text; `None` when unlimited.
+fn parse_file_size_limit(limits: &str) -> Option<u64> {
+    limits
+        .lines()
+        .find_map(|l| l.strip_prefix("Max file size"))?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
 /// `DIR/.NAME.reserve` for `DIR/NAME`.
 fn reserve_path(path: &Path) -> PathBuf {
     let name = path
@@ -158,4 +229,33 @@ fn reserve_path(path: &Path) -> PathBuf {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     path.with_file_name(format!(".{name}.reserve"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_file_size_limit_is_read_from_the_process_limits() {
+        fn check(limits: &str, expected: Option<u64>) {
+            assert_eq!(parse_file_size_limit(limits), expected, "{limits}");
+        }
+        let header = "Limit                     Soft Limit           Hard Limit           Units\n";
+        check(
+            &format!(
+                "{header}Max cpu time              unlimited            unlimited            seconds\n\
+                 Max file size             unlimited            unlimited            bytes\n"
+            ),
+            None,
+        );
+        check(
+            &format!(
+                "{header}Max file size             6291456              6291456              bytes\n"
+            ),
+            Some(6_291_456),
+        );
+        check("", None);
+        // The limit of this very process reads without error.
+        let _ = file_size_limit();
+    }
 }

@@ -409,7 +409,10 @@ impl RawClient {
         self.provider = provider.map(str::to_owned);
         if let Some(provider) = provider {
             let channel = names::data_channel(provider, &self.interface);
-            self.data = Some(self.ipc.subscriber(&channel, &names::data_config())?);
+            self.data = Some(
+                self.ipc
+                    .subscriber(&channel, &names::data_config(&self.interface))?,
+            );
             self.data_channel = channel;
         }
         Ok(())

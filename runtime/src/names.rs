@@ -41,6 +41,10 @@ pub const CLOCK_CHANNEL: &str = "/lewis/clock";
 /// The iceoryx2 node name of the broker (`lewis up`).
 pub const BROKER_NODE: &str = "lewis-broker";
 
+/// The provider name in the header of the sequencer's records (`lewis seq run`, `lewis up
+/// --script`).
+pub const SEQUENCER_NODE: &str = "lewis-sequencer";
+
 /// The data channel on which `service` publishes `interface`.
 #[must_use]
 pub fn data_channel(service: &str, interface: &str) -> String {
@@ -66,26 +70,58 @@ pub fn command_log_channel(service: &str) -> String {
     format!("/lewis/commands/{service}")
 }
 
-/// The settings of every provider's data channel: a sensor stream (fresh data matters, the
-/// oldest unread sample is dropped), the last sample kept for a client that is bound late or
-/// rebound, 64 KiB preallocated per sample (a 181-beam scan is about 10 KiB; bigger
-/// messages grow the segment).
+/// Bytes of shared memory the recorder's unread samples of one data channel may hold: its
+/// buffer on a channel holds this many bytes of typical messages, between
+/// [`RECORDER_MIN_SAMPLES`] and [`RECORDER_MAX_SAMPLES`] samples.
+pub const RECORDER_BUFFER_BYTES: usize = 16 << 20;
+
+/// The shallowest buffer of the recorder on a data channel (a camera at 30 Hz: 0.5 s).
+pub const RECORDER_MIN_SAMPLES: usize = 16;
+
+/// The deepest buffer of the recorder on a data channel (a 1 kHz channel: 256 ms).
+pub const RECORDER_MAX_SAMPLES: usize = 256;
+
+/// The size a publication of `interface` typically has, at most: camera frames are large (a
+/// 640x480 RGB frame is 900 KiB), every other interface's messages fit in 64 KiB (a
+/// 361-beam scan is 20 KiB). Larger messages still go through (the segment grows).
 #[must_use]
-pub fn data_config() -> ChannelConfig {
+pub fn typical_len_bytes(interface: &str) -> usize {
+    match interface {
+        "ImageSource" => 1 << 20,
+        _ => 64 << 10,
+    }
+}
+
+/// The settings of every provider's data channel of `interface`: a sensor stream (fresh
+/// data matters, the oldest unread sample is dropped, the publisher never waits), the last
+/// sample kept for a client that is bound late or rebound, 8 samples of buffer for clients,
+/// the interface's [`typical_len_bytes`] preallocated per sample.
+///
+/// The recorder takes the deepest buffer ([`ChannelConfig::deepest`]), sized by the
+/// payload: [`RECORDER_BUFFER_BYTES`] of typical messages, so 256 samples of small ones
+/// (256 ms of a 1 kHz channel: a tap thread descheduled that long on a loaded machine
+/// loses nothing) and 16 camera frames.
+#[must_use]
+pub fn data_config(interface: &str) -> ChannelConfig {
+    let typical = typical_len_bytes(interface);
     ChannelConfig {
         buffer: 8,
+        max_buffer: (RECORDER_BUFFER_BYTES / typical)
+            .clamp(RECORDER_MIN_SAMPLES, RECORDER_MAX_SAMPLES),
         max_held: 8,
         max_subscribers: 32,
-        ..ChannelConfig::sensor(64 << 10)
+        ..ChannelConfig::sensor(typical)
     }
 }
 
 /// The settings of health channels: the broker drains them at every wake-up; the last
-/// heartbeat is kept for a broker that joins late.
+/// heartbeat is kept for a broker that joins late. The recorder takes a deeper buffer (64:
+/// 640 ms of heartbeats every 10 ms).
 #[must_use]
 pub fn health_config() -> ChannelConfig {
     ChannelConfig {
         buffer: 16,
+        max_buffer: 64,
         max_held: 4,
         ..ChannelConfig::sensor(256)
     }
@@ -169,7 +205,8 @@ pub fn clock_config() -> ChannelConfig {
 
 /// The settings of the data or record channel named `channel`, from its name: the broker's,
 /// log, sequencer and clock channels, health (`/lewis/health/*`) and command logs
-/// (`/lewis/commands/*`) have their own; every other name is a provider's data channel.
+/// (`/lewis/commands/*`) have their own; every other name is a provider's data channel,
+/// sized by the interface its last segment names.
 #[must_use]
 pub fn channel_config(channel: &str) -> ChannelConfig {
     match channel {
@@ -179,7 +216,8 @@ pub fn channel_config(channel: &str) -> ChannelConfig {
         CLOCK_CHANNEL => clock_config(),
         _ if channel.starts_with("/lewis/health/") => health_config(),
         _ if channel.starts_with("/lewis/commands/") => command_log_config(),
-        _ => data_config(),
+        // A provider's data channel is `/<provider>/<Interface>`.
+        _ => data_config(channel.rsplit('/').next().unwrap_or(channel)),
     }
 }
 
@@ -232,12 +270,28 @@ mod tests {
         fn check(channel: &str, expected: &ChannelConfig) {
             assert_eq!(&channel_config(channel), expected, "{channel}");
         }
-        check("/laser/RangeFinder", &data_config());
+        check("/laser/RangeFinder", &data_config("RangeFinder"));
+        check("/camera/ImageSource", &data_config("ImageSource"));
         check(&health_channel("laser"), &health_config());
         check(&command_log_channel("laser"), &command_log_config());
         check(BROKER_CHANNEL, &broker_config());
         check(LOG_CHANNEL, &log_config());
         check(SEQUENCER_CHANNEL, &sequencer_config());
         check(CLOCK_CHANNEL, &clock_config());
+    }
+
+    #[test]
+    fn the_recorder_buffers_hold_a_budget_of_bytes_whatever_the_payload() {
+        fn check(interface: &str, client_buffer: usize, recorder_buffer: usize) {
+            let config = data_config(interface);
+            assert_eq!(
+                (config.buffer, config.deepest().buffer),
+                (client_buffer, recorder_buffer),
+                "{interface}"
+            );
+        }
+        check("Distance", 8, 256);
+        check("RangeFinder", 8, 256);
+        check("ImageSource", 8, 16);
     }
 }

@@ -71,6 +71,7 @@ pub fn run_ok(command: &mut Command) -> String {
 }
 
 pub mod robot;
+pub mod small_disk;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Stdio};
@@ -345,14 +346,22 @@ pub fn signal(pid: u32, signal: nix::sys::signal::Signal) {
 /// # Panics
 /// When it is still running after [`WATCHDOG`].
 pub fn wait_child(child: &mut Child) -> std::process::ExitStatus {
+    wait_child_within(child, WATCHDOG)
+}
+
+/// Waits for a child that is meant to run for a while (`watchdog` past its expected end).
+///
+/// # Panics
+/// When it is still running after `watchdog`.
+pub fn wait_child_within(child: &mut Child, watchdog: Duration) -> std::process::ExitStatus {
     let pidfd = rustix::process::pidfd_open(
         rustix::process::Pid::from_child(child),
         rustix::process::PidfdFlags::empty(),
     )
     .expect("pidfd_open works on this kernel");
     assert!(
-        wait_readable(&pidfd, WATCHDOG),
-        "process {} still runs after {WATCHDOG:?}",
+        wait_readable(&pidfd, watchdog),
+        "process {} still runs after {watchdog:?}",
         child.id()
     );
     child.wait().expect("the child can be reaped")

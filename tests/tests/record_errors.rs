@@ -1,13 +1,14 @@
 //! When recording fails (a full disk, a missing folder), the recorder says which file, the
 //! failure is published on `/lewis/broker`, the file is left valid, and the robot keeps
-//! running.
+//! running. The full disk is a small tmpfs where one can be mounted, else a file size
+//! limit on the recorder process ([`SmallDisk`]); the test checks the outcome of the kind
+//! it got.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod record_common;
 
 use std::ffi::OsStr;
-use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
@@ -17,38 +18,9 @@ use lewis_recorder::live::RECORDER_FAILED;
 use lewis_runtime::ipc::{Ipc, Namespace, WaitSet, WakeMode};
 use lewis_runtime::names;
 use lewis_tests::robot::{TestRobot, test_robot};
+use lewis_tests::small_disk::{Kind, SmallDisk};
 use lewis_tests::{RangeApp, Up, WATCHDOG, lewis_exe, open_ipc};
 use record_common::{RecordProcess, Recording, doctor};
-
-/// A tmpfs mounted at `dir` for the test; unmounted on drop.
-struct Mount {
-    dir: PathBuf,
-}
-
-impl Mount {
-    fn tmpfs(dir: &Path, size: &str) -> Option<Self> {
-        let status = Command::new("mount")
-            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
-            .arg(dir)
-            .status()
-            .ok()?;
-        status.success().then(|| Self {
-            dir: dir.to_path_buf(),
-        })
-    }
-}
-
-impl Drop for Mount {
-    fn drop(&mut self) {
-        let _ = Command::new("umount").arg(&self.dir).status();
-    }
-}
-
-fn is_root() -> bool {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap();
-    let uid_line = status.lines().find(|l| l.starts_with("Uid:")).unwrap();
-    uid_line.split_whitespace().nth(2) == Some("0")
-}
 
 /// Waits (watchdog) for a `recorder-failed` decision on `/lewis/broker`.
 fn wait_recorder_failed(subscriber: &mut lewis_runtime::ipc::Subscriber) -> Broker {
@@ -75,15 +47,11 @@ fn wait_recorder_failed(subscriber: &mut lewis_runtime::ipc::Subscriber) -> Brok
 #[test]
 fn a_full_disk_stops_the_recorder_with_a_valid_file_tells_the_broker_and_spares_the_robot() {
     let dir = tempfile::tempdir().unwrap();
-    let disk = dir.path().join("disk");
-    std::fs::create_dir(&disk).unwrap();
-    if !is_root() {
-        // Without root there is no small disk to fill; the recorder's own tests cover the
-        // reserve logic.
-        return;
-    }
-    let mount = Mount::tmpfs(&disk, "6m").expect("root can mount a tmpfs");
-    let output = mount.dir.join("full.mcap");
+    let disk_dir = dir.path().join("disk");
+    std::fs::create_dir(&disk_dir).unwrap();
+    // A 6 MiB tmpfs, or a 6 MiB file size limit on the recorder where none can be mounted.
+    let disk = SmallDisk::new(&disk_dir, 6 * 1024 * 1024);
+    let output = disk.dir().join("full.mcap");
     // Big scans, fast: the 2 MiB left beside the recorder's 4 MiB reserve fill in a second.
     let robot = test_robot(&TestRobot {
         laser_start: "always",
@@ -98,7 +66,7 @@ fn a_full_disk_stops_the_recorder_with_a_valid_file_tells_the_broker_and_spares_
     let mut decisions = watcher
         .subscriber(names::BROKER_CHANNEL, &names::broker_config())
         .unwrap();
-    let recorder = RecordProcess::start(
+    let recorder = RecordProcess::start_with(
         &namespace,
         &[
             OsStr::new("--robot"),
@@ -108,6 +76,7 @@ fn a_full_disk_stops_the_recorder_with_a_valid_file_tells_the_broker_and_spares_
             OsStr::new("--compression"),
             OsStr::new("none"),
         ],
+        |command| disk.apply(command),
     );
     let mut up = Up::start_with(
         tempfile::tempdir().unwrap(),
@@ -121,7 +90,11 @@ fn a_full_disk_stops_the_recorder_with_a_valid_file_tells_the_broker_and_spares_
     let failure = wait_recorder_failed(&mut decisions);
     let (ok, out) = recorder.wait();
     assert!(!ok, "lewis record did not fail:\n{out}");
-    assert!(out.contains("the disk is full"), "{out}");
+    let said = match disk.kind() {
+        Kind::Tmpfs => "the disk is full",
+        Kind::FileSizeLimit => "the file reached the largest size allowed",
+    };
+    assert!(out.contains(said), "{out}");
     assert!(out.contains(&output.display().to_string()), "{out}");
     assert!(
         failure.reason.contains(&output.display().to_string()),
@@ -141,7 +114,7 @@ fn a_full_disk_stops_the_recorder_with_a_valid_file_tells_the_broker_and_spares_
     doctor(&output);
     let recording = Recording::read(std::slice::from_ref(&output));
     assert!(!recording.of("/laser/RangeFinder").is_empty());
-    drop(mount);
+    drop(disk);
 }
 
 #[test]

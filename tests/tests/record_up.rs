@@ -9,7 +9,7 @@ mod record_common;
 use std::ffi::OsStr;
 use std::path::PathBuf;
 
-use lewis_interfaces::msg::{Broker, CommandLog, RangeFinder, RangeFinderGetGeometry};
+use lewis_interfaces::msg::{Broker, CommandLog, LogLine, RangeFinder, RangeFinderGetGeometry};
 use lewis_interfaces::{Message, cdr};
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::Namespace;
@@ -175,5 +175,58 @@ fn lewis_up_and_lewis_record_write_files_every_reader_decodes_with_every_sample(
     assert!(
         laser_counts.windows(2).all(|w| w[0] == w[1]),
         "{laser_counts:?}"
+    );
+}
+
+/// A service that only talks: its output lines go to `/lewis/log`.
+const TALKER: &str = r#"
+[robot]
+name = "talk"
+
+[[services]]
+name = "talker"
+command = ["/bin/sh", "-c", "echo hello from the talker; exec sleep 60"]
+start = "always"
+heartbeat_deadline_ms = 60000
+provides = [{ interface = "Distance", quality = 1, cost = 1 }]
+"#;
+
+#[test]
+fn service_output_lines_are_recorded_with_the_time_they_were_published() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("talk.mcap");
+    let mut up = Up::start_with(
+        tempfile::tempdir().unwrap(),
+        Namespace::unique("record-log"),
+        TALKER,
+        &[OsStr::new("-o"), output.as_os_str()],
+    );
+    up.wait_line("hello from the talker");
+    assert!(up.stop().success(), "{}", up.log());
+    let recording = Recording::read(std::slice::from_ref(&output));
+    let lines: Vec<(LogLine, &record_common::Recorded)> = recording
+        .of("/lewis/log")
+        .iter()
+        .map(|m| (decode(m), m))
+        .collect();
+    let (line, recorded) = lines
+        .iter()
+        .find(|(l, _)| l.text == "hello from the talker")
+        .unwrap_or_else(|| panic!("the talker's line is not on /lewis/log: {lines:?}"));
+    assert_eq!(
+        (line.service.as_str(), line.stream.as_str()),
+        ("talker", "stdout")
+    );
+    // MCAP publish time = the header's, stamped when the broker published the line
+    // (before the recorder received it); it used to be 0.
+    assert_eq!(
+        recorded.publish_time_ns,
+        u64::try_from(line.header.publish_time_ns).unwrap()
+    );
+    assert!(
+        recorded.publish_time_ns > 0 && recorded.publish_time_ns <= recorded.log_time_ns,
+        "publish time {} received {}",
+        recorded.publish_time_ns,
+        recorded.log_time_ns
     );
 }

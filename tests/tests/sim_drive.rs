@@ -266,7 +266,7 @@ fn laser_killed_beyond_its_restart_limit_the_robot_arrives_on_sonar() {
     let mut mover = ipc
         .subscriber(
             &names::data_channel("obstacle_avoider", "Mover"),
-            &names::data_config(),
+            &names::data_config("Mover"),
         )
         .expect("the obstacle_avoider's Mover status can be read");
 

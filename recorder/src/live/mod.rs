@@ -4,12 +4,19 @@
 //! Given a namespace and a robot description, it subscribes to every provider's data
 //! channel of the robot file (all of them from the start: a provider that a failover starts
 //! later is recorded from its first sample), every service's health and command log,
-//! `/lewis/broker` and `/lewis/log` ([`robot_channels`]), keeps those matching the
-//! `--topics` globs ([`TopicFilter`]), waits on all of them with the runtime's [`WaitSet`]
+//! `/lewis/broker`, `/lewis/sequencer` and `/lewis/log` ([`robot_channels`]), keeps those
+//! matching the `--topics` globs ([`TopicFilter`]), waits on all of them with the runtime's
+//! [`WaitSet`]
 //! (no polling), and offers each sample's bytes, unchanged, to the recorder's [`Tap`]
 //! (`publish_time` and sequence number from the message header, `log_time` the receive
-//! time). The tap never waits: the publishers' channels keep their own overflow policy, and
-//! a full recorder queue drops and counts.
+//! time). The tap never waits: the publishers' channels keep their own overflow policy
+//! (the tap takes the deepest buffer they allow), and a full recorder queue drops and
+//! counts.
+//!
+//! Without a robot description, it asks the namespace's broker which robot it runs
+//! ([`discover`]): at once (a running robot is then recorded from the ready line on) and,
+//! while no broker answers, again every half second, adding the robot's channels when it
+//! does. The description is stored in the file either way.
 //!
 //! When the recording fails (a full disk, a read-only folder, a missing one), the file is
 //! closed valid as far as the recorder can, the failure is published on `/lewis/broker`
@@ -20,11 +27,13 @@
 //! [`WaitSet`]: lewis_runtime::ipc::WaitSet
 //! [`Tap`]: crate::Tap
 
+pub mod discover;
+pub mod load;
 mod plan;
 mod tap;
 
 pub use plan::{BadGlob, META_KIND, TapChannel, TopicFilter, robot_channels};
-pub use tap::{Ended, TapCounts};
+pub use tap::{Ended, Growth, TapCounts};
 
 use std::time::{Duration, Instant};
 
@@ -41,6 +50,7 @@ use crate::error::RecordError;
 use crate::options::RecorderOptions;
 use crate::queue::{QueueOptions, spawn};
 use crate::recorder::{Recorder, RecordingReport};
+use discover::Discovery;
 use tap::LiveTap;
 
 /// The IPC node name of the recorder (shown in node lists).
@@ -83,7 +93,7 @@ pub struct LiveOptions {
     /// The namespace of the running robot.
     pub namespace: Namespace,
     /// The robot description, whose providers, health and command channels are recorded;
-    /// without one, only `/lewis/broker` and `/lewis/log`.
+    /// without one, the broker of the namespace is asked for it.
     pub robot: Option<Robot>,
     /// The topics to keep.
     pub topics: TopicFilter,
@@ -103,6 +113,9 @@ pub struct Ready {
     pub topics: Vec<String>,
     /// The first file written.
     pub path: std::path::PathBuf,
+    /// The robot recorded (given, or found from its broker); `None` while no broker has
+    /// answered.
+    pub robot: Option<String>,
 }
 
 /// What a live recording did.
@@ -129,12 +142,34 @@ pub fn record(
     let ipc = Ipc::open(&options.namespace, RECORDER_NODE)?;
     let announcer = Announcer { ipc: &ipc };
     let clock = LiveClock::new();
-    let plan: Vec<TapChannel> = robot_channels(options.robot.as_ref())
+    let mut recorder_options = options.recorder.clone();
+    let mut robot = options.robot.clone();
+    let mut discovery = None;
+    if robot.is_none() {
+        let mut asking = Discovery::new(&ipc)?;
+        match asking.ask_and_wait() {
+            Some(found) => {
+                tracing::info!(
+                    "recording robot `{}`: its broker said which robot it runs",
+                    found.robot.name
+                );
+                robot = Some(found.robot);
+                recorder_options.robot_description = Some(found.description);
+            }
+            None => {
+                tracing::warn!(
+                    "no broker answers in namespace `{}`: recording /lewis/broker, /lewis/sequencer and /lewis/log, and the robot's channels once its broker answers (or give --robot)",
+                    options.namespace
+                );
+                discovery = Some(asking);
+            }
+        }
+    }
+    let plan: Vec<TapChannel> = robot_channels(robot.as_ref())
         .into_iter()
         .filter(|c| options.topics.matches(c.topic()))
         .collect();
-    let recorder =
-        Recorder::create(options.recorder.clone()).map_err(|e| announcer.failed(&clock, e))?;
+    let recorder = Recorder::create(recorder_options).map_err(|e| announcer.failed(&clock, e))?;
     let path = recorder.current_path().to_path_buf();
     let (tap, writer) = spawn(recorder, options.queue, move || clock.now_ns())
         .map_err(|e| announcer.failed(&clock, e))?;
@@ -146,12 +181,19 @@ pub fn record(
             return Err(e);
         }
     };
+    if let Some(discovery) = discovery {
+        live.grow_with(Growth {
+            discovery,
+            topics: options.topics.clone(),
+        });
+    }
     on_ready(&Ready {
         topics: plan.iter().map(|c| c.topic().to_owned()).collect(),
         path,
+        robot: robot.map(|r| r.name),
     });
     let end = options.duration.map(|d| Instant::now() + d);
-    let ended = live.run(&tap, &writer, &signals, end);
+    let ended = live.run(&ipc, &tap, &writer, &signals, end);
     let recording = writer.finish().map_err(|e| announcer.failed(&clock, e))?;
     Ok(LiveReport {
         recording,

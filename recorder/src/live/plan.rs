@@ -3,7 +3,7 @@
 
 use globset::{GlobBuilder, GlobSet, GlobSetBuilder};
 use lewis_interfaces::Interface;
-use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine};
+use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Sequencer};
 use lewis_runtime::ipc::ChannelConfig;
 use lewis_runtime::names;
 use lewis_runtime::robot::Robot;
@@ -12,27 +12,32 @@ use thiserror::Error;
 use crate::channel::ChannelSpec;
 
 /// Channel metadata key saying what a channel carries: `data`, `health`, `commands`,
-/// `broker` or `log`.
+/// `broker`, `sequencer` or `log`.
 pub const META_KIND: &str = "kind";
 
 /// One channel to tap: its IPC name and settings, and the MCAP channel it is written to.
 #[derive(Debug, Clone)]
 pub struct TapChannel {
-    /// The IPC settings it is opened with (those of [`names`]: a mismatch would be refused).
+    /// The IPC settings it is opened with: those of [`names`] (a mismatch would be refused)
+    /// with the deepest buffer the channel allows ([`ChannelConfig::deepest`]), so that a
+    /// tap not scheduled for a while loses nothing.
     pub config: ChannelConfig,
     /// The MCAP channel; its topic is the IPC channel name.
     pub spec: ChannelSpec,
 }
 
 impl TapChannel {
-    fn new(mut spec: ChannelSpec, kind: &str, config: ChannelConfig) -> Self {
+    fn new(mut spec: ChannelSpec, kind: &str, config: &ChannelConfig) -> Self {
         spec.extra_metadata
             .insert(META_KIND.to_owned(), kind.to_owned());
-        Self { config, spec }
+        Self {
+            config: config.deepest(),
+            spec,
+        }
     }
 
     /// A robot-wide channel of interface `T`.
-    fn of<T: Interface>(provider: &str, topic: &str, kind: &str, config: ChannelConfig) -> Self {
+    fn of<T: Interface>(provider: &str, topic: &str, kind: &str, config: &ChannelConfig) -> Self {
         let spec = ChannelSpec {
             topic: topic.to_owned(),
             schema_name: T::SCHEMA_NAME.to_owned(),
@@ -55,8 +60,8 @@ impl TapChannel {
 /// Every channel of `robot` worth recording, in a stable order: each provider's data
 /// channel `/<service>/<Interface>` (all of them, started or not, so that a provider
 /// started later by a failover is recorded from its first sample), then per service its
-/// health and its command log, then `/lewis/broker` and `/lewis/log`. Without a robot, only
-/// the channels that do not depend on it.
+/// health and its command log, then `/lewis/broker`, `/lewis/sequencer` and `/lewis/log`.
+/// Without a robot, only the channels that do not depend on it.
 #[must_use]
 pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
     let mut channels = Vec::new();
@@ -69,7 +74,7 @@ pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
                 channels.push(TapChannel::new(
                     ChannelSpec::publication(interface, &service.name, &topic),
                     "data",
-                    names::data_config(),
+                    &names::data_config(interface.name),
                 ));
             }
         }
@@ -79,26 +84,32 @@ pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
             &service.name,
             &names::health_channel(&service.name),
             "health",
-            names::health_config(),
+            &names::health_config(),
         ));
         channels.push(TapChannel::of::<CommandLog>(
             &service.name,
             &names::command_log_channel(&service.name),
             "commands",
-            names::command_log_config(),
+            &names::command_log_config(),
         ));
     }
     channels.push(TapChannel::of::<Broker>(
         names::BROKER_NODE,
         names::BROKER_CHANNEL,
         "broker",
-        names::broker_config(),
+        &names::broker_config(),
+    ));
+    channels.push(TapChannel::of::<Sequencer>(
+        names::SEQUENCER_NODE,
+        names::SEQUENCER_CHANNEL,
+        "sequencer",
+        &names::sequencer_config(),
     ));
     channels.push(TapChannel::of::<LogLine>(
         names::BROKER_NODE,
         names::LOG_CHANNEL,
         "log",
-        names::log_config(),
+        &names::log_config(),
     ));
     channels
 }
@@ -211,6 +222,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
                 "/lewis/health/sonar",
                 "/lewis/commands/sonar",
                 "/lewis/broker",
+                "/lewis/sequencer",
                 "/lewis/log",
             ]
         );
@@ -238,6 +250,10 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
         check("/lewis/health/laser", ["laser", "Health", "health"]);
         check("/lewis/commands/sonar", ["sonar", "CommandLog", "commands"]);
         check("/lewis/broker", ["lewis-broker", "Broker", "broker"]);
+        check(
+            "/lewis/sequencer",
+            ["lewis-sequencer", "Sequencer", "sequencer"],
+        );
         check("/lewis/log", ["lewis-broker", "LogLine", "log"]);
     }
 
@@ -247,7 +263,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
             .iter()
             .map(|c| c.topic().to_owned())
             .collect();
-        assert_eq!(topics, ["/lewis/broker", "/lewis/log"]);
+        assert_eq!(topics, ["/lewis/broker", "/lewis/sequencer", "/lewis/log"]);
     }
 
     #[test]

@@ -13,7 +13,8 @@ use lewis_runtime::ipc::{
 use lewis_runtime::live::StopSignals;
 
 use super::LiveError;
-use super::plan::TapChannel;
+use super::discover::{Discovered, Discovery};
+use super::plan::{TapChannel, TopicFilter, robot_channels};
 use crate::channel::{ChannelId, Sample};
 use crate::queue::{Dropped, Tap, WriterThread};
 
@@ -39,14 +40,27 @@ pub struct TapCounts {
     pub offered: u64,
     /// Samples the recorder's queue refused (dropped and counted there).
     pub refused: u64,
+    /// Samples the tap never received: its IPC buffer overflowed (dropped and counted too).
+    pub missed: u64,
     /// Samples whose bytes did not start with a valid header (recorded anyway, with the
     /// receive time as publish time and sequence number 0).
     pub headerless: u64,
 }
 
 struct Tapped {
+    topic: String,
     subscriber: Subscriber,
     id: ChannelId,
+    /// What the subscriber had counted as missed when last looked at.
+    missed: u64,
+}
+
+/// Channels added while the loop runs: those of a robot whose broker answers later.
+pub struct Growth {
+    /// Asks the broker which robot it runs.
+    pub discovery: Discovery,
+    /// The topics to keep of that robot.
+    pub topics: TopicFilter,
 }
 
 /// The subscribers of the tapped channels, each paired with its recorder channel.
@@ -55,6 +69,7 @@ pub struct LiveTap {
     clock: LiveClock,
     waits: WaitSet,
     counts: TapCounts,
+    growth: Option<Growth>,
 }
 
 impl LiveTap {
@@ -70,27 +85,75 @@ impl LiveTap {
         tap: &Tap,
         clock: LiveClock,
     ) -> Result<Self, LiveError> {
-        // One source is the stop signals.
-        if plan.len() >= MAX_WAIT_SOURCES {
-            return Err(LiveError::TooManyChannels {
-                count: plan.len(),
-                max: MAX_WAIT_SOURCES - 1,
-            });
-        }
-        let mut channels = Vec::with_capacity(plan.len());
-        for channel in plan {
-            let subscriber = ipc.subscriber(channel.topic(), &channel.config)?;
-            channels.push(Tapped {
-                subscriber,
-                id: tap.register(channel.spec.clone()),
-            });
-        }
-        Ok(Self {
-            channels,
+        let mut live = Self {
+            channels: Vec::with_capacity(plan.len()),
             clock,
             waits: WaitSet::new(WakeMode::Event),
             counts: TapCounts::default(),
-        })
+            growth: None,
+        };
+        live.check_room(plan.len())?;
+        for channel in plan {
+            live.add(ipc, channel, tap)?;
+        }
+        Ok(live)
+    }
+
+    /// Lets the loop add the channels of the robot that `growth` finds.
+    pub fn grow_with(&mut self, growth: Growth) {
+        self.growth = Some(growth);
+    }
+
+    /// Whether `count` more channels fit in one wait beside the stop signals and the
+    /// broker's answer.
+    fn check_room(&self, count: usize) -> Result<(), LiveError> {
+        let max = MAX_WAIT_SOURCES - 2;
+        let total = self.channels.len() + count;
+        if total > max {
+            return Err(LiveError::TooManyChannels { count: total, max });
+        }
+        Ok(())
+    }
+
+    /// Subscribes to `channel` and registers it with `tap`.
+    fn add(&mut self, ipc: &Ipc, channel: &TapChannel, tap: &Tap) -> Result<(), LiveError> {
+        let subscriber = ipc.subscriber(channel.topic(), &channel.config)?;
+        self.channels.push(Tapped {
+            topic: channel.topic().to_owned(),
+            subscriber,
+            id: tap.register(channel.spec.clone()),
+            missed: 0,
+        });
+        Ok(())
+    }
+
+    /// Taps the channels of a robot found from its broker that are not tapped yet, and
+    /// hands its description to the writer. A channel that cannot be opened is said and
+    /// left out: the others are still recorded.
+    fn adopt(&mut self, ipc: &Ipc, tap: &Tap, found: Discovered) {
+        let topics = self.growth.as_ref().map(|g| &g.topics);
+        let plan: Vec<TapChannel> = robot_channels(Some(&found.robot))
+            .into_iter()
+            .filter(|c| topics.is_none_or(|t| t.matches(c.topic())))
+            .filter(|c| !self.channels.iter().any(|t| t.topic == c.topic()))
+            .collect();
+        // Before the channels: the writer stores it before their first message.
+        tap.set_robot_description(found.description);
+        if let Err(e) = self.check_room(plan.len()) {
+            tracing::error!("{e}");
+            return;
+        }
+        let mut added = 0;
+        for channel in &plan {
+            match self.add(ipc, channel, tap) {
+                Ok(()) => added += 1,
+                Err(e) => tracing::error!("{} is not recorded: {e}", channel.topic()),
+            }
+        }
+        tracing::info!(
+            "robot `{}` found from its broker: {added} more topics recorded",
+            found.robot.name
+        );
     }
 
     /// Offers every sample to `tap` until a stop signal, `end`, or the writer stops.
@@ -99,6 +162,7 @@ impl LiveTap {
     /// When waiting fails.
     pub fn run(
         &mut self,
+        ipc: &Ipc,
         tap: &Tap,
         writer: &WriterThread,
         signals: &StopSignals,
@@ -118,11 +182,19 @@ impl LiveTap {
             if end.is_some_and(|e| now >= e) {
                 return Ok(Ended::Duration);
             }
-            let check = now + WRITER_CHECK;
-            let deadline = end.map_or(check, |e| e.min(check));
+            if let Some(found) = self.growth.as_mut().and_then(|g| g.discovery.poll(now)) {
+                self.adopt(ipc, tap, found);
+            }
+            let next_ask = self.growth.as_ref().and_then(|g| g.discovery.next_ask());
+            let deadline = [Some(now + WRITER_CHECK), end, next_ask]
+                .into_iter()
+                .flatten()
+                .min()
+                .unwrap_or(now + WRITER_CHECK);
             let signal_fd = FdSource::new(signals.as_fd());
-            let mut sources: Vec<&dyn Waitable> = Vec::with_capacity(self.channels.len() + 1);
+            let mut sources: Vec<&dyn Waitable> = Vec::with_capacity(self.channels.len() + 2);
             sources.push(&signal_fd);
+            sources.extend(self.growth.as_ref().and_then(|g| g.discovery.waitable()));
             sources.extend(self.channels.iter().map(|c| &c.subscriber as &dyn Waitable));
             // Whatever woke it, the next turn looks at everything.
             self.waits.wait(&sources, Some(deadline))?;
@@ -177,6 +249,14 @@ impl LiveTap {
                         running = false;
                     }
                 }
+            }
+            // Gaps in the IPC publisher's numbering: samples overwritten in the buffer
+            // before the tap took them.
+            let missed = channel.subscriber.lost();
+            if missed > channel.missed {
+                tap.count_missed(channel.id, missed - channel.missed);
+                self.counts.missed += missed - channel.missed;
+                channel.missed = missed;
             }
         }
         running

@@ -4,6 +4,8 @@
 //! - It turns the [`Supervisor`]'s exit events, the heartbeats on every service's health
 //!   channel, the clients' `request`/`release` commands on `/lewis/broker/cmd` and the core's
 //!   deadlines ([`BrokerCore::next_deadline`]) into [`Event`]s;
+//! - it answers `robot` with the robot description it runs (file name and text), so that a
+//!   recorder started on its own finds every provider's channel;
 //! - it carries out the [`Action`]s: `Start` spawns `lewis service NAME --robot FILE` (or the
 //!   service's command line) in the namespace; `Stop` sends SIGTERM and, after the grace
 //!   period, SIGKILL, without blocking the loop (the exit comes back as an event); binds are
@@ -25,7 +27,7 @@ use std::time::{Duration, Instant};
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
     Broker as BrokerMessage, BrokerCommand, BrokerReleaseReply, BrokerRequestReply,
-    BrokerStatusReply, Health as HealthMessage, LogLine as LogLineMessage,
+    BrokerRobotReply, BrokerStatusReply, Health as HealthMessage, LogLine as LogLineMessage,
 };
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
@@ -84,6 +86,14 @@ pub enum UpError {
     /// The log forwarding thread could not start.
     #[error("cannot start the log forwarding thread: {0}")]
     Thread(std::io::Error),
+    /// The robot file could not be read again (the broker serves its text).
+    #[error("cannot read the robot file {}: {source}", path.display())]
+    RobotFile {
+        /// The robot file.
+        path: PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
 }
 
 /// What a run of `lewis up` ended with.
@@ -197,6 +207,8 @@ pub fn run_up(robot: &Robot, options: &UpOptions) -> Result<UpSummary, UpError> 
 struct Driver<'r> {
     robot: &'r Robot,
     options: &'r UpOptions,
+    /// The robot file's text, served to whoever asks (`robot`).
+    robot_toml: String,
     clock: LiveClock,
     core: BrokerCore,
     supervisor: Supervisor,
@@ -223,6 +235,11 @@ impl<'r> Driver<'r> {
         options: &'r UpOptions,
         supervisor: Supervisor,
     ) -> Result<Self, UpError> {
+        let robot_toml =
+            std::fs::read_to_string(&options.robot_path).map_err(|source| UpError::RobotFile {
+                path: options.robot_path.clone(),
+                source,
+            })?;
         let ipc = Ipc::open(&options.namespace, names::BROKER_NODE)?;
         let decisions_out = ipc.publisher(names::BROKER_CHANNEL, &names::broker_config())?;
         let server = ipc.command_server(names::BROKER_COMMAND, &names::broker_command_config())?;
@@ -237,6 +254,7 @@ impl<'r> Driver<'r> {
         Ok(Self {
             robot,
             options,
+            robot_toml,
             clock: LiveClock::new(),
             core: BrokerCore::new(robot),
             supervisor,
@@ -563,6 +581,20 @@ impl<'r> Driver<'r> {
                 self.stamp(reply.header_mut());
                 cdr::to_vec(&reply)
             }
+            BrokerCommand::Robot(_) => {
+                let mut reply = BrokerRobotReply {
+                    file_name: self
+                        .options
+                        .robot_path
+                        .file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default(),
+                    toml: self.robot_toml.clone(),
+                    ..BrokerRobotReply::default()
+                };
+                self.stamp(reply.header_mut());
+                cdr::to_vec(&reply)
+            }
             BrokerCommand::Status(_) => {
                 let mut reply = BrokerStatusReply {
                     report: self.report(),
@@ -639,6 +671,9 @@ fn spawn_log_forwarder(
                     None
                 }
             };
+            // Each line is stamped when it is published (the supervisor does not stamp lines):
+            // the recorder takes the header's time as the MCAP publish time.
+            let clock = LiveClock::new();
             let mut seq = 0;
             for line in lines {
                 let Some((_, publisher)) = &mut publisher else {
@@ -654,6 +689,7 @@ fn spawn_log_forwarder(
                 };
                 message.header.provider = names::BROKER_NODE.to_owned();
                 message.header.seq = seq;
+                message.header.publish_time_ns = clock.now_ns();
                 let len = cdr::encoded_len(&message);
                 let _ = publisher.publish_with(len, |buf| {
                     let _ = cdr::encode_into(&message, buf);

@@ -50,6 +50,10 @@ pub enum OverflowPolicy {
 pub struct ChannelConfig {
     /// Samples a subscriber can hold unread before the overflow policy applies.
     pub buffer: usize,
+    /// The deepest buffer a subscriber of the channel may have (the recorder's, see
+    /// [`ChannelConfig::deepest`]); below `buffer`, `buffer`. The publishers' shared memory
+    /// is sized for every subscriber at this depth, but only samples in use take memory.
+    pub max_buffer: usize,
     /// What happens when a subscriber's buffer is full.
     pub overflow: OverflowPolicy,
     /// Samples kept by the publisher and given to a subscriber that joins late.
@@ -74,6 +78,7 @@ impl ChannelConfig {
     pub fn sensor(typical_len_bytes: usize) -> Self {
         Self {
             buffer: 4,
+            max_buffer: 0,
             overflow: OverflowPolicy::DropOldest,
             history: 1,
             initial_max_len_bytes: typical_len_bytes.max(1),
@@ -95,6 +100,21 @@ impl ChannelConfig {
             history: 0,
             ..Self::sensor(typical_len_bytes)
         }
+    }
+
+    /// The same channel for a subscriber that takes the deepest buffer it allows: a reader
+    /// that must not lose a sample while it is not scheduled for a while (the recorder).
+    #[must_use]
+    pub fn deepest(&self) -> Self {
+        Self {
+            buffer: self.service_buffer(),
+            ..self.clone()
+        }
+    }
+
+    /// The deepest buffer the channel allows, as iceoryx2 is told.
+    fn service_buffer(&self) -> usize {
+        self.buffer.max(self.max_buffer).max(1)
     }
 
     fn max_nodes(&self) -> usize {
@@ -484,7 +504,7 @@ impl Ipc {
             .publish_subscribe::<[u8]>()
             .user_header::<FrameHeader>()
             .enable_safe_overflow(config.overflow == OverflowPolicy::DropOldest)
-            .subscriber_max_buffer_size(config.buffer.max(1))
+            .subscriber_max_buffer_size(config.service_buffer())
             .subscriber_max_borrowed_samples(config.max_held.max(2))
             .history_size(config.history)
             .max_subscribers(config.max_subscribers.max(1))

@@ -136,9 +136,21 @@ impl Namespace {
             })?;
         let mut config = Config::default();
         config.global.prefix = prefix;
+        // Each subscriber keeps slots for the connections of publishers that left while it
+        // still held their samples. iceoryx2's default, 128 slots, costs about 470 KiB per
+        // subscriber (the recorder has one per channel of the robot: 30 MiB for 66
+        // channels); a subscriber holds at most `max_held` samples (8 on data channels).
+        config
+            .defaults
+            .publish_subscribe
+            .subscriber_expired_connection_buffer = EXPIRED_CONNECTION_SLOTS;
         Ok(config)
     }
 }
+
+/// Slots a subscriber keeps for the connections of publishers that left (see
+/// [`Namespace::iceoryx2_config`]): at least the samples a subscriber may hold.
+const EXPIRED_CONNECTION_SLOTS: usize = 16;
 
 impl fmt::Display for Namespace {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -117,7 +117,7 @@ pub fn run_service(
             interface.clone(),
             ipc.publisher(
                 &names::data_channel(&spec.name, interface),
-                &names::data_config(),
+                &names::data_config(interface),
             )?,
         );
         servers.push((

@@ -3,6 +3,8 @@
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod stream;
+
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -29,7 +31,7 @@ pub struct Recorded {
 }
 
 /// A recording read with the mcap crate: messages per topic in file order, the file
-/// metadata, and the channel metadata per topic.
+/// metadata, and the channel metadata per topic (every channel, with messages or not).
 #[derive(Debug, Default)]
 pub struct Recording {
     pub topics: BTreeMap<String, Vec<Recorded>>,
@@ -63,6 +65,13 @@ impl Recording {
                     });
             }
             let summary = mcap::Summary::read(&bytes).unwrap().expect("a summary");
+            // Channels without messages too.
+            for channel in summary.channels.values() {
+                recording
+                    .channels
+                    .entry(channel.topic.clone())
+                    .or_insert_with(|| channel.metadata.clone());
+            }
             for index in &summary.metadata_indexes {
                 let metadata = mcap::read::metadata(&bytes, index).unwrap();
                 recording
@@ -194,15 +203,25 @@ impl RecordProcess {
     /// Starts `lewis record --namespace NS ARGS...` and waits (watchdog) until it has
     /// subscribed to every channel.
     pub fn start(namespace: &Namespace, args: &[&std::ffi::OsStr]) -> Self {
-        let mut child = Command::new(lewis_exe())
+        Self::start_with(namespace, args, |_| {})
+    }
+
+    /// As [`RecordProcess::start`], with the command adjusted by `configure` first.
+    pub fn start_with(
+        namespace: &Namespace,
+        args: &[&std::ffi::OsStr],
+        configure: impl FnOnce(&mut Command),
+    ) -> Self {
+        let mut command = Command::new(lewis_exe());
+        command
             .args(["record", "--namespace", namespace.as_str()])
             .args(args)
             .env("RUST_LOG", "info")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("lewis record starts");
+            .stderr(Stdio::piped());
+        configure(&mut command);
+        let mut child = command.spawn().expect("lewis record starts");
         let (tx, lines) = channel();
         let stdout = child.stdout.take().unwrap();
         let stderr = child.stderr.take().unwrap();
@@ -238,6 +257,30 @@ impl RecordProcess {
                 return process;
             }
         }
+    }
+
+    /// Waits (watchdog) for a line containing `needle` and returns it.
+    pub fn wait_line(&mut self, needle: &str) -> String {
+        loop {
+            let line = self.lines.recv_timeout(WATCHDOG).unwrap_or_else(|_| {
+                panic!(
+                    "lewis record never wrote a line with `{needle}`:\n{}",
+                    self.seen.join("\n")
+                )
+            });
+            self.seen.push(line.clone());
+            if line.contains(needle) {
+                return line;
+            }
+        }
+    }
+
+    /// The ready line (the first line it wrote on stdout).
+    pub fn ready_line(&self) -> &str {
+        self.seen
+            .iter()
+            .find(|l| l.starts_with("recording "))
+            .map_or("", String::as_str)
     }
 
     /// Waits (watchdog) for it to end by itself; returns whether it exited with 0, and
