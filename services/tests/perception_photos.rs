@@ -235,7 +235,8 @@ fn the_blob_finder_finds_every_candy_of_the_camera_frames() {
     let dir = photo_folder(&[("s.png", "images/smarties.png")]);
     let mut camera = camera(&format!("images = {:?}", dir.path()));
     let colors = repository("robots/colors/smarties.txt");
-    let mut finder = blobfinder(&format!("colors = {colors:?}\nmin_area_px = 700"));
+    // The file's own minimum area (700 px, its [Options]) keeps the specks out.
+    let mut finder = blobfinder(&format!("colors = {colors:?}"));
     camera.tick(0);
     let frame = camera.take::<ImageSource>().remove(0);
     finder.input("camera", &frame);
