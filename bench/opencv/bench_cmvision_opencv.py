@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """OpenCV's answer to CMVision, timed on the frames and colour classes of the Rust benchmark.
 
-The Rust benchmark (`cargo bench -p lewis-services --bench cmvision`) writes the 640x480 RGB
-frames it times as PNG files into <temp dir>/lewis-cmvision-bench/; this script reads those
-same pixels and the same colour file (robots/colors/bench6.txt, Player format, YUV thresholds)
-and times, per frame, inside Python around the OpenCV calls only:
+The Rust benchmark (`scripts/bench-cmvision.sh`, which runs `cargo bench --bench cmvision`)
+writes the 640x480 RGB frames it times as PNG files into a folder and runs this script on
+them with the same colour file (robots/colors/bench6.txt, Player format, YUV thresholds). It
+times, per frame, inside Python around the OpenCV calls only:
 
     yuv = cv2.transform(rgb, M)                      # BT.601 integer approximation, as Lewis
     for each colour:
@@ -12,14 +12,19 @@ and times, per frame, inside Python around the OpenCV calls only:
         cv2.connectedComponentsWithStats(mask, connectivity=4)
 
 M is the matrix of services/src/perception/cmvision/yuv.rs divided by 256, with the offsets
-(16, 128, 128); cv2.transform rounds to nearest where Lewis floors (a + 128) / 256, so a few pixels on exact ties can differ by one level: the script reports how
-many pixels get another class than the exact integer formula would give (computed outside the
-timing with numpy).
+(16, 128, 128) plus 1/1024: Lewis floors (a + 128) / 256, cv2.transform rounds a / 256 to the
+nearest (ties to even); the extra 1/1024 sends the ties up, and is too small to move any other
+value (a / 256 is a multiple of 1/256, exact in float32), so both give the same YUV. The
+script checks it: it counts the pixels whose class differs from the exact integer formula's
+(computed outside the timing with numpy), expected 0.
+
+Per colour it reports the number of 4-connected components, which CMVision's region count
+(with a minimum area of 1 and no density merging) must equal.
 
 OpenCV runs on one thread by default (as CMVision does); --threads N lets it use more.
 
-Setup: python3 -m venv /tmp/venv-bench && /tmp/venv-bench/bin/pip install opencv-python-headless numpy
-Run:   /tmp/venv-bench/bin/python bench/opencv/bench_cmvision_opencv.py [--json]
+Setup: scripts/bench-cmvision.sh makes .venv-bench (opencv-python-headless, numpy).
+Alone: .venv-bench/bin/python bench/opencv/bench_cmvision_opencv.py --frames-dir DIR [--json]
 """
 
 import argparse
@@ -35,6 +40,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[2]
 FRAMES = ["fruits", "stuff"]
+HEIGHT, WIDTH = 480, 640
 
 
 def load_player_thresholds(path):
@@ -90,6 +96,7 @@ def boxes_overlap(a, b):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames-dir", type=Path, default=Path(tempfile.gettempdir()) / "lewis-cmvision-bench")
+    parser.add_argument("--frames", nargs="+", default=FRAMES, help="frame names (NAME.png in --frames-dir)")
     parser.add_argument("--colors", type=Path, default=REPO / "robots/colors/bench6.txt")
     parser.add_argument("--repetitions", type=int, default=300, help="timed runs per frame")
     parser.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1, as CMVision)")
@@ -108,20 +115,21 @@ def main():
         for _, y, u, v in classes
     ]
     # Lewis computes floor((a + 128) / 256) + offset; cv2.transform rounds a / 256 + offset to
-    # nearest, which is the same except on exact ties (a % 256 == 128).
+    # nearest with ties to even: 1/1024 more sends every tie up, as the floor does.
     matrix = np.array(
         [[66, 129, 25, 16 * 256], [-38, -74, 112, 128 * 256], [112, -94, -18, 128 * 256]], np.float32
     ) / 256.0
+    matrix[:, 3] += 1.0 / 1024.0
 
     results = {"opencv_version": cv2.__version__, "threads": args.threads, "frames": {}}
-    for name in FRAMES:
+    for name in args.frames:
         path = args.frames_dir / f"{name}.png"
         bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if bgr is None:
             sys.exit(f"{path} is missing: run `cargo bench -p lewis-services --bench cmvision` first, it writes the frames")
         rgb = np.ascontiguousarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        if rgb.shape != (480, 640, 3):
-            sys.exit(f"{path}: expected 640x480, found {rgb.shape[1]}x{rgb.shape[0]}")
+        if rgb.shape != (HEIGHT, WIDTH, 3):
+            sys.exit(f"{path}: expected {WIDTH}x{HEIGHT}, found {rgb.shape[1]}x{rgb.shape[0]}")
 
         def segment():
             yuv = cv2.transform(rgb, matrix)
@@ -137,11 +145,13 @@ def main():
         times_ns.sort()
 
         yuv, components = segment()
-        regions = sum(count - 1 for count, _, _, _ in components)
+        per_colour = {classes[k][0]: count - 1 for k, (count, _, _, _) in enumerate(components)}
+        regions = sum(per_colour.values())
         differing = int(np.count_nonzero(class_codes(yuv, classes) != class_codes(exact_yuv(rgb), classes)))
         median_s = times_ns[len(times_ns) // 2] / 1e9
         results["frames"][name] = {
             "regions": regions,
+            "regions_per_colour": per_colour,
             "median_ms": median_s * 1e3,
             "min_ms": times_ns[0] / 1e6,
             "fps_median": 1.0 / median_s,

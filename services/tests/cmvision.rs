@@ -299,11 +299,13 @@ fn smarties_photo_gives_one_blob_per_candy_at_the_places_seen_in_the_photo() {
     let photo = image::open(shared_data("images/smarties.png"))
         .expect("smarties.png decodes")
         .to_rgb8();
-    let mut config =
-        ColorConfig::load(&robots_file("colors/smarties.txt")).expect("colour file loads");
+    let config = ColorConfig::load(&robots_file("colors/smarties.txt")).expect("colour file loads");
     let names: Vec<&str> = config.colors.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["Red", "Orange", "Green", "Blue"]);
-    config.min_area_px = CANDY_MIN_AREA_PX;
+    assert_eq!(
+        config.min_area_px, CANDY_MIN_AREA_PX,
+        "the file's [Options] keep the specks out"
+    );
     let mut cmv = CmVision::new(&config).expect("four colours");
     let (width, height) = photo.dimensions();
     let regions = cmv

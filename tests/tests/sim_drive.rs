@@ -20,7 +20,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker, BrokerStatus, Mover};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
 use lewis_runtime::names;
-use lewis_tests::{lewis_exe, repo_root, wait_child};
+use lewis_tests::{RangeApp, Up, lewis_exe, open_ipc, repo_root, wait_child};
 
 /// Goals in the world frame: from the lobby (3, 12.5) through the entrance door (x 8) into
 /// the corridor, about 9 m, and a shorter one for the drive that ends on sonar (slower: the
@@ -35,24 +35,32 @@ static ONE_ROBOT: std::sync::Mutex<()> = std::sync::Mutex::new(());
 /// The time `lewis up` gives the robot, and the watchdog of the whole drive.
 const GOAL_TIMEOUT_SECS: u64 = 50;
 
-/// `robots/sim.toml` with the world's folder made absolute, written into `dir`.
+/// `robots/sim.toml` with its paths (the world, the colour file) made absolute, written
+/// into `dir`.
 fn sim_robot(dir: &std::path::Path) -> PathBuf {
-    let root = repo_root();
-    let text = std::fs::read_to_string(root.join("robots/sim.toml"))
+    let text = std::fs::read_to_string(repo_root().join("robots/sim.toml"))
         .expect("robots/sim.toml is in the repository");
-    let world = root.join("robots/worlds/conference");
-    let relative = "world = \"robots/worlds/conference\"";
-    assert!(
-        text.contains(relative),
-        "robots/sim.toml names its world as {relative}"
-    );
-    let text = text.replace(
-        relative,
-        &format!("world = {:?}", world.display().to_string()),
-    );
+    write_robot(dir, &text)
+}
+
+/// A robot file's text with every `= "robots/..."` path made absolute, written into `dir`.
+fn write_robot(dir: &std::path::Path, text: &str) -> PathBuf {
     let path = dir.join("sim.toml");
-    std::fs::write(&path, text).expect("the robot file can be written");
+    std::fs::write(&path, absolute_paths(text)).expect("the robot file can be written");
     path
+}
+
+/// A robot file's text with every `= "robots/..."` path made absolute (the tests run
+/// `lewis up` in a temporary directory).
+fn absolute_paths(text: &str) -> String {
+    assert!(
+        text.contains("world = \"robots/worlds/conference\""),
+        "the robot names its world as robots/worlds/conference"
+    );
+    text.replace(
+        "= \"robots/",
+        &format!("= \"{}/robots/", repo_root().display()),
+    )
 }
 
 /// A running `lewis up ... --goal`, its stderr collected line by line.
@@ -65,16 +73,28 @@ struct GoalDrive {
 }
 
 impl GoalDrive {
+    /// `lewis up robots/sim.toml --goal GOAL`.
     fn start(tag: &str, goal: &str) -> Self {
         let dir = tempfile::tempdir().expect("a temporary directory");
         let robot = sim_robot(dir.path());
+        Self::start_with(tag, dir, &robot, goal, GOAL_TIMEOUT_SECS)
+    }
+
+    /// `lewis up ROBOT --goal GOAL --goal-timeout TIMEOUT_SECS`, without recording.
+    fn start_with(
+        tag: &str,
+        dir: tempfile::TempDir,
+        robot: &std::path::Path,
+        goal: &str,
+        timeout_secs: u64,
+    ) -> Self {
         let namespace = Namespace::unique(tag);
         let mut child = Command::new(lewis_exe())
             .arg("up")
-            .arg(&robot)
+            .arg(robot)
             .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "500"])
             .args(["--no-record", "--goal", goal])
-            .args(["--goal-timeout", &GOAL_TIMEOUT_SECS.to_string()])
+            .args(["--goal-timeout", &timeout_secs.to_string()])
             .current_dir(dir.path())
             .env("RUST_LOG", "info")
             .stdin(Stdio::null())
@@ -132,17 +152,7 @@ impl GoalDrive {
 
     /// Runs `lewis fault SERVICE --kill` against this robot; whether it killed something.
     fn kill(&self, service: &str) -> bool {
-        let output = Command::new(lewis_exe())
-            .args([
-                "fault",
-                service,
-                "--kill",
-                "--namespace",
-                self.namespace.as_str(),
-            ])
-            .args(["--timeout", "10"])
-            .output()
-            .expect("lewis fault runs");
+        let output = fault(&self.namespace, service, "--kill");
         let said = String::from_utf8_lossy(&output.stdout);
         match output.status.code() {
             Some(0) => {
@@ -177,6 +187,15 @@ impl Drop for GoalDrive {
             eprintln!("lewis up wrote:\n{}", self.log());
         }
     }
+}
+
+/// Runs `lewis fault SERVICE FAULT` against the robot of `namespace`.
+fn fault(namespace: &Namespace, service: &str, fault: &str) -> std::process::Output {
+    Command::new(lewis_exe())
+        .args(["fault", service, fault, "--namespace", namespace.as_str()])
+        .args(["--timeout", "10"])
+        .output()
+        .expect("lewis fault runs")
 }
 
 /// Waits at most `limit` for a child to end (a watchdog, not a timing assertion).
@@ -329,4 +348,224 @@ fn laser_killed_beyond_its_restart_limit_the_robot_arrives_on_sonar() {
         log.contains("rebind obstacle_avoider from laser to sonar"),
         "{log}"
     );
+}
+
+/// The simulated base and the VectorMover alone: no range sensor, so nothing avoids
+/// anything. The robot stands 1 m from the lobby's west wall (x 0.5), facing it.
+const BLIND_ROBOT: &str = r#"
+[robot]
+name = "sim-blind"
+description = "The simulated base driven by the VectorMover alone, facing a wall"
+
+[broker]
+heartbeat_period_ms = 50
+heartbeat_deadline_ms = 3000
+startup_deadline_ms = 15000
+fail_back = false
+restart = { max_restarts = 1, window_ms = 60000, backoff_initial_ms = 100, backoff_max_ms = 1000 }
+
+[[services]]
+name = "base"
+kind = "sim-base"
+start = "always"
+provides = [
+    { interface = "GroundTruth", quality = 10, cost = 1, data_rate_hz = 50.0 },
+    { interface = "Synchrodrive", quality = 10, cost = 1, data_rate_hz = 50.0 },
+    { interface = "Egomotion", quality = 10, cost = 1, data_rate_hz = 50.0 },
+    { interface = "Power", quality = 10, cost = 1, data_rate_hz = 1.0 },
+]
+[services.parameters]
+world = "robots/worlds/conference"
+start = { x_m = 1.5, y_m = 12.5, heading_deg = 180.0 }
+seed = 1
+
+[[services]]
+name = "vector_mover"
+kind = "vector_mover"
+start = "on-demand"
+requires = ["Egomotion", "Synchrodrive"]
+provides = [{ interface = "Mover", quality = 5, cost = 1, data_rate_hz = 10.0 }]
+[services.parameters]
+rate_hz = 10.0
+max_translation_m_s = 0.5
+"#;
+
+#[test]
+fn a_goal_inside_a_wall_ends_with_exit_1_when_the_goal_timeout_runs_out() {
+    let _one = ONE_ROBOT
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let robot = sim_robot(dir.path());
+    // 0.3 m inside the lobby's west wall: the avoider approaches it and never arrives.
+    let mut drive = GoalDrive::start_with("sim-wall-goal", dir, &robot, "0.2,12.5", 12);
+    let status = drive.wait_end();
+    let log = drive.log();
+    assert_eq!(status.code(), Some(1), "{log}");
+    assert!(log.contains("goal 1 sent to obstacle_avoider"), "{log}");
+    assert!(
+        log.contains("goal not reached: --goal-timeout ran out"),
+        "{log}"
+    );
+    assert!(log.contains(", 0 collisions"), "{log}");
+}
+
+#[test]
+fn a_drive_into_a_wall_ends_with_exit_1_and_names_the_collision() {
+    let _one = ONE_ROBOT
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let robot = write_robot(dir.path(), BLIND_ROBOT);
+    // Behind the wall, straight ahead: the VectorMover drives into it.
+    let mut drive = GoalDrive::start_with("sim-bump", dir, &robot, "0,12.5", GOAL_TIMEOUT_SECS);
+    let status = drive.wait_end();
+    let log = drive.log();
+    assert_eq!(status.code(), Some(1), "{log}");
+    assert!(log.contains("goal 1 sent to vector_mover"), "{log}");
+    assert!(
+        log.contains("goal not reached: the robot collided ("),
+        "{log}"
+    );
+}
+
+/// The simulated base, laser and sonar ring, with a short heartbeat deadline.
+const SIM_SENSORS: &str = r#"
+[robot]
+name = "sim-sensors"
+description = "The simulated base, laser and sonar ring"
+
+[broker]
+heartbeat_period_ms = 50
+heartbeat_deadline_ms = 1000
+startup_deadline_ms = 15000
+fail_back = false
+restart = { max_restarts = 3, window_ms = 60000, backoff_initial_ms = 100, backoff_max_ms = 1000 }
+
+[[services]]
+name = "base"
+kind = "sim-base"
+start = "always"
+provides = [
+    { interface = "GroundTruth", quality = 10, cost = 1, data_rate_hz = 50.0 },
+    { interface = "Synchrodrive", quality = 10, cost = 1, data_rate_hz = 50.0 },
+    { interface = "Egomotion", quality = 10, cost = 1, data_rate_hz = 50.0 },
+    { interface = "Power", quality = 10, cost = 1, data_rate_hz = 1.0 },
+]
+[services.parameters]
+world = "robots/worlds/conference"
+start = { x_m = 3.0, y_m = 12.5, heading_deg = 0.0 }
+
+[[services]]
+name = "laser"
+kind = "sim-laser"
+start = "on-demand"
+requires = ["GroundTruth"]
+provides = [{ interface = "RangeFinder", quality = 10, cost = 3, data_rate_hz = 37.5 }]
+[services.parameters]
+world = "robots/worlds/conference"
+
+# Not restarted: once stalled and given up, it stays silent.
+[[services]]
+name = "sonar"
+kind = "sim-sonar"
+start = "on-demand"
+restart = { max_restarts = 0, window_ms = 60000, backoff_initial_ms = 100, backoff_max_ms = 1000 }
+requires = ["GroundTruth"]
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1, data_rate_hz = 10.0 }]
+[services.parameters]
+world = "robots/worlds/conference"
+"#;
+
+/// Runs `lewis fault` and checks that it says the fault is in effect.
+fn inject(up: &Up, service: &str, what: &str, said: &str) {
+    let output = fault(&up.namespace, service, what);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success() && stdout.contains(&format!("{service}: {said}")),
+        "lewis fault {service} {what}: {}\n{stdout}{}",
+        output.status,
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// Samples waiting on a subscription (taken, so the next call counts anew).
+fn count_new(subscriber: &mut Subscriber) -> usize {
+    let mut count = 0;
+    while subscriber
+        .receive()
+        .expect("samples can be received")
+        .is_some()
+    {
+        count += 1;
+    }
+    count
+}
+
+#[test]
+fn the_simulated_sensors_honour_out_of_service_clear_and_stall() {
+    let _one = ONE_ROBOT
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let mut up = Up::start("sim-faults", &absolute_paths(SIM_SENSORS));
+    up.wait_line("broker up");
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut laser_data = ipc
+        .subscriber(
+            &names::data_channel("laser", "RangeFinder"),
+            &names::data_config(),
+        )
+        .expect("the laser's data channel opens");
+    let mut sonar_data = ipc
+        .subscriber(
+            &names::data_channel("sonar", "RangeFinder"),
+            &names::data_config(),
+        )
+        .expect("the sonar's data channel opens");
+    let mut app = RangeApp::connect(&ipc);
+    app.wait_for("laser", 5);
+
+    // Out of service: the laser falls silent and the client moves to the sonar at once.
+    inject(&up, "laser", "--out-of-service", "out-of-service");
+    count_new(&mut laser_data);
+    app.wait_for("sonar", 5);
+    assert_eq!(
+        count_new(&mut laser_data),
+        0,
+        "an out-of-service laser publishes nothing"
+    );
+
+    // Cleared: it says it is healthy and publishes again (the client stays on the sonar).
+    inject(&up, "laser", "--clear", "clear");
+    up.wait_status("the laser healthy again", |report| {
+        report
+            .lines()
+            .any(|l| l.starts_with("service laser: ready") && l.contains("health ok"))
+    });
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while count_new(&mut laser_data) == 0 {
+        assert!(
+            Instant::now() < deadline,
+            "the cleared laser never published"
+        );
+        WaitSet::new(WakeMode::Event)
+            .wait(&[&laser_data], Some(deadline))
+            .expect("the test can wait");
+    }
+
+    // Stalled: the sonar stops publishing and beating; after the heartbeat deadline the
+    // broker moves the client back to the laser.
+    inject(&up, "sonar", "--stall", "stall");
+    count_new(&mut sonar_data);
+    app.wait_for("laser", 5);
+    assert_eq!(
+        count_new(&mut sonar_data),
+        0,
+        "a stalled sonar publishes nothing"
+    );
+    up.stop();
+    let log = up.log();
+    assert!(log.contains("rebind app from laser to sonar"), "{log}");
+    assert!(log.contains("rebind app from sonar to laser"), "{log}");
+    assert!(log.contains("heartbeat"), "{log}");
 }

@@ -12,7 +12,10 @@
 //! max_rate_hz = 30.0                   # optional: how fast set_rate may go (default rate_hz)
 //! loop = true                          # default true; false: out of service after the last
 //! horizontal_fov_deg = 48.8            # gives the focal length published with each image
-//! # device = "/dev/video0"             # instead of images: a V4L2 device
+//! # device = "/dev/video0"             # instead of images: a V4L2 device, and then
+//! # width_px = 640                      # the size asked of it (the driver may give another)
+//! # height_px = 480
+//! # max_zoom = 4.0                      # the magnification at its largest zoom value
 //! ```
 //!
 //! Frames come on the service's ticks: the harness ticks it at `max_rate_hz`, and it sends a
@@ -22,17 +25,27 @@
 //! a file that cannot be decoded is skipped with a warning and the camera says it is
 //! degraded.
 //!
-//! Video devices: this build has no V4L2 capture. The Rust V4L2 bindings (`v4l`) generate
-//! their bindings with bindgen and libclang at build time, and no machine of the project has
-//! a camera to test against, so a `device` source declares itself out of service, saying why
-//! (no such device, or no V4L2 support in this build), and the broker moves its clients to
-//! another ImageSource. A sequence that has ended does the same.
+//! Video devices (cargo feature `v4l2`, on by default: it needs no system library): frames
+//! are captured by memory-mapped streaming ([`v4l2`]), in YUYV or MJPEG, converted to RGB8
+//! ([`pixel_format`]) and published as they come (dropped to keep `rate_hz`); the service
+//! also provides CameraControl where the device has the controls (see `device.rs`). A
+//! device that is missing, is not a V4L2 capture device or fails declares the service out
+//! of service with the reason, and the broker moves its clients to another ImageSource; a
+//! build without the feature says so the same way. A sequence that has ended does the same.
 
+#[cfg(feature = "v4l2")]
+mod device;
+pub mod pixel_format;
 pub mod sequence;
+#[cfg(feature = "v4l2")]
+pub mod v4l2;
 
 use std::path::PathBuf;
 
-use lewis_interfaces::msg::{ImageSource, ImageSourceCommand, ImageSourceSetRateReply};
+use lewis_interfaces::Interface;
+use lewis_interfaces::msg::{
+    CameraControl, ImageSource, ImageSourceCommand, ImageSourceSetRateReply,
+};
 use lewis_runtime::broker::Health;
 use lewis_runtime::service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
@@ -68,6 +81,12 @@ pub struct Params {
     pub looping: bool,
     /// The camera's horizontal field of view, in degrees (for the published intrinsics).
     pub horizontal_fov_deg: f64,
+    /// The frame width asked of a video device, in px.
+    pub width_px: u32,
+    /// The frame height asked of a video device, in px.
+    pub height_px: u32,
+    /// The magnification of a video device at its largest zoom value.
+    pub max_zoom: f64,
 }
 
 impl Default for Params {
@@ -79,6 +98,9 @@ impl Default for Params {
             max_rate_hz: None,
             looping: true,
             horizontal_fov_deg: 48.8,
+            width_px: 640,
+            height_px: 480,
+            max_zoom: 4.0,
         }
     }
 }
@@ -119,6 +141,12 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     if !(params.horizontal_fov_deg > 0.0 && params.horizontal_fov_deg < 180.0) {
         return Err(invalid("horizontal_fov_deg must be between 0 and 180"));
     }
+    if params.width_px == 0 || params.height_px == 0 {
+        return Err(invalid("width_px and height_px must be at least 1"));
+    }
+    if !(params.max_zoom.is_finite() && params.max_zoom >= 1.0) {
+        return Err(invalid("max_zoom must be 1 or more"));
+    }
     Ok(Box::new(Camera {
         source,
         looping: params.looping,
@@ -128,6 +156,11 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         rate_hz: params.rate_hz,
         sequence: None,
         next_frame_ns: None,
+        request: (params.width_px, params.height_px, params.max_zoom),
+        #[cfg(feature = "v4l2")]
+        device: None,
+        rgb: Vec::new(),
+        publish_control: config.spec.provision(CameraControl::NAME).is_some(),
     }))
 }
 
@@ -149,6 +182,15 @@ struct Camera {
     rate_hz: f64,
     sequence: Option<ImageSequence>,
     next_frame_ns: Option<i64>,
+    /// Width, height and largest zoom for a video device.
+    request: (u32, u32, f64),
+    /// The video device, while it works.
+    #[cfg(feature = "v4l2")]
+    device: Option<device::DeviceSource>,
+    /// The last frame from the video device, RGB8 (its buffer is reused).
+    rgb: Vec<u8>,
+    /// Whether the robot file says this service provides CameraControl.
+    publish_control: bool,
 }
 
 impl Camera {
@@ -216,6 +258,118 @@ impl Camera {
     }
 }
 
+impl Camera {
+    /// Opens the video device, or says why it cannot.
+    #[cfg(feature = "v4l2")]
+    fn open_device(&mut self, ctx: &mut Context<'_>, path: &std::path::Path) {
+        let (width_px, height_px, max_zoom) = self.request;
+        let request = v4l2::CaptureRequest {
+            width_px,
+            height_px,
+            rate_hz: self.max_rate_hz,
+        };
+        match device::DeviceSource::open(path, request, max_zoom) {
+            Ok(source) => {
+                ctx.info(&format!(
+                    "capturing from {}: {}",
+                    path.display(),
+                    source.describe()
+                ));
+                if self.publish_control {
+                    let mut control = source.control();
+                    if let Err(e) = ctx.publish(&mut control) {
+                        ctx.warn(&format!("cannot publish CameraControl: {e}"));
+                    }
+                }
+                self.device = Some(source);
+            }
+            Err(e) => ctx.set_health(Health::OutOfService(e.to_string())),
+        }
+    }
+
+    /// Says that this build has no video capture.
+    #[cfg(not(feature = "v4l2"))]
+    fn open_device(&mut self, ctx: &mut Context<'_>, path: &std::path::Path) {
+        let _ = self.request;
+        let reason = if path.exists() {
+            format!(
+                "{} exists but this lewis was built without V4L2 capture (cargo feature \
+                 `v4l2`): use an image sequence (`images`)",
+                path.display()
+            )
+        } else {
+            format!("no video device at {}", path.display())
+        };
+        ctx.set_health(Health::OutOfService(reason));
+    }
+
+    /// The video device's descriptor, while it is open.
+    #[cfg(feature = "v4l2")]
+    fn device_fd(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        self.device.as_ref().map(device::DeviceSource::fd)
+    }
+
+    /// No device without the feature.
+    #[cfg(not(feature = "v4l2"))]
+    #[allow(clippy::unused_self, reason = "the signature of the v4l2 build's")]
+    fn device_fd(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        None
+    }
+
+    /// Nothing to read without the feature.
+    #[cfg(not(feature = "v4l2"))]
+    #[allow(clippy::unused_self, reason = "the signature of the v4l2 build's")]
+    fn read_device(&mut self, _ctx: &mut Context<'_>) {}
+
+    /// Publishes the frames the device has ready (those due at the current rate).
+    #[cfg(feature = "v4l2")]
+    fn read_device(&mut self, ctx: &mut Context<'_>) {
+        let Some(mut source) = self.device.take() else {
+            return;
+        };
+        loop {
+            match source.read_frame(&mut self.rgb) {
+                Ok(None) => break,
+                Ok(Some(frame)) => {
+                    if self.frame_due(ctx.now()) {
+                        self.publish_frame(ctx, frame);
+                    }
+                }
+                Err(e @ v4l2::DeviceError::Convert { .. }) => {
+                    ctx.warn(&format!("{e}: frame skipped"));
+                    ctx.set_health(Health::Degraded(e.to_string()));
+                }
+                Err(e) => {
+                    // Unplugged, or the driver failed: nothing more will come.
+                    ctx.set_health(Health::OutOfService(e.to_string()));
+                    return;
+                }
+            }
+        }
+        self.device = Some(source);
+    }
+
+    /// Publishes the device's last frame (in `self.rgb`).
+    #[cfg(feature = "v4l2")]
+    fn publish_frame(&mut self, ctx: &mut Context<'_>, frame: v4l2::FrameInfo) {
+        let intrinsics =
+            ImageIntrinsics::from_fov(frame.width_px, frame.height_px, self.horizontal_fov_rad);
+        let mut message = image_message(
+            frame.width_px,
+            frame.height_px,
+            std::mem::take(&mut self.rgb),
+            intrinsics,
+        );
+        if let Err(e) = ctx.publish(&mut message) {
+            ctx.warn(&format!("cannot publish ImageSource: {e}"));
+        }
+        self.rgb = message.data;
+        if matches!(ctx.health(), Health::Degraded(_)) {
+            ctx.set_health(Health::Ok);
+        }
+    }
+}
+
 impl Service for Camera {
     fn tick_period_ns(&self) -> Option<i64> {
         Some(self.tick_period_ns)
@@ -230,20 +384,20 @@ impl Service for Camera {
                 }
                 Err(e) => ctx.set_health(Health::OutOfService(e.to_string())),
             },
-            Source::Device(device) => {
-                let reason = if device.exists() {
-                    format!(
-                        "{} exists but this lewis was built without V4L2 capture: use an image \
-                         sequence (`images`)",
-                        device.display()
-                    )
-                } else {
-                    format!("no video device at {}", device.display())
-                };
-                ctx.set_health(Health::OutOfService(reason));
+            Source::Device(path) => {
+                let path = path.clone();
+                self.open_device(ctx, &path);
             }
         }
         Ok(())
+    }
+
+    fn device(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        self.device_fd()
+    }
+
+    fn on_device(&mut self, ctx: &mut Context<'_>) {
+        self.read_device(ctx);
     }
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
@@ -257,6 +411,21 @@ impl Service for Camera {
         ctx: &mut Context<'_>,
         command: &IncomingCommand<'_>,
     ) -> Result<Reply, CommandError> {
+        if command.interface == CameraControl::NAME {
+            #[cfg(feature = "v4l2")]
+            if let Some(device) = &mut self.device {
+                let command = command.decode::<CameraControl>()?;
+                let reply = device.command(ctx, command)?;
+                let mut control = device.control();
+                if let Err(e) = ctx.publish(&mut control) {
+                    ctx.warn(&format!("cannot publish CameraControl: {e}"));
+                }
+                return Ok(reply);
+            }
+            return Err(CommandError::new(
+                "this camera has no controls: it reads an image sequence, or its device is not open",
+            ));
+        }
         match command.decode::<ImageSource>()? {
             ImageSourceCommand::SetRate(set) => {
                 if !(set.rate.is_finite() && set.rate > 0.0) {

@@ -249,7 +249,11 @@ pub struct ObstacleAvoider {
     status: MoverStatus,
     hold: Option<HoldReason>,
     readings: VecDeque<Reading>,
+    /// The remembered points, rebuilt from `readings` when a step needs them.
     points: Vec<Vec2>,
+    /// `readings` changed since `points` was built: scans come faster than steps (37.5 Hz
+    /// against 10 Hz on the B21r), so the points are rebuilt once per step, not per scan.
+    points_stale: bool,
     waypoint: Option<Vec2>,
     sent: Option<MoverRequest>,
     best_distance_m: f64,
@@ -275,6 +279,7 @@ impl ObstacleAvoider {
             hold: None,
             readings: VecDeque::new(),
             points: Vec::new(),
+            points_stale: false,
             waypoint: None,
             sent: None,
             best_distance_m: f64::INFINITY,
@@ -462,30 +467,43 @@ impl ObstacleAvoider {
         while self.readings.len() > config.memory_readings {
             self.readings.pop_front();
         }
-        self.rebuild_points();
+        self.points_stale = true;
         Ok(())
     }
 
+    /// Rebuilds the remembered points if the readings changed since the last time.
+    fn refresh_points(&mut self) {
+        if self.points_stale {
+            self.rebuild_points();
+            self.points_stale = false;
+        }
+    }
+
     /// All remembered points, one per small cell (successive readings of the same wall
-    /// would otherwise pile up), in a deterministic order.
+    /// would otherwise pile up), in a deterministic order: by cell, each cell's point from
+    /// the newest reading that has one (the first of that reading's points in the cell).
     fn rebuild_points(&mut self) {
         let cell = self.config.arc_point_spacing_m / 2.0;
-        let mut keyed: Vec<((i64, i64), Vec2)> = self
+        // Keyed by (cell, age of the reading, place in the reading): all keys differ, so an
+        // unstable sort (faster than a stable one) gives the same order every time.
+        let mut keyed: Vec<((i64, i64), u32, Vec2)> = self
             .readings
             .iter()
             .rev()
             .flat_map(|r| r.points.iter().copied())
-            .map(|p| {
+            .enumerate()
+            .map(|(order, p)| {
                 #[allow(clippy::cast_possible_truncation)]
                 let key = ((p.x / cell).floor() as i64, (p.y / cell).floor() as i64);
-                (key, p)
+                // At most memory_readings x beams x max_points_per_beam points: far below 2^32.
+                let order = u32::try_from(order).unwrap_or(u32::MAX);
+                (key, order, p)
             })
             .collect();
-        // Stable: within a cell the newest reading's point comes first and is kept.
-        keyed.sort_by_key(|(key, _)| *key);
-        keyed.dedup_by_key(|(key, _)| *key);
+        keyed.sort_unstable_by_key(|&(key, order, _)| (key, order));
+        keyed.dedup_by_key(|(key, _, _)| *key);
         self.points.clear();
-        self.points.extend(keyed.into_iter().map(|(_, p)| p));
+        self.points.extend(keyed.into_iter().map(|(_, _, p)| p));
     }
 
     fn forget_old_readings(&mut self, now_ns: i64) {
@@ -500,7 +518,7 @@ impl ObstacleAvoider {
             self.readings.pop_front();
         }
         if self.readings.len() != before {
-            self.rebuild_points();
+            self.points_stale = true;
         }
     }
 
@@ -519,8 +537,13 @@ impl ObstacleAvoider {
     /// reading covers, in m. For a speed governor over the VectorMover (with a radius
     /// between the robot's and [`ObstacleAvoiderConfig::keep_out_radius_m`], so that the
     /// governor stops real intrusions, not the grazing of the planning margin).
-    #[must_use]
-    pub fn free_distance_m(&self, pose_in_odom: &Pose2D, direction_rad: f64, radius_m: f64) -> f64 {
+    pub fn free_distance_m(
+        &mut self,
+        pose_in_odom: &Pose2D,
+        direction_rad: f64,
+        radius_m: f64,
+    ) -> f64 {
+        self.refresh_points();
         let coverage = self.newest_coverage();
         #[allow(clippy::cast_precision_loss)]
         let min_half = TAU / self.config.direction_count as f64 / 2.0;
@@ -555,6 +578,7 @@ impl ObstacleAvoider {
     /// ask of the VectorMover. A pose that is not finite fails the goal.
     pub fn step(&mut self, pose_in_odom: &Pose2D, now_ns: i64) -> AvoiderStep {
         self.forget_old_readings(now_ns);
+        self.refresh_points();
         if self.accepted_ns.is_none() && self.goal.is_some() {
             self.accepted_ns = Some(now_ns);
         }
@@ -864,7 +888,8 @@ impl ObstacleAvoider {
         self.distance_to_goal_m
     }
 
-    /// The obstacle points remembered, odometry frame (for display and tests).
+    /// The obstacle points remembered at the last step, odometry frame (for display and
+    /// tests).
     #[must_use]
     pub fn obstacle_points(&self) -> Vec<Point2D> {
         self.points.iter().copied().map(Point2D::from).collect()

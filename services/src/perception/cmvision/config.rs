@@ -114,8 +114,11 @@ pub enum ColorFileProblem {
     #[error("merge density {0} must be a number of at least 0 (0 turns merging off)")]
     BadMergeDensity(String),
     /// A `[Section]` header the format does not have.
-    #[error("unknown section [{0}]: use [Colors] or [Thresholds]")]
+    #[error("unknown section [{0}]: use [Colors], [Thresholds] or [Options]")]
     UnknownSection(String),
+    /// An `[Options]` line with a key the format does not have.
+    #[error("unknown option `{0}`: the only option is min_area_px")]
+    UnknownOption(String),
     /// A section given twice.
     #[error("section [{0}] appears twice: keep one")]
     DuplicateSection(String),

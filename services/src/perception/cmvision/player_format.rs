@@ -12,6 +12,16 @@
 //! Player shipped have both forms) and a missing name (`color<N>`, 0-based). Threshold values
 //! outside 0..=255 are clamped as CMVision clamped them (`( 85:190, 82:189,141:269)` is in
 //! Player's own file); a range wholly outside 0..=255 matches nothing.
+//!
+//! One extension: an `[Options]` section with `min_area_px = N`, the smallest blob of the
+//! file's classes (Player's format has no field for it: its driver took it from its own
+//! configuration). CMVision's reader skips the lines of a section it does not know, so a
+//! file with it still loads in Player.
+//!
+//! ```text
+//! [Options]
+//! min_area_px = 700
+//! ```
 
 use super::config::{
     ChannelRange, ColorClass, ColorConfig, ColorFileError, ColorFileProblem, MAX_COLORS,
@@ -21,6 +31,17 @@ use super::config::{
 enum Section {
     Colors,
     Thresholds,
+    Options,
+}
+
+impl Section {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Colors => "Colors",
+            Self::Thresholds => "Thresholds",
+            Self::Options => "Options",
+        }
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -39,7 +60,8 @@ pub(super) fn parse(text: &str, source_name: &str) -> Result<ColorConfig, ColorF
     };
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut section = None;
-    let mut seen = [false; 2];
+    let mut seen = [false; 3];
+    let mut min_area_px = 1;
     let mut thresholds_header_line = 0;
     let mut colors: Vec<ColorClass> = Vec::new();
     let mut thresholds = 0usize;
@@ -53,19 +75,14 @@ pub(super) fn parse(text: &str, source_name: &str) -> Result<ColorConfig, ColorF
         }
         if cursor.peek() == Some('[') {
             let found = parse_header(&mut cursor).map_err(|(p, e)| invalid(p, e))?;
-            let slot = usize::from(found == Section::Thresholds);
+            let slot = found as usize;
             if seen[slot] {
-                let name = if found == Section::Colors {
-                    "Colors"
-                } else {
-                    "Thresholds"
-                };
                 return Err(invalid(
                     Place {
                         line: line_no,
                         column: 1,
                     },
-                    ColorFileProblem::DuplicateSection(name.to_owned()),
+                    ColorFileProblem::DuplicateSection(found.name().to_owned()),
                 ));
             }
             seen[slot] = true;
@@ -103,6 +120,9 @@ pub(super) fn parse(text: &str, source_name: &str) -> Result<ColorConfig, ColorF
                 (class.y, class.u, class.v) = (y, u, v);
                 thresholds += 1;
             }
+            Some(Section::Options) => {
+                min_area_px = parse_option_line(&mut cursor).map_err(|(p, e)| invalid(p, e))?;
+            }
         }
     }
     if colors.is_empty() {
@@ -128,8 +148,23 @@ pub(super) fn parse(text: &str, source_name: &str) -> Result<ColorConfig, ColorF
     }
     Ok(ColorConfig {
         colors,
-        min_area_px: 1,
+        min_area_px,
     })
+}
+
+/// `min_area_px = N`, the one option there is.
+fn parse_option_line(cursor: &mut Cursor<'_>) -> LineResult<u32> {
+    cursor.skip_whitespace();
+    let key_place = cursor.place();
+    let key = cursor.take_while(|c| c.is_ascii_alphanumeric() || c == '_');
+    if key != "min_area_px" {
+        return Err((key_place, ColorFileProblem::UnknownOption(key.to_owned())));
+    }
+    cursor.expect('=', "= after the option's name")?;
+    let value = cursor.integer_in("min_area_px", 0, i64::from(u32::MAX))?;
+    cursor.expect_end()?;
+    // integer_in checked 0..=u32::MAX.
+    Ok(u32::try_from(value).unwrap_or(u32::MAX))
 }
 
 type LineResult<T> = Result<T, (Place, ColorFileProblem)>;
@@ -143,6 +178,7 @@ fn parse_header(cursor: &mut Cursor<'_>) -> LineResult<Section> {
     match name.to_ascii_lowercase().as_str() {
         "colors" | "colours" => Ok(Section::Colors),
         "thresholds" => Ok(Section::Thresholds),
+        "options" => Ok(Section::Options),
         _ => Err((
             name_place,
             ColorFileProblem::UnknownSection(name.to_owned()),
@@ -491,7 +527,7 @@ mod tests {
         );
         check_err(
             "[Shades]\n",
-            "test.txt:1:2: unknown section [Shades]: use [Colors] or [Thresholds]",
+            "test.txt:1:2: unknown section [Shades]: use [Colors], [Thresholds] or [Options]",
         );
         check_err(
             "[Colors]\n[Colors]\n",
@@ -504,6 +540,30 @@ mod tests {
         check_err(
             "[Colors]\n(1,2,3) 0 99999999999 A\n",
             "test.txt:2:11: expected regions 99999999999 is out of range 0..=4294967295",
+        );
+    }
+
+    #[test]
+    fn the_options_section_sets_the_minimum_area() {
+        let text = "[Colors]\n(1,2,3) 0 A\n[Thresholds]\n(0:1,0:1,0:1)\n";
+        assert_eq!(check_ok(text, &["A"]).min_area_px, 1);
+        let with = format!("[Options]\n min_area_px = 700 # candies\n{text}");
+        assert_eq!(check_ok(&with, &["A"]).min_area_px, 700);
+        check_err(
+            &format!("{text}[Options]\nmin_area = 5\n"),
+            "test.txt:6:1: unknown option `min_area`: the only option is min_area_px",
+        );
+        check_err(
+            &format!("{text}[Options]\nmin_area_px 5\n"),
+            "test.txt:6:13: expected = after the option's name, found '5'",
+        );
+        check_err(
+            &format!("{text}[Options]\nmin_area_px = -5\n"),
+            "test.txt:6:15: min_area_px -5 is out of range 0..=4294967295",
+        );
+        check_err(
+            &format!("[Options]\n[Options]\n{text}"),
+            "test.txt:2:1: section [Options] appears twice: keep one",
         );
     }
 
