@@ -513,13 +513,13 @@ fn the_simulated_sensors_honour_out_of_service_clear_and_stall() {
     let mut laser_data = ipc
         .subscriber(
             &names::data_channel("laser", "RangeFinder"),
-            &names::data_config(),
+            &names::data_config("RangeFinder"),
         )
         .expect("the laser's data channel opens");
     let mut sonar_data = ipc
         .subscriber(
             &names::data_channel("sonar", "RangeFinder"),
-            &names::data_config(),
+            &names::data_config("RangeFinder"),
         )
         .expect("the sonar's data channel opens");
     let mut app = RangeApp::connect(&ipc);
