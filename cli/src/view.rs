@@ -102,7 +102,8 @@ mod tests {
     fn decide(args: &[&str], rerun_found: bool) -> (Target, bool) {
         let command = Command::try_parse_from(std::iter::once("view").chain(args.iter().copied()))
             .unwrap_or_else(|e| panic!("{args:?}: {e}"));
-        target(&command.view, &command.view.files, rerun_found).unwrap_or_else(|e| panic!("{args:?}: {e}"))
+        target(&command.view, &command.view.files, rerun_found)
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"))
     }
 
     #[test]
