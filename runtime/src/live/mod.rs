@@ -168,6 +168,10 @@ pub fn run_service(
         Duration::from_millis(spec.startup_deadline_ms),
         Duration::from_millis(spec.heartbeat_deadline_ms),
     );
+    // Made before the first heartbeat, like every other endpoint: from that heartbeat on,
+    // the heartbeat deadline applies, and opening an iceoryx2 service can take tens of
+    // milliseconds on a loaded machine.
+    let faults = ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?;
     let started = Instant::now();
     instance
         .on_start(&mut state.context(&mut backend))
@@ -183,7 +187,7 @@ pub fn run_service(
         state,
         backend,
         servers,
-        faults: ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?,
+        faults,
         waits: WaitSet::new(WakeMode::Event),
         tick_period: None,
         overruns,
