@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 
 use lewis_runtime::ipc::NodeLiveness;
 use lewis_tests::robot::{TestRobot, test_robot};
-use lewis_tests::{RangeApp, Up, Watched, descendants, lewis_exe, open_ipc, wait_node};
+use lewis_tests::{RangeApp, Up, Watched, descendants, lewis_exe, open_ipc};
 
 #[test]
 fn two_robots_in_different_namespaces_do_not_see_each_other() {
@@ -22,8 +22,11 @@ fn two_robots_in_different_namespaces_do_not_see_each_other() {
     b.wait_line("broker up");
     let ipc_a = open_ipc(&a.namespace, "test-a");
     let ipc_b = open_ipc(&b.namespace, "test-b");
-    let laser_a = wait_node(&ipc_a, "laser", None);
-    let laser_b = wait_node(&ipc_b, "laser", None);
+    // Ready means the laser's harness has its IPC node and has sent its first heartbeat.
+    let [laser_a, laser_b] = [&a, &b].map(|up| {
+        up.wait_status("the laser ready", |r| r.contains("service laser: ready"));
+        up.pid_of("laser")
+    });
     assert_ne!(laser_a, laser_b);
     for (ipc, laser) in [(&ipc_a, laser_a), (&ipc_b, laser_b)] {
         let lasers: Vec<i32> = ipc
