@@ -1,13 +1,13 @@
-//! IPC between processes: the test binary starts itself again as a peer process (selected
-//! by `LEWIS_IPC_PEER`, in the namespace given by `LEWIS_NAMESPACE`). A peer keeps its
-//! endpoints until its standard input closes, so the parent decides when it goes away.
+//! IPC between processes: each test starts the helper binary `lewis-ipc-peer`
+//! (`runtime/src/bin/lewis-ipc-peer.rs`) in one role, in the test's namespace. A peer keeps
+//! its endpoints until its standard input closes, so the test decides when it goes away.
 
 #![allow(
     clippy::unwrap_used,
     reason = "helpers shared by the tests: a failure there is a test failure"
 )]
 
-use std::io::{BufRead, Read, Write};
+use std::io::Write;
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -16,10 +16,10 @@ use lewis_runtime::ipc::{
     WakeMode, Woken,
 };
 
-const PEER_ENV: &str = "LEWIS_IPC_PEER";
 const WATCHDOG: Duration = Duration::from_secs(30);
 const SIZES: [usize; 3] = [64, 64 << 10, 1 << 20];
 
+/// The bytes the peer fills a payload of `len` bytes with (`lewis-ipc-peer`'s `pattern`).
 fn pattern(len: usize) -> impl Fn(&mut [u8]) {
     move |buf: &mut [u8]| {
         for (i, b) in buf.iter_mut().enumerate() {
@@ -35,64 +35,6 @@ fn config() -> ChannelConfig {
     }
 }
 
-/// Not a test of its own: the body of the peer processes the other tests start. Run
-/// directly (no `LEWIS_IPC_PEER`), it returns at once.
-#[test]
-fn peer_process_entry() {
-    let Ok(role) = std::env::var(PEER_ENV) else {
-        return;
-    };
-    let ipc = Ipc::open_from_env(&format!("peer-{role}")).unwrap();
-    let mut stdin = std::io::stdin().lock();
-    match role.as_str() {
-        "publish-sizes" => {
-            let mut publisher = ipc.publisher("sizes", &config()).unwrap();
-            for len in SIZES {
-                publisher.publish_with(len, pattern(len)).unwrap();
-            }
-            hold_until_stdin_closes(&mut stdin);
-        }
-        "publish-on-line" => {
-            let mut publisher = ipc.publisher("wake", &config()).unwrap();
-            let mut line = String::new();
-            stdin.read_line(&mut line).unwrap();
-            publisher.publish(line.trim_end().as_bytes()).unwrap();
-            hold_until_stdin_closes(&mut stdin);
-        }
-        "publish-then-hang" => {
-            let mut publisher = ipc.publisher("alive", &config()).unwrap();
-            publisher.publish(b"alive").unwrap();
-            hold_until_stdin_closes(&mut stdin);
-        }
-        "serve-echo" => {
-            let server = ipc
-                .command_server("echo", &CommandConfig::default())
-                .unwrap();
-            let mut ready = ipc.publisher("ready", &config()).unwrap();
-            ready.publish(b"serving").unwrap();
-            let waits = WaitSet::new(WakeMode::Event);
-            let request = loop {
-                if let Some(request) = server.receive().unwrap() {
-                    break request;
-                }
-                waits
-                    .wait(&[&server], Some(Instant::now() + WATCHDOG))
-                    .unwrap();
-            };
-            let mut answer = request.bytes().to_vec();
-            answer.reverse();
-            server.reply(request, &answer).unwrap();
-            hold_until_stdin_closes(&mut stdin);
-        }
-        other => panic!("unknown peer role {other}"),
-    }
-}
-
-fn hold_until_stdin_closes(stdin: &mut impl Read) {
-    let mut rest = Vec::new();
-    let _ = stdin.read_to_end(&mut rest);
-}
-
 struct Peer {
     child: Child,
     stdin: Option<ChildStdin>,
@@ -100,14 +42,8 @@ struct Peer {
 
 impl Peer {
     fn start(namespace: &Namespace, role: &str) -> Self {
-        let mut child = Command::new(std::env::current_exe().unwrap())
-            .args([
-                "--exact",
-                "peer_process_entry",
-                "--nocapture",
-                "--test-threads=1",
-            ])
-            .env(PEER_ENV, role)
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lewis-ipc-peer"))
+            .arg(role)
             .env(NAMESPACE_ENV, namespace.as_str())
             .stdin(Stdio::piped())
             .stdout(Stdio::null())

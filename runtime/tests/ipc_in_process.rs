@@ -238,6 +238,9 @@ fn the_wait_set_reports_which_sources_fired_and_each_wake_mode_sees_the_data() {
         WakeMode::Adaptive {
             spin: Duration::from_micros(50),
         },
+        WakeMode::Predictive {
+            margin: Duration::from_micros(50),
+        },
     ] {
         let ipc = open("which");
         let config = ChannelConfig::default();
@@ -363,4 +366,41 @@ fn too_many_outstanding_calls_are_refused() {
             max_pending: 2
         })
     );
+}
+
+#[test]
+fn a_predictive_wait_receives_every_sample_of_a_periodic_stream_and_one_off_the_beat() {
+    let namespace = Namespace::unique("predict");
+    let ipc = Ipc::open(&namespace, "test").unwrap();
+    let config = ChannelConfig {
+        buffer: 64,
+        ..ChannelConfig::sensor(64)
+    };
+    let mut sub = ipc.subscriber("beat", &config).unwrap();
+    // A publisher on its own thread, every 2 ms, with one beat skipped and one sample late:
+    // the wait set learns the period, and samples off the beat are still received.
+    let publisher = std::thread::spawn(move || {
+        let ipc = Ipc::open(&namespace, "publisher").unwrap();
+        let mut publisher = ipc.publisher("beat", &config).unwrap();
+        let mut next = Instant::now();
+        for i in 0..40u8 {
+            next += Duration::from_millis(if i == 20 { 4 } else { 2 });
+            if i == 30 {
+                next += Duration::from_micros(700);
+            }
+            std::thread::sleep(next.saturating_duration_since(Instant::now()));
+            publisher.publish(&[i]).unwrap();
+        }
+    });
+    let waits = WaitSet::new(WakeMode::Predictive {
+        margin: Duration::from_micros(200),
+    });
+    let mut got = Vec::new();
+    while got.len() < 40 {
+        wait_ready(&waits, &[&sub]);
+        got.extend(drain(&mut sub).into_iter().map(|(_, byte)| byte));
+    }
+    publisher.join().unwrap();
+    assert_eq!(got, (0..40).collect::<Vec<u8>>());
+    assert_eq!(sub.lost(), 0);
 }

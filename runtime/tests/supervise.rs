@@ -499,3 +499,44 @@ fn no_child_survives_its_supervisor_process_being_killed_with_sigkill() {
     parent.wait().expect("reap the probe");
     assert_gone(child);
 }
+
+#[test]
+fn no_grandchild_survives_its_supervisor_process_being_killed_with_sigkill() {
+    // The child starts a helper of its own and says its pid through a FIFO: the helper is
+    // in the child's process group, but the death signal does not reach it.
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let fifo = dir.path().join("grandchild.pid");
+    nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).expect("mkfifo");
+    let script = format!("sleep 1000 & echo $! > '{}'; wait", fifo.display());
+    let mut parent = Command::new(env!("CARGO_BIN_EXE_lewis-supervise-probe"))
+        .args(["child", "/bin/sh", "-c", &script])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start the probe");
+    let stdout = parent.stdout.take().expect("probe stdout");
+    let mut first = String::new();
+    BufReader::new(stdout)
+        .read_line(&mut first)
+        .expect("read the probe's first line");
+    let child: u32 = first
+        .trim()
+        .strip_prefix("pid ")
+        .and_then(|pid| pid.parse().ok())
+        .unwrap_or_else(|| panic!("unexpected probe output {first:?}"));
+    // Opening a FIFO blocks until the writer comes: read it on a thread, under the watchdog.
+    let (tx, rx) = sync_channel(1);
+    std::thread::spawn(move || {
+        let _ = tx.send(std::fs::read_to_string(&fifo));
+    });
+    let grandchild: u32 = rx
+        .recv_timeout(WATCHDOG)
+        .expect("the child said its helper's pid")
+        .expect("the FIFO can be read")
+        .trim()
+        .parse()
+        .expect("a pid");
+    parent.kill().expect("SIGKILL the probe");
+    parent.wait().expect("reap the probe");
+    assert_gone(child);
+    assert_gone(grandchild);
+}

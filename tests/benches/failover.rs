@@ -1,22 +1,75 @@
 //! Failover latency, end to end with real processes: the time from the last laser sample
-//! to the first sonar sample at an application bound to RangeFinder, when the laser
-//! stalls (missed heartbeats, 50 ms deadline) and when it crashes beyond its restart limit
-//! (it aborts at once after each restart). Both with the sonar started on demand and as a
-//! hot standby.
+//! to the first sonar sample at an application bound to RangeFinder, measured at the
+//! application, with the sonar started on demand and as a hot standby:
 //!
-//! `cargo bench -p lewis-tests --bench failover` (`-- --trials N`, default 10).
+//! - **stall**: the laser stops (no data, no heartbeat; 50 ms heartbeat deadline);
+//! - **crash**: the laser aborts with no restart left (the crash beyond its limit);
+//! - **crash loop**: the laser aborts, and again at once after each of its 2 restarts
+//!   (backoff 20 ms then 40 ms), until it is beyond its limit: the whole episode.
+//!
+//! Each trial also splits the gap in two: until the broker's rebind decision (detection and
+//! decision), and from it to the first sonar sample (starting the sonar if needed, the
+//! client's switch of subscription, the sonar's first scan). Times across processes are
+//! each process's clock; the split is good to a fraction of a millisecond.
+//!
+//! `cargo bench --workspace --bench failover` (`-- --trials N`, default 10).
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
+#![allow(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::print_stdout,
+    clippy::cast_precision_loss,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss
+)]
 
 use std::time::{Duration, Instant};
 
 use lewis_interfaces::msg::RangeFinder;
 use lewis_runtime::client::Client;
+use lewis_runtime::clock::LiveClock;
+use lewis_tests::broker::Decisions;
 use lewis_tests::robot::{TestRobot, set_fault, test_robot};
 use lewis_tests::{Up, open_ipc};
 
 /// How long a trial may take before it is reported as failed.
 const WATCHDOG: Duration = Duration::from_secs(20);
+
+/// How long the application waits for a sample before it looks at the broker's decisions.
+const SLICE: Duration = Duration::from_millis(100);
+
+/// One kind of failure.
+#[derive(Clone, Copy)]
+struct Scenario {
+    name: &'static str,
+    fault: &'static str,
+    laser_max_restarts: u32,
+}
+
+const SCENARIOS: [Scenario; 3] = [
+    Scenario {
+        name: "stall",
+        fault: "stall",
+        laser_max_restarts: 2,
+    },
+    Scenario {
+        name: "crash",
+        fault: "crash",
+        laser_max_restarts: 0,
+    },
+    Scenario {
+        name: "crash loop",
+        fault: "crash",
+        laser_max_restarts: 2,
+    },
+];
+
+/// What one trial measured, in milliseconds.
+struct Trial {
+    gap_ms: f64,
+    to_decision_ms: f64,
+    after_decision_ms: f64,
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -26,22 +79,44 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|n| n.parse().ok())
         .unwrap_or(10_usize);
-    println!("failover latency, last laser sample -> first sonar sample, {trials} trials each");
     println!(
-        "{:<10} {:<10} {:>9} {:>9} {:>9}",
-        "fault", "sonar", "p50 ms", "p90 ms", "max ms"
+        "failover latency, last laser sample -> first sonar sample at the application, \
+         {trials} trials each, milliseconds"
     );
-    for fault in ["stall", "crash"] {
+    println!(
+        "{:<11} {:<10} | {:>7} {:>7} {:>7} | {:>16} {:>16} | failed",
+        "fault", "sonar", "p50", "p90", "max", "to decision p50", "after it p50"
+    );
+    for scenario in SCENARIOS {
         for sonar_start in ["on-demand", "standby"] {
-            let mut samples: Vec<f64> = (0..trials)
-                .map(|i| trial(fault, sonar_start, i).as_secs_f64() * 1e3)
-                .collect();
-            samples.sort_by(f64::total_cmp);
+            let mut runs = Vec::new();
+            let mut failed = 0;
+            for i in 0..trials {
+                match trial(scenario, sonar_start, i) {
+                    Ok(run) => runs.push(run),
+                    Err(why) => {
+                        failed += 1;
+                        println!(
+                            "  ({}/{sonar_start} trial {i} failed: {why})",
+                            scenario.name
+                        );
+                    }
+                }
+            }
+            let column = |f: fn(&Trial) -> f64| {
+                let mut v: Vec<f64> = runs.iter().map(f).collect();
+                v.sort_by(f64::total_cmp);
+                v
+            };
+            let gaps = column(|t| t.gap_ms);
             println!(
-                "{fault:<10} {sonar_start:<10} {:>9.1} {:>9.1} {:>9.1}",
-                percentile(&samples, 0.5),
-                percentile(&samples, 0.9),
-                samples.last().copied().unwrap_or(f64::NAN),
+                "{:<11} {sonar_start:<10} | {:>7.1} {:>7.1} {:>7.1} | {:>16.1} {:>16.1} | {failed}",
+                scenario.name,
+                percentile(&gaps, 0.5),
+                percentile(&gaps, 0.9),
+                gaps.last().copied().unwrap_or(f64::NAN),
+                percentile(&column(|t| t.to_decision_ms), 0.5),
+                percentile(&column(|t| t.after_decision_ms), 0.5),
             );
         }
     }
@@ -57,33 +132,52 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 }
 
 /// One `lewis up`, one application; the fault is injected once the application receives
-/// laser data, and the gap is measured at the application.
-fn trial(fault: &str, sonar_start: &str, index: usize) -> Duration {
+/// laser data, and the gap is measured at the application. A trial fails (and is counted,
+/// not measured) when no sonar sample comes in time, or when the broker gives up the sonar
+/// too: on a loaded machine a fresh sonar can miss its 50 ms heartbeat deadline.
+fn trial(scenario: Scenario, sonar_start: &str, index: usize) -> Result<Trial, String> {
     let dir = tempfile::tempdir().unwrap();
     let fault_file = dir.path().join("laser.fault");
     let robot = test_robot(&TestRobot {
         laser_fault_file: Some(&fault_file),
         sonar_start,
         heartbeat_deadline_ms: 50,
+        laser_max_restarts: scenario.laser_max_restarts,
         rate_hz: 100.0,
         ..TestRobot::default()
     });
-    let namespace =
-        lewis_runtime::ipc::Namespace::unique(&format!("bench-{fault}-{sonar_start}-{index}"));
-    let mut up = Up::start_in(dir, namespace, &robot);
+    let namespace = lewis_runtime::ipc::Namespace::unique(&format!(
+        "bench-{}-{sonar_start}-{index}",
+        scenario.fault
+    ));
+    let mut up = Up::start_with(dir, namespace, &robot, &["--no-record".as_ref()]);
     up.wait_line("broker up");
+    let mut decisions = Decisions::subscribe(&up.namespace);
     let ipc = open_ipc(&up.namespace, "bench-app");
+    let clock = LiveClock::new();
     let mut client = Client::<RangeFinder>::connect(&ipc, "app").unwrap();
     let deadline = Instant::now() + WATCHDOG;
     let mut laser_samples = 0;
     let mut last_laser = None;
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
-        assert!(
-            !left.is_zero(),
-            "{fault}/{sonar_start}: no failover in time"
-        );
-        let Some(sample) = client.recv_timeout(left).unwrap() else {
+        if left.is_zero() {
+            up.stop();
+            return Err(format!("no sonar sample within {WATCHDOG:?}"));
+        }
+        // In slices, to look at the broker's decisions between them: a trial whose sonar
+        // is given up too ends at once.
+        let Some(sample) = client.recv_timeout(left.min(SLICE)).unwrap() else {
+            decisions.take();
+            if let Some(gone) = decisions
+                .seen
+                .iter()
+                .find(|d| d.action == "service-failed" && d.service == "sonar")
+            {
+                let why = format!("the sonar failed too: {}", gone.reason);
+                up.stop();
+                return Err(why);
+            }
             continue;
         };
         let now = Instant::now();
@@ -93,13 +187,21 @@ fn trial(fault: &str, sonar_start: &str, index: usize) -> Duration {
                 last_laser = Some(now);
                 // Some samples first, so the system is in its steady state.
                 if laser_samples == 20 {
-                    set_fault(&fault_file, fault);
+                    set_fault(&fault_file, scenario.fault);
                 }
             }
             "sonar" if laser_samples >= 20 => {
-                let gap = now - last_laser.expect("laser samples came first");
+                let last = last_laser.expect("laser samples came first");
+                let rebind =
+                    decisions.wait_for("the rebind", |d| d.action == "rebind" && d.client == "app");
+                let decided = clock.to_instant(rebind.at_ns);
                 up.stop();
-                return gap;
+                let ms = |d: Duration| d.as_secs_f64() * 1e3;
+                return Ok(Trial {
+                    gap_ms: ms(now - last),
+                    to_decision_ms: ms(decided.saturating_duration_since(last)),
+                    after_decision_ms: ms(now.saturating_duration_since(decided)),
+                });
             }
             _ => {}
         }

@@ -70,6 +70,7 @@ pub fn run_ok(command: &mut Command) -> String {
     stdout
 }
 
+pub mod broker;
 pub mod robot;
 pub mod small_disk;
 
@@ -275,39 +276,32 @@ impl Up {
     #[must_use]
     pub fn status(&self) -> String {
         let ipc = Ipc::open(&self.namespace, "test-status").expect("the test's IPC node opens");
-        let mut broker = ipc
-            .command_client(
-                lewis_runtime::names::BROKER_COMMAND,
-                &lewis_runtime::names::broker_command_config(),
-            )
-            .expect("the broker's command channel opens");
-        lewis_runtime::client::call_blocking(
-            &mut broker,
-            &lewis_interfaces::msg::BrokerStatus::default(),
-            WATCHDOG,
-        )
-        .expect("the broker answers")
-        .report
+        broker::status(&ipc)
     }
 
-    /// Asks for the status report until `accept` accepts it (watchdog) and returns it.
+    /// Asks for the status report until `accept` accepts it (watchdog) and returns it; see
+    /// [`broker::wait_status`] (it waits for decisions and heartbeats between two reports).
     ///
     /// # Panics
     /// When no report is accepted in time.
     pub fn wait_status(&self, what: &str, accept: impl Fn(&str) -> bool) -> String {
-        let deadline = Instant::now() + WATCHDOG;
-        loop {
-            let report = self.status();
-            if accept(&report) {
-                return report;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "the broker never reported {what}; last report:\n{report}"
-            );
-            // The broker announces no state change: ask again shortly, under the watchdog.
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        broker::wait_status(&self.namespace, what, accept)
+    }
+
+    /// The pid of `service`'s process, as the broker reports it (`process NAME: pid PID`).
+    ///
+    /// # Panics
+    /// When the broker reports no process for it.
+    #[must_use]
+    pub fn pid_of(&self, service: &str) -> u32 {
+        let report = self.status();
+        report
+            .lines()
+            .find_map(|l| {
+                let (name, pid) = l.strip_prefix("process ")?.split_once(": pid ")?;
+                (name == service).then(|| pid.trim().parse().ok())?
+            })
+            .unwrap_or_else(|| panic!("no process of {service} in the status:\n{report}"))
     }
 
     /// Its log as one text.
@@ -349,19 +343,20 @@ pub fn wait_child(child: &mut Child) -> std::process::ExitStatus {
     wait_child_within(child, WATCHDOG)
 }
 
-/// Waits for a child that is meant to run for a while (`watchdog` past its expected end).
+/// Waits for a child to end, at most `limit` (a watchdog, not a timing assertion), on its
+/// pidfd.
 ///
 /// # Panics
-/// When it is still running after `watchdog`.
-pub fn wait_child_within(child: &mut Child, watchdog: Duration) -> std::process::ExitStatus {
+/// When it is still running after `limit`.
+pub fn wait_child_within(child: &mut Child, limit: Duration) -> std::process::ExitStatus {
     let pidfd = rustix::process::pidfd_open(
         rustix::process::Pid::from_child(child),
         rustix::process::PidfdFlags::empty(),
     )
     .expect("pidfd_open works on this kernel");
     assert!(
-        wait_readable(&pidfd, watchdog),
-        "process {} still runs after {watchdog:?}",
+        wait_readable(&pidfd, limit),
+        "process {} still runs after {limit:?}",
         child.id()
     );
     child.wait().expect("the child can be reaped")
@@ -409,6 +404,54 @@ impl Watched {
     pub fn pid(&self) -> u32 {
         self.pid
     }
+}
+
+/// Every process descended from `pid` (children, their children, ...), from `/proc`.
+///
+/// # Panics
+/// When `/proc` cannot be read.
+#[must_use]
+pub fn descendants(pid: u32) -> Vec<u32> {
+    let mut parent_of = Vec::new();
+    for entry in std::fs::read_dir("/proc")
+        .expect("/proc can be read")
+        .flatten()
+    {
+        let Some(child) = entry
+            .file_name()
+            .to_str()
+            .and_then(|n| n.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        // `pid (comm) state ppid ...`: comm may hold spaces and parentheses, so the fields
+        // are counted from the last `)`.
+        let Ok(stat) = std::fs::read_to_string(entry.path().join("stat")) else {
+            continue;
+        };
+        let ppid = stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().nth(1))
+            .and_then(|p| p.parse::<u32>().ok());
+        if let Some(ppid) = ppid {
+            parent_of.push((child, ppid));
+        }
+    }
+    let mut found = vec![pid];
+    let mut i = 0;
+    while i < found.len() {
+        let parent = found[i];
+        found.extend(
+            parent_of
+                .iter()
+                .filter(|(_, p)| *p == parent)
+                .map(|(c, _)| *c),
+        );
+        i += 1;
+    }
+    found.remove(0);
+    found.sort_unstable();
+    found
 }
 
 /// Opens an IPC node in `namespace` for a test.

@@ -19,6 +19,10 @@ pub struct TestRobot<'a> {
     pub fail_back: bool,
     /// Restarts allowed to the laser within its window.
     pub laser_max_restarts: u32,
+    /// Restarts allowed to the sonar within its window.
+    pub sonar_max_restarts: u32,
+    /// How long the laser's `on_start` blocks (a slow device), in milliseconds.
+    pub laser_start_delay_ms: u64,
     /// Heartbeat deadline of both services, in milliseconds (generous by default: the
     /// tests run on loaded machines, and only the stall test waits for it).
     pub heartbeat_deadline_ms: u64,
@@ -36,6 +40,8 @@ impl Default for TestRobot<'_> {
             sonar_start: "on-demand",
             fail_back: false,
             laser_max_restarts: 2,
+            sonar_max_restarts: 3,
+            laser_start_delay_ms: 0,
             heartbeat_deadline_ms: 1000,
             rate_hz: 50.0,
             extra: "",
@@ -73,12 +79,14 @@ provides = [
 beams = 181
 rate_hz = {rate}
 seed = 1
+start_delay_ms = {start_delay}
 "#,
         deadline = robot.heartbeat_deadline_ms,
         fail_back = robot.fail_back,
         laser_start = robot.laser_start,
         max_restarts = robot.laser_max_restarts,
         rate = robot.rate_hz,
+        start_delay = robot.laser_start_delay_ms,
     );
     if let Some(fault) = robot.laser_fault_file {
         let _ = writeln!(text, "fault_file = {:?}", fault.display().to_string());
@@ -91,6 +99,7 @@ name = "sonar"
 kind = "test-range"
 start = "{sonar_start}"
 heartbeat_deadline_ms = {deadline}
+restart = {{ max_restarts = {sonar_max_restarts}, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
 provides = [
     {{ interface = "RangeFinder", quality = 5, cost = 1 }},
     {{ interface = "Distance", quality = 5, cost = 1 }},
@@ -107,6 +116,7 @@ seed = 2
         deadline = robot.heartbeat_deadline_ms,
         rate = robot.rate_hz,
         sonar_start = robot.sonar_start,
+        sonar_max_restarts = robot.sonar_max_restarts,
     );
     text.push_str(robot.extra);
     text

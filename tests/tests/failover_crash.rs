@@ -1,27 +1,42 @@
-//! Failover after crashes, end to end: a real `lewis up`, real `test-range` processes, and
-//! an application that holds a `Client<RangeFinder>` with no failover logic of its own.
+//! Failover after crashes, end to end: a real `lewis up`, real `test-range` processes
+//! killed with SIGKILL from outside, and an application that holds a `Client<RangeFinder>`
+//! with no failover logic of its own. The broker's reactions are read on `/lewis/broker`.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use lewis_tests::robot::{TestRobot, set_fault, test_robot};
-use lewis_tests::{RangeApp, Up, Watched, open_ipc, signal, wait_node};
+use lewis_interfaces::msg::Broker;
+use lewis_tests::broker::Decisions;
+use lewis_tests::robot::{TestRobot, test_robot};
+use lewis_tests::{RangeApp, Up, Watched, open_ipc, signal};
 use nix::sys::signal::Signal;
+
+fn is(action: &str, service: &str) -> impl Fn(&Broker) -> bool {
+    move |d| d.action == action && d.service == service
+}
+
+/// Kills the laser's current process with SIGKILL and waits until it is gone; returns its
+/// pid.
+fn kill_laser(up: &Up) -> u32 {
+    let pid = up.pid_of("laser");
+    let watched = Watched::new(pid);
+    signal(pid, Signal::SIGKILL);
+    assert!(watched.wait_gone(), "the laser (pid {pid}) did not die");
+    pid
+}
 
 #[test]
 fn laser_killed_with_sigkill_is_restarted_and_the_stream_resumes() {
     let mut up = Up::start("kill9", &test_robot(&TestRobot::default()));
     up.wait_line("broker up");
+    let mut decisions = Decisions::subscribe(&up.namespace);
     let ipc = open_ipc(&up.namespace, "test-app");
     let mut app = RangeApp::connect(&ipc);
     app.wait_for("laser", 5);
 
-    let first = wait_node(&ipc, "laser", None);
-    let watched = Watched::new(first);
-    signal(first, Signal::SIGKILL);
-    assert!(watched.wait_gone(), "the laser did not die");
-
-    let second = wait_node(&ipc, "laser", Some(first));
-    assert_ne!(first, second);
+    let first = kill_laser(&up);
+    decisions.wait_for("a restart of the laser", is("restart-scheduled", "laser"));
+    decisions.wait_for("a new laser process", is("start", "laser"));
+    assert_ne!(up.pid_of("laser"), first);
     app.wait_for("laser", 5);
     assert_eq!(app.provider(), Some("laser"));
     assert!(
@@ -30,34 +45,64 @@ fn laser_killed_with_sigkill_is_restarted_and_the_stream_resumes() {
         app.providers
     );
     up.stop();
-    assert!(up.log().contains("restart laser"), "{}", up.log());
 }
 
 #[test]
-fn laser_crashing_beyond_its_restart_limit_rebinds_the_client_to_sonar() {
-    let dir = tempfile::tempdir().unwrap();
-    let fault = dir.path().join("laser.fault");
+fn laser_killed_with_sigkill_beyond_its_restart_limit_rebinds_the_client_to_sonar() {
+    let max_restarts = 2;
     let robot = test_robot(&TestRobot {
-        laser_fault_file: Some(&fault),
-        laser_max_restarts: 2,
+        laser_max_restarts: max_restarts,
         ..TestRobot::default()
     });
-    let mut up = Up::start_in(
-        dir,
-        lewis_runtime::ipc::Namespace::unique("crash-limit"),
-        &robot,
-    );
+    let mut up = Up::start("kill9-limit", &robot);
     up.wait_line("broker up");
+    let mut decisions = Decisions::subscribe(&up.namespace);
     let ipc = open_ipc(&up.namespace, "test-app");
     let mut app = RangeApp::connect(&ipc);
     app.wait_for("laser", 5);
 
-    // From now on every laser process aborts at its first tick, restarts included.
-    set_fault(&fault, "crash");
+    // Every kill within the policy is followed by a restart; the client stays on the laser.
+    let mut killed = Vec::new();
+    for _ in 0..max_restarts {
+        killed.push(kill_laser(&up));
+        decisions.wait_for("a restart of the laser", is("restart-scheduled", "laser"));
+        decisions.wait_for("a new laser process", is("start", "laser"));
+    }
+    // One kill more is beyond the policy: the laser has failed, the client goes to sonar.
+    killed.push(kill_laser(&up));
+    let failed = decisions.wait_for("the laser given up", is("service-failed", "laser"));
+    assert!(
+        failed.reason.contains("beyond its restart policy"),
+        "{}",
+        failed.reason
+    );
+    let rebind = decisions.wait_for("the client moved", |d| {
+        d.action == "rebind" && d.client == "app" && d.interface == "RangeFinder"
+    });
+    assert_eq!(
+        (rebind.from_service.as_str(), rebind.to_service.as_str()),
+        ("laser", "sonar")
+    );
+    assert!(
+        !decisions
+            .seen
+            .iter()
+            .any(|d| d.action == "restart-scheduled"
+                && d.service == "laser"
+                && d.at_ns > failed.at_ns),
+        "no restart after the laser was given up:\n{}",
+        decisions.describe()
+    );
+
+    // The application keeps receiving, now from the sonar, without doing anything.
     app.wait_for("sonar", 5);
     assert_eq!(app.provider(), Some("sonar"));
-    up.wait_line("laser failed");
+    assert_eq!(killed.len(), 3);
+    let report = up.status();
+    assert!(
+        report.contains("client app RangeFinder -> sonar"),
+        "{report}"
+    );
+    assert!(report.contains("service laser: failed"), "{report}");
     up.stop();
-    let log = up.log();
-    assert!(log.contains("rebind app from laser to sonar"), "{log}");
 }

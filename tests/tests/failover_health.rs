@@ -92,3 +92,40 @@ fn client_stays_on_sonar_without_fail_back() {
         up.log()
     );
 }
+
+#[test]
+fn a_laser_whose_start_blocks_past_its_heartbeat_deadline_is_not_taken_for_stalled() {
+    // Opening the device takes three heartbeat deadlines; the startup deadline covers it,
+    // because the harness says "ready" only once on_start has returned.
+    let robot = test_robot(&TestRobot {
+        heartbeat_deadline_ms: 200,
+        laser_start_delay_ms: 600,
+        ..TestRobot::default()
+    });
+    let mut up = Up::start("slow-start", &robot);
+    up.wait_line("broker up");
+    let mut decisions = lewis_tests::broker::Decisions::subscribe(&up.namespace);
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut app = RangeApp::connect(&ipc);
+    app.wait_for("laser", 5);
+    decisions.take();
+    up.stop();
+    assert!(
+        !app.providers.iter().any(|p| p == "sonar"),
+        "the client never left the laser: {:?}",
+        app.providers
+    );
+    assert!(
+        !decisions
+            .seen
+            .iter()
+            .any(|d| d.service == "laser" && d.action == "service-failed"),
+        "the laser was taken for stalled:\n{}",
+        decisions.describe()
+    );
+    assert!(
+        up.log().contains("opening the device takes 600 ms"),
+        "{}",
+        up.log()
+    );
+}

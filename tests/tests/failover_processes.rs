@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 
 use lewis_runtime::ipc::NodeLiveness;
 use lewis_tests::robot::{TestRobot, test_robot};
-use lewis_tests::{RangeApp, Up, Watched, lewis_exe, open_ipc, wait_node};
+use lewis_tests::{RangeApp, Up, Watched, descendants, lewis_exe, open_ipc};
 
 #[test]
 fn two_robots_in_different_namespaces_do_not_see_each_other() {
@@ -22,8 +22,11 @@ fn two_robots_in_different_namespaces_do_not_see_each_other() {
     b.wait_line("broker up");
     let ipc_a = open_ipc(&a.namespace, "test-a");
     let ipc_b = open_ipc(&b.namespace, "test-b");
-    let laser_a = wait_node(&ipc_a, "laser", None);
-    let laser_b = wait_node(&ipc_b, "laser", None);
+    // Ready means the laser's harness has its IPC node and has sent its first heartbeat.
+    let [laser_a, laser_b] = [&a, &b].map(|up| {
+        up.wait_status("the laser ready", |r| r.contains("service laser: ready"));
+        up.pid_of("laser")
+    });
     assert_ne!(laser_a, laser_b);
     for (ipc, laser) in [(&ipc_a, laser_a), (&ipc_b, laser_b)] {
         let lasers: Vec<i32> = ipc
@@ -53,21 +56,58 @@ fn two_robots_in_different_namespaces_do_not_see_each_other() {
 }
 
 #[test]
-fn sigkill_of_lewis_up_leaves_no_service_process() {
+fn sigkill_of_lewis_up_leaves_no_process_behind_grandchildren_included() {
     let robot = test_robot(&TestRobot {
         laser_start: "always",
+        sonar_start: "standby",
+        // A service whose program starts a helper of its own: a grandchild of lewis up,
+        // which the death signal of the services does not reach.
+        extra: r#"
+[[services]]
+name = "spawner"
+command = ["/bin/sh", "-c", "sleep 600 & echo grandchild $!; wait"]
+start = "always"
+startup_deadline_ms = 600000
+provides = [{ interface = "Distance", quality = 1, cost = 1 }]
+"#,
         ..TestRobot::default()
     });
     let mut up = Up::start("sigkill-up", &robot);
-    up.wait_line("broker up");
-    let ipc = open_ipc(&up.namespace, "test");
-    let laser = Watched::new(wait_node(&ipc, "laser", None));
+    let line = up.wait_line("grandchild ");
+    let grandchild: u32 = line
+        .split("grandchild ")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|pid| pid.parse().ok())
+        .unwrap_or_else(|| panic!("no pid in {line}"));
+    up.wait_status("laser and sonar running", |r| {
+        r.contains("service laser: ready") && r.contains("service sonar: ready")
+    });
+    let (laser, sonar, spawner) = (up.pid_of("laser"), up.pid_of("sonar"), up.pid_of("spawner"));
+
+    // Every process under lewis up: the services, the recorder, the spawner's helper.
+    let all = descendants(up.pid());
+    for (what, pid) in [
+        ("laser", laser),
+        ("sonar", sonar),
+        ("spawner", spawner),
+        ("grandchild", grandchild),
+    ] {
+        assert!(
+            all.contains(&pid),
+            "{what} (pid {pid}) is not under lewis up: {all:?}"
+        );
+    }
+    assert!(all.len() >= 5, "the recorder runs too: {all:?}");
+    let watched: Vec<Watched> = all.iter().map(|pid| Watched::new(*pid)).collect();
     up.kill();
-    assert!(
-        laser.wait_gone(),
-        "laser (pid {}) outlived lewis up",
-        laser.pid()
-    );
+    for process in &watched {
+        assert!(
+            process.wait_gone(),
+            "process {} outlived lewis up (of {all:?}, laser {laser}, sonar {sonar}, spawner {spawner}, grandchild {grandchild})",
+            process.pid()
+        );
+    }
 }
 
 #[test]

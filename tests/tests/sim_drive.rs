@@ -20,7 +20,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker, BrokerStatus, Mover};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
 use lewis_runtime::names;
-use lewis_tests::{RangeApp, Up, lewis_exe, open_ipc, repo_root, wait_child};
+use lewis_tests::{RangeApp, Up, lewis_exe, open_ipc, repo_root, wait_child_within};
 
 /// Goals in the world frame: from the lobby (3, 12.5) through the entrance door (x 8) into
 /// the corridor, about 9 m, and a shorter one for the drive that ends on sonar (slower: the
@@ -143,7 +143,8 @@ impl GoalDrive {
     /// Waits for `lewis up` to end by itself (it gives the robot GOAL_TIMEOUT_SECS, then
     /// stops); returns its exit status.
     fn wait_end(&mut self) -> ExitStatus {
-        let status = wait_child_for(&mut self.child, Duration::from_secs(GOAL_TIMEOUT_SECS + 30));
+        let status =
+            wait_child_within(&mut self.child, Duration::from_secs(GOAL_TIMEOUT_SECS + 30));
         while let Ok(line) = self.lines.recv_timeout(Duration::from_secs(10)) {
             self.seen.push(line);
         }
@@ -196,21 +197,6 @@ fn fault(namespace: &Namespace, service: &str, fault: &str) -> std::process::Out
         .args(["--timeout", "10"])
         .output()
         .expect("lewis fault runs")
-}
-
-/// Waits at most `limit` for a child to end (a watchdog, not a timing assertion).
-fn wait_child_for(child: &mut Child, limit: Duration) -> ExitStatus {
-    let deadline = Instant::now() + limit;
-    loop {
-        if let Some(status) = child.try_wait().expect("the child can be waited for") {
-            return status;
-        }
-        if Instant::now() >= deadline {
-            // Past the watchdog: the shared helper waits its own watchdog and fails.
-            return wait_child(child);
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
 }
 
 /// The broker's status report.
@@ -318,8 +304,11 @@ fn laser_killed_beyond_its_restart_limit_the_robot_arrives_on_sonar() {
             killed.push(pid);
             continue;
         }
-        // The broker announces no process start: look again shortly, under the deadline.
-        std::thread::sleep(Duration::from_millis(50));
+        // No new laser process yet: the broker announces each start (and the failure) on
+        // /lewis/broker.
+        WaitSet::new(WakeMode::Event)
+            .wait(&[&decisions], Some(deadline))
+            .expect("the test can wait");
     }
     assert!(
         seen.iter()

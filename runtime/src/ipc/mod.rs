@@ -12,7 +12,8 @@
 //! - [`CommandServer`] / [`CommandClient`]: commands over iceoryx2 request-response, with a
 //!   timeout that turns into an error.
 //! - [`WaitSet`]: waits on many subscribers, servers, clients and file descriptors at once,
-//!   with a deadline, in event, adaptive (spin then block) or busy-poll mode.
+//!   with a deadline, in event, adaptive (spin then block), predictive (block until a
+//!   periodic sample is due, then spin) or busy-poll mode.
 //! - [`Ipc::nodes`] / [`Ipc::cleanup_dead_nodes`]: liveness of the processes in the
 //!   namespace, the only way to see a publisher that was killed with SIGKILL.
 
@@ -20,6 +21,7 @@ mod channel;
 mod command;
 mod liveness;
 mod namespace;
+mod predict;
 mod wait;
 
 pub use channel::{

@@ -15,6 +15,8 @@ use nix::errno::Errno;
 use nix::poll::{PollFd, PollFlags, ppoll};
 use nix::sys::time::TimeSpec;
 
+use super::predict::ArrivalPredictor;
+
 /// The most sources one wait accepts.
 pub const MAX_WAIT_SOURCES: usize = 128;
 
@@ -34,6 +36,18 @@ pub enum WakeMode {
     /// Never block: spin until data or the deadline. Lowest latency, one core fully busy.
     /// For hard real-time consumers only.
     BusyPoll,
+    /// For one periodic stream (a scan every 27 ms): learn its period from the arrivals,
+    /// block until `margin` before the next one is due, spin until it comes (at most
+    /// `margin` past its predicted time), then block like [`WakeMode::Event`]. Once the
+    /// period is learnt, samples that come on the beat are seen at busy-polling latency for
+    /// about `2 * margin / period` of a core. The kernel's timer slack (50 µs by default)
+    /// and its scheduling delay make a timed wake-up late, so `margin` must be larger than
+    /// both. Until the period is learnt, and for samples off the beat, it behaves like
+    /// [`WakeMode::Event`].
+    Predictive {
+        /// How long before (and after) the predicted arrival to spin.
+        margin: Duration,
+    },
 }
 
 /// Something a [`WaitSet`] can wait on: [`Subscriber`](super::Subscriber),
@@ -152,11 +166,13 @@ pub enum WaitError {
     Poll(Errno),
 }
 
-/// Waits on many sources at once (see the module documentation). Holds only the mode: the
-/// sources are lent to each call.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Waits on many sources at once (see the module documentation). Holds the mode (and, in
+/// [`WakeMode::Predictive`], what it learnt of the arrivals): the sources are lent to each
+/// call.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct WaitSet {
     mode: WakeMode,
+    arrivals: ArrivalPredictor,
 }
 
 /// Spins between two reads of the clock in the spinning modes.
@@ -167,7 +183,10 @@ const SPINS_PER_FD_POLL: u32 = 1024;
 impl WaitSet {
     /// A wait set that waits in `mode`.
     pub fn new(mode: WakeMode) -> Self {
-        Self { mode }
+        Self {
+            mode,
+            arrivals: ArrivalPredictor::default(),
+        }
     }
 
     /// The mode it waits in.
@@ -212,6 +231,43 @@ impl WaitSet {
                     woken => Ok(woken),
                 }
             }
+            WakeMode::Predictive { margin } => {
+                let woken = self.predictive(sources, deadline, margin)?;
+                if matches!(woken, Woken::Ready(_)) {
+                    self.arrivals.arrived(Instant::now());
+                }
+                Ok(woken)
+            }
+        }
+    }
+
+    /// [`WakeMode::Predictive`]: block until the spin window, spin across it, block again.
+    fn predictive(
+        &self,
+        sources: &[&dyn Waitable],
+        deadline: Option<Instant>,
+        margin: Duration,
+    ) -> Result<Woken, WaitError> {
+        let Some((spin_from, spin_until)) = self.arrivals.window(margin) else {
+            return block(sources, deadline);
+        };
+        let now = Instant::now();
+        if spin_until <= now {
+            // Past the window: the sample is late or missed; the next event tells.
+            return block(sources, deadline);
+        }
+        if spin_from > now {
+            let until = deadline.map_or(spin_from, |d| d.min(spin_from));
+            match block(sources, Some(until))? {
+                Woken::DeadlineReached if deadline.is_none_or(|d| d > spin_from) => {}
+                woken => return Ok(woken),
+            }
+        }
+        match spin(sources, deadline, Some(spin_until))? {
+            Woken::DeadlineReached if deadline.is_none_or(|d| d > spin_until) => {
+                block(sources, deadline)
+            }
+            woken => Ok(woken),
         }
     }
 }
@@ -363,6 +419,9 @@ mod tests {
             WakeMode::BusyPoll,
             WakeMode::Adaptive {
                 spin: Duration::from_micros(10),
+            },
+            WakeMode::Predictive {
+                margin: Duration::from_micros(10),
             },
         ] {
             assert_eq!(

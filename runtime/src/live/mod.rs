@@ -9,10 +9,17 @@
 //! [`WaitSet`] for all of it (event wake-ups, no polling), the service's device and the stop
 //! signals. SIGTERM or SIGINT end it cleanly: `on_stop` runs, the process exits with 0.
 //!
-//! A stalled service (stuck in a handler) sends no heartbeat: that is how the broker sees a
-//! stall.
+//! Heartbeats come from this event loop, between events, never from a thread of their own:
+//! a heartbeat means "this service is responsive". So the first heartbeat (the service is
+//! ready) goes once `on_start` has returned: `on_start` may block (open a device, probe its
+//! baud rate) for up to the startup deadline. After that every handler must return well
+//! within the heartbeat deadline: a service stuck in a handler sends no heartbeat, and that
+//! is how the broker sees a stall. A handler that takes more than half of its deadline is
+//! reported once ([`overrun`]). Work that blocks (a device that may go silent for seconds)
+//! belongs in a device reader that the loop waits on (see [`Service::device`]).
 
 pub mod fault;
+mod overrun;
 mod signals;
 
 pub use signals::StopSignals;
@@ -156,22 +163,34 @@ pub fn run_service(
     let mut state = ContextState::new(&spec.name, config.seed());
     let heartbeat_period = Duration::from_millis(robot.broker.heartbeat_period_ms.max(1));
 
-    // The first heartbeat says "ready" before anything else can take time.
-    backend.heartbeat();
+    let mut overruns = overrun::OverrunWatch::new(
+        &spec.name,
+        Duration::from_millis(spec.startup_deadline_ms),
+        Duration::from_millis(spec.heartbeat_deadline_ms),
+    );
+    // Made before the first heartbeat, like every other endpoint: from that heartbeat on,
+    // the heartbeat deadline applies, and opening an iceoryx2 service can take tens of
+    // milliseconds on a loaded machine.
+    let faults = ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?;
+    let started = Instant::now();
     instance
         .on_start(&mut state.context(&mut backend))
         .map_err(|reason| LiveError::Start {
             service: spec.name.clone(),
             reason,
         })?;
+    overruns.ran("on_start", started);
+    // The first heartbeat says "ready": after on_start, which the startup deadline covers.
+    backend.heartbeat();
     let mut harness = Harness {
         service: instance.as_mut(),
         state,
         backend,
         servers,
-        faults: ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?,
+        faults,
         waits: WaitSet::new(WakeMode::Event),
         tick_period: None,
+        overruns,
     };
     harness.tick_period = harness
         .service
@@ -192,6 +211,7 @@ struct Harness<'s> {
     faults: CommandServer,
     waits: WaitSet,
     tick_period: Option<Duration>,
+    overruns: overrun::OverrunWatch,
 }
 
 impl Harness<'_> {
@@ -217,15 +237,19 @@ impl Harness<'_> {
             if let (Some(at), Some(period)) = (next_tick, self.tick_period)
                 && now >= at
             {
+                let started = Instant::now();
                 self.service
                     .on_tick(&mut self.state.context(&mut self.backend));
+                self.overruns.ran("on_tick", started);
                 next_tick = Some(advance(at, period, now));
             }
             self.serve_commands();
             self.take_inputs()?;
             if device_ready {
+                let started = Instant::now();
                 self.service
                     .on_device(&mut self.state.context(&mut self.backend));
+                self.overruns.ran("on_device", started);
             }
             let deadline = [Some(next_heartbeat), next_tick]
                 .into_iter()
@@ -279,10 +303,14 @@ impl Harness<'_> {
                             bytes,
                         };
                         self.state.set_inputs(Vec::new());
-                        self.service
+                        let started = Instant::now();
+                        let answer = self
+                            .service
                             .on_command(&mut self.state.context(&mut self.backend), &incoming)
                             .map(|reply| reply.bytes)
-                            .map_err(|e| e.0)
+                            .map_err(|e| e.0);
+                        self.overruns.ran("on_command", started);
+                        answer
                     }
                     Err(e) => Err(e.to_string()),
                 };
@@ -323,8 +351,10 @@ impl Harness<'_> {
                     channel: &channel,
                     bytes: received.bytes(),
                 };
+                let started = Instant::now();
                 self.service
                     .on_input(&mut self.state.context(&mut self.backend), &input);
+                self.overruns.ran("on_input", started);
             }
             self.state.set_inputs(Vec::new());
             while let Some(outcome) = self

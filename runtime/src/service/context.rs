@@ -287,15 +287,21 @@ impl Context<'_> {
     }
 
     fn stamp(&mut self, key: &str, header: &mut Header) -> u64 {
-        let seq = self.state.seqs.entry(key.to_owned()).or_insert(0);
-        *seq += 1;
+        // Looked up before inserting: the key is allocated once per channel, not per message.
+        if !self.state.seqs.contains_key(key) {
+            self.state.seqs.insert(key.to_owned(), 0);
+        }
+        let seq = self.state.seqs.get_mut(key).map_or(1, |seq| {
+            *seq += 1;
+            *seq
+        });
         header.provider.clone_from(&self.state.service);
-        header.seq = *seq;
+        header.seq = seq;
         header.publish_time_ns = self.backend.now_ns();
         if header.inputs.is_empty() {
             header.inputs.clone_from(&self.state.inputs);
         }
-        *seq
+        seq
     }
 }
 

@@ -13,6 +13,25 @@
 //! descriptor from [`Service::device`]; the live harness waits on it with everything else
 //! and calls [`Service::on_device`] when it is readable. That hook is the only part of a
 //! service that never runs in replay.
+//!
+//! # Handlers must not block
+//!
+//! The live harness runs every handler on one thread and sends the service's heartbeats
+//! from that same loop, between events: a heartbeat tells the broker that the service is
+//! responsive, not merely that its process exists. So:
+//!
+//! - [`Service::on_start`] may block (open a port, probe a device's baud rate, load a
+//!   model): the first heartbeat is sent when it returns, and until then the robot file's
+//!   `startup_deadline_ms` applies;
+//! - every other handler must return well within the `heartbeat_deadline_ms`: while one
+//!   runs, no heartbeat goes out, and a handler that runs past the deadline is a stall (the
+//!   broker kills the service and moves its clients). The harness logs a warning the first
+//!   time a handler takes more than half its deadline;
+//! - work that can block after the start (a device that goes silent, a reconnection that
+//!   probes for seconds) belongs in a device reader: a thread of the service (the one kind
+//!   of thread a service may own) that does the blocking reads and wakes the harness through
+//!   a file descriptor returned by [`Service::device`] (a pipe or an eventfd it writes
+//!   to); [`Service::on_device`] then takes what the reader produced without blocking.
 
 mod context;
 mod events;
@@ -37,8 +56,10 @@ pub trait Service {
         None
     }
 
-    /// Runs once, before any other event. An error ends the service (its process exits with
-    /// a failure, which the broker sees as a crash).
+    /// Runs once, before any other event. It may block (open and probe a device): the live
+    /// harness sends the first heartbeat once it returns, so the startup deadline covers it
+    /// (see the module documentation). An error ends the service (its process exits with a
+    /// failure, which the broker sees as a crash).
     ///
     /// # Errors
     /// When the service cannot work (a device that cannot be opened, a parameter that makes
@@ -87,12 +108,15 @@ pub trait Service {
     }
 
     /// The file descriptor of the device this service reads, if any: the live harness waits
-    /// on it and calls [`Service::on_device`] when it is readable. Never used in replay.
+    /// on it and calls [`Service::on_device`] when it is readable. Never used in replay. It
+    /// may be the device itself (read without blocking) or the wake-up descriptor of a device
+    /// reader thread that does the blocking reads (see the module documentation).
     fn device(&self) -> Option<BorrowedFd<'_>> {
         None
     }
 
-    /// The device is readable: read it (without blocking) and publish what it gave.
+    /// The device is readable: read it (without blocking) and publish what it gave. Like
+    /// every handler but `on_start`, it must return well within the heartbeat deadline.
     fn on_device(&mut self, ctx: &mut Context<'_>) {
         let _ = ctx;
     }

@@ -25,12 +25,16 @@
 //!   [`RestartTracker`] computes, or give up ([`SupervisorEvent::GaveUp`]). The default is
 //!   [`Restart::Never`]: the broker decides restarts in its own decision core.
 //!
-//! Not covered: a grandchild that leaves the process group (`setsid`) escapes the group kill,
-//! and a grandchild does not inherit the death signal, so one still running when the
-//! supervisor's process is SIGKILLed survives unless its own parent arranged otherwise.
+//! - **Guard** the process groups: a grandchild does not inherit the death signal, so a
+//!   small guard process forked with the supervisor kills every child's process group once
+//!   the supervisor's process is gone, however it died (SIGKILL included); see `guard.rs`.
+//!
+//! Not covered: a grandchild that leaves its process group (`setsid`) escapes both the group
+//! kill and the guard.
 
 mod error;
 mod event;
+mod guard;
 mod output;
 mod policy;
 mod process;

@@ -11,7 +11,7 @@ use std::io;
 use std::os::fd::{AsFd, BorrowedFd, OwnedFd};
 use std::os::unix::process::CommandExt;
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::sync::{Arc, mpsc};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
@@ -22,6 +22,7 @@ use rustix::process::{PidfdFlags, pidfd_open};
 
 use super::error::StartError;
 use super::event::ExitStatus;
+use super::guard::Guard;
 use super::spec::ChildSpec;
 
 /// How long to wait for a process to die after SIGKILL before calling it stuck.
@@ -97,12 +98,18 @@ pub(crate) struct Process {
     child: Child,
     pidfd: OwnedFd,
     pid: u32,
+    /// Kills the process's group if the supervisor's process dies before reaping it.
+    guard: Arc<Guard>,
 }
 
 impl Process {
     /// Starts `spec` from the spawner thread, with stdin from /dev/null and stdout and stderr
-    /// piped (taken with [`Self::take_output`]).
-    pub(crate) fn start(spawner: &Spawner, spec: &ChildSpec) -> Result<Self, StartError> {
+    /// piped (taken with [`Self::take_output`]), its process group given to `guard`.
+    pub(crate) fn start(
+        spawner: &Spawner,
+        guard: &Arc<Guard>,
+        spec: &ChildSpec,
+    ) -> Result<Self, StartError> {
         let mut command = Command::new(&spec.program);
         command
             .args(&spec.args)
@@ -140,7 +147,13 @@ impl Process {
         }
         let (child, pidfd) = spawner.spawn(command).map_err(|e| start_error(spec, e))?;
         let pid = child.id();
-        Ok(Self { child, pidfd, pid })
+        guard.watch(pid);
+        Ok(Self {
+            child,
+            pidfd,
+            pid,
+            guard: Arc::clone(guard),
+        })
     }
 
     pub(crate) fn pid(&self) -> u32 {
@@ -193,6 +206,9 @@ impl Process {
                 "cannot kill what is left of the process group: {e}"
             );
         }
+        // Before the wait: until then the zombie holds the group's id, so the guard can
+        // never be left with an id that another process group has taken.
+        self.guard.forget(self.pid);
         let status = self.child.wait()?;
         Ok(ExitStatus::from_std(status))
     }

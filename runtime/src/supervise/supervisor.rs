@@ -24,6 +24,7 @@ use rustix::time::{
 
 use super::error::{StartError, StopError, SuperviseError};
 use super::event::{ExitStatus, LogLine, Stream, SupervisorEvent};
+use super::guard::Guard;
 use super::output::Forward;
 use super::policy::{RestartDecision, RestartTracker};
 use super::process::{Process, Spawner, Stopped, timespec};
@@ -53,6 +54,8 @@ pub struct Supervisor {
     /// The origin of the nanosecond clock given to the restart trackers.
     origin: Instant,
     log_sink: Option<SyncSender<LogLine>>,
+    /// Kills the children's process groups if this process dies (see `guard`).
+    guard: Arc<Guard>,
     // Dropped last (fields drop in order): children are killed in `drop` before the spawner
     // thread ends, and its end would kill any survivor through PDEATHSIG anyway.
     spawner: Spawner,
@@ -109,6 +112,7 @@ impl Supervisor {
             timer,
             origin: Instant::now(),
             log_sink,
+            guard: Arc::new(Guard::spawn().map_err(SuperviseError::Setup)?),
             spawner: Spawner::new().map_err(SuperviseError::Setup)?,
         })
     }
@@ -409,7 +413,7 @@ impl Supervisor {
         spec: &ChildSpec,
         dropped: &Arc<AtomicU64>,
     ) -> Result<(Process, u64), StartError> {
-        let mut process = Process::start(&self.spawner, spec)?;
+        let mut process = Process::start(&self.spawner, &self.guard, spec)?;
         let pid = process.pid();
         let name: Arc<str> = Arc::from(spec.name.as_str());
         let (stdout, stderr) = process.take_output();

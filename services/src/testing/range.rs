@@ -25,6 +25,8 @@
 //! noise_m = 0.01
 //! seed = 1
 //! fault_file = "/tmp/laser.fault"   # optional
+//! start_delay_ms = 0                # optional: on_start blocks this long, as a device
+//!                                   # that takes long to open and probe would
 //! ```
 
 use std::f64::consts::{PI, TAU};
@@ -61,6 +63,9 @@ pub struct Params {
     pub seed: Option<u64>,
     /// The file whose word selects a fault (see the module documentation).
     pub fault_file: Option<PathBuf>,
+    /// How long `on_start` blocks, in milliseconds: a device that takes that long to open
+    /// (the harness must not take it for a stall).
+    pub start_delay_ms: u64,
 }
 
 impl Default for Params {
@@ -73,6 +78,7 @@ impl Default for Params {
             noise_m: 0.01,
             seed: None,
             fault_file: None,
+            start_delay_ms: 0,
         }
     }
 }
@@ -322,6 +328,19 @@ impl TestRange {
 impl Service for TestRange {
     fn tick_period_ns(&self) -> Option<i64> {
         Some(self.period_ns)
+    }
+
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        if self.params.start_delay_ms > 0 {
+            ctx.info(&format!(
+                "opening the device takes {} ms",
+                self.params.start_delay_ms
+            ));
+            // A device being opened and probed: on_start may block (the startup deadline
+            // covers it), which is what this stands in for.
+            std::thread::sleep(std::time::Duration::from_millis(self.params.start_delay_ms));
+        }
+        Ok(())
     }
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {

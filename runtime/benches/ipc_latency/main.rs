@@ -1,0 +1,219 @@
+//! One-way publication latency, two or more processes, side by side in one run:
+//!
+//! - **raw**: raw iceoryx2 publish-subscribe of a byte slice (the baseline);
+//! - **bytes**: our byte layer (`ipc::Publisher`, `ipc::Subscriber`, `WaitSet`);
+//! - **client**: through everything an application and a service use: a source service
+//!   under the live harness publishing a `RangeFinder` with `Context::publish` (CDR encode
+//!   into the loan), a real broker binding a `Client<RangeFinder>` to it in another process
+//!   (CDR decode).
+//!
+//! Every row of a table carries the same payload: the bytes of a CDR `RangeFinder` of
+//! about 64 B (the smallest scan, no beams), 64 KiB or 1 MiB. The send time is stamped
+//! with `CLOCK_MONOTONIC` just before the publication; the receiver reads the clock once
+//! the sample (decoded, for the client) is in hand. Messages are spaced by 500 µs, so the
+//! receiver is idle (blocked or spinning) when each arrives. The receiver also measures
+//! its own CPU time over the run. The publisher's time in its publish call (loan, encode,
+//! send, notify) is given too: it shows what a notification costs.
+//!
+//! Run: `cargo bench --workspace --bench ipc_latency` (`LEWIS_BENCH_COUNT` messages per
+//! row, default 2000, the first 300 dropped as warm-up; `LEWIS_BENCH_REPEAT` runs of each
+//! row, default 3, of which the median is shown, the layers taking turns).
+
+#![allow(
+    clippy::print_stdout,
+    clippy::cast_precision_loss,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "a benchmark reports on stdout, and its statistics are floating point"
+)]
+
+mod bytes;
+mod client;
+mod common;
+mod raw;
+
+use common::{Mode, ROLE_ENV, Res, RoleChild, Row, median, print_result, var};
+use lewis_runtime::ipc::Namespace;
+
+const SIZES: [(&str, usize); 3] = [("64 B", 64), ("64 KiB", 64 << 10), ("1 MiB", 1 << 20)];
+
+/// The period of the stream in the last table: a fast sensor (200 Hz), slow enough that a
+/// predictable beat is not lost in the scheduling jitter of a loaded machine.
+const PERIODIC: std::time::Duration = std::time::Duration::from_millis(5);
+
+fn main() -> Res<()> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("service") {
+        return client::service_role(&args);
+    }
+    if let Ok(role) = std::env::var(ROLE_ENV) {
+        return match role.as_str() {
+            "up" => client::up_role(),
+            "client" => client::receive_role(),
+            _ => pair_receiver(&role),
+        };
+    }
+    let count: usize = std::env::var("LEWIS_BENCH_COUNT")
+        .ok()
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(2000);
+    let repeat: usize = std::env::var("LEWIS_BENCH_REPEAT")
+        .ok()
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(3)
+        .max(1);
+    println!(
+        "one-way latency, {count} messages per row ({} warm-up dropped), one every {:?}, \
+         median of {repeat} runs; times in microseconds, p50 / p99; cpu: the receiver's, \
+         share of one core; send: the publisher's p50 time in its publish call",
+        common::WARMUP,
+        common::GAP
+    );
+    for mode in [Mode::Event, Mode::BusyPoll] {
+        println!();
+        println!("{}:", mode.label());
+        println!(
+            "{:<7} {:>8} | {:>15} {:>15} {:>15} | {:>6} {:>6} | {:>5} {:>5} {:>5} | {:>5} {:>5} {:>5}",
+            "payload",
+            "bytes",
+            "raw",
+            "bytes layer",
+            "client",
+            "p50 x",
+            "p99 x",
+            "cpu",
+            "",
+            "",
+            "send",
+            "",
+            ""
+        );
+        for (label, target) in SIZES {
+            let beams = client::beams_for(target);
+            let len = client::payload_len(beams);
+            let (mut raws, mut bytes, mut clients) = (Vec::new(), Vec::new(), Vec::new());
+            for _ in 0..repeat {
+                raws.push(pair(Layer::Raw, mode, len, count)?);
+                bytes.push(pair(Layer::Bytes, mode, len, count)?);
+                clients.push(client::run(mode, beams, common::GAP, count)?);
+            }
+            let (raw, ours, typed) = (median(&raws), median(&bytes), median(&clients));
+            warn_short(
+                count,
+                &[("raw", &raw), ("bytes", &ours), ("client", &typed)],
+            );
+            println!(
+                "{label:<7} {len:>8} | {} {} {} | {:>6.2} {:>6.2} | {} {} {} | {} {} {}",
+                p50_p99(&raw),
+                p50_p99(&ours),
+                p50_p99(&typed),
+                typed.p50_ns as f64 / raw.p50_ns.max(1) as f64,
+                typed.p99_ns as f64 / raw.p99_ns.max(1) as f64,
+                cpu(&raw),
+                cpu(&ours),
+                cpu(&typed),
+                us(raw.send_p50_ns),
+                us(ours.send_p50_ns),
+                us(typed.send_p50_ns),
+            );
+        }
+    }
+    println!();
+    println!(
+        "client, waiting to beat the event wake-up: a scan every {PERIODIC:?} ({} per row); \
+         latency p50 / p99 and the receiver's CPU",
+        count / 2
+    );
+    println!(
+        "{:<18} | {:>15} {:>5} | {:>15} {:>5} | {:>15} {:>5}",
+        "mode", "64 B", "", "64 KiB", "", "1 MiB", ""
+    );
+    for mode in [
+        Mode::Event,
+        Mode::Predictive { margin_us: 100 },
+        Mode::Predictive { margin_us: 250 },
+        Mode::Adaptive { spin_us: 250 },
+        Mode::BusyPoll,
+    ] {
+        let mut line = format!("{:<18}", mode.label());
+        for (_, target) in SIZES {
+            let rows = (0..repeat)
+                .map(|_| client::run(mode, client::beams_for(target), PERIODIC, count / 2))
+                .collect::<Res<Vec<Row>>>()?;
+            let row = median(&rows);
+            warn_short(count / 2, &[("client", &row)]);
+            line.push_str(&format!(" | {} {}", p50_p99(&row), cpu(&row)));
+        }
+        println!("{line}");
+    }
+    Ok(())
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Layer {
+    Raw,
+    Bytes,
+}
+
+/// A publisher here and a receiver in a child process, for the raw and byte layers.
+fn pair(layer: Layer, mode: Mode, len: usize, count: usize) -> Res<Row> {
+    let namespace = Namespace::unique("bench");
+    let role = match layer {
+        Layer::Raw => "raw",
+        Layer::Bytes => "bytes",
+    };
+    let mut receiver = RoleChild::spawn(
+        role,
+        &[
+            ("BENCH_MODE", mode.encode()),
+            ("BENCH_SIZE", len.to_string()),
+            ("BENCH_COUNT", count.to_string()),
+            ("BENCH_NAMESPACE", namespace.to_string()),
+        ],
+    )?;
+    receiver.expect_ready()?;
+    let mut sends = match layer {
+        Layer::Raw => raw::publish(&namespace, mode, len, count)?,
+        Layer::Bytes => bytes::publish(&namespace, len, count)?,
+    };
+    receiver.result(&mut sends)
+}
+
+fn pair_receiver(role: &str) -> Res<()> {
+    let mode = Mode::decode(&var("BENCH_MODE")?)?;
+    let len: usize = var("BENCH_SIZE")?.parse()?;
+    let count: usize = var("BENCH_COUNT")?.parse()?;
+    let namespace = Namespace::new(&var("BENCH_NAMESPACE")?)?;
+    let stats = match role {
+        "raw" => raw::receive(&namespace, mode, len, count)?,
+        "bytes" => bytes::receive(&namespace, mode, len, count)?,
+        other => return Err(format!("unknown role {other}").into()),
+    };
+    print_result(stats, Vec::new());
+    Ok(())
+}
+
+fn warn_short(count: usize, rows: &[(&str, &Row)]) {
+    for (who, row) in rows {
+        if row.received < count {
+            println!("  ({who}: received {} of {count})", row.received);
+        }
+    }
+}
+
+fn us(ns: u64) -> String {
+    format!("{:>5.1}", ns as f64 / 1000.0)
+}
+
+fn p50_p99(row: &Row) -> String {
+    format!(
+        "{:>15}",
+        format!("{} / {}", us(row.p50_ns).trim(), us(row.p99_ns).trim())
+    )
+}
+
+fn cpu(row: &Row) -> String {
+    format!("{:>4.0}%", row.cpu_percent)
+}
