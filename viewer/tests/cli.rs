@@ -175,14 +175,15 @@ fn with_rerun_on_the_path_lewis_view_starts_it_and_sends_the_run() {
         ],
     );
     // The viewer outlives `lewis view`, as a viewer should. It writes what it received
-    // at its own pace: wait until the file holds the layout, sent last, then stop it (its
-    // process group, which the SDK made for it).
+    // at its own pace: wait until the file holds the layout, sent last, then kill it (its
+    // process group, which the SDK made for it). SIGKILL: what it saved has been read, and
+    // the PyPI viewer was seen to ignore SIGINT for over 30 s on a loaded machine.
     let group = guard
         .group()
         .unwrap_or_else(|| panic!("the viewer was not started: {}", output.printed()));
     let read = wait_saved(&saved);
     let watched = Watched::new(u32::try_from(group.as_raw()).unwrap());
-    nix::sys::signal::killpg(group, nix::sys::signal::Signal::SIGINT).unwrap();
+    nix::sys::signal::killpg(group, nix::sys::signal::Signal::SIGKILL).unwrap();
     assert!(watched.wait_gone(), "the viewer {group} did not stop");
 
     assert!(output.status.success(), "{}", output.printed());
