@@ -5,19 +5,13 @@
 #![allow(dead_code)]
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Distance, Header, ImageSource, LogLine};
+use lewis_interfaces::msg::{Header, LogLine};
 use lewis_recorder::ChannelSpec;
 
-/// Channels of the small messages.
-pub const SMALL_CHANNELS: usize = 20;
-/// Their period: 1 kHz.
-pub const SMALL_PERIOD_NS: i64 = 1_000_000;
-/// The image period: 30 Hz.
-pub const IMAGE_PERIOD_NS: i64 = 1_000_000_000 / 30;
-/// Image size.
-pub const IMAGE_WIDTH: usize = 640;
-/// Image size.
-pub const IMAGE_HEIGHT: usize = 480;
+pub use lewis_recorder::stress::{
+    IMAGE_PERIOD_NS, SMALL_CHANNELS, SMALL_PERIOD_NS, image_pixels, small_provider,
+};
+
 /// Time between publishing and receiving.
 pub const LATENCY_NS: i64 = 50_000;
 
@@ -37,7 +31,7 @@ pub fn stress_channels() -> Vec<ChannelSpec> {
     let image = lewis_interfaces::interface_info("ImageSource").unwrap();
     let mut channels: Vec<ChannelSpec> = (0..SMALL_CHANNELS)
         .map(|i| {
-            let provider = format!("sensor{i:02}");
+            let provider = small_provider(i);
             ChannelSpec::publication(distance, &provider, &format!("/{provider}/Distance"))
         })
         .collect();
@@ -58,46 +52,22 @@ fn header(provider: String, seq: u64, publish_time_ns: i64) -> Header {
     }
 }
 
-/// A small Distance message (8 sectors: about 150 bytes).
+/// A small Distance message (8 sectors: about 150 bytes), as CDR.
 pub fn small_message(channel: usize, seq: u64, publish_time_ns: i64) -> Vec<u8> {
-    let base = seq as f64 * 0.001 + channel as f64;
-    cdr::to_vec(&Distance {
-        header: header(format!("sensor{channel:02}"), seq, publish_time_ns),
-        sector_count: 8,
-        sector_distances: (0..8).map(|s| base + f64::from(s) * 0.25).collect(),
-        first_sector_angle: -std::f64::consts::PI,
-        sector_width: std::f64::consts::FRAC_PI_4,
-        max_range: 8.0,
-        min_distance: base,
-        min_bearing: 0.5,
-    })
+    cdr::to_vec(&lewis_recorder::stress::small_message(
+        channel,
+        seq,
+        publish_time_ns,
+    ))
 }
 
-/// A 640x480 rgb8 image: a moving gradient with a little noise, as compressible as a
-/// camera image roughly is.
+/// A 640x480 rgb8 image, as CDR.
 pub fn image_message(seq: u64, publish_time_ns: i64) -> Vec<u8> {
-    let mut data = vec![0_u8; IMAGE_WIDTH * IMAGE_HEIGHT * 3];
-    let mut noise = seq.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    for (i, px) in data.iter_mut().enumerate() {
-        noise ^= noise << 13;
-        noise ^= noise >> 7;
-        noise ^= noise << 17;
-        let x = (i / 3) % IMAGE_WIDTH;
-        let y = i / 3 / IMAGE_WIDTH;
-        *px = ((x + y + seq as usize) as u8) ^ ((noise & 0x7) as u8);
-    }
-    cdr::to_vec(&ImageSource {
-        header: header("camera".to_owned(), seq, publish_time_ns),
-        width: IMAGE_WIDTH as i32,
-        height: IMAGE_HEIGHT as i32,
-        encoding: "rgb8".to_owned(),
-        step: (IMAGE_WIDTH * 3) as i32,
-        data,
-        focal_length_x: 525.0,
-        focal_length_y: 525.0,
-        principal_point_x: 319.5,
-        principal_point_y: 239.5,
-    })
+    cdr::to_vec(&lewis_recorder::stress::image_message(
+        seq,
+        publish_time_ns,
+        image_pixels(seq),
+    ))
 }
 
 /// The stress mix over `[start_ns, start_ns + duration_ns)`, in receive-time order.
