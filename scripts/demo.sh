@@ -4,7 +4,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
-cargo build --release -q -p lewis
+cargo build --release -q --workspace --locked
 lewis=target/release/lewis
 mkdir -p logs
 echo "== lewis up robots/sim.toml --goal 12,13 -o logs/demo.mcap (drive from the lobby into the corridor)"
