@@ -345,13 +345,15 @@ impl<'r> Driver<'r> {
     fn feed_at(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
         let mut queue = VecDeque::from([event]);
         let mut all = Vec::new();
-        let mut at_ns = at_ns.max(self.last_ns);
+        let at_ns = at_ns.max(self.last_ns);
+        self.last_ns = at_ns;
         while let Some(event) = queue.pop_front() {
-            self.last_ns = at_ns;
-            let now_ns = at_ns;
-            // Events caused by decisions (a spawn, a failed spawn) happen now.
-            at_ns = self.clock.now_ns().max(at_ns);
-            for decision in self.core.handle(now_ns, &event) {
+            // Events caused by decisions (a spawn, a failed spawn) are taken at the time of
+            // the decision, not after it was carried out: a spawn can take tens of ms on a
+            // loaded machine, and judging the deadlines at its end, before the heartbeats
+            // that arrived meanwhile are read, failed healthy services (a hot standby was
+            // given up while the crashed provider was being restarted).
+            for decision in self.core.handle(at_ns, &event) {
                 self.publish(&decision);
                 if let Some(next) = self.carry_out(&decision.action) {
                     queue.push_back(next);
