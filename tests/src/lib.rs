@@ -345,14 +345,23 @@ pub fn signal(pid: u32, signal: nix::sys::signal::Signal) {
 /// # Panics
 /// When it is still running after [`WATCHDOG`].
 pub fn wait_child(child: &mut Child) -> std::process::ExitStatus {
+    wait_child_for(child, WATCHDOG)
+}
+
+/// Waits for a child to end, at most `watchdog` (for a long computation, like a replay in
+/// a debug build on a loaded machine).
+///
+/// # Panics
+/// When it is still running after `watchdog`.
+pub fn wait_child_for(child: &mut Child, watchdog: Duration) -> std::process::ExitStatus {
     let pidfd = rustix::process::pidfd_open(
         rustix::process::Pid::from_child(child),
         rustix::process::PidfdFlags::empty(),
     )
     .expect("pidfd_open works on this kernel");
     assert!(
-        wait_readable(&pidfd, WATCHDOG),
-        "process {} still runs after {WATCHDOG:?}",
+        wait_readable(&pidfd, watchdog),
+        "process {} still runs after {watchdog:?}",
         child.id()
     );
     child.wait().expect("the child can be reaped")
