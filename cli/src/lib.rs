@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod fake_device;
 mod fault;
 mod goal;
@@ -78,6 +79,10 @@ pub enum Command {
     /// or pick a colour from an image.
     #[command(subcommand)]
     Tune(tune::TuneCommand),
+    /// Measure: replay speed against real time and against the services called directly,
+    /// long recordings for the memory of a replay.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -100,5 +105,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Fault(args) => fault::run(&args),
         Command::FakeDevice(args) => fake_device::run(&args),
         Command::Tune(command) => tune::run(command),
+        Command::Bench(command) => bench::run(&command),
     }
 }

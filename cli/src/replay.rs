@@ -73,6 +73,11 @@ pub struct ReplayArgs {
     pub json: bool,
 }
 
+/// The kinds that are sources (see [`SOURCE_KINDS`]), as the replay options take them.
+pub(crate) fn source_kinds() -> std::collections::BTreeSet<String> {
+    SOURCE_KINDS.iter().map(|k| (*k).to_owned()).collect()
+}
+
 /// The kinds that talk to a device or to the simulated world: fed from the recording by
 /// default, even when they require something (the simulated sensors require GroundTruth).
 const SOURCE_KINDS: &[&str] = &[
@@ -112,7 +117,7 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     options.robot.clone_from(&args.robot);
     options.set.clone_from(&args.set);
     options.tolerance = args.tolerance;
-    options.source_kinds = SOURCE_KINDS.iter().map(|k| (*k).to_owned()).collect();
+    options.source_kinds = source_kinds();
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(

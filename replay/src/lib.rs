@@ -7,7 +7,9 @@
 //!   virtual clock, fed from a recording.
 //! - [`resim`]: `lewis replay`, the re-simulation of a recording into a new one with a
 //!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
+//! - [`bench`]: measures of replay's speed and memory (`lewis bench`).
 
+pub mod bench;
 pub mod compare;
 pub mod fault;
 pub mod import;

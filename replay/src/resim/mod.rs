@@ -46,7 +46,7 @@ use crate::fault::{Fault, FaultError, FaultSpec};
 use crate::lockstep::{Lockstep, LockstepError, Plan, Route, route};
 use crate::recording::{Recording, RecordingError};
 use crate::report::{CheckOutcome, FaultWatch, Report};
-use edit::{EditError, ParamEdit, replayed_robot};
+use edit::{EditError, ParamEdit, ReplayedRobot, replayed_robot};
 use lookahead::Lookahead;
 use sink::OutputSink;
 
@@ -277,6 +277,69 @@ pub fn select_services(
     Ok(chosen)
 }
 
+/// What a replay runs, worked out from the recording and the options.
+#[derive(Debug)]
+pub struct Prepared {
+    /// The robot replayed, and what differs from the recorded one.
+    pub replayed: ReplayedRobot,
+    /// The faults placed on the recording's clock.
+    pub faults: Vec<Fault>,
+    /// The services re-simulated.
+    pub resimulated: BTreeSet<String>,
+    /// The services whose publications the recording holds.
+    pub published: BTreeSet<String>,
+    /// The harness's plan.
+    pub plan: Plan,
+}
+
+/// Works out what a replay of `recording` with `options` runs.
+///
+/// # Errors
+/// When an option does not fit the recording, or the recording cannot be read.
+pub fn prepare(
+    recording: &Recording,
+    options: &ReplayOptions,
+    registry: &ServiceRegistry,
+) -> Result<Prepared, ReplayError> {
+    let (file_name, toml) = recording.robot_toml();
+    let replayed = replayed_robot(
+        recording.robot(),
+        file_name,
+        toml,
+        options.robot.as_deref(),
+        &options.set,
+    )?;
+    let robot = &replayed.robot;
+    let faults = options
+        .faults
+        .iter()
+        .map(|spec| spec.resolve(robot, recording.start_ns(), recording.end_ns()))
+        .collect::<Result<Vec<Fault>, _>>()?;
+    let resimulated = select_services(
+        robot,
+        recording,
+        registry,
+        &options.services,
+        &options.source_kinds,
+    )?;
+    edit::check_edits_resimulated(&options.set, &resimulated)?;
+    let published = services_with_outputs(recording, robot);
+    let followed = followed_services(recording, robot, registry, &resimulated, &published);
+    let plan = Plan {
+        resimulated: resimulated.clone(),
+        ready_at: first_heartbeats(recording, robot, &followed)?,
+        followed,
+        faults: faults.clone(),
+    };
+    Ok(Prepared {
+        replayed,
+        faults,
+        resimulated,
+        published,
+        plan,
+    })
+}
+
 /// Replays a recording (see the module documentation) and returns the report.
 ///
 /// # Errors
@@ -288,31 +351,16 @@ pub fn replay(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Report, ReplayError> {
     let recording = Recording::open(&options.inputs)?;
-    let (file_name, toml) = recording.robot_toml();
-    let replayed = replayed_robot(
-        recording.robot(),
-        file_name,
-        toml,
-        options.robot.as_deref(),
-        &options.set,
-    )?;
+    let Prepared {
+        replayed,
+        faults,
+        resimulated,
+        published,
+        plan,
+    } = prepare(&recording, options, registry)?;
     let robot = &replayed.robot;
     let (start_ns, end_ns) = (recording.start_ns(), recording.end_ns());
-    let faults = options
-        .faults
-        .iter()
-        .map(|spec| spec.resolve(robot, start_ns, end_ns))
-        .collect::<Result<Vec<Fault>, _>>()?;
-    let resimulated = select_services(
-        robot,
-        &recording,
-        registry,
-        &options.services,
-        &options.source_kinds,
-    )?;
-    edit::check_edits_resimulated(&options.set, &resimulated)?;
-    let published = services_with_outputs(&recording, robot);
-    let followed = followed_services(&recording, robot, registry, &resimulated, &published);
+    let followed = plan.followed.clone();
     let output = options
         .output
         .clone()
@@ -340,12 +388,6 @@ pub fn replay(
     let watches = faults.iter().cloned().map(FaultWatch::new).collect();
     let mut sink = OutputSink::new(recorder, comparator, watches);
 
-    let plan = Plan {
-        resimulated: resimulated.clone(),
-        followed: followed.clone(),
-        ready_at: first_heartbeats(&recording, robot, &followed)?,
-        faults: faults.clone(),
-    };
     let mut harness = Lockstep::new(robot, registry, plan)?;
     let mut window = Lookahead::new(recording.messages()?);
     // The broker comes up with the first message, once the window shows what lies ahead.
