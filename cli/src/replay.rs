@@ -73,23 +73,14 @@ pub struct ReplayArgs {
     pub json: bool,
 }
 
-/// The kinds that are sources (see [`SOURCE_KINDS`]), as the replay options take them.
+/// The kinds that are sources ([`lewis_services::SOURCE_KINDS`]), as the replay options
+/// take them.
 pub(crate) fn source_kinds() -> std::collections::BTreeSet<String> {
-    SOURCE_KINDS.iter().map(|k| (*k).to_owned()).collect()
+    lewis_services::SOURCE_KINDS
+        .iter()
+        .map(|k| (*k).to_owned())
+        .collect()
 }
-
-/// The kinds that talk to a device or to the simulated world: fed from the recording by
-/// default, even when they require something (the simulated sensors require GroundTruth).
-const SOURCE_KINDS: &[&str] = &[
-    lewis_services::sim::service::base::KIND,
-    lewis_services::sim::service::laser::KIND,
-    lewis_services::sim::service::sonar::KIND,
-    lewis_services::sim::service::camera::KIND,
-    lewis_services::drivers::service::sick::KIND,
-    lewis_services::drivers::service::rflex::KIND,
-    lewis_services::camera::KIND,
-    lewis_services::testing::range::KIND,
-];
 
 fn parse_set(text: &str) -> Result<ParamEdit, String> {
     text.parse().map_err(|e: EditError| e.to_string())
