@@ -13,6 +13,7 @@ mod fake_device;
 mod fault;
 mod goal;
 mod idl;
+mod import;
 mod info;
 mod mission;
 mod record;
@@ -83,6 +84,10 @@ pub enum Command {
     /// long recordings for the memory of a replay.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Convert another robot software's log into a Lewis recording that replay can run
+    /// services over.
+    #[command(subcommand)]
+    Import(import::ImportCommand),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -106,5 +111,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::FakeDevice(args) => fake_device::run(&args),
         Command::Tune(command) => tune::run(command),
         Command::Bench(command) => bench::run(&command),
+        Command::Import(command) => import::run(&command),
     }
 }
