@@ -57,7 +57,7 @@ pub enum RecordingError {
     },
     /// No file holds a robot description.
     #[error(
-        "{paths} hold no robot description (metadata `lewis.robot`): only recordings made by `lewis up` or `lewis import` say which services ran"
+        "no robot description (metadata `lewis.robot`) in {paths}: only recordings made by `lewis up` or `lewis import` say which services ran, so there is nothing to re-simulate (`lewis info` reads any MCAP file)"
     )]
     NoRobot {
         /// The files, comma-separated.
