@@ -11,7 +11,7 @@ use std::process::ExitCode;
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
 use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
-use lewis_replay::import::carmen::{self, CarmenImport, ImportOptions, robot_toml};
+use lewis_replay::import::carmen::{self, CarmenImport, ImportError, ImportOptions, robot_toml};
 
 /// The formats `lewis import` reads.
 #[derive(Debug, Subcommand)]
@@ -59,7 +59,7 @@ fn carmen_to_mcap(args: &CarmenArgs) -> anyhow::Result<ExitCode> {
     if args.no_sonar {
         options.sonar = None;
     }
-    let import = CarmenImport::open(&args.log, options)?;
+    let import = CarmenImport::open(&args.log, options).map_err(|e| said(&e))?;
     let report = import.report();
     let mut recorder_options = RecorderOptions::new(&args.output);
     recorder_options.robot_description = Some(RobotDescription {
@@ -71,10 +71,10 @@ fn carmen_to_mcap(args: &CarmenArgs) -> anyhow::Result<ExitCode> {
     let mut channels: BTreeMap<String, ChannelId> = BTreeMap::new();
     let mut per_channel: BTreeMap<String, u64> = BTreeMap::new();
     let mut data = Vec::new();
-    let mut messages = import.messages()?;
+    let mut messages = import.messages().map_err(|e| said(&e))?;
     let written = (|| -> anyhow::Result<()> {
         for message in &mut messages {
-            let message = message?;
+            let message = message.map_err(|e| said(&e))?;
             let channel = match channels.get(&message.channel) {
                 Some(channel) => *channel,
                 None => {
@@ -125,6 +125,12 @@ fn carmen_to_mcap(args: &CarmenArgs) -> anyhow::Result<ExitCode> {
     }
     let _ = std::io::stdout().lock().write_all(text.as_bytes());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The import's errors carry their cause in their own text: printed as a chain, it would
+/// be said twice.
+fn said(error: &ImportError) -> anyhow::Error {
+    anyhow::anyhow!("{error}")
 }
 
 // For display only.

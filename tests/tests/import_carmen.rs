@@ -146,3 +146,22 @@ fn an_existing_output_is_refused_and_left_alone() {
     assert!(stderr.contains("taken.mcap exists"), "{stderr}");
     assert_eq!(std::fs::read(&output).unwrap(), b"not mine");
 }
+
+#[test]
+fn a_missing_log_or_one_without_scans_is_refused_with_its_reason_said_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("out.mcap");
+    let (status, stdout, stderr) = import(&dir.path().join("missing.log"), &output);
+    assert_eq!(status.code(), Some(2), "{status}\n{stdout}\n{stderr}");
+    assert!(stderr.contains("cannot open"), "{stderr}");
+    assert!(stderr.contains("missing.log"), "{stderr}");
+    assert_eq!(stderr.matches("(os error 2)").count(), 1, "{stderr}");
+    assert!(!output.exists());
+
+    let log = dir.path().join("no-scans.log");
+    std::fs::write(&log, "ODOM 1.0 2.0 0.0 0 0 0 1.5 host 1.5\n").unwrap();
+    let (status, stdout, stderr) = import(&log, &output);
+    assert_eq!(status.code(), Some(2), "{status}\n{stdout}\n{stderr}");
+    assert!(stderr.contains("no laser scans"), "{stderr}");
+    assert!(!output.exists());
+}
