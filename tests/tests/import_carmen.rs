@@ -46,9 +46,9 @@ fn import(log: &Path, output: &Path) -> (ExitStatus, String, String) {
     )
 }
 
-/// The recording as the Python readers see it (tests/python/check_import.py).
+/// The recording as the Python readers see it (tests/python/check_recording.py).
 fn read_back(path: &Path) -> Value {
-    let script = repo_root().join("tests/python/check_import.py");
+    let script = repo_root().join("tests/python/check_recording.py");
     let text = run_ok(python_tool("python").arg(script).arg(path));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}: {text}"))
 }

@@ -1,10 +1,11 @@
-"""Reads a recording written by `lewis import` with the independent readers (`mcap`, and
-`mcap-ros2-support` to decode CDR from the schema stored in the file) and prints a JSON
-summary for tests/tests/import_carmen.rs: messages per topic, whether log time ever goes
+"""Reads a recording written by Lewis (`lewis import`, `lewis bench long-recording`) with the
+independent readers (`mcap`, and `mcap-ros2-support` to decode CDR from the schema stored in
+the file) and prints a JSON summary for the tests (tests/tests/import_carmen.rs,
+tests/tests/bench_long.rs): messages per topic, whether log time ever goes
 backwards (over the file, and per topic strictly), the robot description's metadata, and the
 first laser reading decoded.
 
-Usage: python check_import.py RUN.mcap
+Usage: python check_recording.py RUN.mcap
 """
 
 import json
