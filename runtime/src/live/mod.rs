@@ -11,6 +11,11 @@
 //!
 //! A stalled service (stuck in a handler) sends no heartbeat: that is how the broker sees a
 //! stall.
+//!
+//! The service's clock ([`Context::now`]) reads the time its current event was taken up, for
+//! the whole handler, as in the lockstep replay harness: every publication of one handler
+//! carries that time, so a recording says exactly when each handler ran and replay can run
+//! it again at that time (the answered-command log carries it too, as `received_ns`).
 
 pub mod fault;
 mod signals;
@@ -35,8 +40,8 @@ use crate::ipc::{
 use crate::names;
 use crate::robot::Robot;
 use crate::service::{
-    Backend, BuildError, CallFailure, CallId, ContextError, ContextState, IncomingCommand, Level,
-    ReplyEvent, Service, ServiceConfig, ServiceRegistry,
+    Backend, BuildError, CallFailure, CallId, Context, ContextError, ContextState, IncomingCommand,
+    Level, ReplyEvent, Service, ServiceConfig, ServiceRegistry,
 };
 use crate::wire;
 
@@ -152,6 +157,7 @@ pub fn run_service(
         fault: fault::FaultState::Normal,
         command_log,
         command_log_seq: 0,
+        event_ns: 0,
     };
     let mut state = ContextState::new(&spec.name, config.seed());
     let heartbeat_period = Duration::from_millis(robot.broker.heartbeat_period_ms.max(1));
@@ -159,7 +165,7 @@ pub fn run_service(
     // The first heartbeat says "ready" before anything else can take time.
     backend.heartbeat();
     instance
-        .on_start(&mut state.context(&mut backend))
+        .on_start(&mut event_context(&mut state, &mut backend))
         .map_err(|reason| LiveError::Start {
             service: spec.name.clone(),
             reason,
@@ -218,14 +224,14 @@ impl Harness<'_> {
                 && now >= at
             {
                 self.service
-                    .on_tick(&mut self.state.context(&mut self.backend));
+                    .on_tick(&mut event_context(&mut self.state, &mut self.backend));
                 next_tick = Some(advance(at, period, now));
             }
             self.serve_commands();
             self.take_inputs()?;
             if device_ready {
                 self.service
-                    .on_device(&mut self.state.context(&mut self.backend));
+                    .on_device(&mut event_context(&mut self.state, &mut self.backend));
             }
             let deadline = [Some(next_heartbeat), next_tick]
                 .into_iter()
@@ -240,7 +246,7 @@ impl Harness<'_> {
             device_ready = self.wait(signals, deadline)?;
         }
         self.service
-            .on_stop(&mut self.state.context(&mut self.backend));
+            .on_stop(&mut event_context(&mut self.state, &mut self.backend));
         Ok(())
     }
 
@@ -269,6 +275,7 @@ impl Harness<'_> {
         for (interface, server) in &self.servers {
             while let Ok(Some(request)) = server.receive() {
                 let received_ns = self.backend.clock.now_ns();
+                self.backend.event_ns = received_ns;
                 let mut logged = (String::new(), request.bytes().to_vec());
                 let answer = match wire::read_request(request.bytes()) {
                     Ok((command, bytes)) => {
@@ -323,8 +330,10 @@ impl Harness<'_> {
                     channel: &channel,
                     bytes: received.bytes(),
                 };
-                self.service
-                    .on_input(&mut self.state.context(&mut self.backend), &input);
+                self.service.on_input(
+                    &mut event_context(&mut self.state, &mut self.backend),
+                    &input,
+                );
             }
             self.state.set_inputs(Vec::new());
             while let Some(outcome) = self
@@ -361,8 +370,10 @@ impl Harness<'_> {
                     command,
                     result,
                 };
-                self.service
-                    .on_reply(&mut self.state.context(&mut self.backend), &event);
+                self.service.on_reply(
+                    &mut event_context(&mut self.state, &mut self.backend),
+                    &event,
+                );
             }
         }
         Ok(())
@@ -387,11 +398,22 @@ impl Harness<'_> {
                         interface: interface.to_owned(),
                     }),
                 };
-                self.service
-                    .on_reply(&mut self.state.context(&mut self.backend), &event);
+                self.service.on_reply(
+                    &mut event_context(&mut self.state, &mut self.backend),
+                    &event,
+                );
             }
         }
     }
+}
+
+/// The context of one event. The service's clock reads the time the event was taken up for
+/// the whole handler, as in the lockstep harness: what a handler computes from `now` and the
+/// publish times it stamps agree, so a replay that runs the handler at that recorded time
+/// computes the same.
+fn event_context<'a>(state: &'a mut ContextState, backend: &'a mut LiveBackend) -> Context<'a> {
+    backend.event_ns = backend.clock.now_ns();
+    state.context(backend)
 }
 
 /// The next time of a periodic event after `at`: one period later, or one period from now
@@ -415,6 +437,8 @@ struct LiveBackend {
     /// `/lewis/commands/<service>`: every answered command, for the recorder.
     command_log: Publisher,
     command_log_seq: u64,
+    /// The time the event being handled was taken up: the service's clock.
+    event_ns: i64,
 }
 
 impl LiveBackend {
@@ -446,7 +470,8 @@ impl LiveBackend {
         let header = message.header_mut();
         header.provider.clone_from(&self.service);
         header.seq = self.command_log_seq;
-        header.publish_time_ns = self.clock.now_ns();
+        // The time of the event, like every publication of the handler that answered it.
+        header.publish_time_ns = received_ns;
         let len = cdr::encoded_len(&message);
         if let Err(e) = self.command_log.publish_with(len, |buf| {
             let _ = cdr::encode_into(&message, buf);
@@ -506,7 +531,7 @@ pub fn health_from_message(message: &HealthMessage) -> Health {
 
 impl Backend for LiveBackend {
     fn now_ns(&self) -> i64 {
-        self.clock.now_ns()
+        self.event_ns
     }
 
     fn publish(
