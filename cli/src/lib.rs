@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod fake_device;
 mod fault;
 mod goal;
@@ -91,6 +92,10 @@ pub enum Command {
     /// Publish the recorder's stress mix (a test and measurement tool).
     #[command(hide = true)]
     StressPublish(stress::StressArgs),
+    /// Measure: replay speed against real time and against the services called directly,
+    /// long recordings for the memory of a replay.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 /// Runs the parsed command and returns the process exit code.
@@ -116,5 +121,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::FakeDevice(args) => fake_device::run(&args),
         Command::Tune(command) => tune::run(command),
         Command::StressPublish(args) => stress::run(&args),
+        Command::Bench(command) => bench::run(&command),
     }
 }

@@ -9,6 +9,7 @@ use anyhow::Context as _;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lewis_replay::fault::FaultSpec;
+use lewis_replay::resim::edit::{EditError, ParamEdit};
 use lewis_replay::resim::{
     DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay,
 };
@@ -22,6 +23,10 @@ use crate::service::registry;
     crash, stall (the default), garbage, out-of-service; times from the start of the \
     recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser half-way \
     through; `laser@12.5s-20s:crash` crashes it for a window, then lets it recover.\n\n\
+    Regression check of a change: `lewis replay RUN.mcap --check` replays the services as \
+    the recording stores them; `--robot robots/sim.toml` replays with the repository's \
+    robot file instead, `--set obstacle_avoider.clearance_m=0.3` with one parameter \
+    changed. Unchanged services reproduce their recorded outputs exactly.\n\n\
     Exit codes: 0 replayed (and, with --check, the outputs match); 1 --check found \
     outputs beyond the tolerance; 2 the replay could not run."
 )]
@@ -46,6 +51,14 @@ pub struct ReplayArgs {
     /// Inject a fault (repeat for several).
     #[arg(long = "inject-fault", value_name = "SPEC", value_parser = parse_fault)]
     pub faults: Vec<FaultSpec>,
+    /// Replay with this robot description instead of the one stored in the recording
+    /// (typically the repository's robot file after the change under test).
+    #[arg(long, value_name = "ROBOT.toml")]
+    pub robot: Option<PathBuf>,
+    /// Change a parameter of a re-simulated service for this replay (repeat for several);
+    /// VALUE is TOML, a bare word a string.
+    #[arg(long = "set", value_name = "SERVICE.PARAMETER=VALUE", value_parser = parse_set)]
+    pub set: Vec<ParamEdit>,
     /// Exit 1 when re-simulated outputs differ from the recorded ones beyond the tolerance.
     #[arg(long)]
     pub check: bool,
@@ -60,18 +73,18 @@ pub struct ReplayArgs {
     pub json: bool,
 }
 
-/// The kinds that talk to a device or to the simulated world: fed from the recording by
-/// default, even when they require something (the simulated sensors require GroundTruth).
-const SOURCE_KINDS: &[&str] = &[
-    lewis_services::sim::service::base::KIND,
-    lewis_services::sim::service::laser::KIND,
-    lewis_services::sim::service::sonar::KIND,
-    lewis_services::sim::service::camera::KIND,
-    lewis_services::drivers::service::sick::KIND,
-    lewis_services::drivers::service::rflex::KIND,
-    lewis_services::camera::KIND,
-    lewis_services::testing::range::KIND,
-];
+/// The kinds that are sources ([`lewis_services::SOURCE_KINDS`]), as the replay options
+/// take them.
+pub(crate) fn source_kinds() -> std::collections::BTreeSet<String> {
+    lewis_services::SOURCE_KINDS
+        .iter()
+        .map(|k| (*k).to_owned())
+        .collect()
+}
+
+fn parse_set(text: &str) -> Result<ParamEdit, String> {
+    text.parse().map_err(|e: EditError| e.to_string())
+}
 
 fn parse_fault(text: &str) -> Result<FaultSpec, String> {
     text.parse()
@@ -92,8 +105,10 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
         (None, false) => ServiceSelection::NonSources,
     };
     options.faults.clone_from(&args.faults);
+    options.robot.clone_from(&args.robot);
+    options.set.clone_from(&args.set);
     options.tolerance = args.tolerance;
-    options.source_kinds = SOURCE_KINDS.iter().map(|k| (*k).to_owned()).collect();
+    options.source_kinds = source_kinds();
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(

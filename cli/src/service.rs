@@ -26,14 +26,7 @@ pub struct ServiceArgs {
 /// Every service kind this binary can run.
 #[must_use]
 pub fn registry() -> ServiceRegistry {
-    let mut registry = ServiceRegistry::new();
-    lewis_services::testing::register(&mut registry);
-    lewis_services::drivers::service::register(&mut registry);
-    lewis_services::sim::service::register(&mut registry);
-    lewis_services::motion::service::register(&mut registry);
-    lewis_services::perception::register(&mut registry);
-    lewis_services::range_distance::register(&mut registry);
-    registry
+    lewis_services::registry()
 }
 
 /// Runs `lewis service`.

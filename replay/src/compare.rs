@@ -1,22 +1,35 @@
-//! How far re-simulated outputs are from the recorded ones, per output channel.
+//! How far re-simulated outputs are from the recorded ones, per output channel: the data a
+//! re-simulated service published, and the commands it answered (its command log).
 //!
-//! Messages are paired in order of publication; when both sides name their inputs
-//! (provenance) and they disagree, the pairing skips ahead on the side that has the other's
-//! inputs later, so one lost or extra message does not shift every later pair. The headers
-//! are not compared (publish times are the live clock on one side and the virtual clock on
-//! the other); every other field is, numbers within a tolerance, anything else exactly.
-//! A message without a partner counts as differing.
+//! Messages are paired in order of publication; when both sides say what they answer (the
+//! inputs named in a publication's provenance, the caller and number of a command) and they
+//! disagree, the pairing skips ahead on the side that has the other's later, so one lost or
+//! extra message does not shift every later pair. Headers are not compared (a replay
+//! re-numbers and re-stamps what it re-simulates); every other field is, numbers within a
+//! tolerance, anything else exactly; a command is compared by its name, status, error and
+//! the fields of its request and reply. A message without a partner counts as differing.
+//!
+//! Messages waiting for a partner are kept as bytes and decoded only when paired, at most
+//! [`MAX_PENDING`] per side and channel, so the comparison takes bounded memory whatever
+//! the recording's length.
 
 use std::collections::{BTreeMap, VecDeque};
+use std::sync::Arc;
 
+use lewis_interfaces::cdr;
 use lewis_interfaces::dynamic::{Decoder, Value};
-use lewis_interfaces::msg::InputRef;
+use lewis_interfaces::msg::{CommandLog, InputRef};
+use lewis_runtime::service::Input;
 use serde::Serialize;
 
+use crate::lockstep::header_provider;
+
 /// Messages waiting for a partner, per side, before the oldest counts as unmatched.
-const MAX_PENDING: usize = 4096;
-/// How far ahead provenance is searched for.
+pub const MAX_PENDING: usize = 256;
+/// How far ahead a partner is searched for.
 const LOOKAHEAD: usize = 64;
+/// Input channels listed per output channel, at most.
+const MAX_INPUT_CHANNELS: usize = 16;
 
 /// The divergence of one output channel.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -35,19 +48,48 @@ pub struct ChannelDivergence {
     pub first_divergence_ns: Option<i64>,
     /// The largest difference between two numbers of a compared pair.
     pub max_numeric_difference: f64,
+    /// The field where that largest difference was (`target.x`, `request.y`).
+    pub max_difference_field: Option<String>,
+    /// The input channels the re-simulated messages name in their provenance: what they
+    /// were computed from.
+    pub resimulated_inputs: Vec<InputUse>,
+}
+
+/// How the re-simulated messages of a channel used one input channel.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct InputUse {
+    /// The input channel.
+    pub channel: String,
+    /// Re-simulated messages that name it.
+    pub messages: u64,
+    /// The time of the first of them, from the start of the recording.
+    pub first_ns: i64,
+    /// The time of the last of them, from the start of the recording.
+    pub last_ns: i64,
+}
+
+/// What the messages of a channel are.
+enum Kind {
+    /// Publications, decoded with their schema (`None`: the schema does not parse, every
+    /// pair differs).
+    Data(Option<Decoder>),
+    /// Command logs; requests and replies decoded with their interface's schemas.
+    Commands(BTreeMap<(String, String), Option<(Decoder, Decoder)>>),
 }
 
 struct Pending {
     time_ns: i64,
-    inputs: Vec<InputRef>,
-    value: Option<Value>,
+    /// What the message answers, to pair it.
+    key: Vec<InputRef>,
+    bytes: Arc<[u8]>,
 }
 
 struct Channel {
-    decoder: Option<Decoder>,
+    kind: Kind,
     recorded: VecDeque<Pending>,
     resimulated: VecDeque<Pending>,
     divergence: ChannelDivergence,
+    inputs: BTreeMap<String, InputUse>,
 }
 
 /// Pairs and compares recorded and re-simulated outputs.
@@ -78,12 +120,24 @@ impl Comparator {
         }
     }
 
-    /// Declares an output channel and the schema its messages are decoded with.
+    /// Declares an output channel of publications and the schema they are decoded with.
     pub fn add_channel(&mut self, channel: &str, schema_name: &str, schema_text: &str) {
+        self.add(
+            channel,
+            Kind::Data(Decoder::new(schema_name, schema_text).ok()),
+        );
+    }
+
+    /// Declares a command-log channel (`/lewis/commands/<service>`).
+    pub fn add_command_channel(&mut self, channel: &str) {
+        self.add(channel, Kind::Commands(BTreeMap::new()));
+    }
+
+    fn add(&mut self, channel: &str, kind: Kind) {
         self.channels
             .entry(channel.to_owned())
             .or_insert_with(|| Channel {
-                decoder: Decoder::new(schema_name, schema_text).ok(),
+                kind,
                 recorded: VecDeque::new(),
                 resimulated: VecDeque::new(),
                 divergence: ChannelDivergence {
@@ -94,7 +148,10 @@ impl Comparator {
                     differing: 0,
                     first_divergence_ns: None,
                     max_numeric_difference: 0.0,
+                    max_difference_field: None,
+                    resimulated_inputs: Vec::new(),
                 },
+                inputs: BTreeMap::new(),
             });
     }
 
@@ -127,6 +184,7 @@ impl Comparator {
                 while let Some(p) = c.resimulated.pop_front() {
                     unmatched(&mut c.divergence, p.time_ns - start_ns);
                 }
+                c.divergence.resimulated_inputs = c.inputs.values().cloned().collect();
                 c.divergence.clone()
             })
             .collect()
@@ -137,20 +195,17 @@ impl Comparator {
         let Some(c) = self.channels.get_mut(channel) else {
             return;
         };
-        let value = c.decoder.as_ref().and_then(|d| d.decode(bytes).ok());
-        let inputs = lewis_runtime::service::Input {
-            interface: "",
-            provider: "",
-            channel,
-            bytes,
+        let key = match c.kind {
+            Kind::Data(_) => header_inputs(channel, bytes),
+            Kind::Commands(_) => command_key(bytes),
+        };
+        if !recorded && matches!(c.kind, Kind::Data(_)) {
+            c.note_inputs(&key, time_ns - start_ns);
         }
-        .header()
-        .map(|h| h.inputs)
-        .unwrap_or_default();
         let pending = Pending {
             time_ns,
-            inputs,
-            value,
+            key,
+            bytes: Arc::from(bytes),
         };
         if recorded {
             c.divergence.recorded += 1;
@@ -164,11 +219,31 @@ impl Comparator {
 }
 
 impl Channel {
+    fn note_inputs(&mut self, inputs: &[InputRef], at_ns: i64) {
+        for input in inputs {
+            if !self.inputs.contains_key(&input.channel) && self.inputs.len() >= MAX_INPUT_CHANNELS
+            {
+                continue;
+            }
+            let used = self
+                .inputs
+                .entry(input.channel.clone())
+                .or_insert_with(|| InputUse {
+                    channel: input.channel.clone(),
+                    messages: 0,
+                    first_ns: at_ns,
+                    last_ns: at_ns,
+                });
+            used.messages += 1;
+            used.last_ns = at_ns;
+        }
+    }
+
     fn pair(&mut self, tolerance: f64, start_ns: i64) {
         while let (Some(r), Some(s)) = (self.recorded.front(), self.resimulated.front()) {
-            if !r.inputs.is_empty() && !s.inputs.is_empty() && r.inputs != s.inputs {
-                // Skip ahead on the side that has the other's inputs later.
-                if let Some(skip) = position(&self.recorded, &s.inputs) {
+            if !r.key.is_empty() && !s.key.is_empty() && r.key != s.key {
+                // Skip ahead on the side that has the other's key later.
+                if let Some(skip) = position(&self.recorded, &s.key) {
                     for _ in 0..skip {
                         if let Some(p) = self.recorded.pop_front() {
                             unmatched(&mut self.divergence, p.time_ns - start_ns);
@@ -176,7 +251,7 @@ impl Channel {
                     }
                     continue;
                 }
-                if let Some(skip) = position(&self.resimulated, &r.inputs) {
+                if let Some(skip) = position(&self.resimulated, &r.key) {
                     for _ in 0..skip {
                         if let Some(p) = self.resimulated.pop_front() {
                             unmatched(&mut self.divergence, p.time_ns - start_ns);
@@ -190,13 +265,16 @@ impl Channel {
                 break;
             };
             self.divergence.compared += 1;
-            let mut max = 0.0f64;
-            let same = match (&r.value, &s.value) {
-                (Some(a), Some(b)) => same_value(a, b, tolerance, &mut max, true),
-                _ => false,
-            };
-            self.divergence.max_numeric_difference =
-                self.divergence.max_numeric_difference.max(max);
+            let mut max = Largest::default();
+            let same = r.bytes == s.bytes
+                || match (self.kind.value(&r.bytes), self.kind.value(&s.bytes)) {
+                    (Some(a), Some(b)) => same_value(&a, &b, tolerance, &mut max, &mut Vec::new()),
+                    _ => false,
+                };
+            if max.difference > self.divergence.max_numeric_difference {
+                self.divergence.max_numeric_difference = max.difference;
+                self.divergence.max_difference_field = max.field;
+            }
             if !same {
                 self.divergence.differing += 1;
                 let at = s.time_ns.min(r.time_ns) - start_ns;
@@ -215,11 +293,98 @@ impl Channel {
     }
 }
 
-fn position(queue: &VecDeque<Pending>, inputs: &[InputRef]) -> Option<usize> {
-    queue
-        .iter()
-        .take(LOOKAHEAD)
-        .position(|p| p.inputs == inputs)
+impl Kind {
+    /// The value compared: the message without its header, or for a command log, its
+    /// command, status, error, request and reply (without their headers).
+    fn value(&mut self, bytes: &[u8]) -> Option<Value> {
+        match self {
+            Self::Data(decoder) => decoder
+                .as_ref()
+                .and_then(|d| d.decode(bytes).ok())
+                .map(without_header),
+            Self::Commands(decoders) => {
+                let log: CommandLog = cdr::from_bytes(bytes).ok()?;
+                let (request, reply) = decoders
+                    .entry((log.interface.clone(), log.command.clone()))
+                    .or_insert_with(|| command_decoders(&log.interface, &log.command))
+                    .as_ref()?;
+                let decoded = |decoder: &Decoder, bytes: &[u8]| {
+                    decoder
+                        .decode(bytes)
+                        .map_or_else(|_| Value::Bytes(bytes.to_vec()), without_header)
+                };
+                let field = |name: &str, value| (Arc::from(name), value);
+                Some(Value::Struct(vec![
+                    field(
+                        "command",
+                        Value::String(format!("{}.{}", log.interface, log.command)),
+                    ),
+                    field("status", Value::String(log.status)),
+                    field("error", Value::String(log.error)),
+                    field("request", decoded(request, &log.request)),
+                    field(
+                        "reply",
+                        if log.reply.is_empty() {
+                            Value::Bytes(Vec::new())
+                        } else {
+                            decoded(reply, &log.reply)
+                        },
+                    ),
+                ]))
+            }
+        }
+    }
+}
+
+fn command_decoders(interface: &str, command: &str) -> Option<(Decoder, Decoder)> {
+    let info = lewis_interfaces::interface_info(interface)?;
+    let command = info.commands.iter().find(|c| c.name == command)?;
+    Some((
+        Decoder::new(command.request.name, command.request.text).ok()?,
+        Decoder::new(command.reply.name, command.reply.text).ok()?,
+    ))
+}
+
+/// A message value without its `header` field (a replay re-stamps what it re-simulates).
+fn without_header(value: Value) -> Value {
+    match value {
+        Value::Struct(fields) => Value::Struct(
+            fields
+                .into_iter()
+                .filter(|(name, _)| &**name != "header")
+                .collect(),
+        ),
+        other => other,
+    }
+}
+
+/// The inputs a publication names in its provenance.
+fn header_inputs(channel: &str, bytes: &[u8]) -> Vec<InputRef> {
+    Input {
+        interface: "",
+        provider: "",
+        channel,
+        bytes,
+    }
+    .header()
+    .map(|h| h.inputs)
+    .unwrap_or_default()
+}
+
+/// What a command log answers: the caller and the number of its call.
+fn command_key(bytes: &[u8]) -> Vec<InputRef> {
+    let Ok(log) = cdr::from_bytes::<CommandLog>(bytes) else {
+        return Vec::new();
+    };
+    let seq = lewis_runtime::service::decode_header_seq(&log.request);
+    vec![InputRef {
+        channel: header_provider(&log.request),
+        seq,
+    }]
+}
+
+fn position(queue: &VecDeque<Pending>, key: &[InputRef]) -> Option<usize> {
+    queue.iter().take(LOOKAHEAD).position(|p| p.key == key)
 }
 
 fn unmatched(divergence: &mut ChannelDivergence, at_ns: i64) {
@@ -229,36 +394,59 @@ fn unmatched(divergence: &mut ChannelDivergence, at_ns: i64) {
     }
 }
 
+/// The largest numeric difference seen in a pair, and where.
+#[derive(Default)]
+struct Largest {
+    difference: f64,
+    field: Option<String>,
+}
+
+impl Largest {
+    fn see(&mut self, difference: f64, path: &[String]) {
+        if difference > self.difference {
+            self.difference = difference;
+            self.field = Some(path.join("."));
+        }
+    }
+}
+
 /// Whether two values are the same within `tolerance`; `max` gets the largest numeric
-/// difference seen. At the top level the `header` field is skipped.
-fn same_value(a: &Value, b: &Value, tolerance: f64, max: &mut f64, top: bool) -> bool {
+/// difference seen and its field (`path` is where the values are).
+fn same_value(
+    a: &Value,
+    b: &Value,
+    tolerance: f64,
+    max: &mut Largest,
+    path: &mut Vec<String>,
+) -> bool {
     if let (Some(x), Some(y)) = (number(a), number(b)) {
         if x.is_nan() && y.is_nan() {
             return true;
         }
         let difference = (x - y).abs();
         if difference.is_finite() {
-            *max = max.max(difference);
+            max.see(difference, path);
         } else if x != y {
-            *max = f64::INFINITY;
+            max.see(f64::INFINITY, path);
         }
         return x == y || difference <= tolerance;
     }
     match (a, b) {
         (Value::Array(x), Value::Array(y)) => {
             let mut same = x.len() == y.len();
-            for (x, y) in x.iter().zip(y) {
-                same &= same_value(x, y, tolerance, max, false);
+            for (i, (x, y)) in x.iter().zip(y).enumerate() {
+                path.push(format!("[{i}]"));
+                same &= same_value(x, y, tolerance, max, path);
+                path.pop();
             }
             same
         }
         (Value::Struct(x), Value::Struct(y)) => {
             let mut same = x.len() == y.len();
             for ((name_x, x), (name_y, y)) in x.iter().zip(y) {
-                if top && &**name_x == "header" {
-                    continue;
-                }
-                same &= name_x == name_y && same_value(x, y, tolerance, max, false);
+                path.push(name_x.to_string());
+                same &= name_x == name_y && same_value(x, y, tolerance, max, path);
+                path.pop();
             }
             same
         }
@@ -279,9 +467,8 @@ fn number(value: &Value) -> Option<f64> {
 
 #[cfg(test)]
 mod tests {
-    use lewis_interfaces::cdr;
-    use lewis_interfaces::msg::{Distance, Header};
-    use lewis_interfaces::{Interface, Struct};
+    use lewis_interfaces::msg::{Distance, Header, MoverGoto, MoverGotoReply};
+    use lewis_interfaces::{Command, Struct};
 
     use super::*;
 
@@ -305,7 +492,7 @@ mod tests {
         recorded: &[(u64, f64)],
         resimulated: &[(u64, f64)],
         expected: (u64, u64, Option<i64>, f64),
-    ) {
+    ) -> ChannelDivergence {
         let mut comparator = Comparator::new(1e-6, 0);
         comparator.add_channel("/d/Distance", Distance::SCHEMA_NAME, Distance::SCHEMA_TEXT);
         for (i, (input, m)) in recorded.iter().enumerate() {
@@ -316,7 +503,7 @@ mod tests {
             let t = i64::try_from(*input).unwrap() * 100;
             comparator.resimulated("/d/Distance", t, &distance(i as u64 + 1, *input, *m));
         }
-        let d = &comparator.finish()[0];
+        let d = comparator.finish().remove(0);
         assert_eq!(
             (d.compared, d.differing, d.first_divergence_ns),
             (expected.0, expected.1, expected.2),
@@ -326,25 +513,35 @@ mod tests {
             (d.max_numeric_difference - expected.3).abs() < 1e-12,
             "{d:?}"
         );
-        let _ = Distance::NAME;
+        d
     }
 
     #[test]
     fn identical_outputs_do_not_diverge_whatever_their_headers_say() {
-        check(
+        let d = check(
             &[(1, 1.0), (2, 2.0)],
             &[(1, 1.0), (2, 2.0)],
             (2, 0, None, 0.0),
         );
+        assert_eq!(
+            d.resimulated_inputs,
+            [InputUse {
+                channel: "/laser/RangeFinder".into(),
+                messages: 2,
+                first_ns: 100,
+                last_ns: 200,
+            }]
+        );
     }
 
     #[test]
-    fn a_difference_beyond_the_tolerance_is_counted_with_its_time_and_size() {
-        check(
+    fn a_difference_beyond_the_tolerance_is_counted_with_its_time_size_and_field() {
+        let d = check(
             &[(1, 1.0), (2, 2.0)],
             &[(1, 1.0), (2, 2.5)],
             (2, 1, Some(200), 0.5),
         );
+        assert_eq!(d.max_difference_field.as_deref(), Some("min_distance"));
         check(&[(1, 1.0)], &[(1, 1.0 + 1e-9)], (1, 0, None, 1e-9));
     }
 
@@ -355,5 +552,49 @@ mod tests {
             &[(1, 1.0), (3, 3.0)],
             (2, 1, Some(200), 0.0),
         );
+    }
+
+    #[test]
+    fn unpaired_messages_are_counted_and_not_kept() {
+        let recorded: Vec<(u64, f64)> = (1..=2000).map(|i| (i, 1.0)).collect();
+        let d = check(&recorded, &[], (0, 2000, Some(100), 0.0));
+        assert_eq!(d.recorded, 2000);
+    }
+
+    #[test]
+    fn commands_are_compared_by_their_arguments_and_answers() {
+        let log = |seq: u64, x: f64, goal_id: i32| {
+            let request = MoverGoto {
+                header: Header {
+                    provider: "avoider".into(),
+                    seq,
+                    ..Header::default()
+                },
+                x,
+                y: 2.0,
+            };
+            cdr::to_vec(&CommandLog {
+                interface: "Mover".into(),
+                command: MoverGoto::NAME.into(),
+                request: cdr::to_vec(&request),
+                status: "ok".into(),
+                reply: cdr::to_vec(&MoverGotoReply {
+                    goal_id,
+                    ..MoverGotoReply::default()
+                }),
+                ..CommandLog::default()
+            })
+        };
+        let mut comparator = Comparator::new(1e-6, 0);
+        comparator.add_command_channel("/lewis/commands/mover");
+        comparator.recorded("/lewis/commands/mover", 10, &log(1, 1.0, 1));
+        comparator.recorded("/lewis/commands/mover", 20, &log(2, 3.0, 2));
+        comparator.resimulated("/lewis/commands/mover", 10, &log(1, 1.0, 1));
+        comparator.resimulated("/lewis/commands/mover", 20, &log(2, 3.25, 2));
+        let d = comparator.finish().remove(0);
+        assert_eq!((d.compared, d.differing), (2, 1), "{d:?}");
+        assert_eq!(d.first_divergence_ns, Some(20));
+        assert!((d.max_numeric_difference - 0.25).abs() < 1e-12, "{d:?}");
+        assert_eq!(d.max_difference_field.as_deref(), Some("request.x"));
     }
 }

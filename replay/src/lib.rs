@@ -9,7 +9,9 @@
 //!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
 //! - [`play`]: `lewis play`, a recording published into live IPC at its recorded pace.
 //! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
+//! - [`bench`]: measures of replay's speed and memory (`lewis bench`).
 
+pub mod bench;
 pub mod compare;
 pub mod fault;
 pub mod import;

@@ -13,7 +13,9 @@ use crate::fault::{Fault, FaultKind, format_seconds};
 use crate::lockstep::{Feed, Gap, HarnessStats};
 
 /// At most this many reactions are listed per fault.
-const MAX_REACTIONS: usize = 32;
+pub const MAX_REACTIONS: usize = 32;
+/// At most this many takeovers are listed per fault.
+pub const MAX_TAKEOVERS: usize = 32;
 
 /// The report of one replay.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -24,12 +26,20 @@ pub struct Report {
     pub output: String,
     /// The robot's name.
     pub robot: String,
+    /// Where the robot description replayed comes from: `recorded`, or the file given with
+    /// `--robot`.
+    pub robot_description: String,
+    /// The parameters changed with `--set` (or by `--robot`), as `service.parameter`.
+    pub parameter_changes: Vec<ParameterChange>,
     /// The log time of the recording's first message (the origin of every other time).
     pub start_ns: i64,
     /// The recording's length.
     pub duration_ns: i64,
     /// The services run in the harness.
     pub resimulated: Vec<String>,
+    /// Of those, the services that follow the recording (ticked when they ticked live, fed
+    /// the inputs they had): those with recorded outputs and an unchanged tick rate.
+    pub followed: Vec<String>,
     /// The services fed from the recording.
     pub fed: Vec<String>,
     /// Recorded messages read.
@@ -50,6 +60,30 @@ pub struct Report {
     pub harness: HarnessStats,
     /// The regression check.
     pub check: CheckOutcome,
+}
+
+/// A parameter of a re-simulated service that differs from the recorded robot description.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ParameterChange {
+    /// `service.parameter` (`.key` for nested tables).
+    pub parameter: String,
+    /// The recorded value, as TOML (`None`: not given, the service's default).
+    pub recorded: Option<String>,
+    /// The value replayed, as TOML (`None`: removed, the service's default).
+    pub replayed: Option<String>,
+}
+
+impl fmt::Display for ParameterChange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let show = |v: &Option<String>| v.clone().unwrap_or_else(|| "its default".to_owned());
+        write!(
+            f,
+            "{} = {} (recorded: {})",
+            self.parameter,
+            show(&self.replayed),
+            show(&self.recorded)
+        )
+    }
 }
 
 /// One injected fault and the broker's reactions.
@@ -127,16 +161,38 @@ impl CheckOutcome {
     }
 }
 
-/// The reactions to `fault` among `decisions` (times relative to `start_ns`).
-#[must_use]
-pub fn fault_report(fault: &Fault, decisions: &[Decision], start_ns: i64) -> FaultReport {
-    let provider = fault.provider.as_str();
-    let during =
-        |d: &&Decision| d.at_ns >= fault.at_ns && fault.until_ns.is_none_or(|end| d.at_ns < end);
-    let mut reactions = Vec::new();
-    let mut takeovers = Vec::new();
-    let mut unbound: Vec<(String, String)> = Vec::new();
-    for decision in decisions.iter().filter(during) {
+/// Watches the broker's decisions for the reactions to one fault, as they are taken (so
+/// that nothing grows with the recording's length: at most [`MAX_REACTIONS`] reactions and
+/// [`MAX_TAKEOVERS`] takeovers are kept).
+#[derive(Debug, Clone)]
+pub struct FaultWatch {
+    fault: Fault,
+    reactions: Vec<Reaction>,
+    takeovers: Vec<Takeover>,
+    /// Clients unbound from the faulty provider and not yet bound again.
+    unbound: Vec<(String, String)>,
+}
+
+impl FaultWatch {
+    /// Starts watching for the reactions to `fault`.
+    #[must_use]
+    pub fn new(fault: Fault) -> Self {
+        Self {
+            fault,
+            reactions: Vec::new(),
+            takeovers: Vec::new(),
+            unbound: Vec::new(),
+        }
+    }
+
+    /// A decision of the broker, in the order they are taken.
+    pub fn decision(&mut self, decision: &Decision) {
+        let fault = &self.fault;
+        if decision.at_ns < fault.at_ns || fault.until_ns.is_some_and(|end| decision.at_ns >= end) {
+            return;
+        }
+        let provider = fault.provider.as_str();
+        let mut took_over = None;
         let concerns = match &decision.action {
             Action::Start { service }
             | Action::Stop { service }
@@ -149,7 +205,7 @@ pub fn fault_report(fault: &Fault, decisions: &[Decision], start_ns: i64) -> Fau
                 to,
             } => {
                 if from == provider {
-                    takeovers.push(takeover(client, interface, to, decision, fault, start_ns));
+                    took_over = Some((client, interface, to));
                 }
                 from == provider
             }
@@ -158,8 +214,8 @@ pub fn fault_report(fault: &Fault, decisions: &[Decision], start_ns: i64) -> Fau
                 interface,
                 service,
             } => {
-                if service == provider {
-                    unbound.push((client.clone(), interface.clone()));
+                if service == provider && self.unbound.len() < MAX_TAKEOVERS {
+                    self.unbound.push((client.clone(), interface.clone()));
                 }
                 service == provider
             }
@@ -168,16 +224,15 @@ pub fn fault_report(fault: &Fault, decisions: &[Decision], start_ns: i64) -> Fau
                 interface,
                 service,
             } => {
-                let back = unbound
+                let back = self
+                    .unbound
                     .iter()
                     .position(|(c, i)| c == client && i == interface);
                 if let Some(i) = back
                     && service != provider
                 {
-                    unbound.remove(i);
-                    takeovers.push(takeover(
-                        client, interface, service, decision, fault, start_ns,
-                    ));
+                    self.unbound.remove(i);
+                    took_over = Some((client, interface, service));
                     true
                 } else {
                     false
@@ -186,40 +241,51 @@ pub fn fault_report(fault: &Fault, decisions: &[Decision], start_ns: i64) -> Fau
             Action::AskForHelp { .. } => true,
             Action::Reject { .. } => false,
         };
-        if concerns && reactions.len() < MAX_REACTIONS {
-            reactions.push(Reaction {
-                at_ns: decision.at_ns - start_ns,
+        if let Some((client, interface, to)) = took_over
+            && self.takeovers.len() < MAX_TAKEOVERS
+        {
+            self.takeovers.push(Takeover {
+                client: client.clone(),
+                interface: interface.clone(),
+                provider: to.clone(),
+                at_ns: decision.at_ns,
+                latency_ns: decision.at_ns - fault.at_ns,
+            });
+        }
+        if concerns && self.reactions.len() < MAX_REACTIONS {
+            self.reactions.push(Reaction {
+                at_ns: decision.at_ns,
                 latency_ns: decision.at_ns - fault.at_ns,
                 action: decision.action.to_string(),
                 reason: decision.reason.clone(),
             });
         }
     }
-    FaultReport {
-        spec: fault.spec.clone(),
-        provider: fault.provider.clone(),
-        kind: fault.kind,
-        at_ns: fault.at_ns - start_ns,
-        until_ns: fault.until_ns.map(|u| u - start_ns),
-        reactions,
-        takeovers,
-    }
-}
 
-fn takeover(
-    client: &str,
-    interface: &str,
-    provider: &str,
-    decision: &Decision,
-    fault: &Fault,
-    start_ns: i64,
-) -> Takeover {
-    Takeover {
-        client: client.to_owned(),
-        interface: interface.to_owned(),
-        provider: provider.to_owned(),
-        at_ns: decision.at_ns - start_ns,
-        latency_ns: decision.at_ns - fault.at_ns,
+    /// The report of the fault, times relative to `start_ns`.
+    #[must_use]
+    pub fn report(self, start_ns: i64) -> FaultReport {
+        let Self {
+            fault,
+            mut reactions,
+            mut takeovers,
+            ..
+        } = self;
+        for r in &mut reactions {
+            r.at_ns -= start_ns;
+        }
+        for t in &mut takeovers {
+            t.at_ns -= start_ns;
+        }
+        FaultReport {
+            spec: fault.spec,
+            provider: fault.provider,
+            kind: fault.kind,
+            at_ns: fault.at_ns - start_ns,
+            until_ns: fault.until_ns.map(|u| u - start_ns),
+            reactions,
+            takeovers,
+        }
     }
 }
 
@@ -240,7 +306,22 @@ impl fmt::Display for Report {
             self.robot,
             self.output
         )?;
+        if self.robot_description != "recorded" {
+            writeln!(
+                f,
+                "robot description: {} (instead of the recorded one)",
+                self.robot_description
+            )?;
+        }
+        for change in &self.parameter_changes {
+            writeln!(f, "changed: {change}")?;
+        }
         writeln!(f, "re-simulated: {}", list(&self.resimulated))?;
+        writeln!(
+            f,
+            "following the recording (ticked when they ticked live, fed what they had): {}",
+            list(&self.followed)
+        )?;
         writeln!(f, "fed from the recording: {}", list(&self.fed))?;
         writeln!(
             f,
@@ -331,15 +412,7 @@ impl fmt::Display for Report {
             writeln!(f, "no output channel to compare")?;
         }
         for d in &self.divergence {
-            let first = d
-                .first_divergence_ns
-                .map(|t| format!(", first at {}", format_seconds(t)))
-                .unwrap_or_default();
-            writeln!(
-                f,
-                "{}: {} recorded, {} re-simulated, {} differ{first}, max difference {:e}",
-                d.channel, d.recorded, d.resimulated, d.differing, d.max_numeric_difference
-            )?;
+            write_divergence(f, d)?;
         }
         if self.check.passed {
             write!(
@@ -356,6 +429,41 @@ impl fmt::Display for Report {
             )
         }
     }
+}
+
+/// One output channel's divergence: a line, and what the re-simulated messages used.
+fn write_divergence(f: &mut fmt::Formatter<'_>, d: &ChannelDivergence) -> fmt::Result {
+    let first = d
+        .first_divergence_ns
+        .map(|t| format!(", first at {}", format_seconds(t)))
+        .unwrap_or_default();
+    let field = d
+        .max_difference_field
+        .as_ref()
+        .map(|field| format!(" (in {field})"))
+        .unwrap_or_default();
+    writeln!(
+        f,
+        "{}: {} recorded, {} re-simulated, {} differ{first}, max difference {:.6}{field}",
+        d.channel, d.recorded, d.resimulated, d.differing, d.max_numeric_difference
+    )?;
+    if !d.resimulated_inputs.is_empty() {
+        let inputs: Vec<String> = d
+            .resimulated_inputs
+            .iter()
+            .map(|i| {
+                format!(
+                    "{} ({} from {} to {})",
+                    i.channel,
+                    i.messages,
+                    format_seconds(i.first_ns),
+                    format_seconds(i.last_ns)
+                )
+            })
+            .collect();
+        writeln!(f, "  re-simulated from: {}", inputs.join(", "))?;
+    }
+    Ok(())
 }
 
 fn list(names: &[String]) -> String {

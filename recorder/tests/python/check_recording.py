@@ -3,7 +3,9 @@
 Every message is decoded with mcap-ros2-support (its own ros2msg parser and CDR decoder);
 per topic the output gives the count, a CRC-32 of the raw message bytes in order (each
 preceded by its length as 4 little-endian bytes), the decoded header sequence numbers as
-runs, and whether every decoded header publish time equals the MCAP publish_time.
+runs, and whether every decoded header publish time equals the MCAP publish_time. In file
+order (as a streaming player reads it), per file how often log time goes backwards and per
+topic whether its log times strictly increase.
 
 Usage: check_recording.py FILE.mcap [FILE.mcap ...]   (the files are read as one run)
 """
@@ -44,11 +46,20 @@ def main():
                         "metadata": dict(channel.metadata),
                     }
             out["files"].append(info)
+            info["log_time_backwards"] = 0
+            last_log_time = None
             for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
                 t = out["topics"].setdefault(
                     channel.topic,
-                    {"count": 0, "crc32": 0, "seq_runs": [], "publish_time_matches": True, "last_decoded": None},
+                    {"count": 0, "crc32": 0, "seq_runs": [], "publish_time_matches": True, "last_decoded": None,
+                     "log_time_increasing": True, "last_log_time": None},
                 )
+                if last_log_time is not None and message.log_time < last_log_time:
+                    info["log_time_backwards"] += 1
+                last_log_time = message.log_time
+                if t["last_log_time"] is not None and message.log_time <= t["last_log_time"]:
+                    t["log_time_increasing"] = False
+                t["last_log_time"] = message.log_time
                 t["count"] += 1
                 t["crc32"] = zlib.crc32(struct.pack("<I", len(message.data)), t["crc32"])
                 t["crc32"] = zlib.crc32(message.data, t["crc32"])

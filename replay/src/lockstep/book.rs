@@ -1,6 +1,9 @@
 //! Answers to calls made to services that are not re-simulated: the recorded
 //! `CommandLog`s of the serving service (what it answered live), or, when the recording
 //! has none, a default reply of the right type.
+//!
+//! The book is filled as the reader reads ahead of the virtual clock and forgets answers
+//! older than [`MATCH_WINDOW_NS`], so it holds a few seconds of the recording at most.
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -37,7 +40,7 @@ impl CommandBook {
         Self::default()
     }
 
-    /// Adds the answer `server` gave, as recorded at `log_time_ns`.
+    /// Adds the answer `server` gave, as recorded at `log_time_ns` (its replay time).
     pub fn add(&mut self, server: &str, log_time_ns: i64, log: &CommandLog) {
         let caller = header_provider(&log.request);
         let result = if log.status == "ok" {
@@ -58,6 +61,21 @@ impl CommandBook {
                 result,
             });
         self.len += 1;
+    }
+
+    /// Forgets the answers given more than [`MATCH_WINDOW_NS`] before `now_ns`: answers to
+    /// calls the replay did not make.
+    pub fn expire(&mut self, now_ns: i64) {
+        let oldest = now_ns.saturating_sub(MATCH_WINDOW_NS);
+        let mut len = 0;
+        self.answers.retain(|_, queue| {
+            while queue.front().is_some_and(|a| a.log_time_ns < oldest) {
+                queue.pop_front();
+            }
+            len += queue.len();
+            !queue.is_empty()
+        });
+        self.len = len;
     }
 
     /// How many answers the book holds.
@@ -95,11 +113,13 @@ impl CommandBook {
             .is_some_and(|a| a.log_time_ns < now_ns.saturating_sub(MATCH_WINDOW_NS))
         {
             queue.pop_front();
+            self.len -= 1;
         }
         if queue
             .front()
             .is_some_and(|a| a.log_time_ns <= now_ns.saturating_add(MATCH_WINDOW_NS))
         {
+            self.len -= 1;
             return queue.pop_front().map(|a| a.result);
         }
         None
@@ -253,5 +273,23 @@ mod tests {
         assert_eq!(take(1_700), None);
         assert_eq!(take(5_000_000_100), Some(Ok(vec![3])));
         assert_eq!(take(6_000_000_000), None);
+        assert!(book.is_empty());
+    }
+
+    #[test]
+    fn answers_nobody_asked_for_are_forgotten_after_the_window() {
+        let log = CommandLog {
+            interface: "RangeFinder".into(),
+            command: "get_geometry".into(),
+            status: "ok".into(),
+            ..CommandLog::default()
+        };
+        let mut book = CommandBook::new();
+        book.add("laser", 1_000, &log);
+        book.add("laser", 3_000_000_000, &log);
+        book.expire(2_000_000_000);
+        assert_eq!(book.len(), 1);
+        book.expire(5_000_000_000);
+        assert!(book.is_empty());
     }
 }

@@ -5,62 +5,99 @@
 //! [`Backend`](lewis_runtime::service::Backend) (a virtual clock and an outbox) and drives
 //! the [`Service`] trait. Nothing in a service knows it is replayed.
 //!
-//! - **Time** is the recording's log time. Before a recorded message at time `t` is handled,
-//!   every timer at or before `t` fires (ticks at each service's declared rate, heartbeats
-//!   of re-simulated services at the broker's period, the broker's deadlines, fault starts
-//!   and ends, call timeouts), in time order, ties in the order they were set.
-//! - **Run to completion**: each event runs one handler of one service; what the handler did
-//!   (publications, calls, health, logs) is carried out after it returns, through one FIFO
-//!   queue, so the order of everything is fixed by the order of the events.
+//! # Time and order
+//!
+//! The virtual time of a recorded message is its *replay time*: when it was made (its
+//! header's publish time, which is the time of the handler that made it, see
+//! [`lewis_runtime::live`]), or when the recorder got it for a message without one. The
+//! reader hands messages over in the total order replay time, then topic, then sequence
+//! number (the recorder's latency no longer reorders a sample and the tick that used it).
+//! Before a message at time `t` is handled, every timer at or before `t` fires (ticks of
+//! free-running services, heartbeats of re-simulated services at the broker's period, the
+//! broker's deadlines, fault starts and ends, calls taken up later, call timeouts), in time
+//! order, ties in the order they were set.
+//!
+//! Each event runs one handler of one service; what the handler did (publications, calls,
+//! health, logs) is carried out after it returns, through one FIFO queue, so the order of
+//! everything is fixed by the order of the events.
+//!
+//! # Following the recording
+//!
+//! An unchanged service must compute exactly what it computed live, so it must see the same
+//! events in the same order at the same times. A re-simulated service whose outputs are in
+//! the recording (and whose tick rate is unchanged) *follows* it ([`Plan::followed`]):
+//!
+//! - **Ticks when it ticked live.** Every handler run stamps its publications with its time,
+//!   so the recorded outputs say when the service handled an event that published. A
+//!   ticking service is ticked at the publish times of its recorded outputs, and only then
+//!   (the shipped ticking services publish at every tick). A service that publishes from
+//!   `on_input` needs nothing: its inputs come, it publishes.
+//! - **Gets exactly the inputs it had.** Each recorded output names in its provenance the
+//!   newest sample of every input it stood on. A sample that the service's next recorded
+//!   event says it had not received yet is held back and handed over right after that
+//!   event ([`script`]); every other sample is handed over at its own time.
+//! - **Takes up calls when it took them up.** A call from another re-simulated service
+//!   whose request bytes equal a recorded one (same caller, same sequence number, same
+//!   virtual time, same arguments) reaches it at the time its recorded command log says;
+//!   the reply goes back at once.
+//!
+//! When the run goes another way (a fault, a changed parameter), the recording still gives
+//! the tick times, and provenance that no longer fits holds nothing back: samples of a
+//! channel the recorded events do not name (the sonar after a failover) are handed over at
+//! their own time, a sample is never held longer than [`script::MAX_HOLD_NS`], and a call
+//! unlike any recorded one is taken up at once. A service with no recorded output (one that
+//! never ran live, like the sonar started by a failover) runs free: it ticks at its
+//! declared rate from its start.
+//!
+//! # The rest of the world
+//!
 //! - **Sources** (services not re-simulated) are fed from the log: their data goes to the
 //!   re-simulated clients the broker core has bound to them; their recorded heartbeats go to
 //!   the broker core. Re-simulated services get synthesised heartbeats.
 //! - **Clients**: a re-simulated service asks the core for what it requires when it starts,
 //!   as the live harness does; clients that are not re-simulated (other programs, fed
 //!   services) are seen through the recorded `bind` decisions and asked for again.
-//! - **Calls** between re-simulated services are served in virtual time (same instant, after
-//!   the caller's handler). A call to a fed service is answered from its recorded
-//!   `CommandLog` ([`CommandBook`]) when it answered such a call live, else with an ok and a
-//!   default reply (counted in [`HarnessStats::calls_defaulted`]). A call to a provider
-//!   that is stalled, crashed or not running times out after its timeout.
+//! - **Calls** to a fed service are answered from its recorded `CommandLog`
+//!   ([`CommandBook`]) when it answered such a call live, else with an ok and a default
+//!   reply (counted in [`HarnessStats::calls_defaulted`]). A call to a provider that is
+//!   stalled, crashed or not running times out after its timeout.
 //! - **Commands from outside** (an operator, a sequencer program) that a re-simulated
-//!   service answered live are fed to it again at their recorded time.
+//!   service answered live are fed to it again at the time it took them up.
 //! - **Faults** ([`Fault`]) act on a provider as they would live: a stall silences its data
 //!   and heartbeats, a crash makes its process exit (and exit again at every restart while
 //!   it lasts), garbage replaces its data with bytes that do not decode, out-of-service
 //!   declares it out of service.
+//!
+//! The harness learns what lies ahead through [`Lockstep::preview`], which the reader calls
+//! for every message as it reads it, a bounded time before it is fed: the recorded events
+//! and calls of followed services, and the recorded answers of fed services. Nothing of the
+//! recording is kept longer than that window, so memory does not grow with its length.
 
 mod backend;
 pub mod book;
+mod calls;
+mod engine;
+mod faults;
 pub mod route;
+pub mod script;
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
-use lewis_interfaces::cdr::{self, ENCAPSULATION_LE};
-use lewis_interfaces::msg::{Broker as BrokerMessage, CommandLog, Header, InputRef};
-use lewis_runtime::broker::{Action, BrokerCore, Decision, Event, ExitStatus, Health};
+use lewis_interfaces::cdr;
+use lewis_interfaces::msg::{Broker as BrokerMessage, CommandLog};
+use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
 use lewis_runtime::live::health_from_message;
 use lewis_runtime::robot::Robot;
-use lewis_runtime::service::{
-    BuildError, CallFailure, CallId, ContextState, IncomingCommand, Input, Level, ReplyEvent, Rng,
-    Service, ServiceConfig, ServiceRegistry, decode_header_seq,
-};
-use lewis_runtime::{names, wire};
+use lewis_runtime::service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegistry};
 use serde::Serialize;
 
 use crate::fault::{Fault, FaultKind};
 use crate::recording::RecordedMessage;
-use backend::{Effect, StepBackend};
 pub use book::{CommandBook, default_reply, header_provider};
+use engine::{Sim, Timer, Work, backend_for};
 pub use route::{Route, route};
-
-/// SIGABRT: how an injected crash ends a process.
-const SIGABRT: i32 = 6;
-/// SIGKILL: how a stalled process is stopped.
-const SIGKILL: i32 = 9;
-/// SIGTERM: how the broker stops a process.
-const SIGTERM: i32 = 15;
+use script::Script;
 
 /// What the harness produces, handed to a [`Sink`] as it happens.
 #[derive(Debug, Clone, Copy)]
@@ -131,12 +168,19 @@ pub trait Sink {
 pub struct HarnessStats {
     /// Samples handed to re-simulated services.
     pub inputs_delivered: u64,
+    /// Samples held back because the recording says the service had not received them
+    /// yet at its next event (handed over right after it).
+    pub inputs_held: u64,
     /// Ticks run.
     pub ticks: u64,
+    /// Of those, ticks at the recorded time of a followed service.
+    pub ticks_followed: u64,
     /// Publications of re-simulated services.
     pub publications: u64,
     /// Calls served by another re-simulated service.
     pub calls_between_resimulated: u64,
+    /// Of those, calls taken up at the time the server's recorded command log says.
+    pub calls_at_recorded_time: u64,
     /// Calls to a fed service answered from its recorded command log.
     pub calls_answered_from_log: u64,
     /// Calls to a fed service that the log did not answer: answered ok with a default reply.
@@ -184,16 +228,21 @@ pub struct Feed {
     pub last_ns: i64,
 }
 
-/// What to run: which services are re-simulated, which faults are injected, and the
-/// recorded answers of the fed services.
+/// What to run: which services are re-simulated, which of them follow the recording,
+/// which faults are injected.
 #[derive(Debug, Clone, Default)]
 pub struct Plan {
     /// The services run in the harness; every other service is fed from the log.
     pub resimulated: BTreeSet<String>,
+    /// The re-simulated services that follow the recording (see the module
+    /// documentation): those whose outputs are in it and whose tick rate did not change.
+    pub followed: BTreeSet<String>,
+    /// When the process of each followed service came up live (its first recorded
+    /// heartbeat): the broker core may start it earlier, but it comes up no earlier in the
+    /// replay, so that calls made to it before then fail as they failed live.
+    pub ready_at: BTreeMap<String, i64>,
     /// The faults to inject.
     pub faults: Vec<Fault>,
-    /// Recorded answers of fed services.
-    pub book: CommandBook,
 }
 
 /// Why the harness cannot be set up.
@@ -212,58 +261,6 @@ pub enum LockstepError {
     Build(#[from] BuildError),
 }
 
-struct Sim {
-    instance: Option<Box<dyn Service>>,
-    state: ContextState,
-    backend: StepBackend,
-    generation: u64,
-    stalled: bool,
-    tick_period_ns: Option<i64>,
-    commands_answered: u64,
-}
-
-#[derive(Debug)]
-enum Timer {
-    Tick { service: String, generation: u64 },
-    Heartbeat { service: String, generation: u64 },
-    BrokerDeadline,
-    FaultStarts(usize),
-    FaultEnds(usize),
-    Reply(Box<Work>),
-}
-
-#[derive(Debug)]
-enum Work {
-    Broker(Event),
-    Start {
-        service: String,
-        generation: u64,
-    },
-    Input {
-        client: String,
-        interface: String,
-        provider: String,
-        channel: Arc<str>,
-        seq: u64,
-        bytes: Arc<[u8]>,
-    },
-    Command {
-        target: String,
-        interface: String,
-        command: String,
-        request: Vec<u8>,
-        reply_to: Option<(String, u64, CallId, i64)>,
-    },
-    Reply {
-        caller: String,
-        generation: u64,
-        call: CallId,
-        interface: String,
-        command: String,
-        result: Result<Vec<u8>, CallFailure>,
-    },
-}
-
 /// The lockstep harness. See the module documentation.
 pub struct Lockstep<'a> {
     robot: &'a Robot,
@@ -272,6 +269,8 @@ pub struct Lockstep<'a> {
     sims: BTreeMap<String, Sim>,
     faults: Vec<Fault>,
     book: CommandBook,
+    script: Script,
+    ready_at: BTreeMap<String, i64>,
     bindings: BTreeMap<(String, String), String>,
     requested: BTreeSet<(String, String)>,
     routes: BTreeMap<Arc<str>, Route>,
@@ -280,6 +279,7 @@ pub struct Lockstep<'a> {
     deadline_at: Option<i64>,
     work: VecDeque<Work>,
     now_ns: i64,
+    expired_at_ns: i64,
     heartbeat_period_ns: i64,
     stats: HarnessStats,
     last_input: BTreeMap<(String, String), i64>,
@@ -296,6 +296,9 @@ impl std::fmt::Debug for Lockstep<'_> {
             .finish_non_exhaustive()
     }
 }
+
+/// How often recorded answers and calls the replay did not use are forgotten.
+const EXPIRE_EVERY_NS: i64 = book::MATCH_WINDOW_NS;
 
 impl<'a> Lockstep<'a> {
     /// A harness for `robot` that re-simulates the services `plan` names (each built once
@@ -336,9 +339,15 @@ impl<'a> Lockstep<'a> {
                     stalled: false,
                     tick_period_ns: None,
                     commands_answered: 0,
+                    held: VecDeque::new(),
                 },
             );
         }
+        let followed = plan
+            .followed
+            .iter()
+            .filter(|s| plan.resimulated.contains(*s))
+            .cloned();
         let heartbeat_period_ns = i64::try_from(
             robot
                 .broker
@@ -353,7 +362,9 @@ impl<'a> Lockstep<'a> {
             core: BrokerCore::new(robot),
             sims,
             faults: plan.faults,
-            book: plan.book,
+            book: CommandBook::new(),
+            script: Script::new(followed),
+            ready_at: plan.ready_at,
             bindings: BTreeMap::new(),
             requested: BTreeSet::new(),
             routes: BTreeMap::new(),
@@ -362,6 +373,7 @@ impl<'a> Lockstep<'a> {
             deadline_at: None,
             work: VecDeque::new(),
             now_ns: 0,
+            expired_at_ns: i64::MIN,
             heartbeat_period_ns,
             stats: HarnessStats::default(),
             last_input: BTreeMap::new(),
@@ -386,20 +398,60 @@ impl<'a> Lockstep<'a> {
         self.pump(sink);
     }
 
-    /// Runs everything due up to `message`'s log time, then hands it to whoever it is for.
-    pub fn feed(&mut self, message: &RecordedMessage, sink: &mut dyn Sink) {
-        self.advance_to(message.log_time_ns, sink);
-        let route = match self.routes.get(&message.topic) {
-            Some(route) => route.clone(),
-            None => {
-                let route = route(&message.topic, self.robot);
-                self.routes.insert(message.topic.clone(), route.clone());
-                route
+    /// Takes note of a recorded message read ahead of the clock, whose replay time is
+    /// `at_ns`: the events of followed services, the calls they took up from each other and
+    /// the answers of fed services. Call it for every message, in reading order, before
+    /// the message is fed.
+    pub fn preview(&mut self, message: &RecordedMessage, at_ns: i64) {
+        match self.route_of(&message.topic) {
+            Route::Data { service, .. } => {
+                let input = lewis_runtime::service::Input {
+                    interface: "",
+                    provider: "",
+                    channel: &message.topic,
+                    bytes: &message.data,
+                };
+                if self.script.follows(&service)
+                    && let Ok(header) = input.header()
+                {
+                    self.script.expect_event(&service, at_ns, &header.inputs);
+                }
             }
-        };
-        match route {
+            Route::Commands { service } => {
+                let Ok(log) = cdr::from_bytes::<CommandLog>(&message.data) else {
+                    return;
+                };
+                if !self.sims.contains_key(&service) {
+                    self.book.add(&service, at_ns, &log);
+                    return;
+                }
+                let caller = header_provider(&log.request);
+                if self.sims.contains_key(&caller) {
+                    // The time it was taken up, which is the log's time in recordings
+                    // made by this version (the handler's time).
+                    let taken = if (at_ns.saturating_sub(script::MAX_HOLD_NS)..=at_ns)
+                        .contains(&log.received_ns)
+                    {
+                        log.received_ns
+                    } else {
+                        at_ns
+                    };
+                    self.script
+                        .expect_call(&service, &caller, &log.request, taken);
+                }
+            }
+            Route::Health { .. } | Route::Broker | Route::Other => {}
+        }
+    }
+
+    /// Runs everything due up to `at_ns` (the message's replay time), then hands the message
+    /// to whoever it is for.
+    pub fn feed(&mut self, message: &RecordedMessage, at_ns: i64, sink: &mut dyn Sink) {
+        self.advance_to(at_ns, sink);
+        match self.route_of(&message.topic) {
             Route::Data { service, interface } => {
                 if self.sims.contains_key(&service) {
+                    self.recorded_event(&service, sink);
                     return;
                 }
                 let Some(bytes) = self.through_faults(&service, message.seq, &message.data) else {
@@ -417,7 +469,7 @@ impl<'a> Lockstep<'a> {
                 };
                 let health = match self.fault_of(&service) {
                     Some(FaultKind::Stall | FaultKind::Crash) => return,
-                    Some(FaultKind::OutOfService) => injected_out_of_service(),
+                    Some(FaultKind::OutOfService) => faults::injected_out_of_service(),
                     _ => health_from_message(&health),
                 };
                 self.work
@@ -503,6 +555,11 @@ impl<'a> Lockstep<'a> {
             self.pump(sink);
         }
         self.now_ns = self.now_ns.max(t);
+        if self.now_ns.saturating_sub(self.expired_at_ns) >= EXPIRE_EVERY_NS {
+            self.expired_at_ns = self.now_ns;
+            self.book.expire(self.now_ns);
+            self.script.expire_calls(self.now_ns);
+        }
     }
 
     /// The virtual time.
@@ -535,763 +592,32 @@ impl<'a> Lockstep<'a> {
         &self.bindings
     }
 
-    fn schedule(&mut self, at_ns: i64, timer: Timer) {
-        self.timer_seq += 1;
-        self.timers
-            .insert((at_ns.max(self.now_ns), self.timer_seq), timer);
-    }
-
-    fn fault_of(&self, provider: &str) -> Option<FaultKind> {
-        self.faults
-            .iter()
-            .find(|f| f.provider == provider && f.active_at(self.now_ns))
-            .map(|f| f.kind)
-    }
-
-    /// The bytes a provider's publication has after the faults: `None` when it is lost.
-    fn through_faults(&mut self, provider: &str, seq: u64, bytes: &[u8]) -> Option<Vec<u8>> {
-        match self.fault_of(provider) {
-            None => Some(bytes.to_vec()),
-            Some(FaultKind::Garbage) => {
-                self.stats.faulted_publications += 1;
-                Some(garble(provider, seq, bytes.len()))
-            }
-            Some(_) => {
-                self.stats.faulted_publications += 1;
-                None
-            }
+    fn route_of(&mut self, topic: &Arc<str>) -> Route {
+        if let Some(route) = self.routes.get(topic) {
+            return route.clone();
         }
+        let found = route(topic, self.robot);
+        self.routes.insert(topic.clone(), found.clone());
+        found
     }
 
-    /// Hands a provider's sample to every re-simulated client bound to it.
-    fn deliver(
-        &mut self,
-        provider: &str,
-        interface: &str,
-        channel: &Arc<str>,
-        seq: u64,
-        bytes: &[u8],
-    ) {
-        let clients: Vec<String> = self
-            .bindings
-            .iter()
-            .filter(|((client, i), p)| {
-                i == interface && *p == provider && self.sims.contains_key(client)
-            })
-            .map(|((client, _), _)| client.clone())
-            .collect();
-        if clients.is_empty() {
+    /// A recorded output of the re-simulated `service` is due now: when it follows the
+    /// recording and the output is the first of an event, the event happens now.
+    fn recorded_event(&mut self, service: &str, sink: &mut dyn Sink) {
+        self.script.drop_past(service, self.now_ns);
+        if self.script.take_event(service, self.now_ns).is_none() {
             return;
         }
-        let bytes: Arc<[u8]> = Arc::from(bytes);
-        for client in clients {
-            self.work.push_back(Work::Input {
-                client,
-                interface: interface.to_owned(),
-                provider: provider.to_owned(),
-                channel: channel.clone(),
-                seq,
-                bytes: bytes.clone(),
-            });
-        }
-    }
-
-    fn note_gap(&mut self, client: &str, interface: &str, from_ns: i64, to_ns: i64) {
-        let gap_ns = to_ns - from_ns;
-        if self.longest_gap.as_ref().is_none_or(|g| gap_ns > g.gap_ns) {
-            self.longest_gap = Some(Gap {
-                client: client.to_owned(),
-                interface: interface.to_owned(),
-                from_ns,
-                to_ns,
-                gap_ns,
-            });
-        }
-    }
-
-    fn fire(&mut self, timer: Timer, sink: &mut dyn Sink) {
-        match timer {
-            Timer::Tick {
-                service,
-                generation,
-            } => {
-                let Some(sim) = self.sims.get(&service) else {
-                    return;
-                };
-                if sim.generation != generation || sim.instance.is_none() {
-                    return;
-                }
-                let period = sim.tick_period_ns.unwrap_or(i64::MAX);
-                if !sim.stalled {
-                    self.stats.ticks += 1;
-                    self.dispatch(&service, Vec::new(), sink, |s, ctx| s.on_tick(ctx));
-                }
-                let at = self.now_ns.saturating_add(period);
-                self.schedule(
-                    at,
-                    Timer::Tick {
-                        service,
-                        generation,
-                    },
-                );
-            }
-            Timer::Heartbeat {
-                service,
-                generation,
-            } => {
-                let Some(sim) = self.sims.get(&service) else {
-                    return;
-                };
-                if sim.generation != generation || sim.instance.is_none() {
-                    return;
-                }
-                if !sim.stalled {
-                    let health = match self.fault_of(&service) {
-                        Some(FaultKind::OutOfService) => injected_out_of_service(),
-                        _ => sim.state.health().clone(),
-                    };
-                    self.work.push_back(Work::Broker(Event::Heartbeat {
-                        service: service.clone(),
-                        health,
-                    }));
-                }
-                let at = self.now_ns.saturating_add(self.heartbeat_period_ns);
-                self.schedule(
-                    at,
-                    Timer::Heartbeat {
-                        service,
-                        generation,
-                    },
-                );
-            }
-            Timer::BrokerDeadline => {
-                if self.deadline_at.is_some_and(|d| d <= self.now_ns) {
-                    self.deadline_at = None;
-                }
-                if self.core.next_deadline().is_some_and(|d| d <= self.now_ns) {
-                    self.work.push_back(Work::Broker(Event::TimePassed));
-                }
-            }
-            Timer::FaultStarts(i) => self.fault_starts(i, sink),
-            Timer::FaultEnds(i) => self.fault_ends(i, sink),
-            Timer::Reply(work) => self.work.push_back(*work),
-        }
-    }
-
-    fn fault_starts(&mut self, i: usize, sink: &mut dyn Sink) {
-        let fault = self.faults[i].clone();
-        sink.emit(Emitted::Fault {
-            fault: &fault,
-            time_ns: self.now_ns,
-            starts: true,
-        });
-        let provider = fault.provider.clone();
-        match fault.kind {
-            FaultKind::Crash => {
-                if let Some(sim) = self.sims.get_mut(&provider) {
-                    if sim.instance.take().is_none() {
-                        return;
-                    }
-                    sim.generation += 1;
-                }
-                self.work.push_back(Work::Broker(Event::ProcessExited {
-                    service: provider,
-                    status: ExitStatus::Signal(SIGABRT),
-                }));
-            }
-            FaultKind::Stall => {
-                if let Some(sim) = self.sims.get_mut(&provider) {
-                    sim.stalled = true;
-                }
-            }
-            FaultKind::OutOfService => {
-                self.work.push_back(Work::Broker(Event::Heartbeat {
-                    service: provider,
-                    health: injected_out_of_service(),
-                }));
-            }
-            FaultKind::Garbage => {}
-        }
-    }
-
-    fn fault_ends(&mut self, i: usize, sink: &mut dyn Sink) {
-        let fault = self.faults[i].clone();
-        sink.emit(Emitted::Fault {
-            fault: &fault,
-            time_ns: self.now_ns,
-            starts: false,
-        });
-        match fault.kind {
-            FaultKind::Stall => {
-                if let Some(sim) = self.sims.get_mut(&fault.provider) {
-                    sim.stalled = false;
-                }
-            }
-            FaultKind::OutOfService => {
-                let health = self
-                    .sims
-                    .get(&fault.provider)
-                    .map_or(Health::Ok, |s| s.state.health().clone());
-                self.work.push_back(Work::Broker(Event::Heartbeat {
-                    service: fault.provider,
-                    health,
-                }));
-            }
-            FaultKind::Crash | FaultKind::Garbage => {}
-        }
-    }
-
-    /// Carries out queued work until none is left, then sets the broker's next deadline.
-    fn pump(&mut self, sink: &mut dyn Sink) {
-        while let Some(work) = self.work.pop_front() {
-            self.run(work, sink);
-        }
-        if let Some(deadline) = self.core.next_deadline()
-            && self.deadline_at != Some(deadline)
-        {
-            self.deadline_at = Some(deadline);
-            self.schedule(deadline, Timer::BrokerDeadline);
-        }
-    }
-
-    fn run(&mut self, work: Work, sink: &mut dyn Sink) {
-        match work {
-            Work::Broker(event) => {
-                for decision in self.core.handle(self.now_ns, &event) {
-                    sink.emit(Emitted::Decision(&decision));
-                    self.carry_out(&decision.action, sink);
-                }
-            }
-            Work::Start {
-                service,
-                generation,
-            } => self.run_start(&service, generation, sink),
-            Work::Input {
-                client,
-                interface,
-                provider,
-                channel,
-                seq,
-                bytes,
-            } => {
-                if let Some(last) = self
-                    .last_input
-                    .insert((client.clone(), interface.clone()), self.now_ns)
-                {
-                    self.note_gap(&client, &interface, last, self.now_ns);
-                }
-                self.stats.inputs_delivered += 1;
-                let now_ns = self.now_ns;
-                self.feeds
-                    .entry((client.clone(), interface.clone(), provider.clone()))
-                    .and_modify(|f| {
-                        f.samples += 1;
-                        f.last_ns = now_ns;
-                    })
-                    .or_insert_with(|| Feed {
-                        client: client.clone(),
-                        interface: interface.clone(),
-                        provider: provider.clone(),
-                        samples: 1,
-                        first_ns: now_ns,
-                        last_ns: now_ns,
-                    });
-                let provenance = vec![InputRef {
-                    channel: channel.to_string(),
-                    seq,
-                }];
-                self.dispatch(&client, provenance, sink, |s, ctx| {
-                    s.on_input(
-                        ctx,
-                        &Input {
-                            interface: &interface,
-                            provider: &provider,
-                            channel: &channel,
-                            bytes: &bytes,
-                        },
-                    );
-                });
-            }
-            Work::Command {
-                target,
-                interface,
-                command,
-                request,
-                reply_to,
-            } => self.run_command(&target, &interface, &command, request, reply_to, sink),
-            Work::Reply {
-                caller,
-                generation,
-                call,
-                interface,
-                command,
-                result,
-            } => {
-                if self
-                    .sims
-                    .get(&caller)
-                    .is_none_or(|s| s.generation != generation)
-                {
-                    return;
-                }
-                let event = ReplyEvent {
-                    call,
-                    interface: &interface,
-                    command: &command,
-                    result: result.as_deref().map_err(Clone::clone),
-                };
-                self.dispatch(&caller, Vec::new(), sink, |s, ctx| s.on_reply(ctx, &event));
-            }
-        }
-    }
-
-    fn carry_out(&mut self, action: &Action, sink: &mut dyn Sink) {
-        match action {
-            Action::Start { service } => self.start_service(service),
-            Action::Stop { service } => self.stop_service(service, sink),
-            Action::Bind {
-                client,
-                interface,
-                service,
-            } => {
-                self.bindings
-                    .insert((client.clone(), interface.clone()), service.clone());
-            }
-            Action::Rebind {
-                client,
-                interface,
-                to,
-                ..
-            } => {
-                self.bindings
-                    .insert((client.clone(), interface.clone()), to.clone());
-            }
-            Action::Unbind {
-                client, interface, ..
-            } => {
-                self.bindings.remove(&(client.clone(), interface.clone()));
-            }
-            Action::Reject { .. }
-            | Action::AskForHelp { .. }
-            | Action::RestartScheduled { .. }
-            | Action::ServiceFailed { .. } => {}
-        }
-    }
-
-    fn start_service(&mut self, service: &str) {
-        let crashing = self.fault_of(service) == Some(FaultKind::Crash);
-        let stalling = self.fault_of(service) == Some(FaultKind::Stall);
-        self.work.push_back(Work::Broker(Event::ProviderStarted {
-            service: service.to_owned(),
-        }));
-        if crashing {
-            self.work.push_back(Work::Broker(Event::ProcessExited {
-                service: service.to_owned(),
-                status: ExitStatus::Signal(SIGABRT),
-            }));
-            return;
-        }
-        let Some(spec) = self.robot.service(service) else {
-            return;
-        };
-        let Some(sim) = self.sims.get_mut(service) else {
-            return;
-        };
-        let config = ServiceConfig {
-            spec,
-            heartbeat_period_ms: self.robot.broker.heartbeat_period_ms,
-        };
-        sim.generation += 1;
-        sim.state = ContextState::new(service, config.seed());
-        sim.backend = backend_for(spec);
-        sim.stalled = stalling;
-        sim.commands_answered = 0;
-        let generation = sim.generation;
-        match self.registry.build(&config) {
-            Ok(instance) => {
-                sim.tick_period_ns = instance.tick_period_ns().filter(|p| *p > 0);
-                sim.instance = Some(instance);
-            }
-            Err(e) => {
-                // Checked when the harness was made; a constructor that fails later is a
-                // process that exits at once.
-                sim.instance = None;
-                let _ = e;
-                self.work.push_back(Work::Broker(Event::ProcessExited {
-                    service: service.to_owned(),
-                    status: ExitStatus::Code(1),
-                }));
-                return;
-            }
-        }
-        // As the live harness: ask for what it requires, say it is ready, then start it.
-        for interface in &spec.requires {
-            self.work.push_back(Work::Broker(Event::ClientRequest {
-                client: service.to_owned(),
-                interface: interface.clone(),
-            }));
-        }
-        if !stalling {
-            self.work.push_back(Work::Broker(Event::Heartbeat {
-                service: service.to_owned(),
-                health: Health::Ok,
-            }));
-        }
-        self.work.push_back(Work::Start {
-            service: service.to_owned(),
-            generation,
-        });
-    }
-
-    fn run_start(&mut self, service: &str, generation: u64, sink: &mut dyn Sink) {
-        if self
+        let ticking = self
             .sims
             .get(service)
-            .is_none_or(|s| s.generation != generation || s.instance.is_none())
-        {
-            return;
+            .is_some_and(|s| s.instance.is_some() && !s.stalled && s.tick_period_ns.is_some());
+        if ticking {
+            self.stats.ticks += 1;
+            self.stats.ticks_followed += 1;
+            self.dispatch(service, Vec::new(), sink, |s, ctx| s.on_tick(ctx));
+            self.pump(sink);
         }
-        let mut outcome = Ok(());
-        self.dispatch(service, Vec::new(), sink, |s, ctx| {
-            outcome = s.on_start(ctx);
-        });
-        let Some(sim) = self.sims.get_mut(service) else {
-            return;
-        };
-        if let Err(reason) = outcome {
-            sim.instance = None;
-            sim.generation += 1;
-            let text = format!("{service} could not start: {reason}");
-            sink.emit(Emitted::Log {
-                service,
-                time_ns: self.now_ns,
-                level: Level::Error,
-                text: &text,
-            });
-            self.work.push_back(Work::Broker(Event::ProcessExited {
-                service: service.to_owned(),
-                status: ExitStatus::Code(1),
-            }));
-            return;
-        }
-        let tick = sim.tick_period_ns;
-        let (now, period) = (self.now_ns, self.heartbeat_period_ns);
-        if let Some(tick) = tick {
-            self.schedule(
-                now.saturating_add(tick),
-                Timer::Tick {
-                    service: service.to_owned(),
-                    generation,
-                },
-            );
-        }
-        self.schedule(
-            now.saturating_add(period),
-            Timer::Heartbeat {
-                service: service.to_owned(),
-                generation,
-            },
-        );
+        self.release_held(service, sink);
     }
-
-    fn stop_service(&mut self, service: &str, sink: &mut dyn Sink) {
-        let stalled = self.fault_of(service) == Some(FaultKind::Stall);
-        let status = match self.sims.get(service) {
-            Some(sim) if sim.instance.is_some() && !sim.stalled => {
-                self.dispatch(service, Vec::new(), sink, |s, ctx| s.on_stop(ctx));
-                ExitStatus::Code(0)
-            }
-            Some(_) => ExitStatus::Signal(SIGKILL),
-            None if stalled => ExitStatus::Signal(SIGKILL),
-            None => ExitStatus::Signal(SIGTERM),
-        };
-        if let Some(sim) = self.sims.get_mut(service) {
-            sim.instance = None;
-            sim.stalled = false;
-            sim.generation += 1;
-        }
-        self.work.push_back(Work::Broker(Event::ProcessExited {
-            service: service.to_owned(),
-            status,
-        }));
-    }
-
-    fn run_command(
-        &mut self,
-        target: &str,
-        interface: &str,
-        command: &str,
-        request: Vec<u8>,
-        reply_to: Option<(String, u64, CallId, i64)>,
-        sink: &mut dyn Sink,
-    ) {
-        let mut outcome = None;
-        self.dispatch(target, Vec::new(), sink, |s, ctx| {
-            let incoming = IncomingCommand {
-                interface,
-                command,
-                bytes: &request,
-            };
-            outcome = Some(
-                s.on_command(ctx, &incoming)
-                    .map(|reply| reply.bytes().to_vec())
-                    .map_err(|e| e.0),
-            );
-        });
-        let Some(result) = outcome else {
-            // The target did not run (stalled, stopped): the caller times out.
-            if let Some((caller, generation, call, timeout_ns)) = reply_to {
-                self.stats.calls_failed += 1;
-                let at = self.now_ns.saturating_add(timeout_ns);
-                self.schedule(
-                    at,
-                    Timer::Reply(Box::new(Work::Reply {
-                        caller,
-                        generation,
-                        call,
-                        interface: interface.to_owned(),
-                        command: command.to_owned(),
-                        result: Err(CallFailure::Timeout { timeout_ns }),
-                    })),
-                );
-            }
-            return;
-        };
-        let seq = self.sims.get_mut(target).map_or(0, |s| {
-            s.commands_answered += 1;
-            s.commands_answered
-        });
-        let mut log = CommandLog {
-            header: Header {
-                provider: target.to_owned(),
-                seq,
-                publish_time_ns: self.now_ns,
-                inputs: Vec::new(),
-            },
-            interface: interface.to_owned(),
-            command: command.to_owned(),
-            request,
-            received_ns: self.now_ns,
-            ..CommandLog::default()
-        };
-        match &result {
-            Ok(reply) => {
-                "ok".clone_into(&mut log.status);
-                log.reply.clone_from(reply);
-            }
-            Err(error) => {
-                "refused".clone_into(&mut log.status);
-                log.error.clone_from(error);
-            }
-        }
-        sink.emit(Emitted::Command {
-            service: target,
-            time_ns: self.now_ns,
-            log: &log,
-        });
-        if let Some((caller, generation, call, _)) = reply_to {
-            self.work.push_back(Work::Reply {
-                caller,
-                generation,
-                call,
-                interface: interface.to_owned(),
-                command: command.to_owned(),
-                result: result.map_err(CallFailure::Refused),
-            });
-        }
-    }
-
-    /// Runs one handler of a running service, then carries out what it did.
-    fn dispatch(
-        &mut self,
-        name: &str,
-        inputs: Vec<InputRef>,
-        sink: &mut dyn Sink,
-        handler: impl FnOnce(&mut dyn Service, &mut lewis_runtime::service::Context<'_>),
-    ) {
-        let bound: BTreeMap<String, String> = self
-            .bindings
-            .range((name.to_owned(), String::new())..)
-            .take_while(|((client, _), _)| client == name)
-            .map(|((_, interface), provider)| (interface.clone(), provider.clone()))
-            .collect();
-        let Some(sim) = self.sims.get_mut(name) else {
-            return;
-        };
-        if sim.stalled {
-            return;
-        }
-        let Some(instance) = sim.instance.as_mut() else {
-            return;
-        };
-        sim.backend.now_ns = self.now_ns;
-        sim.backend.bound = bound;
-        sim.state.set_inputs(inputs);
-        handler(instance.as_mut(), &mut sim.state.context(&mut sim.backend));
-        sim.state.set_inputs(Vec::new());
-        let effects = std::mem::take(&mut sim.backend.effects);
-        let generation = sim.generation;
-        for effect in effects {
-            self.carry_effect(name, generation, effect, sink);
-        }
-    }
-
-    fn carry_effect(&mut self, name: &str, generation: u64, effect: Effect, sink: &mut dyn Sink) {
-        match effect {
-            Effect::Publish { interface, bytes } => {
-                let seq = decode_header_seq(&bytes);
-                let Some(bytes) = self.through_faults(name, seq, &bytes) else {
-                    return;
-                };
-                self.stats.publications += 1;
-                sink.emit(Emitted::Publication {
-                    service: name,
-                    interface: &interface,
-                    time_ns: self.now_ns,
-                    seq,
-                    bytes: &bytes,
-                });
-                let channel: Arc<str> = Arc::from(names::data_channel(name, &interface));
-                self.deliver(name, &interface, &channel, seq, &bytes);
-            }
-            Effect::Call {
-                call,
-                interface,
-                command,
-                frame,
-                timeout_ns,
-            } => self.call(
-                name, generation, call, &interface, command, &frame, timeout_ns,
-            ),
-            Effect::Health(health) => {
-                sink.emit(Emitted::Health {
-                    service: name,
-                    time_ns: self.now_ns,
-                    health: &health,
-                });
-                let health = match self.fault_of(name) {
-                    Some(FaultKind::OutOfService) => injected_out_of_service(),
-                    _ => health,
-                };
-                self.work.push_back(Work::Broker(Event::Heartbeat {
-                    service: name.to_owned(),
-                    health,
-                }));
-            }
-            Effect::Log { level, text } => sink.emit(Emitted::Log {
-                service: name,
-                time_ns: self.now_ns,
-                level,
-                text: &text,
-            }),
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn call(
-        &mut self,
-        caller: &str,
-        generation: u64,
-        call: CallId,
-        interface: &str,
-        command: &'static str,
-        frame: &[u8],
-        timeout_ns: i64,
-    ) {
-        let reply = |result| Work::Reply {
-            caller: caller.to_owned(),
-            generation,
-            call,
-            interface: interface.to_owned(),
-            command: command.to_owned(),
-            result,
-        };
-        let request = match wire::read_request(frame) {
-            Ok((_, message)) => message.to_vec(),
-            Err(e) => {
-                self.stats.calls_failed += 1;
-                self.work
-                    .push_back(reply(Err(CallFailure::Transport(e.to_string()))));
-                return;
-            }
-        };
-        let Some(provider) = self
-            .bindings
-            .get(&(caller.to_owned(), interface.to_owned()))
-            .cloned()
-        else {
-            self.stats.calls_failed += 1;
-            self.work.push_back(reply(Err(CallFailure::NoProvider {
-                interface: interface.to_owned(),
-            })));
-            return;
-        };
-        if self.sims.contains_key(&provider) {
-            self.stats.calls_between_resimulated += 1;
-            self.work.push_back(Work::Command {
-                target: provider,
-                interface: interface.to_owned(),
-                command: command.to_owned(),
-                request,
-                reply_to: Some((caller.to_owned(), generation, call, timeout_ns)),
-            });
-            return;
-        }
-        if matches!(
-            self.fault_of(&provider),
-            Some(FaultKind::Stall | FaultKind::Crash)
-        ) {
-            self.stats.calls_failed += 1;
-            let at = self.now_ns.saturating_add(timeout_ns);
-            self.schedule(
-                at,
-                Timer::Reply(Box::new(reply(Err(CallFailure::Timeout { timeout_ns })))),
-            );
-            return;
-        }
-        let result = match self
-            .book
-            .take(&provider, interface, command, caller, self.now_ns)
-        {
-            Some(recorded) => {
-                self.stats.calls_answered_from_log += 1;
-                recorded.map_err(CallFailure::Refused)
-            }
-            None => {
-                self.stats.calls_defaulted += 1;
-                default_reply(interface, command).ok_or_else(|| {
-                    CallFailure::Transport(format!(
-                        "no recorded answer of {provider} to {interface}.{command}, and no such command to make a default reply for"
-                    ))
-                })
-            }
-        };
-        self.work.push_back(reply(result));
-    }
-}
-
-fn backend_for(spec: &lewis_runtime::robot::ServiceSpec) -> StepBackend {
-    StepBackend::new(
-        &spec.name,
-        spec.provides.iter().map(|p| p.interface.clone()),
-        spec.requires.iter().cloned(),
-    )
-}
-
-fn injected_out_of_service() -> Health {
-    Health::OutOfService("injected fault: out-of-service".to_owned())
-}
-
-/// Bytes that do not decode, of the given length, the same for the same provider and
-/// sequence number.
-fn garble(provider: &str, seq: u64, len: usize) -> Vec<u8> {
-    let mut rng = Rng::new(Rng::seed_from_name(provider) ^ seq);
-    let mut out = ENCAPSULATION_LE.to_vec();
-    while out.len() < len.max(ENCAPSULATION_LE.len() + 4) {
-        out.extend_from_slice(&rng.next_u64().to_le_bytes());
-    }
-    // A provider string longer than the message: no decoder accepts it.
-    out[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
-    out.truncate(len.max(ENCAPSULATION_LE.len() + 4));
-    out
 }

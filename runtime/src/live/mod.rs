@@ -17,6 +17,11 @@
 //! is how the broker sees a stall. A handler that takes more than half of its deadline is
 //! reported once ([`overrun`]). Work that blocks (a device that may go silent for seconds)
 //! belongs in a device reader that the loop waits on (see [`Service::device`]).
+//!
+//! The service's clock ([`Context::now`]) reads the time its current event was taken up, for
+//! the whole handler, as in the lockstep replay harness: every publication of one handler
+//! carries that time, so a recording says exactly when each handler ran and replay can run
+//! it again at that time (the answered-command log carries it too, as `received_ns`).
 
 pub mod fault;
 mod overrun;
@@ -42,8 +47,8 @@ use crate::ipc::{
 use crate::names;
 use crate::robot::Robot;
 use crate::service::{
-    Backend, BuildError, CallFailure, CallId, ContextError, ContextState, IncomingCommand, Level,
-    ReplyEvent, Service, ServiceConfig, ServiceRegistry,
+    Backend, BuildError, CallFailure, CallId, Context, ContextError, ContextState, IncomingCommand,
+    Level, ReplyEvent, Service, ServiceConfig, ServiceRegistry,
 };
 use crate::wire;
 
@@ -159,6 +164,7 @@ pub fn run_service(
         fault: fault::FaultState::Normal,
         command_log,
         command_log_seq: 0,
+        event_ns: 0,
     };
     let mut state = ContextState::new(&spec.name, config.seed());
     let heartbeat_period = Duration::from_millis(robot.broker.heartbeat_period_ms.max(1));
@@ -174,7 +180,7 @@ pub fn run_service(
     let faults = ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?;
     let started = Instant::now();
     instance
-        .on_start(&mut state.context(&mut backend))
+        .on_start(&mut event_context(&mut state, &mut backend))
         .map_err(|reason| LiveError::Start {
             service: spec.name.clone(),
             reason,
@@ -239,7 +245,7 @@ impl Harness<'_> {
             {
                 let started = Instant::now();
                 self.service
-                    .on_tick(&mut self.state.context(&mut self.backend));
+                    .on_tick(&mut event_context(&mut self.state, &mut self.backend));
                 self.overruns.ran("on_tick", started);
                 next_tick = Some(advance(at, period, now));
             }
@@ -248,7 +254,7 @@ impl Harness<'_> {
             if device_ready {
                 let started = Instant::now();
                 self.service
-                    .on_device(&mut self.state.context(&mut self.backend));
+                    .on_device(&mut event_context(&mut self.state, &mut self.backend));
                 self.overruns.ran("on_device", started);
             }
             let deadline = [Some(next_heartbeat), next_tick]
@@ -264,7 +270,7 @@ impl Harness<'_> {
             device_ready = self.wait(signals, deadline)?;
         }
         self.service
-            .on_stop(&mut self.state.context(&mut self.backend));
+            .on_stop(&mut event_context(&mut self.state, &mut self.backend));
         Ok(())
     }
 
@@ -293,6 +299,7 @@ impl Harness<'_> {
         for (interface, server) in &self.servers {
             while let Ok(Some(request)) = server.receive() {
                 let received_ns = self.backend.clock.now_ns();
+                self.backend.event_ns = received_ns;
                 let mut logged = (String::new(), request.bytes().to_vec());
                 let answer = match wire::read_request(request.bytes()) {
                     Ok((command, bytes)) => {
@@ -352,8 +359,10 @@ impl Harness<'_> {
                     bytes: received.bytes(),
                 };
                 let started = Instant::now();
-                self.service
-                    .on_input(&mut self.state.context(&mut self.backend), &input);
+                self.service.on_input(
+                    &mut event_context(&mut self.state, &mut self.backend),
+                    &input,
+                );
                 self.overruns.ran("on_input", started);
             }
             self.state.set_inputs(Vec::new());
@@ -391,8 +400,10 @@ impl Harness<'_> {
                     command,
                     result,
                 };
-                self.service
-                    .on_reply(&mut self.state.context(&mut self.backend), &event);
+                self.service.on_reply(
+                    &mut event_context(&mut self.state, &mut self.backend),
+                    &event,
+                );
             }
         }
         Ok(())
@@ -417,11 +428,22 @@ impl Harness<'_> {
                         interface: interface.to_owned(),
                     }),
                 };
-                self.service
-                    .on_reply(&mut self.state.context(&mut self.backend), &event);
+                self.service.on_reply(
+                    &mut event_context(&mut self.state, &mut self.backend),
+                    &event,
+                );
             }
         }
     }
+}
+
+/// The context of one event. The service's clock reads the time the event was taken up for
+/// the whole handler, as in the lockstep harness: what a handler computes from `now` and the
+/// publish times it stamps agree, so a replay that runs the handler at that recorded time
+/// computes the same.
+fn event_context<'a>(state: &'a mut ContextState, backend: &'a mut LiveBackend) -> Context<'a> {
+    backend.event_ns = backend.clock.now_ns();
+    state.context(backend)
 }
 
 /// The next time of a periodic event after `at`: one period later, or one period from now
@@ -445,6 +467,8 @@ struct LiveBackend {
     /// `/lewis/commands/<service>`: every answered command, for the recorder.
     command_log: Publisher,
     command_log_seq: u64,
+    /// The time the event being handled was taken up: the service's clock.
+    event_ns: i64,
 }
 
 impl LiveBackend {
@@ -476,7 +500,8 @@ impl LiveBackend {
         let header = message.header_mut();
         header.provider.clone_from(&self.service);
         header.seq = self.command_log_seq;
-        header.publish_time_ns = self.clock.now_ns();
+        // The time of the event, like every publication of the handler that answered it.
+        header.publish_time_ns = received_ns;
         let len = cdr::encoded_len(&message);
         if let Err(e) = self.command_log.publish_with(len, |buf| {
             let _ = cdr::encode_into(&message, buf);
@@ -536,7 +561,7 @@ pub fn health_from_message(message: &HealthMessage) -> Health {
 
 impl Backend for LiveBackend {
     fn now_ns(&self) -> i64 {
-        self.clock.now_ns()
+        self.event_ns
     }
 
     fn publish(

@@ -5,7 +5,9 @@
 //! requires no RangeFinder), placed with the odometry pose of when it was taken, steps an
 //! [`ObstacleAvoider`] and sends the request it yields (a waypoint, a stop) to the Mover it
 //! requires: a `vector_mover`, which drives the wheels. It publishes its own Mover status
-//! every tick, with the velocities the VectorMover last published.
+//! every tick, with the velocities the VectorMover last published; its provenance names
+//! the three samples it stands on (the newest odometry, the reading observed last, the
+//! VectorMover status), which is what lets a replay give it exactly the same inputs.
 //!
 //! Readings are taken at the tick, the newest one only: a laser at 75 Hz costs no more than
 //! one at 10 Hz, and nothing waits. When the range finder changes (the broker moves it from
@@ -180,8 +182,9 @@ pub struct ObstacleAvoiderService {
     last_call: Option<CallId>,
     /// The goal id the VectorMover gave the last request answered.
     mover_goal: Option<i32>,
-    /// The VectorMover's last publication.
-    mover_status: Option<Mover>,
+    /// The VectorMover's last publication, and where it came from (for provenance: the
+    /// velocities published come from it).
+    mover_status: Option<(Mover, InputRef)>,
     mover_failing: Complaint,
     bad_reading: Complaint,
     /// The goal taken at start.
@@ -367,13 +370,14 @@ impl ObstacleAvoiderService {
             .source()
             .into_iter()
             .chain(self.reading_source.as_ref())
+            .chain(self.mover_status.as_ref().map(|(_, source)| source))
             .cloned()
             .collect();
         ctx.set_inputs(inputs);
         let velocities = self
             .mover_status
             .as_ref()
-            .map_or(VelocityCommand::ZERO, |m| VelocityCommand {
+            .map_or(VelocityCommand::ZERO, |(m, _)| VelocityCommand {
                 translation_m_s: m.translation_velocity,
                 rotation_rad_s: m.rotation_velocity,
             });
@@ -422,7 +426,11 @@ impl Service for ObstacleAvoiderService {
             "Mover" => match input.decode::<Mover>() {
                 Ok(status) => {
                     self.follow_mover(&status);
-                    self.mover_status = Some(status);
+                    let source = InputRef {
+                        channel: input.channel.to_owned(),
+                        seq: status.header.seq,
+                    };
+                    self.mover_status = Some((status, source));
                 }
                 Err(e) => ctx.warn(&format!("Mover sample ignored: {e}")),
             },

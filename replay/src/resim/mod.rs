@@ -6,10 +6,20 @@
 //!   robot but the sources, which are fed from the recording. A source is a service that
 //!   requires nothing, or whose kind is one of [`ReplayOptions::source_kinds`] (the binary
 //!   names the kinds that talk to a device or to the simulated world: `sim-laser` requires
-//!   the simulator's GroundTruth, yet it is the laser); `--services A,B` names them; `--all` takes every service
-//!   this binary can build. A service the recording has nothing of (it never ran live, like
-//!   a sonar started on demand only after a fault) cannot be fed: it is re-simulated, when
-//!   its kind is known, and its outputs are not compared.
+//!   the simulator's GroundTruth, yet it is the laser); `--services A,B` names them; `--all`
+//!   takes every service this binary can build. A service the recording has nothing of (it
+//!   never ran live, like a sonar started on demand only after a fault) cannot be fed: it is
+//!   re-simulated, when its kind is known, and its outputs are not compared.
+//! - **Following the recording**: a re-simulated service whose outputs are in the recording
+//!   and whose tick rate is unchanged follows it (see [`crate::lockstep`]): an unchanged
+//!   service reproduces its recorded outputs exactly, so `--check` is a regression test.
+//! - **Another robot** ([`edit`]): `--robot FILE` replays with another robot description,
+//!   `--set SERVICE.PARAMETER=VALUE` changes one parameter; the report lists what differs.
+//! - **Reading**: several files, or a rotated recording's parts index (`STEM.parts.json`),
+//!   are one run ([`Recording`]); it is streamed chunk by chunk through a bounded window
+//!   ([`lookahead`]) that hands messages over in replay order; the comparison, the command
+//!   book and the fault reports are bounded too, so memory does not grow with the
+//!   recording's length.
 //! - **Output channels**: everything recorded is copied unchanged (but the recorder's own
 //!   stats, which the new file has afresh); what the replay produced goes under
 //!   [`REPLAY_PREFIX`]: `/replay/<service>/<Interface>`, `/replay/lewis/broker`,
@@ -20,31 +30,26 @@
 //!   as log time; nothing on the way reads a clock, iterates a hash map or uses a thread,
 //!   so the same recording, code and options give the same bytes.
 
+pub mod edit;
+pub mod lookahead;
+mod sink;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
-use lewis_interfaces::msg::{
-    Broker as BrokerMessage, CommandLog, Health as HealthMessage, LogLine,
-};
-use lewis_interfaces::{Interface, cdr};
-use lewis_recorder::{
-    ChannelId, ChannelSpec, Compression, RecordError, Recorder, RecorderOptions, RobotDescription,
-    STATS_TOPIC, Sample,
-};
-use lewis_runtime::broker::Decision;
-use lewis_runtime::broker::live::decision_message;
-use lewis_runtime::live::health_fields;
+use lewis_recorder::{Compression, RecordError, Recorder, RecorderOptions, RobotDescription};
 use lewis_runtime::names;
 use lewis_runtime::robot::{Launch, Robot};
 use lewis_runtime::service::{ServiceConfig, ServiceRegistry};
 
 use crate::compare::Comparator;
 use crate::fault::{Fault, FaultError, FaultSpec};
-use crate::lockstep::{
-    CommandBook, Emitted, Feed, Lockstep, LockstepError, Plan, Route, Sink, route,
-};
+use crate::lockstep::{Feed, Lockstep, LockstepError, Plan, Route, route};
 use crate::recording::{Recording, RecordingError};
-use crate::report::{CheckOutcome, Report, fault_report};
+use crate::report::{CheckOutcome, FaultWatch, Report};
+use edit::{EditError, ParamEdit, ReplayedRobot, replayed_robot};
+use lookahead::Lookahead;
+use sink::OutputSink;
 
 /// The prefix of every channel the replay writes.
 pub const REPLAY_PREFIX: &str = "/replay";
@@ -53,7 +58,7 @@ pub const FAULTS_TOPIC: &str = "/replay/lewis/faults";
 /// The default absolute tolerance of the comparison.
 pub const DEFAULT_TOLERANCE: f64 = 1e-6;
 /// The provider name of the messages the replay itself writes.
-const REPLAY_PROVIDER: &str = "lewis-replay";
+pub(crate) const REPLAY_PROVIDER: &str = "lewis-replay";
 
 /// Which services to re-simulate.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -84,6 +89,10 @@ pub struct ReplayOptions {
     pub compression: Compression,
     /// The kinds of service that are sources even though they require something.
     pub source_kinds: BTreeSet<String>,
+    /// Another robot description to replay with (`--robot`).
+    pub robot: Option<PathBuf>,
+    /// Parameter changes (`--set`).
+    pub set: Vec<ParamEdit>,
 }
 
 impl ReplayOptions {
@@ -99,6 +108,8 @@ impl ReplayOptions {
             tolerance: DEFAULT_TOLERANCE,
             compression: Compression::Zstd,
             source_kinds: BTreeSet::new(),
+            robot: None,
+            set: Vec::new(),
         }
     }
 }
@@ -126,6 +137,9 @@ pub enum ReplayError {
     /// The harness cannot be set up.
     #[error(transparent)]
     Lockstep(#[from] LockstepError),
+    /// `--robot` or `--set` cannot be applied.
+    #[error(transparent)]
+    Edit(#[from] EditError),
     /// The output cannot be written.
     #[error("writing the replay: {0}")]
     Record(#[from] RecordError),
@@ -266,6 +280,69 @@ pub fn select_services(
     Ok(chosen)
 }
 
+/// What a replay runs, worked out from the recording and the options.
+#[derive(Debug)]
+pub struct Prepared {
+    /// The robot replayed, and what differs from the recorded one.
+    pub replayed: ReplayedRobot,
+    /// The faults placed on the recording's clock.
+    pub faults: Vec<Fault>,
+    /// The services re-simulated.
+    pub resimulated: BTreeSet<String>,
+    /// The services whose publications the recording holds.
+    pub published: BTreeSet<String>,
+    /// The harness's plan.
+    pub plan: Plan,
+}
+
+/// Works out what a replay of `recording` with `options` runs.
+///
+/// # Errors
+/// When an option does not fit the recording, or the recording cannot be read.
+pub fn prepare(
+    recording: &Recording,
+    options: &ReplayOptions,
+    registry: &ServiceRegistry,
+) -> Result<Prepared, ReplayError> {
+    let (file_name, toml) = recording.robot_toml();
+    let replayed = replayed_robot(
+        recording.robot(),
+        file_name,
+        toml,
+        options.robot.as_deref(),
+        &options.set,
+    )?;
+    let robot = &replayed.robot;
+    let faults = options
+        .faults
+        .iter()
+        .map(|spec| spec.resolve(robot, recording.start_ns(), recording.end_ns()))
+        .collect::<Result<Vec<Fault>, _>>()?;
+    let resimulated = select_services(
+        robot,
+        recording,
+        registry,
+        &options.services,
+        &options.source_kinds,
+    )?;
+    edit::check_edits_resimulated(&options.set, &resimulated)?;
+    let published = services_with_outputs(recording, robot);
+    let followed = followed_services(recording, robot, registry, &resimulated, &published);
+    let plan = Plan {
+        resimulated: resimulated.clone(),
+        ready_at: first_heartbeats(recording, robot, &followed)?,
+        followed,
+        faults: faults.clone(),
+    };
+    Ok(Prepared {
+        replayed,
+        faults,
+        resimulated,
+        published,
+        plan,
+    })
+}
+
 /// Replays a recording (see the module documentation) and returns the report.
 ///
 /// # Errors
@@ -277,30 +354,16 @@ pub fn replay(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Report, ReplayError> {
     let recording = Recording::open(&options.inputs)?;
-    let robot = recording.robot().clone();
+    let Prepared {
+        replayed,
+        faults,
+        resimulated,
+        published,
+        plan,
+    } = prepare(&recording, options, registry)?;
+    let robot = &replayed.robot;
     let (start_ns, end_ns) = (recording.start_ns(), recording.end_ns());
-    let faults = options
-        .faults
-        .iter()
-        .map(|spec| spec.resolve(&robot, start_ns, end_ns))
-        .collect::<Result<Vec<Fault>, _>>()?;
-    let resimulated = select_services(
-        &robot,
-        &recording,
-        registry,
-        &options.services,
-        &options.source_kinds,
-    )?;
-    let ran: BTreeSet<String> = recording
-        .topics()
-        .values()
-        .filter(|t| t.message_count > 0)
-        .filter_map(|t| match route(&t.name, &robot) {
-            Route::Data { service, .. } | Route::Health { service } => Some(service),
-            _ => None,
-        })
-        .collect();
-    let book = command_book(&recording, &robot, &resimulated)?;
+    let followed = plan.followed.clone();
     let output = options
         .output
         .clone()
@@ -309,65 +372,54 @@ pub fn replay(
     let read: Vec<PathBuf> = recording.paths().map(Path::to_path_buf).collect();
     prepare_output(&output, &read)?;
 
-    let (file_name, toml) = recording.robot_toml();
     let mut recorder_options = RecorderOptions::new(&output);
     recorder_options.compression = options.compression;
     recorder_options.robot_description = Some(RobotDescription {
-        file_name: file_name.to_owned(),
-        toml: toml.to_owned(),
+        file_name: replayed.file_name.clone(),
+        toml: replayed.toml.clone(),
     });
     recorder_options.sync_on_flush = false;
     recorder_options.disk_reserve_bytes = 0;
     REPLAY_PROVIDER.clone_into(&mut recorder_options.recorder_name);
     let recorder = Recorder::create(recorder_options)?;
+    let comparator = comparator(
+        &recording,
+        robot,
+        &resimulated,
+        &published,
+        options,
+        start_ns,
+    );
+    let watches = faults.iter().cloned().map(FaultWatch::new).collect();
+    let mut sink = OutputSink::new(recorder, comparator, watches);
 
-    let mut comparator = Comparator::new(options.tolerance, start_ns);
-    for name in resimulated.iter().filter(|n| ran.contains(*n)) {
-        let Some(spec) = robot.service(name) else {
-            continue;
-        };
-        for provision in &spec.provides {
-            let topic = names::data_channel(name, &provision.interface);
-            if let Some(info) = lewis_interfaces::interface_info(&provision.interface) {
-                comparator.add_channel(&topic, info.publication.name, info.publication.text);
-            }
-        }
-    }
-    let mut sink = OutputSink {
-        recorder,
-        channels: BTreeMap::new(),
-        comparator,
-        decisions: Vec::new(),
-        seqs: BTreeMap::new(),
-        written: 0,
-        error: None,
-    };
-    let plan = Plan {
-        resimulated: resimulated.clone(),
-        faults: faults.clone(),
-        book,
-    };
-    let mut harness = Lockstep::new(&robot, registry, plan)?;
-    harness.start(start_ns, &mut sink);
+    let mut harness = Lockstep::new(robot, registry, plan)?;
+    let mut window = Lookahead::new(recording.messages()?);
+    // The broker comes up with the first message, once the window shows what lies ahead.
+    let first = window
+        .peek_time(&mut |m, t| harness.preview(m, t))?
+        .unwrap_or(start_ns);
+    harness.start(first.min(start_ns), &mut sink);
     let mut read = 0u64;
-    for message in recording.messages()? {
-        let message = message?;
+    let mut last_ns = start_ns;
+    while let Some((at_ns, message)) = window.next(&mut |m, t| harness.preview(m, t))? {
         read += 1;
-        harness.advance_to(message.log_time_ns, &mut sink);
-        sink.recorded(&recording, &message.topic, &message);
-        harness.feed(&message, &mut sink);
+        last_ns = last_ns.max(at_ns);
+        harness.advance_to(at_ns, &mut sink);
+        sink.recorded(recording.topics().get(&message.topic), &message, at_ns);
+        harness.feed(&message, at_ns, &mut sink);
         if let Some(e) = sink.error.take() {
             return Err(e.into());
         }
         if read.is_multiple_of(512) {
             progress(Progress {
-                done_ns: message.log_time_ns - start_ns,
+                done_ns: (at_ns - start_ns).clamp(0, end_ns - start_ns),
                 total_ns: end_ns - start_ns,
                 messages: read,
             });
         }
     }
-    harness.finish(end_ns, &mut sink);
+    harness.finish(end_ns.max(last_ns), &mut sink);
     if let Some(e) = sink.error.take() {
         return Err(e.into());
     }
@@ -394,6 +446,7 @@ pub fn replay(
     let OutputSink {
         recorder,
         comparator,
+        watches,
         decisions,
         written,
         ..
@@ -409,9 +462,17 @@ pub fn replay(
             .collect(),
         output: output.display().to_string(),
         robot: robot.name.clone(),
+        robot_description: replayed.source.clone(),
+        parameter_changes: replayed
+            .changes
+            .iter()
+            .filter(|(service, _)| resimulated.contains(service))
+            .map(|(_, change)| change.clone())
+            .collect(),
         start_ns,
         duration_ns: end_ns - start_ns,
         resimulated: resimulated.iter().cloned().collect(),
+        followed: followed.iter().cloned().collect(),
         fed: robot
             .services
             .iter()
@@ -420,11 +481,8 @@ pub fn replay(
             .collect(),
         messages_read: read,
         messages_written: written,
-        decisions: u64::try_from(decisions.len()).unwrap_or(u64::MAX),
-        faults: faults
-            .iter()
-            .map(|f| fault_report(f, &decisions, start_ns))
-            .collect(),
+        decisions,
+        faults: watches.into_iter().map(|w| w.report(start_ns)).collect(),
         longest_gap,
         feeds,
         divergence,
@@ -433,34 +491,109 @@ pub fn replay(
     })
 }
 
-/// The recorded answers of the services that are fed from the log.
-fn command_book(
+/// The services whose publications the recording holds.
+fn services_with_outputs(recording: &Recording, robot: &Robot) -> BTreeSet<String> {
+    recording
+        .topics()
+        .values()
+        .filter(|t| t.message_count > 0)
+        .filter_map(|t| match route(&t.name, robot) {
+            Route::Data { service, .. } => Some(service),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The re-simulated services that follow the recording: those with recorded outputs whose
+/// tick period is the same in the robot replayed as in the robot recorded (with another
+/// rate, the recorded tick times mean nothing: the service ticks at its own).
+fn followed_services(
     recording: &Recording,
     robot: &Robot,
+    registry: &ServiceRegistry,
     resimulated: &BTreeSet<String>,
-) -> Result<CommandBook, ReplayError> {
-    let topics: Vec<String> = robot
-        .services
+    published: &BTreeSet<String>,
+) -> BTreeSet<String> {
+    let tick = |robot: &Robot, name: &str| {
+        let spec = robot.service(name)?;
+        let config = ServiceConfig {
+            spec,
+            heartbeat_period_ms: robot.broker.heartbeat_period_ms,
+        };
+        registry.build(&config).ok().map(|s| s.tick_period_ns())
+    };
+    resimulated
         .iter()
-        .filter(|s| !resimulated.contains(&s.name))
-        .map(|s| names::command_log_channel(&s.name))
+        .filter(|name| published.contains(*name))
+        .filter(|name| tick(recording.robot(), name) == tick(robot, name))
+        .cloned()
+        .collect()
+}
+
+/// The replay time of the first recorded heartbeat of each of `services`: when its process
+/// came up live. Read from the start of the recording, only as far as needed.
+fn first_heartbeats(
+    recording: &Recording,
+    robot: &Robot,
+    services: &BTreeSet<String>,
+) -> Result<BTreeMap<String, i64>, ReplayError> {
+    let topics: Vec<String> = services
+        .iter()
+        .map(|s| names::health_channel(s))
         .filter(|t| recording.topics().contains_key(t.as_str()))
         .collect();
-    let mut book = CommandBook::new();
+    let mut found = BTreeMap::new();
     if topics.is_empty() {
-        return Ok(book);
+        return Ok(found);
     }
     let topic_refs: Vec<&str> = topics.iter().map(String::as_str).collect();
     for message in recording.messages_on(&topic_refs)? {
         let message = message?;
-        let Route::Commands { service } = route(&message.topic, robot) else {
-            continue;
-        };
-        if let Ok(log) = cdr::from_bytes::<CommandLog>(&message.data) {
-            book.add(&service, message.log_time_ns, &log);
+        if let Route::Health { service } = route(&message.topic, robot) {
+            found
+                .entry(service)
+                .or_insert_with(|| lookahead::replay_time(&message));
+        }
+        if found.len() == topics.len() {
+            break;
         }
     }
-    Ok(book)
+    Ok(found)
+}
+
+/// The comparator of the outputs of the re-simulated services that ran live: their data
+/// channels and their command logs.
+fn comparator(
+    recording: &Recording,
+    robot: &Robot,
+    resimulated: &BTreeSet<String>,
+    published: &BTreeSet<String>,
+    options: &ReplayOptions,
+    start_ns: i64,
+) -> Comparator {
+    let mut comparator = Comparator::new(options.tolerance, start_ns);
+    for name in resimulated {
+        let Some(spec) = robot.service(name) else {
+            continue;
+        };
+        if published.contains(name) {
+            for provision in &spec.provides {
+                let topic = names::data_channel(name, &provision.interface);
+                if let Some(info) = lewis_interfaces::interface_info(&provision.interface) {
+                    comparator.add_channel(&topic, info.publication.name, info.publication.text);
+                }
+            }
+        }
+        let commands = names::command_log_channel(name);
+        if recording
+            .topics()
+            .get(commands.as_str())
+            .is_some_and(|t| t.message_count > 0)
+        {
+            comparator.add_command_channel(&commands);
+        }
+    }
+    comparator
 }
 
 fn prepare_output(output: &Path, inputs: &[PathBuf]) -> Result<(), ReplayError> {
@@ -480,217 +613,4 @@ fn prepare_output(output: &Path, inputs: &[PathBuf]) -> Result<(), ReplayError> 
         })?;
     }
     Ok(())
-}
-
-/// Writes everything into the output recording and feeds the comparator.
-struct OutputSink {
-    recorder: Recorder,
-    channels: BTreeMap<String, ChannelId>,
-    comparator: Comparator,
-    decisions: Vec<Decision>,
-    seqs: BTreeMap<String, u64>,
-    written: u64,
-    error: Option<RecordError>,
-}
-
-impl OutputSink {
-    fn channel(&mut self, spec: impl FnOnce() -> ChannelSpec, topic: &str) -> Option<ChannelId> {
-        if let Some(id) = self.channels.get(topic) {
-            return Some(*id);
-        }
-        match self.recorder.add_channel(spec()) {
-            Ok(id) => {
-                self.channels.insert(topic.to_owned(), id);
-                Some(id)
-            }
-            Err(e) => {
-                self.error.get_or_insert(e);
-                None
-            }
-        }
-    }
-
-    fn write(&mut self, channel: ChannelId, seq: u64, publish_ns: i64, log_ns: i64, data: &[u8]) {
-        if self.error.is_some() {
-            return;
-        }
-        let sample = Sample {
-            channel,
-            seq,
-            publish_time_ns: publish_ns,
-            log_time_ns: log_ns,
-            data,
-        };
-        match self.recorder.write(&sample) {
-            Ok(()) => self.written += 1,
-            Err(e) => self.error = Some(e),
-        }
-    }
-
-    fn recorded(
-        &mut self,
-        recording: &Recording,
-        topic: &str,
-        message: &crate::recording::RecordedMessage,
-    ) {
-        if topic == STATS_TOPIC || topic.starts_with(&format!("{REPLAY_PREFIX}/")) {
-            return;
-        }
-        let spec = || {
-            let t = recording.topics().get(topic);
-            ChannelSpec {
-                topic: topic.to_owned(),
-                schema_name: t.map(|t| t.schema_name.clone()).unwrap_or_default(),
-                schema_text: t.map(|t| t.schema_text.clone()).unwrap_or_default(),
-                provider: t.and_then(|t| t.provider.clone()).unwrap_or_default(),
-                interface: t.and_then(|t| t.interface.clone()).unwrap_or_default(),
-                interface_version: t
-                    .and_then(|t| t.interface_version.clone())
-                    .unwrap_or_default(),
-                extra_metadata: BTreeMap::new(),
-            }
-        };
-        if let Some(id) = self.channel(spec, topic) {
-            self.write(
-                id,
-                message.seq,
-                message.publish_time_ns,
-                message.log_time_ns,
-                &message.data,
-            );
-        }
-        if self.comparator.has_channel(topic) {
-            self.comparator
-                .recorded(topic, message.log_time_ns, &message.data);
-        }
-    }
-
-    fn next_seq(&mut self, topic: &str) -> u64 {
-        let seq = self.seqs.entry(topic.to_owned()).or_insert(0);
-        *seq += 1;
-        *seq
-    }
-
-    /// Writes a message the replay made itself (header filled here).
-    fn own<T: Interface>(&mut self, topic: &str, provider: &str, time_ns: i64, mut message: T) {
-        let seq = self.next_seq(topic);
-        let header = message.header_mut();
-        provider.clone_into(&mut header.provider);
-        header.seq = seq;
-        header.publish_time_ns = time_ns;
-        let spec = || {
-            let mut spec = ChannelSpec {
-                topic: topic.to_owned(),
-                schema_name: T::SCHEMA_NAME.to_owned(),
-                schema_text: T::SCHEMA_TEXT.to_owned(),
-                provider: provider.to_owned(),
-                interface: T::NAME.to_owned(),
-                interface_version: T::VERSION.to_owned(),
-                extra_metadata: BTreeMap::new(),
-            };
-            spec.extra_metadata
-                .insert("replay".to_owned(), "true".to_owned());
-            spec
-        };
-        if let Some(id) = self.channel(spec, topic) {
-            let bytes = cdr::to_vec(&message);
-            self.write(id, seq, time_ns, time_ns, &bytes);
-        }
-    }
-}
-
-impl Sink for OutputSink {
-    fn emit(&mut self, event: Emitted<'_>) {
-        match event {
-            Emitted::Publication {
-                service,
-                interface,
-                time_ns,
-                seq,
-                bytes,
-            } => {
-                let recorded_topic = names::data_channel(service, interface);
-                let topic = format!("{REPLAY_PREFIX}{recorded_topic}");
-                let Some(info) = lewis_interfaces::interface_info(interface) else {
-                    return;
-                };
-                let spec = || {
-                    let mut spec = ChannelSpec::publication(info, service, &topic);
-                    spec.extra_metadata
-                        .insert("replay".to_owned(), "true".to_owned());
-                    spec
-                };
-                if let Some(id) = self.channel(spec, &topic) {
-                    self.write(id, seq, time_ns, time_ns, bytes);
-                }
-                self.comparator.resimulated(&recorded_topic, time_ns, bytes);
-            }
-            Emitted::Decision(decision) => {
-                self.decisions.push(decision.clone());
-                let topic = format!("{REPLAY_PREFIX}{}", names::BROKER_CHANNEL);
-                let message: BrokerMessage = decision_message(decision);
-                self.own(&topic, names::BROKER_NODE, decision.at_ns, message);
-            }
-            Emitted::Health {
-                service,
-                time_ns,
-                health,
-            } => {
-                let (state, reason) = health_fields(health);
-                let topic = format!("{REPLAY_PREFIX}{}", names::health_channel(service));
-                let message = HealthMessage {
-                    state: state.to_owned(),
-                    reason: reason.to_owned(),
-                    ..HealthMessage::default()
-                };
-                self.own(&topic, service, time_ns, message);
-            }
-            Emitted::Command {
-                service,
-                time_ns,
-                log,
-            } => {
-                let topic = format!("{REPLAY_PREFIX}{}", names::command_log_channel(service));
-                self.own(&topic, service, time_ns, log.clone());
-            }
-            Emitted::Log {
-                service,
-                time_ns,
-                level,
-                text,
-            } => {
-                let topic = format!("{REPLAY_PREFIX}{}", names::LOG_CHANNEL);
-                let message = LogLine {
-                    service: service.to_owned(),
-                    stream: "replay".to_owned(),
-                    level: level.to_string(),
-                    text: text.to_owned(),
-                    ..LogLine::default()
-                };
-                self.own(&topic, REPLAY_PROVIDER, time_ns, message);
-            }
-            Emitted::Fault {
-                fault,
-                time_ns,
-                starts,
-            } => {
-                let text = if starts {
-                    format!(
-                        "fault injected: {} {} ({})",
-                        fault.provider, fault.kind, fault.spec
-                    )
-                } else {
-                    format!("fault ends: {} recovers ({})", fault.provider, fault.spec)
-                };
-                let message = LogLine {
-                    service: fault.provider.clone(),
-                    stream: "fault".to_owned(),
-                    level: "warn".to_owned(),
-                    text,
-                    ..LogLine::default()
-                };
-                self.own(FAULTS_TOPIC, REPLAY_PROVIDER, time_ns, message);
-            }
-        }
-    }
 }

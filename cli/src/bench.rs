@@ -1,0 +1,118 @@
+//! `lewis bench`: measures run by hand, whose figures go into the README's Speed section.
+//!
+//! - `lewis bench replay RUN.mcap [--runs N]`: replay speed as a multiple of real time,
+//!   beside the lockstep harness alone and the same services called directly.
+//! - `lewis bench long-recording REF.mcap -o LONG.mcap [--size-mb N]`: a long recording made
+//!   of laps of a short one, to measure a replay's peak memory (`/usr/bin/time -v lewis
+//!   replay LONG.mcap`).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context as _;
+use clap::{Args, Subcommand};
+use lewis_replay::bench::long::write_long;
+use lewis_replay::bench::speed::{SpeedOptions, measure};
+use lewis_replay::resim::ReplayOptions;
+
+use crate::service::registry;
+
+/// The measures.
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// How fast a recording replays: `lewis replay` as a multiple of real time, the lockstep
+    /// harness alone, and the same services called directly in a loop with the same inputs.
+    Replay(ReplayBenchArgs),
+    /// Write a long recording made of laps of a short one (for the memory of a long replay).
+    LongRecording(LongArgs),
+}
+
+/// Arguments of `lewis bench replay`.
+#[derive(Debug, Args)]
+pub struct ReplayBenchArgs {
+    /// The recording.
+    #[arg(value_name = "RUN.mcap")]
+    pub input: PathBuf,
+    /// Runs of each measure; the best is kept.
+    #[arg(long, default_value_t = 5)]
+    pub runs: usize,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Arguments of `lewis bench long-recording`.
+#[derive(Debug, Args)]
+pub struct LongArgs {
+    /// The recording to repeat.
+    #[arg(value_name = "REF.mcap")]
+    pub input: PathBuf,
+    /// The long recording.
+    #[arg(short, long, value_name = "LONG.mcap")]
+    pub output: PathBuf,
+    /// At least this many megabytes (10^6 bytes).
+    #[arg(long, default_value_t = 1100, value_name = "MB")]
+    pub size_mb: u64,
+}
+
+/// Runs `lewis bench`.
+pub fn run(command: &BenchCommand) -> anyhow::Result<ExitCode> {
+    match command {
+        BenchCommand::Replay(args) => {
+            let scratch = std::env::temp_dir()
+                .join(format!("lewis-bench-replay-{}.mcap", std::process::id()));
+            let mut replay = ReplayOptions::new(vec![args.input.clone()]);
+            replay.output = Some(scratch.clone());
+            replay.source_kinds = crate::replay::source_kinds();
+            let options = SpeedOptions {
+                replay,
+                runs: args.runs,
+            };
+            let report = measure(&options, &registry());
+            // The scratch output is not wanted, whatever happened.
+            let _ = std::fs::remove_file(&scratch);
+            let report = report?;
+            let mut out = std::io::stdout().lock();
+            if args.json {
+                writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+            } else {
+                writeln!(out, "{report}")?;
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        BenchCommand::LongRecording(args) => {
+            let mut last = 0;
+            let report = write_long(
+                &args.input,
+                &args.output,
+                args.size_mb.saturating_mul(1_000_000),
+                &mut |lap, laps| {
+                    if lap * 10 / laps != last {
+                        last = lap * 10 / laps;
+                        // Progress only: a closed stderr changes nothing.
+                        let _ = writeln!(std::io::stderr(), "{lap} of {laps} laps written");
+                    }
+                },
+            )
+            .with_context(|| format!("cannot make a long recording of {}", args.input.display()))?;
+            writeln!(
+                std::io::stdout().lock(),
+                "wrote {} ({} bytes, {} laps of {}, {} messages, {:.0} s)",
+                report.output.display(),
+                report.bytes,
+                report.laps,
+                args.input.display(),
+                report.messages,
+                nanos_to_secs(report.duration_ns)
+            )?;
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+// For display only.
+#[allow(clippy::cast_precision_loss)]
+fn nanos_to_secs(ns: i64) -> f64 {
+    ns as f64 / 1e9
+}

@@ -1,0 +1,127 @@
+//! Injected faults as the harness carries them out: which provider is faulty now, what
+//! becomes of its publications, and what starts and ends.
+
+use std::borrow::Cow;
+
+use lewis_interfaces::cdr::ENCAPSULATION_LE;
+use lewis_runtime::broker::{Event, ExitStatus, Health};
+use lewis_runtime::service::Rng;
+
+use super::engine::Work;
+use super::{Emitted, Lockstep, Sink};
+use crate::fault::FaultKind;
+
+/// SIGABRT: how an injected crash ends a process.
+pub(super) const SIGABRT: i32 = 6;
+
+impl Lockstep<'_> {
+    /// The kind of the fault `provider` suffers now, if any.
+    pub(super) fn fault_of(&self, provider: &str) -> Option<FaultKind> {
+        self.faults
+            .iter()
+            .find(|f| f.provider == provider && f.active_at(self.now_ns))
+            .map(|f| f.kind)
+    }
+
+    /// The bytes a provider's publication has after the faults: `None` when it is lost.
+    pub(super) fn through_faults<'b>(
+        &mut self,
+        provider: &str,
+        seq: u64,
+        bytes: &'b [u8],
+    ) -> Option<Cow<'b, [u8]>> {
+        match self.fault_of(provider) {
+            None => Some(Cow::Borrowed(bytes)),
+            Some(FaultKind::Garbage) => {
+                self.stats.faulted_publications += 1;
+                Some(Cow::Owned(garble(provider, seq, bytes.len())))
+            }
+            Some(_) => {
+                self.stats.faulted_publications += 1;
+                None
+            }
+        }
+    }
+
+    pub(super) fn fault_starts(&mut self, i: usize, sink: &mut dyn Sink) {
+        let fault = self.faults[i].clone();
+        sink.emit(Emitted::Fault {
+            fault: &fault,
+            time_ns: self.now_ns,
+            starts: true,
+        });
+        let provider = fault.provider.clone();
+        match fault.kind {
+            FaultKind::Crash => {
+                if let Some(sim) = self.sims.get_mut(&provider) {
+                    if sim.instance.take().is_none() {
+                        return;
+                    }
+                    sim.generation += 1;
+                }
+                self.work.push_back(Work::Broker(Event::ProcessExited {
+                    service: provider,
+                    status: ExitStatus::Signal(SIGABRT),
+                }));
+            }
+            FaultKind::Stall => {
+                if let Some(sim) = self.sims.get_mut(&provider) {
+                    sim.stalled = true;
+                }
+            }
+            FaultKind::OutOfService => {
+                self.work.push_back(Work::Broker(Event::Heartbeat {
+                    service: provider,
+                    health: injected_out_of_service(),
+                }));
+            }
+            FaultKind::Garbage => {}
+        }
+    }
+
+    pub(super) fn fault_ends(&mut self, i: usize, sink: &mut dyn Sink) {
+        let fault = self.faults[i].clone();
+        sink.emit(Emitted::Fault {
+            fault: &fault,
+            time_ns: self.now_ns,
+            starts: false,
+        });
+        match fault.kind {
+            FaultKind::Stall => {
+                if let Some(sim) = self.sims.get_mut(&fault.provider) {
+                    sim.stalled = false;
+                }
+            }
+            FaultKind::OutOfService => {
+                let health = self
+                    .sims
+                    .get(&fault.provider)
+                    .map_or(Health::Ok, |s| s.state.health().clone());
+                self.work.push_back(Work::Broker(Event::Heartbeat {
+                    service: fault.provider,
+                    health,
+                }));
+            }
+            FaultKind::Crash | FaultKind::Garbage => {}
+        }
+    }
+}
+
+/// The health an out-of-service fault declares.
+pub(super) fn injected_out_of_service() -> Health {
+    Health::OutOfService("injected fault: out-of-service".to_owned())
+}
+
+/// Bytes that do not decode, of the given length, the same for the same provider and
+/// sequence number.
+fn garble(provider: &str, seq: u64, len: usize) -> Vec<u8> {
+    let mut rng = Rng::new(Rng::seed_from_name(provider) ^ seq);
+    let mut out = ENCAPSULATION_LE.to_vec();
+    while out.len() < len.max(ENCAPSULATION_LE.len() + 4) {
+        out.extend_from_slice(&rng.next_u64().to_le_bytes());
+    }
+    // A provider string longer than the message: no decoder accepts it.
+    out[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+    out.truncate(len.max(ENCAPSULATION_LE.len() + 4));
+    out
+}
