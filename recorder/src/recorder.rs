@@ -422,10 +422,13 @@ impl Recorder {
         let Some(part) = &self.part else {
             return Ok(());
         };
+        // Not before the last periodic stats: the stats channel's times must not go back
+        // (`rerun mcap check` reports a channel whose chunks are out of order).
         let now_ns = part
             .last_log_time_ns
             .or(self.last_time_ns)
-            .unwrap_or_default();
+            .unwrap_or_default()
+            .max(self.last_stats_ns.unwrap_or(i64::MIN));
         self.write_stats(now_ns)?;
         let loss = metadata(
             LOSS_METADATA,
