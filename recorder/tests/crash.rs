@@ -18,8 +18,9 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 
 use common::traffic;
-use common::{Digests, doctor, options, python_read, sample};
+use common::{Digests, options, python_read, sample};
 use lewis_recorder::{Compression, Recorder, recover};
+use lewis_tests::doctor;
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 

@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::traffic;
-use common::{Digests, doctor, options, python_read, sample};
+use common::{Digests, options, python_read, sample};
 use lewis_recorder::{RecordError, Recorder, recover};
+use lewis_tests::doctor;
 use lewis_tests::small_disk::{Kind, SmallDisk, mount_tmpfs};
 
 #[test]

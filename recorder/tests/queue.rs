@@ -9,8 +9,9 @@ use std::collections::BTreeMap;
 use std::sync::mpsc;
 
 use common::traffic::{self, Msg};
-use common::{Digests, doctor, options, python_read, sample};
+use common::{Digests, options, python_read, sample};
 use lewis_recorder::{Compression, Dropped, QueueOptions, Recorder, SECOND_NS, spawn};
+use lewis_tests::doctor;
 
 #[test]
 fn the_stress_mix_through_the_queue_loses_nothing_and_keeps_every_sequence_number() {

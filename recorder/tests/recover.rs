@@ -6,8 +6,9 @@
 mod common;
 
 use common::traffic;
-use common::{Digests, doctor, options, python_read, write_all};
+use common::{Digests, options, python_read, write_all};
 use lewis_recorder::{Compression, Recorder, RecoverError, SECOND_NS, recover};
+use lewis_tests::doctor;
 
 fn record(path: &std::path::Path) -> std::collections::BTreeMap<String, common::TopicDigest> {
     let mut options = options(path);

@@ -205,12 +205,7 @@ impl FaultSpec {
             return Err(FaultError::UnknownProvider {
                 spec: self.text.clone(),
                 provider: self.provider.clone(),
-                known: robot
-                    .services
-                    .iter()
-                    .map(|s| s.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                known: robot.service_names(),
             });
         }
         let length_ns = end_ns.saturating_sub(start_ns).max(0);

@@ -70,6 +70,27 @@ pub fn run_ok(command: &mut Command) -> String {
     stdout
 }
 
+/// Checks an MCAP file with independent tools: `pymcap-cli doctor` and Rerun's `rerun mcap
+/// check` must both pass (the latter exits 0 and marks what it finds wrong with PROBLEM,
+/// e.g. a channel whose chunks go back in time).
+///
+/// # Panics
+/// When either tool reports a problem, or cannot run.
+pub fn doctor(file: &Path) {
+    let out = run_ok(python_tool("pymcap-cli").arg("doctor").arg(file));
+    assert!(
+        !out.contains("rror"),
+        "pymcap-cli doctor reports a problem in {}:\n{out}",
+        file.display()
+    );
+    let out = run_ok(python_tool("rerun").args(["mcap", "check"]).arg(file));
+    assert!(
+        !out.contains("PROBLEM"),
+        "rerun mcap check reports a problem in {}:\n{out}",
+        file.display()
+    );
+}
+
 pub mod broker;
 pub mod robot;
 pub mod small_disk;

@@ -14,8 +14,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use lewis_interfaces::msg::Mover;
+use lewis_tests::doctor;
 use lewis_tests::{lewis_exe, shared_data};
-use record_common::{Recording, assert_python_agrees, decode, doctor, header_of};
+use record_common::{Recording, assert_python_agrees, decode, header_of};
 use serde_json::Value;
 
 const FREIBURG: &str = "carmen/freiburg-079-corrected.log.gz";

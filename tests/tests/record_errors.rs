@@ -17,10 +17,11 @@ use lewis_interfaces::msg::Broker;
 use lewis_recorder::live::RECORDER_FAILED;
 use lewis_runtime::ipc::{Ipc, Namespace, WaitSet, WakeMode};
 use lewis_runtime::names;
+use lewis_tests::doctor;
 use lewis_tests::robot::{TestRobot, test_robot};
 use lewis_tests::small_disk::{Kind, SmallDisk};
 use lewis_tests::{RangeApp, Up, WATCHDOG, lewis_exe, open_ipc};
-use record_common::{RecordProcess, Recording, doctor};
+use record_common::{RecordProcess, Recording};
 
 /// Waits (watchdog) for a `recorder-failed` decision on `/lewis/broker`.
 fn wait_recorder_failed(subscriber: &mut lewis_runtime::ipc::Subscriber) -> Broker {

@@ -9,9 +9,10 @@ use std::ffi::OsStr;
 
 use lewis_interfaces::msg::{Broker, RangeFinder};
 use lewis_runtime::ipc::Namespace;
+use lewis_tests::doctor;
 use lewis_tests::robot::{TestRobot, set_fault, test_robot};
 use lewis_tests::{RangeApp, Up, open_ipc};
-use record_common::{Recording, assert_every_run_complete, decode, doctor};
+use record_common::{Recording, assert_every_run_complete, decode};
 
 #[test]
 fn the_sonar_started_by_a_failover_is_recorded_from_its_first_sample_with_the_rebind() {

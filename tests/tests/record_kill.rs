@@ -9,10 +9,11 @@ use std::ffi::OsStr;
 use std::process::Command;
 
 use lewis_runtime::ipc::Namespace;
+use lewis_tests::doctor;
 use lewis_tests::robot::{TestRobot, test_robot};
 use lewis_tests::{RangeApp, Up, Watched, lewis_exe, open_ipc, run_ok, signal, wait_node};
 use nix::sys::signal::Signal;
-use record_common::{Recording, assert_every_run_complete, assert_python_agrees, doctor};
+use record_common::{Recording, assert_every_run_complete, assert_python_agrees};
 
 #[test]
 fn a_recorder_killed_with_sigkill_leaves_a_file_that_lewis_recover_repairs() {

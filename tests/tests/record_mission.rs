@@ -10,8 +10,9 @@ use std::process::{Command, Stdio};
 
 use lewis_interfaces::msg::Sequencer;
 use lewis_runtime::ipc::Namespace;
+use lewis_tests::doctor;
 use lewis_tests::{lewis_exe, repo_root, wait_child};
-use record_common::{Recording, decode, doctor};
+use record_common::{Recording, decode};
 
 /// Exits 0, exits 1, crashes (restarted once, then recovery), recovers: every kind of
 /// record, with programs every system has.

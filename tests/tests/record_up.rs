@@ -13,9 +13,9 @@ use lewis_interfaces::msg::{Broker, CommandLog, LogLine, RangeFinder, RangeFinde
 use lewis_interfaces::{Message, cdr};
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::Namespace;
-use lewis_tests::{Up, WATCHDOG, open_ipc};
+use lewis_tests::{Up, WATCHDOG, doctor, open_ipc};
 use record_common::{
-    RecordProcess, Recording, assert_every_run_complete, assert_python_agrees, decode, doctor,
+    RecordProcess, Recording, assert_every_run_complete, assert_python_agrees, decode,
     test_robot_file,
 };
 

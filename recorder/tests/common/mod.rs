@@ -133,24 +133,6 @@ pub fn python_read(files: &[PathBuf]) -> PythonView {
     }
 }
 
-/// `pymcap-cli doctor FILE` and Rerun's `rerun mcap check FILE` must pass (the latter
-/// exits 0 and marks what it finds wrong with PROBLEM, e.g. a channel whose chunks go back
-/// in time).
-pub fn doctor(file: &Path) {
-    let out = run_ok(python_tool("pymcap-cli").arg("doctor").arg(file));
-    assert!(
-        !out.contains("rror"),
-        "pymcap-cli doctor reports a problem in {}:\n{out}",
-        file.display()
-    );
-    let out = run_ok(python_tool("rerun").args(["mcap", "check"]).arg(file));
-    assert!(
-        !out.contains("PROBLEM"),
-        "rerun mcap check reports a problem in {}:\n{out}",
-        file.display()
-    );
-}
-
 /// Recorder options for tests: small reserve, no sync (tmpfs-like speed).
 pub fn options(path: &Path) -> RecorderOptions {
     let mut options = RecorderOptions::new(path);

@@ -317,12 +317,7 @@ impl<'a> Lockstep<'a> {
                 .service(name)
                 .ok_or_else(|| LockstepError::UnknownService {
                     service: name.clone(),
-                    known: robot
-                        .services
-                        .iter()
-                        .map(|s| s.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", "),
+                    known: robot.service_names(),
                 })?;
             let config = ServiceConfig {
                 spec,

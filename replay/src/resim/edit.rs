@@ -223,12 +223,7 @@ fn apply(table: &mut toml::Table, robot: &Robot, edit: &ParamEdit) -> Result<(),
     let unknown = || EditError::UnknownService {
         text: edit.text.clone(),
         service: edit.service.clone(),
-        known: robot
-            .services
-            .iter()
-            .map(|s| s.name.as_str())
-            .collect::<Vec<_>>()
-            .join(", "),
+        known: robot.service_names(),
     };
     let service = table
         .get_mut("services")

@@ -248,12 +248,7 @@ pub fn select_services(
                 if robot.service(name).is_none() {
                     return Err(ReplayError::UnknownService {
                         service: name.clone(),
-                        known: robot
-                            .services
-                            .iter()
-                            .map(|s| s.name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", "),
+                        known: robot.service_names(),
                     });
                 }
                 buildable(name).map_err(|reason| ReplayError::NotRunnable {

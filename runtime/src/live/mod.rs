@@ -105,12 +105,7 @@ pub fn run_service(
         .ok_or_else(|| LiveError::UnknownService {
             robot: robot.name.clone(),
             service: service.to_owned(),
-            known: robot
-                .services
-                .iter()
-                .map(|s| s.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
+            known: robot.service_names(),
         })?;
     let config = ServiceConfig {
         spec,

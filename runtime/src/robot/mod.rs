@@ -78,6 +78,17 @@ impl Robot {
     pub fn service(&self, name: &str) -> Option<&ServiceSpec> {
         self.services.iter().find(|s| s.name == name)
     }
+
+    /// The names of its services, comma-separated: what an error about an unknown service
+    /// lists as the valid ones.
+    #[must_use]
+    pub fn service_names(&self) -> String {
+        self.services
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
 /// The broker's settings for the whole robot.

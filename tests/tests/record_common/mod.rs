@@ -7,7 +7,7 @@ pub mod stream;
 
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{Receiver, channel};
 
@@ -178,24 +178,6 @@ pub fn assert_python_agrees(files: &[PathBuf], recording: &Recording) {
             assert_eq!(channel["schema_encoding"], "ros2msg", "{topic}");
         }
     }
-}
-
-/// `pymcap-cli doctor FILE` and Rerun's `rerun mcap check FILE` must pass (the latter
-/// exits 0 and marks what it finds wrong with PROBLEM, e.g. a channel whose chunks go back
-/// in time).
-pub fn doctor(file: &Path) {
-    let out = run_ok(python_tool("pymcap-cli").arg("doctor").arg(file));
-    assert!(
-        !out.contains("rror"),
-        "pymcap-cli doctor reports a problem in {}:\n{out}",
-        file.display()
-    );
-    let out = run_ok(python_tool("rerun").args(["mcap", "check"]).arg(file));
-    assert!(
-        !out.contains("PROBLEM"),
-        "rerun mcap check reports a problem in {}:\n{out}",
-        file.display()
-    );
 }
 
 /// A running `lewis record`, its stdout and stderr read line by line (stderr lines are
