@@ -179,12 +179,9 @@ impl Lockstep<'_> {
                 service,
                 generation,
             } => {
-                let Some(sim) = self.sims.get(&service) else {
+                let Some(sim) = self.running(&service, generation) else {
                     return;
                 };
-                if sim.generation != generation || sim.instance.is_none() {
-                    return;
-                }
                 let period = sim.tick_period_ns.unwrap_or(i64::MAX);
                 if !sim.stalled {
                     self.stats.ticks += 1;
@@ -203,12 +200,9 @@ impl Lockstep<'_> {
                 service,
                 generation,
             } => {
-                let Some(sim) = self.sims.get(&service) else {
+                let Some(sim) = self.running(&service, generation) else {
                     return;
                 };
-                if sim.generation != generation || sim.instance.is_none() {
-                    return;
-                }
                 if !sim.stalled {
                     let health = match self.fault_of(&service) {
                         Some(FaultKind::OutOfService) => injected_out_of_service(),
@@ -538,12 +532,16 @@ impl Lockstep<'_> {
         });
     }
 
-    fn run_start(&mut self, service: &str, generation: u64, sink: &mut dyn Sink) {
-        if self
-            .sims
+    /// The service's simulation when `generation` is its current instance and it runs (a
+    /// timer or start queued for an instance that crashed or was replaced is dropped).
+    fn running(&self, service: &str, generation: u64) -> Option<&Sim> {
+        self.sims
             .get(service)
-            .is_none_or(|s| s.generation != generation || s.instance.is_none())
-        {
+            .filter(|s| s.generation == generation && s.instance.is_some())
+    }
+
+    fn run_start(&mut self, service: &str, generation: u64, sink: &mut dyn Sink) {
+        if self.running(service, generation).is_none() {
             return;
         }
         let mut outcome = Ok(());

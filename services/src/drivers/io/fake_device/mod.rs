@@ -271,23 +271,7 @@ impl<E: Emulated> FakeDevice<E> {
         timeout: Duration,
         mut done: impl FnMut(&mut E::Device) -> bool,
     ) -> bool {
-        let deadline = Instant::now() + timeout;
-        let mut state = self.shared.lock();
-        loop {
-            if done(state.emulation.device()) {
-                return true;
-            }
-            let now = Instant::now();
-            if now >= deadline || state.failure.is_some() {
-                return false;
-            }
-            state = self
-                .shared
-                .changed
-                .wait_timeout(state, deadline - now)
-                .unwrap_or_else(PoisonError::into_inner)
-                .0;
-        }
+        self.wait_state(timeout, |state| done(state.emulation.device()))
     }
 
     /// Waits until `done` holds for the line's counters (plugging included), at most
@@ -297,10 +281,16 @@ impl<E: Emulated> FakeDevice<E> {
         timeout: Duration,
         mut done: impl FnMut(&EmulatorStats) -> bool,
     ) -> bool {
+        self.wait_state(timeout, |state| done(&state.stats))
+    }
+
+    /// Waits until `done` holds for the shared state, at most `timeout` or until the
+    /// emulator thread failed; whether it held. Checked after every step of the thread.
+    fn wait_state(&self, timeout: Duration, mut done: impl FnMut(&mut State<E>) -> bool) -> bool {
         let deadline = Instant::now() + timeout;
         let mut state = self.shared.lock();
         loop {
-            if done(&state.stats) {
+            if done(&mut state) {
                 return true;
             }
             let now = Instant::now();
