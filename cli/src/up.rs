@@ -78,20 +78,29 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
     };
     let goal = crate::goal::start(&args.goal, &robot, &options.namespace)?;
     let mission = crate::mission::start(&args.mission, &options.namespace)?;
-    let summary = run_up(&robot, &options);
-    // The mission ends before the recorder stops, which records its last decisions.
-    let mission = mission.map(crate::mission::MissionRun::finish);
-    // Stopped last: it records the services' last words and the broker's stop decisions.
-    if let Some(recorder) = recorder {
-        recorder.stop();
-    }
+    let (mut mission, mut recorder) = (mission, recorder);
+    let mut mission_code = None;
+    let mut finish = || {
+        // The mission ends before the recorder stops, which records its last decisions.
+        if let Some(run) = mission.take() {
+            mission_code = Some(run.finish());
+        }
+        // Stopped after the services (it records their last words and the broker's stop
+        // decisions) and before the broker's channels close.
+        if let Some(recorder) = recorder.take() {
+            recorder.stop();
+        }
+    };
+    let summary = run_up(&robot, &options, &mut finish);
+    // When the broker could not run, `finish` has not run yet.
+    finish();
     let summary = summary?;
     tracing::info!(
         "broker down ({}), {} decisions",
         summary.ended_by,
         summary.decisions
     );
-    if let Some(code) = mission {
+    if let Some(code) = mission_code {
         return code;
     }
     goal.map_or(Ok(ExitCode::SUCCESS), crate::goal::GoalRun::finish)

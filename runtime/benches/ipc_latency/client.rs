@@ -141,7 +141,7 @@ pub fn up_role() -> Res<()> {
         duration: None,
         stop_grace: Duration::from_millis(300),
     };
-    run_up(&robot, &options)?;
+    run_up(&robot, &options, &mut || {})?;
     Ok(())
 }
 

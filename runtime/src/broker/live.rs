@@ -21,7 +21,7 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::os::fd::AsFd;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{Receiver, sync_channel};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
@@ -183,9 +183,19 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
 /// Runs the broker and the robot's services until a stop signal or the duration, then stops
 /// every service in reverse start order.
 ///
+/// `before_close` runs once every service has stopped and its last lines are published, but
+/// before the broker's own channels (`/lewis/broker`, `/lewis/log`) close: the place to stop
+/// a recorder. A sample whose publisher is gone before a subscriber first maps the
+/// publisher's shared memory is lost to that subscriber, so a recorder stopped after the
+/// broker could miss the last lines. It does not run when the broker cannot start.
+///
 /// # Errors
 /// When IPC, supervision or the signal handlers cannot be set up.
-pub fn run_up(robot: &Robot, options: &UpOptions) -> Result<UpSummary, UpError> {
+pub fn run_up(
+    robot: &Robot,
+    options: &UpOptions,
+    before_close: &mut dyn FnMut(),
+) -> Result<UpSummary, UpError> {
     let signals = StopSignals::install().map_err(UpError::Signals)?;
     let (log_tx, log_rx) = sync_channel(LOG_QUEUE);
     let forwarder = spawn_log_forwarder(options.namespace.clone(), log_rx)?;
@@ -198,9 +208,21 @@ pub fn run_up(robot: &Robot, options: &UpOptions) -> Result<UpSummary, UpError> 
     };
     driver.shutdown();
     // Dropping the supervisor closes the log channel: the forwarder publishes what is left
-    // and ends.
-    drop(driver);
-    let _ = forwarder.join();
+    // and hands back its publisher, kept open (like the decisions' one) until after
+    // `before_close`.
+    let Driver {
+        supervisor,
+        ipc,
+        decisions_out,
+        ..
+    } = driver;
+    drop(supervisor);
+    // Returns when every line is published (or the forwarder is gone).
+    let _ = forwarder.flushed.recv();
+    before_close();
+    drop(forwarder.close);
+    let _ = forwarder.thread.join();
+    drop((decisions_out, ipc));
     Ok(summary)
 }
 
@@ -655,11 +677,24 @@ fn level_of(text: &str) -> &'static str {
     ""
 }
 
+/// The thread that publishes the services' lines on `/lewis/log`.
+struct LogForwarder {
+    /// Says that the supervisor closed the lines and every one is published.
+    flushed: Receiver<()>,
+    /// Dropped to let the thread close its publisher and end.
+    close: SyncSender<()>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+/// Publishes `lines` until the supervisor closes them, then keeps its publisher open until
+/// told to close (the publisher is bound to its thread).
 fn spawn_log_forwarder(
     namespace: Namespace,
     lines: Receiver<LogLine>,
-) -> Result<std::thread::JoinHandle<()>, UpError> {
-    std::thread::Builder::new()
+) -> Result<LogForwarder, UpError> {
+    let (flushed_tx, flushed) = sync_channel(1);
+    let (close, close_rx) = sync_channel::<()>(0);
+    let thread = std::thread::Builder::new()
         .name("lewis-log".into())
         .spawn(move || {
             let publisher = Ipc::open(&namespace, "lewis-log").and_then(|ipc| {
@@ -667,7 +702,7 @@ fn spawn_log_forwarder(
                     .map(|p| (ipc, p))
             });
             let mut publisher = match publisher {
-                Ok((_ipc, publisher)) => Some((_ipc, publisher)),
+                Ok(opened) => Some(opened),
                 Err(e) => {
                     tracing::warn!("service logs are not published on /lewis/log: {e}");
                     None
@@ -697,8 +732,17 @@ fn spawn_log_forwarder(
                     let _ = cdr::encode_into(&message, buf);
                 });
             }
+            let _ = flushed_tx.send(());
+            // Ends when `close` is dropped.
+            let _ = close_rx.recv();
+            drop(publisher);
         })
-        .map_err(UpError::Thread)
+        .map_err(UpError::Thread)?;
+    Ok(LogForwarder {
+        flushed,
+        close,
+        thread,
+    })
 }
 
 #[cfg(test)]
