@@ -26,8 +26,8 @@
 //! - Rotation by size or duration, with a parts index ([`index`]).
 //! - A full disk: a reserve of space beside the file is given back so that the file is
 //!   closed valid; other errors name the path ([`RecordError`]).
-//! - [`spawn`]: the bounded queue and writer thread; the tap calls [`Tap::try_record`],
-//!   which never blocks (drop and count when full).
+//! - [`spawn`]: the bounded queue and writer thread; the tap calls [`Tap::try_record`] or
+//!   records into a [`TapBatch`], which never block (drop and count when full).
 
 mod channel;
 mod error;
@@ -51,7 +51,7 @@ pub use error::RecordError;
 pub use loss::ChannelCounts;
 pub use options::{Compression, RecorderOptions, RobotDescription, SECOND_NS, UnknownCompression};
 pub use part::PROFILE;
-pub use queue::{Dropped, QueueOptions, Tap, WriterThread, spawn};
+pub use queue::{Dropped, QueueOptions, Tap, TapBatch, WriterThread, spawn};
 pub use recorder::{
     INTERFACES_METADATA, LOSS_METADATA, RECORDING_METADATA, ROBOT_METADATA, Recorder,
     RecordingReport, STATS_TOPIC,

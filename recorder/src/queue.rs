@@ -1,9 +1,10 @@
 //! The bounded queue between the tap (which sees every publication) and the writer
 //! thread (which owns the [`Recorder`]).
 //!
-//! **Policy**: the tap never waits. [`Tap::try_record`] copies the bytes and hands them to
-//! the queue if it has room for one more message *and* for its bytes; otherwise the
-//! message is dropped, counted per channel, and `Err(Dropped)` returned. Messages the tap
+//! **Policy**: the tap never waits. [`Tap::try_record`] (or [`TapBatch::record`], for many
+//! messages in a row) copies the bytes and queues them for the writer if the queue has room
+//! for one more message *and* for its bytes; otherwise the message is dropped, counted per
+//! channel, and `Err(Dropped)` returned. Messages the tap
 //! never received (its IPC buffer overflowed) are counted the same way
 //! ([`Tap::count_missed`]): `dropped` is everything the recorder itself failed to take. A
 //! dropped message also shows in the file as a gap in its channel's sequence numbers, which
@@ -78,13 +79,41 @@ struct Shared {
     robot: Mutex<Option<RobotDescription>>,
     queued_bytes: AtomicUsize,
     capacity_bytes: usize,
+    queued_messages: AtomicUsize,
+    capacity_messages: usize,
     dropped: AtomicU64,
+    /// Emptied batches, for the tap to fill again.
+    pool: Mutex<Vec<Batch>>,
 }
 
 impl Shared {
     fn channels(&self) -> std::sync::MutexGuard<'_, Vec<Arc<Registered>>> {
         // A panic while holding this lock leaves the list valid: keep using it.
         self.channels.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn release(&self, bytes: usize, messages: usize) {
+        self.queued_bytes.fetch_sub(bytes, Ordering::AcqRel);
+        self.queued_messages.fetch_sub(messages, Ordering::AcqRel);
+    }
+
+    fn take_batch(&self) -> Batch {
+        self.pool
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop()
+            .unwrap_or_default()
+    }
+
+    fn recycle(&self, mut batch: Batch) {
+        if batch.bytes.capacity() > RECYCLED_BYTES {
+            return;
+        }
+        batch.clear();
+        let mut pool = self.pool.lock().unwrap_or_else(PoisonError::into_inner);
+        if pool.len() < POOL_BATCHES {
+            pool.push(batch);
+        }
     }
 
     fn take_robot(&self) -> Option<RobotDescription> {
@@ -95,16 +124,58 @@ impl Shared {
     }
 }
 
-struct Owned {
+/// Where one message of a [`Batch`] is and what it is.
+struct Meta {
     channel: ChannelId,
     seq: u64,
     publish_time_ns: i64,
     log_time_ns: i64,
-    data: Vec<u8>,
+    /// Where its bytes end in [`Batch::bytes`] (they start where the previous one's end).
+    end: usize,
 }
 
+/// Messages copied one after the other into one buffer and handed to the writer together:
+/// one queue operation, one allocation (recycled) and sequential reads for many messages,
+/// instead of one of each per message.
+#[derive(Default)]
+struct Batch {
+    messages: Vec<Meta>,
+    bytes: Vec<u8>,
+}
+
+impl Batch {
+    fn iter(&self) -> impl Iterator<Item = Sample<'_>> {
+        let mut start = 0;
+        self.messages.iter().map(move |m| {
+            let data = &self.bytes[start..m.end];
+            start = m.end;
+            Sample {
+                channel: m.channel,
+                seq: m.seq,
+                publish_time_ns: m.publish_time_ns,
+                log_time_ns: m.log_time_ns,
+                data,
+            }
+        })
+    }
+
+    fn clear(&mut self) {
+        self.messages.clear();
+        self.bytes.clear();
+    }
+}
+
+/// A batch holds at most this many messages...
+const BATCH_MESSAGES: usize = 256;
+/// ...and this many bytes, unless its only message is longer.
+const BATCH_BYTES: usize = 256 * 1024;
+/// Emptied batches kept for reuse; one whose buffer grew past `RECYCLED_BYTES` (a large
+/// message) is freed instead, so that the pool stays small.
+const POOL_BATCHES: usize = 16;
+const RECYCLED_BYTES: usize = 2 * BATCH_BYTES;
+
 enum Entry {
-    Message(Owned),
+    Batch(Batch),
     Stop,
 }
 
@@ -143,31 +214,36 @@ impl Tap {
     /// # Errors
     /// [`Dropped`] when the queue is full or the writer has stopped.
     pub fn try_record(&self, sample: &Sample<'_>) -> Result<(), Dropped> {
-        let len = sample.data.len();
+        let mut batch = self.batch();
+        batch.record(sample)?;
+        batch.flush()
+    }
+
+    /// A batch for many messages in a row (what a tap takes in one go): each is queued as
+    /// by [`Tap::try_record`], with the same bounds and accounting, but they reach the
+    /// writer together, when the batch fills, on [`TapBatch::flush`] or when it is dropped.
+    #[must_use]
+    pub fn batch(&self) -> TapBatch<'_> {
+        TapBatch {
+            tap: self,
+            batch: self.shared.take_batch(),
+            dropped: 0,
+        }
+    }
+
+    /// Makes room in the queue's bounds for one message of `len` bytes, or counts it
+    /// dropped.
+    fn reserve(&self, channel: ChannelId, len: usize) -> Result<(), Dropped> {
         let before = self.shared.queued_bytes.fetch_add(len, Ordering::AcqRel);
-        if before > 0 && before + len > self.shared.capacity_bytes {
-            self.shared.queued_bytes.fetch_sub(len, Ordering::AcqRel);
-            self.count_dropped(sample.channel, 1);
+        let messages = self.shared.queued_messages.fetch_add(1, Ordering::AcqRel);
+        if (before > 0 && before + len > self.shared.capacity_bytes)
+            || messages >= self.shared.capacity_messages
+        {
+            self.shared.release(len, 1);
+            self.count_dropped(channel, 1);
             return Err(Dropped::QueueFull);
         }
-        let entry = Entry::Message(Owned {
-            channel: sample.channel,
-            seq: sample.seq,
-            publish_time_ns: sample.publish_time_ns,
-            log_time_ns: sample.log_time_ns,
-            data: sample.data.to_vec(),
-        });
-        match self.sender.try_send(entry) {
-            Ok(()) => Ok(()),
-            Err(error) => {
-                self.shared.queued_bytes.fetch_sub(len, Ordering::AcqRel);
-                self.count_dropped(sample.channel, 1);
-                Err(match error {
-                    TrySendError::Full(_) => Dropped::QueueFull,
-                    TrySendError::Disconnected(_) => Dropped::Stopped,
-                })
-            }
-        }
+        Ok(())
     }
 
     /// Messages dropped so far on `channel`.
@@ -207,6 +283,98 @@ impl Tap {
         {
             registered.dropped.fetch_add(count, Ordering::Relaxed);
         }
+    }
+}
+
+/// Messages on their way to the writer together (from [`Tap::batch`]); what it holds is
+/// handed over when it is dropped.
+pub struct TapBatch<'t> {
+    tap: &'t Tap,
+    batch: Batch,
+    dropped: u64,
+}
+
+impl TapBatch<'_> {
+    /// Copies the message into the batch, or drops and counts it; hands the batch to the
+    /// writer when it is full.
+    ///
+    /// # Errors
+    /// [`Dropped`] when the queue is full or the writer has stopped.
+    pub fn record(&mut self, sample: &Sample<'_>) -> Result<(), Dropped> {
+        let len = sample.data.len();
+        if !self.batch.messages.is_empty()
+            && self.batch.bytes.len() + len > BATCH_BYTES
+            && let Err(dropped) = self.flush()
+        {
+            self.tap.count_dropped(sample.channel, 1);
+            self.dropped += 1;
+            return Err(dropped);
+        }
+        if let Err(dropped) = self.tap.reserve(sample.channel, len) {
+            self.dropped += 1;
+            return Err(dropped);
+        }
+        self.batch.bytes.extend_from_slice(sample.data);
+        self.batch.messages.push(Meta {
+            channel: sample.channel,
+            seq: sample.seq,
+            publish_time_ns: sample.publish_time_ns,
+            log_time_ns: sample.log_time_ns,
+            end: self.batch.bytes.len(),
+        });
+        if self.batch.messages.len() >= BATCH_MESSAGES || self.batch.bytes.len() >= BATCH_BYTES {
+            return self.flush();
+        }
+        Ok(())
+    }
+
+    /// Messages this batch dropped (and counted) so far.
+    #[must_use]
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
+    /// Hands what the batch holds to the writer.
+    ///
+    /// # Errors
+    /// [`Dropped::Stopped`] when the writer has stopped: the messages it held are dropped
+    /// and counted.
+    pub fn flush(&mut self) -> Result<(), Dropped> {
+        if self.batch.messages.is_empty() {
+            return Ok(());
+        }
+        let batch = std::mem::replace(&mut self.batch, self.tap.shared.take_batch());
+        // The reservations bound the messages queued to the channel's capacity, so it is
+        // never full; only a stopped writer refuses.
+        match self.tap.sender.try_send(Entry::Batch(batch)) {
+            Ok(()) => Ok(()),
+            Err(error) => {
+                let (reason, entry) = match error {
+                    TrySendError::Full(entry) => (Dropped::QueueFull, entry),
+                    TrySendError::Disconnected(entry) => (Dropped::Stopped, entry),
+                };
+                if let Entry::Batch(batch) = entry {
+                    self.tap
+                        .shared
+                        .release(batch.bytes.len(), batch.messages.len());
+                    for m in &batch.messages {
+                        self.tap.count_dropped(m.channel, 1);
+                    }
+                    self.dropped += batch.messages.len() as u64;
+                    self.tap.shared.recycle(batch);
+                }
+                Err(reason)
+            }
+        }
+    }
+}
+
+impl Drop for TapBatch<'_> {
+    fn drop(&mut self) {
+        // Counted if refused; nobody is left to tell.
+        let _ = self.flush();
+        let batch = std::mem::take(&mut self.batch);
+        self.tap.shared.recycle(batch);
     }
 }
 
@@ -265,7 +433,10 @@ pub fn spawn(
         robot: Mutex::new(None),
         queued_bytes: AtomicUsize::new(0),
         capacity_bytes: queue.capacity_bytes,
+        queued_messages: AtomicUsize::new(0),
+        capacity_messages: queue.capacity_messages.max(1),
         dropped: AtomicU64::new(0),
+        pool: Mutex::new(Vec::new()),
     });
     let (sender, receiver) = mpsc::sync_channel(queue.capacity_messages.max(1));
     let thread_shared = Arc::clone(&shared);
@@ -309,30 +480,25 @@ fn drain(
     let mut since_sweep = 0_u32;
     loop {
         match receiver.recv_timeout(IDLE_TICK) {
-            Ok(Entry::Message(message)) => {
-                shared
-                    .queued_bytes
-                    .fetch_sub(message.data.len(), Ordering::AcqRel);
-                if usize::try_from(message.channel.0).unwrap_or(usize::MAX)
-                    >= recorder.channel_count()
-                {
-                    add_new_channels(&mut recorder, shared)?;
+            Ok(Entry::Batch(batch)) => {
+                for sample in batch.iter() {
+                    if usize::try_from(sample.channel.0).unwrap_or(usize::MAX)
+                        >= recorder.channel_count()
+                    {
+                        add_new_channels(&mut recorder, shared)?;
+                    }
+                    recorder.write(&sample)?;
+                    if !write_delay.is_zero() {
+                        std::thread::sleep(write_delay);
+                    }
+                    since_sweep += 1;
+                    if since_sweep >= DROP_SWEEP_EVERY {
+                        since_sweep = 0;
+                        sweep_drops(&mut recorder, shared, &mut drops_seen);
+                    }
                 }
-                recorder.write(&Sample {
-                    channel: message.channel,
-                    seq: message.seq,
-                    publish_time_ns: message.publish_time_ns,
-                    log_time_ns: message.log_time_ns,
-                    data: &message.data,
-                })?;
-                if !write_delay.is_zero() {
-                    std::thread::sleep(write_delay);
-                }
-                since_sweep += 1;
-                if since_sweep >= DROP_SWEEP_EVERY {
-                    since_sweep = 0;
-                    sweep_drops(&mut recorder, shared, &mut drops_seen);
-                }
+                shared.release(batch.bytes.len(), batch.messages.len());
+                shared.recycle(batch);
             }
             Ok(Entry::Stop) | Err(RecvTimeoutError::Disconnected) => break,
             Err(RecvTimeoutError::Timeout) => {

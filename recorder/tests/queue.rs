@@ -220,3 +220,67 @@ fn a_channel_registered_at_the_tap_appears_in_the_file_before_its_first_message(
     let view = python_read(&[path]);
     assert!(view.file(0)["channels"]["/sensor03/Distance"].is_object());
 }
+
+#[test]
+fn batches_hand_over_every_message_in_order_within_the_same_bounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("batched.mcap");
+    let recorder = Recorder::create(options(&path)).unwrap();
+    // Room for 1000 messages: a held writer takes exactly that many, batched or not.
+    let queue = QueueOptions {
+        capacity_messages: 1000,
+        capacity_bytes: 64 * 1024 * 1024,
+        ..QueueOptions::default()
+    };
+    let (gate, clock) = gated_clock();
+    let (tap, writer) = spawn(recorder, queue, clock).unwrap();
+    let channels = traffic::stress_channels();
+    let ids: Vec<_> = channels.iter().map(|c| tap.register(c.clone())).collect();
+    let mut digests = Digests::default();
+    gate.held.recv().unwrap();
+    let mut batch = tap.batch();
+    let mut taken = 0;
+    // One second of the mix (20,030 messages, the camera's frames among them) offered in
+    // one go to a writer that is held: batches fill, hand over, and the bound holds.
+    for m in traffic::stress_mix(SECOND_NS) {
+        match batch.record(&sample(ids[m.channel], &m)) {
+            Ok(()) => {
+                taken += 1;
+                digests.add(&channels[m.channel].topic, m.seq, &m.data);
+            }
+            Err(reason) => assert_eq!(reason, Dropped::QueueFull),
+        }
+    }
+    batch.flush().unwrap();
+    assert_eq!(taken, 1000);
+    assert_eq!(batch.dropped(), 20 * 1000 + 30 - 1000);
+    assert_eq!(tap.dropped_total(), batch.dropped());
+    drop(batch);
+    drop(gate);
+    let report = writer.finish().unwrap();
+    assert_eq!(report.messages(), 1000);
+    let view = python_read(&[path]);
+    assert_eq!(view.digests(), digests.finish());
+}
+
+#[test]
+fn a_batch_handed_to_a_stopped_writer_is_dropped_and_counted_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let recorder = Recorder::create(options(&dir.path().join("r.mcap"))).unwrap();
+    let (tap, writer) = spawn(recorder, QueueOptions::default(), || 0).unwrap();
+    let id = tap.register(traffic::stress_channels()[0].clone());
+    let mut batch = tap.batch();
+    for seq in 1..=10 {
+        let m = Msg {
+            channel: 0,
+            seq,
+            publish_time_ns: 0,
+            log_time_ns: 0,
+            data: traffic::small_message(0, seq, 0),
+        };
+        batch.record(&sample(id, &m)).unwrap();
+    }
+    writer.finish().unwrap();
+    assert_eq!(batch.flush(), Err(Dropped::Stopped));
+    assert_eq!((batch.dropped(), tap.dropped(id)), (10, 10));
+}

@@ -210,6 +210,8 @@ impl LiveTap {
     /// Takes every unread sample of every channel; false when the recorder has stopped.
     fn take_all(&mut self, tap: &Tap) -> bool {
         let mut running = true;
+        // One hand-over to the writer for everything taken in this turn.
+        let mut batch = tap.batch();
         for channel in &mut self.channels {
             // A look at shared memory, cheaper than a receive that finds nothing.
             if !channel.subscriber.has_data() {
@@ -241,13 +243,8 @@ impl LiveTap {
                     log_time_ns,
                     data: bytes,
                 };
-                match tap.try_record(&sample) {
-                    Ok(()) => {}
-                    Err(Dropped::QueueFull) => self.counts.refused += 1,
-                    Err(Dropped::Stopped) => {
-                        self.counts.refused += 1;
-                        running = false;
-                    }
+                if batch.record(&sample) == Err(Dropped::Stopped) {
+                    running = false;
                 }
             }
             // Gaps in the IPC publisher's numbering: samples overwritten in the buffer
@@ -259,6 +256,10 @@ impl LiveTap {
                 channel.missed = missed;
             }
         }
+        if batch.flush() == Err(Dropped::Stopped) {
+            running = false;
+        }
+        self.counts.refused += batch.dropped();
         running
     }
 }
