@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context as _;
 use clap::Args;
-use lewis_runtime::live::run_service;
+use lewis_runtime::live::{CLOCK_ENV, ClockSource, run_service};
 use lewis_runtime::service::ServiceRegistry;
 
 use crate::up::{init_logs, load_robot, namespace};
@@ -21,6 +22,10 @@ pub struct ServiceArgs {
     /// The IPC namespace (default: `LEWIS_NAMESPACE`, else `default`).
     #[arg(long)]
     pub namespace: Option<String>,
+    /// The clock the service reads: `wall` or `played` (/lewis/clock from `lewis play`)
+    /// (default: `LEWIS_CLOCK`, else `wall`).
+    #[arg(long, value_name = "CLOCK")]
+    pub clock: Option<ClockSource>,
 }
 
 /// Every service kind this binary can run.
@@ -34,6 +39,15 @@ pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
     init_logs();
     let robot = load_robot(&args.robot)?;
     let namespace = namespace(args.namespace.as_deref())?;
-    run_service(&robot, &args.name, &registry(), &namespace)?;
+    let clock = match args.clock {
+        Some(clock) => clock,
+        None => match std::env::var(CLOCK_ENV) {
+            Ok(value) => value
+                .parse()
+                .with_context(|| format!("{CLOCK_ENV}={value}"))?,
+            Err(_) => ClockSource::Wall,
+        },
+    };
+    run_service(&robot, &args.name, &registry(), &namespace, clock)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -8,6 +8,7 @@ use anyhow::Context as _;
 use clap::Args;
 use lewis_runtime::broker::live::{UpOptions, run_up};
 use lewis_runtime::ipc::Namespace;
+use lewis_runtime::live::ClockSource;
 use lewis_runtime::robot::{self, Robot};
 use lewis_runtime::supervise::DEFAULT_STOP_GRACE;
 
@@ -25,6 +26,10 @@ pub struct UpArgs {
     /// Milliseconds a service has between SIGTERM and SIGKILL when it is stopped.
     #[arg(long, value_name = "MS")]
     pub stop_grace_ms: Option<u64>,
+    /// The clock the services read: `wall` (the machine's) or `played` (the time of a
+    /// recording played by `lewis play`, on /lewis/clock, like ROS 2's use_sim_time).
+    #[arg(long, value_name = "CLOCK", default_value = "wall")]
+    pub clock: ClockSource,
     /// Do not record (by default a recorder subscribes before the services start).
     #[arg(long)]
     pub no_record: bool,
@@ -64,6 +69,7 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
         stop_grace: args
             .stop_grace_ms
             .map_or(DEFAULT_STOP_GRACE, Duration::from_millis),
+        clock: args.clock,
     };
     let recorder = if args.no_record {
         None

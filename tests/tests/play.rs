@@ -131,7 +131,10 @@ fn a_played_recording_reaches_live_subscribers_byte_for_byte_in_order_with_its_c
     }
     assert!(clock.len() >= 2, "{clock:?}");
     assert!(clock.windows(2).all(|w| w[0].time_ns <= w[1].time_ns));
-    assert!(clock.iter().all(|c| c.rate == 2.0 && !c.paused));
+    assert!(clock.iter().all(|c| c.rate == 2.0));
+    // Paused only at the end: the time stands there for the services that follow it.
+    let (end, playing) = clock.split_last().unwrap();
+    assert!(end.paused && playing.iter().all(|c| !c.paused), "{clock:?}");
     let last_log = recorded
         .topics
         .values()
@@ -275,5 +278,110 @@ fn the_terminals_keys_step_and_resume_a_paused_playback() {
         mode.local_flags.contains(line_mode),
         "{:?}",
         mode.local_flags
+    );
+}
+
+/// A synthetic laser named `sensor` (its channel is not one the player publishes), ticking
+/// at 20 Hz.
+const TICKING: &str = r#"
+[robot]
+name = "ticking"
+
+[[services]]
+name = "sensor"
+kind = "test-range"
+start = "always"
+provides = [{ interface = "RangeFinder", quality = 1, cost = 1 }]
+
+[services.parameters]
+beams = 8
+rate_hz = 20.0
+seed = 1
+"#;
+
+#[test]
+fn a_live_service_on_the_played_clock_ticks_and_stamps_in_the_recordings_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = import(dir.path(), 60);
+    let robot = dir.path().join("ticking.toml");
+    std::fs::write(&robot, TICKING).unwrap();
+    let namespace = Namespace::unique("play-clock");
+    let ipc = open_ipc(&namespace, "test-subscriber");
+    let mut scans = ipc
+        .subscriber(
+            "/sensor/RangeFinder",
+            &names::channel_config("/sensor/RangeFinder"),
+        )
+        .unwrap();
+    let recorded = Recording::read(std::slice::from_ref(&file));
+    let log_times = recorded
+        .topics
+        .values()
+        .flatten()
+        .map(|m| i64::try_from(m.log_time_ns).unwrap());
+    let (first, last) = (log_times.clone().min().unwrap(), log_times.max().unwrap());
+    assert!(
+        last - first > 2_000_000_000,
+        "a short recording: {first}..{last}"
+    );
+    let mut service = Command::new(lewis_exe())
+        .args(["service", "sensor", "--robot"])
+        .arg(&robot)
+        .args(["--namespace", namespace.as_str(), "--clock", "played"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Its node is up before the player starts (a clock sample it meets late is kept for
+    // it as the channel's history).
+    let _pid = lewis_tests::wait_node(&ipc, "sensor", None);
+    let mut player = play(&file, &namespace, &["--rate", "4", "--topics", "/base/*"]);
+    let mut stamps: Vec<i64> = Vec::new();
+    let waits = WaitSet::new(WakeMode::Event);
+    let started = Instant::now();
+    // Scans are taken as they come (the channel keeps only a few) until the player ends;
+    // the short deadline is for looking at the player, which has no descriptor here.
+    let ended = loop {
+        if let Some(status) = player.try_wait().unwrap() {
+            break status;
+        }
+        assert!(started.elapsed() < WATCHDOG, "the player did not end");
+        waits
+            .wait(
+                &[&scans as &dyn lewis_runtime::ipc::Waitable],
+                Some(Instant::now() + std::time::Duration::from_millis(20)),
+            )
+            .unwrap();
+        while let Some(sample) = scans.receive().unwrap() {
+            let scan: lewis_interfaces::msg::RangeFinder = cdr::from_bytes(sample.bytes()).unwrap();
+            stamps.push(scan.header.publish_time_ns);
+        }
+    };
+    let output = player.wait_with_output().unwrap();
+    assert!(
+        ended.success(),
+        "lewis play failed ({ended}): {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    lewis_tests::signal(service.id(), nix::sys::signal::Signal::SIGTERM);
+    let status = wait_child(&mut service);
+    assert!(status.success(), "lewis service: {status}");
+    assert_eq!(scans.lost(), 0);
+    // Stamped with the recording's time (the log is from 2003), never the machine's.
+    assert!(
+        stamps.iter().all(|t| (first..=last).contains(t)),
+        "stamps {stamps:?} outside the played {first}..{last}"
+    );
+    assert!(stamps.windows(2).all(|w| w[0] < w[1]), "{stamps:?}");
+    // Ticks every 50 ms of played time: at rate 4 a service on the machine's clock would
+    // stamp its ticks 200 ms of played time apart.
+    let mut gaps: Vec<i64> = stamps.windows(2).map(|w| w[1] - w[0]).collect();
+    assert!(gaps.len() >= 10, "{stamps:?}");
+    gaps.sort_unstable();
+    let median = gaps[gaps.len() / 2];
+    assert!(
+        (45_000_000..=110_000_000).contains(&median),
+        "median gap {median} ns: {gaps:?}"
     );
 }

@@ -15,13 +15,10 @@
 //!   command line gives the terminal's keys (space, `s`, `q`).
 //! - **Clock**: the playback time is published on `/lewis/clock` ([`Clock`]) every 10 ms of
 //!   wall time while playing, before a message when the last one is older, and at once on
-//!   pause, step, resume, loop and end; its last value is kept for late joiners. How a live
-//!   service could follow it without any change to the `Service` trait: a live harness
-//!   option (`lewis service --clock`) would subscribe to `/lewis/clock` and answer the
-//!   service's `Context::now()` (the `Backend::now_ns` of the live backend) from the last
-//!   clock sample advanced by its rate, instead of the wall clock. That option is not built
-//!   yet; services today read the wall clock, and a recording played at another rate or
-//!   paused reaches them with stale publish times.
+//!   pause, step, resume, loop and end (the last one paused: the time stands at the end);
+//!   its last value is kept for late joiners. Live services started with `--clock played`
+//!   (`lewis up --clock played`) read it as their time and tick on it, unchanged
+//!   (`lewis_runtime::live::service_clock`).
 //!
 //! At the end the channels stay open for [`LINGER`], so that subscribers take the last
 //! messages. Playback is live: it reads the wall clock (`Instant`), unlike replay, which is
@@ -255,6 +252,7 @@ pub fn play(
         clock,
         clock_seq: 0,
         last_clock: None,
+        ended: false,
         source,
         pacer: Pacer::new(options.rate, Instant::now(), from_ns, options.paused),
         step_pending: false,
@@ -294,6 +292,7 @@ pub fn play(
         player.pacer.restart(Instant::now(), from_ns);
         player.publish_clock(from_ns);
     }
+    player.ended = true;
     player.publish_clock(end_ns);
     // Stopped by a signal meanwhile: the channels close at once.
     let _ = player.wait(Some(Instant::now() + LINGER))?;
@@ -309,6 +308,9 @@ struct Player<'a> {
     clock: Option<Publisher>,
     clock_seq: u64,
     last_clock: Option<Instant>,
+    /// The playback has ended: the last clock sample says paused, so that services on the
+    /// played clock stop there instead of running on.
+    ended: bool,
     source: String,
     pacer: Pacer,
     step_pending: bool,
@@ -455,7 +457,7 @@ impl Player<'_> {
             },
             time_ns,
             rate: self.pacer.rate(),
-            paused: self.pacer.is_paused(),
+            paused: self.ended || self.pacer.is_paused(),
             source: self.source.clone(),
         };
         // The clock is advisory: a refused sample is replaced by the next one.

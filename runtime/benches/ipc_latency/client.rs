@@ -126,7 +126,13 @@ pub fn service_role(args: &[String]) -> Res<()> {
             last_publish_ns: 0,
         }) as Box<dyn Service>)
     });
-    lewis_runtime::live::run_service(&robot, name, &registry, &Namespace::from_env()?)?;
+    lewis_runtime::live::run_service(
+        &robot,
+        name,
+        &registry,
+        &Namespace::from_env()?,
+        lewis_runtime::live::ClockSource::Wall,
+    )?;
     Ok(())
 }
 
@@ -140,6 +146,7 @@ pub fn up_role() -> Res<()> {
         lewis_exe: std::env::current_exe()?,
         duration: None,
         stop_grace: Duration::from_millis(300),
+        clock: lewis_runtime::live::ClockSource::Wall,
     };
     run_up(&robot, &options, &mut || {})?;
     Ok(())

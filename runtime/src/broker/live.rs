@@ -38,6 +38,7 @@ use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeLiveness, Publisher, Subscriber,
     WaitError, WaitSet, Waitable, WakeMode,
 };
+use crate::live::{CLOCK_ENV, ClockSource};
 use crate::live::{StopSignals, health_from_message};
 use crate::names;
 use crate::robot::Robot;
@@ -66,6 +67,8 @@ pub struct UpOptions {
     pub duration: Option<Duration>,
     /// Time between SIGTERM and SIGKILL when a service is stopped.
     pub stop_grace: Duration,
+    /// The clock the services read (handed to each in [`CLOCK_ENV`]).
+    pub clock: ClockSource,
 }
 
 /// Why `lewis up` could not run.
@@ -439,6 +442,7 @@ impl<'r> Driver<'r> {
         let mut child = ChildSpec::new(service, Path::new(program))
             .args(args.iter().cloned())
             .env(crate::ipc::NAMESPACE_ENV, self.options.namespace.as_str())
+            .env(CLOCK_ENV, self.options.clock.as_str())
             .stop_grace(self.options.stop_grace);
         for (key, value) in &spec.environment {
             child = child.env(key, value);

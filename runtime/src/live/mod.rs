@@ -21,12 +21,16 @@
 //! The service's clock ([`Context::now`]) reads the time its current event was taken up, for
 //! the whole handler, as in the lockstep replay harness: every publication of one handler
 //! carries that time, so a recording says exactly when each handler ran and replay can run
-//! it again at that time (the answered-command log carries it too, as `received_ns`).
+//! it again at that time (the answered-command log carries it too, as `received_ns`). That
+//! clock is the machine's, or the time of a recording played live ([`ClockSource`],
+//! [`service_clock`]); heartbeats always keep the machine's time, since the broker is live.
 
 pub mod fault;
 mod overrun;
+pub mod service_clock;
 mod signals;
 
+pub use service_clock::{CLOCK_ENV, ClockSource, UnknownClock};
 pub use signals::StopSignals;
 
 use std::collections::BTreeMap;
@@ -51,6 +55,7 @@ use crate::service::{
     Level, ReplyEvent, Service, ServiceConfig, ServiceRegistry,
 };
 use crate::wire;
+use service_clock::ServiceClock;
 
 /// Why a service could not run.
 #[derive(Debug, thiserror::Error)]
@@ -99,6 +104,7 @@ pub fn run_service(
     service: &str,
     registry: &ServiceRegistry,
     namespace: &Namespace,
+    clock_source: ClockSource,
 ) -> Result<(), LiveError> {
     let spec = robot
         .service(service)
@@ -115,6 +121,7 @@ pub fn run_service(
     let signals = StopSignals::install().map_err(LiveError::Signals)?;
     let ipc = Rc::new(Ipc::open(namespace, &spec.name)?);
     let clock = LiveClock::new();
+    let time = ServiceClock::open(clock_source, &ipc)?;
 
     let mut publishers = BTreeMap::new();
     let mut servers = Vec::new();
@@ -150,6 +157,7 @@ pub fn run_service(
     let mut backend = LiveBackend {
         service: spec.name.clone(),
         clock,
+        time,
         publishers,
         clients,
         calls: BTreeMap::new(),
@@ -219,7 +227,8 @@ impl Harness<'_> {
     fn run(&mut self, signals: &StopSignals, heartbeat_period: Duration) -> Result<(), LiveError> {
         let start = Instant::now();
         let mut next_heartbeat = start + heartbeat_period;
-        let mut next_tick = self.tick_period.map(|p| start + p);
+        // On the service's clock: a played clock's ticks follow the recording's time.
+        let mut next_tick: Option<i64> = None;
         let mut device_ready = false;
         loop {
             if signals.take() {
@@ -235,14 +244,28 @@ impl Harness<'_> {
                 self.backend.heartbeat();
                 next_heartbeat = advance(next_heartbeat, heartbeat_period, now);
             }
-            if let (Some(at), Some(period)) = (next_tick, self.tick_period)
-                && now >= at
-            {
-                let started = Instant::now();
-                self.service
-                    .on_tick(&mut event_context(&mut self.state, &mut self.backend));
-                self.overruns.ran("on_tick", started);
-                next_tick = Some(advance(at, period, now));
+            if let Some(period) = self.tick_period {
+                let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
+                let now_ns = self.backend.time.now_ns();
+                match next_tick {
+                    // The first tick one period after the start, or after the played
+                    // clock's first sample.
+                    None if self.backend.time.instant_at(now_ns).is_some() => {
+                        next_tick = Some(now_ns.saturating_add(period_ns));
+                    }
+                    Some(at) if now_ns >= at => {
+                        let started = Instant::now();
+                        self.service
+                            .on_tick(&mut event_context(&mut self.state, &mut self.backend));
+                        self.overruns.ran("on_tick", started);
+                        next_tick = Some(advance_ns(at, period_ns, now_ns));
+                    }
+                    // A played clock that went back (the player started again).
+                    Some(at) if at.saturating_sub(now_ns) > period_ns => {
+                        next_tick = Some(now_ns.saturating_add(period_ns));
+                    }
+                    _ => {}
+                }
             }
             self.serve_commands();
             self.take_inputs()?;
@@ -252,7 +275,8 @@ impl Harness<'_> {
                     .on_device(&mut event_context(&mut self.state, &mut self.backend));
                 self.overruns.ran("on_device", started);
             }
-            let deadline = [Some(next_heartbeat), next_tick]
+            let tick_due = next_tick.and_then(|at| self.backend.time.instant_at(at));
+            let deadline = [Some(next_heartbeat), tick_due]
                 .into_iter()
                 .flatten()
                 .chain(
@@ -277,6 +301,7 @@ impl Harness<'_> {
         if let Some(device) = &device_fd {
             sources.push(device);
         }
+        sources.extend(self.backend.time.waitable());
         for (_, server) in &self.servers {
             sources.push(server);
         }
@@ -293,7 +318,7 @@ impl Harness<'_> {
     fn serve_commands(&mut self) {
         for (interface, server) in &self.servers {
             while let Ok(Some(request)) = server.receive() {
-                let received_ns = self.backend.clock.now_ns();
+                let received_ns = self.backend.time.now_ns();
                 self.backend.event_ns = received_ns;
                 let mut logged = (String::new(), request.bytes().to_vec());
                 let answer = match wire::read_request(request.bytes()) {
@@ -437,7 +462,7 @@ impl Harness<'_> {
 /// publish times it stamps agree, so a replay that runs the handler at that recorded time
 /// computes the same.
 fn event_context<'a>(state: &'a mut ContextState, backend: &'a mut LiveBackend) -> Context<'a> {
-    backend.event_ns = backend.clock.now_ns();
+    backend.event_ns = backend.time.now_ns();
     state.context(backend)
 }
 
@@ -448,9 +473,22 @@ fn advance(at: Instant, period: Duration, now: Instant) -> Instant {
     if next <= now { now + period } else { next }
 }
 
+/// [`advance`] on the service's clock.
+fn advance_ns(at: i64, period: i64, now: i64) -> i64 {
+    let next = at.saturating_add(period);
+    if next <= now {
+        now.saturating_add(period)
+    } else {
+        next
+    }
+}
+
 struct LiveBackend {
     service: String,
+    /// The machine's clock: heartbeats.
     clock: LiveClock,
+    /// The service's clock: events, ticks, publish times.
+    time: ServiceClock,
     publishers: BTreeMap<String, Publisher>,
     clients: BTreeMap<String, RawClient>,
     calls: BTreeMap<(String, IpcCallId), (CallId, &'static str)>,
