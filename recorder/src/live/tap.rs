@@ -220,6 +220,9 @@ impl LiveTap {
             loop {
                 let received = match channel.subscriber.receive() {
                     Ok(Some(received)) => received,
+                    // Nothing, or a sample iceoryx2 could not map (its publisher is gone
+                    // with its memory; a later sample shows the gap): look again.
+                    Ok(None) if channel.subscriber.has_data() => continue,
                     Ok(None) => break,
                     Err(e) => {
                         tracing::warn!("{e}");
