@@ -22,6 +22,10 @@ use crate::queue::{Dropped, Tap, WriterThread};
 /// sample comes: the writer has no descriptor to wait on.
 const WRITER_CHECK: Duration = Duration::from_millis(200);
 
+/// Samples of one channel that iceoryx2 may fail to map in one turn before the tap leaves
+/// the channel for the next turn.
+const UNMAPPED_RETRIES: u32 = 1024;
+
 /// Why the loop ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Ended {
@@ -217,12 +221,18 @@ impl LiveTap {
             if !channel.subscriber.has_data() {
                 continue;
             }
+            // Each unmappable sample is released as it is met, so looking again ends; the
+            // bound is a guard against a subscriber that says it has data and gives none.
+            let mut unmapped = 0;
             loop {
                 let received = match channel.subscriber.receive() {
                     Ok(Some(received)) => received,
                     // Nothing, or a sample iceoryx2 could not map (its publisher is gone
                     // with its memory; a later sample shows the gap): look again.
-                    Ok(None) if channel.subscriber.has_data() => continue,
+                    Ok(None) if unmapped < UNMAPPED_RETRIES && channel.subscriber.has_data() => {
+                        unmapped += 1;
+                        continue;
+                    }
                     Ok(None) => break,
                     Err(e) => {
                         tracing::warn!("{e}");
