@@ -20,7 +20,7 @@ pub fn disc_hit_distance(from: Vec2, dir: Vec2, radius_m: f64, point: Vec2) -> f
     if lateral >= radius_m {
         return f64::INFINITY;
     }
-    if rel.norm() < radius_m {
+    if rel.norm_below(radius_m) {
         return 0.0;
     }
     (along - (radius_m * radius_m - lateral * lateral).sqrt()).max(0.0)
@@ -108,11 +108,30 @@ pub struct Candidate {
 }
 
 impl Candidate {
-    fn better_than(&self, other: &Self) -> bool {
+    /// The candidate at `point`, its goal distance measured only when the cost does not
+    /// settle the comparison with `best`: most points of a step are worse than the best by
+    /// cost alone, and the distance (a `hypot`) is then not needed. The candidate is
+    /// returned when it is better than `best`.
+    fn at_if_better(point: Vec2, goal: Vec2, cost_m: f64, best: &Self) -> Option<Self> {
         // Lower cost first; among equal costs (a grid cell), nearer the goal.
-        self.cost_m < other.cost_m - 1e-9
-            || (self.cost_m <= other.cost_m + 1e-9
-                && self.goal_distance_m < other.goal_distance_m - 1e-9)
+        if cost_m < best.cost_m - 1e-9 {
+            return Some(Self {
+                point,
+                cost_m,
+                goal_distance_m: point.distance(goal),
+            });
+        }
+        if cost_m <= best.cost_m + 1e-9 {
+            let goal_distance_m = point.distance(goal);
+            if goal_distance_m < best.goal_distance_m - 1e-9 {
+                return Some(Self {
+                    point,
+                    cost_m,
+                    goal_distance_m,
+                });
+            }
+        }
+        None
     }
 }
 
@@ -129,6 +148,10 @@ pub fn free_distances(
     let step = TAU / n as f64;
     let mut free = vec![coverage.unseen_reach_m; n];
     let mut seen = vec![false; n];
+    // Each point tries the few directions its disc can touch; their unit vectors are the
+    // same every time, so they are worked out once rather than per point and direction.
+    #[allow(clippy::cast_precision_loss)]
+    let directions: Vec<Vec2> = (0..n).map(|k| Vec2::from_angle(k as f64 * step)).collect();
     for (end, half) in &coverage.wedges {
         let rel = *end - from;
         let reach = rel.norm();
@@ -146,9 +169,7 @@ pub fn free_distances(
             (radius_m / distance).asin()
         };
         for k in grid_indices(rel.angle(), half, n) {
-            #[allow(clippy::cast_precision_loss)]
-            let dir = Vec2::from_angle(k as f64 * step);
-            free[k] = free[k].min(disc_hit_distance(from, dir, radius_m, p));
+            free[k] = free[k].min(disc_hit_distance(from, directions[k], radius_m, p));
         }
     }
     free
@@ -173,11 +194,6 @@ pub fn closest_reachable(
 ) -> Candidate {
     #[allow(clippy::cast_precision_loss)]
     let step = TAU / n as f64;
-    let evaluate = |point: Vec2| Candidate {
-        point,
-        cost_m: cost(point),
-        goal_distance_m: point.distance(goal),
-    };
     let to_goal = goal - from;
     if to_goal.norm() == 0.0
         || free_distance_m(
@@ -195,7 +211,11 @@ pub fn closest_reachable(
             goal_distance_m: 0.0,
         };
     }
-    let mut best = evaluate(from);
+    let mut best = Candidate {
+        point: from,
+        cost_m: cost(from),
+        goal_distance_m: from.distance(goal),
+    };
     for (k, free_m) in free_distances(from, radius_m, points, coverage, n)
         .into_iter()
         .enumerate()
@@ -207,9 +227,9 @@ pub fn closest_reachable(
         let dir = Vec2::from_angle(k as f64 * step);
         let nearest_goal = to_goal.dot(dir).clamp(0.0, free_m);
         let mut consider = |s: f64| {
-            let candidate = evaluate(from + dir * s);
-            if candidate.better_than(&best) {
-                best = candidate;
+            let point = from + dir * s;
+            if let Some(better) = Candidate::at_if_better(point, goal, cost(point), &best) {
+                best = better;
             }
         };
         consider(nearest_goal);

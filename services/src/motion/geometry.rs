@@ -57,6 +57,46 @@ impl Vec2 {
         (self - other).norm()
     }
 
+    /// Whether the length is at most `radius_m`: the same answer as `self.norm() <=
+    /// radius_m`, without the cost of `hypot` unless the length is within a relative 1e-9 of
+    /// the radius. The squared length is off by a few ulps at most, far inside that band,
+    /// so outside it the comparison cannot go the other way; inside it, and where squares
+    /// would overflow or underflow, `hypot` decides.
+    #[must_use]
+    pub fn norm_at_most(self, radius_m: f64) -> bool {
+        match self.compare_norm(radius_m) {
+            Some(ordering) => ordering.is_le(),
+            None => self.norm() <= radius_m,
+        }
+    }
+
+    /// Whether the length is less than `radius_m`: the same answer as `self.norm() <
+    /// radius_m` (see [`Self::norm_at_most`]).
+    #[must_use]
+    pub fn norm_below(self, radius_m: f64) -> bool {
+        match self.compare_norm(radius_m) {
+            Some(ordering) => ordering.is_lt(),
+            None => self.norm() < radius_m,
+        }
+    }
+
+    /// The length against `radius_m` from squares, when they settle it.
+    fn compare_norm(self, radius_m: f64) -> Option<std::cmp::Ordering> {
+        const BAND: f64 = 1e-9;
+        let squared = self.x * self.x + self.y * self.y;
+        let radius_squared = radius_m * radius_m;
+        if !radius_squared.is_normal() || !squared.is_finite() || radius_m < 0.0 {
+            return None;
+        }
+        if squared < radius_squared * (1.0 - BAND) {
+            Some(std::cmp::Ordering::Less)
+        } else if squared > radius_squared * (1.0 + BAND) {
+            Some(std::cmp::Ordering::Greater)
+        } else {
+            None
+        }
+    }
+
     /// Both components are finite.
     #[must_use]
     pub fn is_finite(self) -> bool {
@@ -164,6 +204,55 @@ mod tests {
         check_wrap(3.0 * PI / 2.0, -PI / 2.0);
         check_wrap(-5.0 * PI / 2.0, -PI / 2.0);
         check_wrap(7.0, 7.0 - 2.0 * PI);
+    }
+
+    #[test]
+    fn norm_comparisons_agree_with_hypot() {
+        let radii = [
+            0.0,
+            1e-300,
+            0.28,
+            0.38,
+            1.0,
+            3.0,
+            1e200,
+            f64::INFINITY,
+            -1.0,
+        ];
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            #[allow(clippy::cast_precision_loss)]
+            let unit = (state >> 11) as f64 / (1u64 << 53) as f64;
+            unit * 2.0 - 1.0
+        };
+        for &radius in &radii {
+            for _ in 0..20_000 {
+                let scale = if radius.is_finite() && radius > 0.0 {
+                    radius
+                } else {
+                    1.0
+                };
+                let v = Vec2::new(next() * scale, next() * scale);
+                assert_eq!(v.norm_at_most(radius), v.norm() <= radius, "{v:?} {radius}");
+                assert_eq!(v.norm_below(radius), v.norm() < radius, "{v:?} {radius}");
+            }
+            // On the radius itself and one ulp either side of it.
+            for v in [
+                Vec2::new(radius, 0.0),
+                Vec2::new(0.0, -radius),
+                Vec2::new(radius * 0.6, radius * 0.8),
+                Vec2::new(f64::from_bits(radius.to_bits() + 1), 0.0),
+                Vec2::new(f64::from_bits(radius.to_bits().saturating_sub(1)), 0.0),
+                Vec2::new(f64::NAN, 0.0),
+                Vec2::new(f64::INFINITY, 1.0),
+            ] {
+                assert_eq!(v.norm_at_most(radius), v.norm() <= radius, "{v:?} {radius}");
+                assert_eq!(v.norm_below(radius), v.norm() < radius, "{v:?} {radius}");
+            }
+        }
     }
 
     #[test]
