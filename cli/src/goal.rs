@@ -25,8 +25,8 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use lewis_interfaces::msg::{Egomotion, GroundTruth, Mover, MoverGoto, MoverStop, Pose2D};
-use lewis_runtime::client::Client;
-use lewis_runtime::ipc::{FdSource, Ipc, Namespace, WaitSet, Waitable, WakeMode};
+use lewis_runtime::client::{Client, ClientError};
+use lewis_runtime::ipc::{CallError, FdSource, Ipc, Namespace, WaitSet, Waitable, WakeMode};
 use lewis_runtime::live::StopSignals;
 use lewis_runtime::robot::Robot;
 
@@ -38,6 +38,10 @@ const CALL_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// How often progress is logged while driving.
 const PROGRESS_EVERY: Duration = Duration::from_secs(5);
+
+/// How soon the goal is sent again to a Mover whose process is not serving commands yet:
+/// the broker binds a client to a provider it starts at once, while the process comes up.
+const NOT_SERVING_RETRY: Duration = Duration::from_millis(20);
 
 /// The goal options of `lewis up`.
 #[derive(Debug, Clone, Args)]
@@ -236,6 +240,8 @@ struct Watch {
     collisions_at_start: Option<i32>,
     last_truth: Option<GroundTruth>,
     last_status: Option<Mover>,
+    /// When to send the goal again to a Mover that was not serving commands yet.
+    retry_at: Option<Instant>,
 }
 
 impl Watch {
@@ -295,6 +301,7 @@ impl Plan {
             let mut sources: Vec<&dyn Waitable> = vec![&signal_fd];
             let mover = clients.mover.raw_mut();
             let mut deadline = self.deadline.min(next_progress);
+            deadline = watch.retry_at.map_or(deadline, |d| d.min(deadline));
             deadline = mover.deadline().map_or(deadline, |d| d.min(deadline));
             sources.extend(mover.waitables());
             for raw in [
@@ -391,14 +398,24 @@ impl Plan {
             _ => false,
         };
         if resend {
-            let reply = clients.mover.call(
-                &MoverGoto {
-                    x: goal.0,
-                    y: goal.1,
-                    ..MoverGoto::default()
-                },
-                CALL_TIMEOUT,
-            )?;
+            if watch.retry_at.is_some_and(|at| Instant::now() < at) {
+                return Ok(None);
+            }
+            let goto = MoverGoto {
+                x: goal.0,
+                y: goal.1,
+                ..MoverGoto::default()
+            };
+            let reply = match clients.mover.call(&goto, CALL_TIMEOUT) {
+                Ok(reply) => reply,
+                Err(ClientError::Call(CallError::NoServer { .. })) => {
+                    tracing::debug!("{provider} does not serve commands yet: the goal waits");
+                    watch.retry_at = Some(Instant::now() + NOT_SERVING_RETRY);
+                    return Ok(None);
+                }
+                Err(e) => return Err(e.into()),
+            };
+            watch.retry_at = None;
             tracing::info!(
                 "goal {} sent to {provider}: {:.2},{:.2} (odometry frame), {} s to arrive",
                 reply.goal_id,
