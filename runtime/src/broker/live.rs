@@ -889,7 +889,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
         };
         let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
         let services = Ipc::open(&options.namespace, "services").unwrap();
-        let mut health = |name: &str| {
+        let health = |name: &str| {
             services
                 .publisher(&names::health_channel(name), &names::health_config())
                 .unwrap()
