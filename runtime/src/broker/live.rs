@@ -32,7 +32,7 @@ use lewis_interfaces::msg::{
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
 
-use super::{Action, BrokerCore, Decision, Event, ExitStatus, Need};
+use super::{Action, BrokerCore, Decision, Event, ExitStatus, Health, Need};
 use crate::clock::LiveClock;
 use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeLiveness, Publisher, Subscriber,
@@ -315,17 +315,15 @@ impl<'r> Driver<'r> {
             if end.is_some_and(|e| now >= e) {
                 return Ok("duration");
             }
-            // Heartbeats first: cleaning up after an exit can take a while, and heartbeats
-            // that arrived meanwhile must not be judged late.
-            self.take_heartbeats();
+            // Every event is fed after the heartbeats sent before it (`feed_at`), so the
+            // order of these steps does not matter to deadlines.
             self.take_exits()?;
             self.serve_requests();
-            if self
-                .core
-                .next_deadline()
-                .is_some_and(|d| self.clock.now_ns() >= d)
-            {
-                self.feed(Event::TimePassed);
+            let now_ns = self.clock.now_ns();
+            if self.core.next_deadline().is_some_and(|d| now_ns >= d) {
+                self.feed_at(now_ns, Event::TimePassed);
+            } else {
+                self.take_heartbeats(now_ns);
             }
             self.kill_overdue(now);
             if now >= self.next_client_sweep {
@@ -360,6 +358,22 @@ impl<'r> Driver<'r> {
         self.feed_at(self.clock.now_ns(), event)
     }
 
+    /// Hands an event that happened at `at_ns` to the core, after every heartbeat sent
+    /// before it, and carries out its decisions; see [`Driver::handle`]. Returns the
+    /// decisions the event led to.
+    ///
+    /// The core judges every deadline at the time of the event it is handed. The loop can
+    /// be held up between two reads of the health channels (iceoryx2's cleanup after an
+    /// exit took 140-220 ms here, a spawn tens of ms on a loaded machine), and an event
+    /// taken after that, with the heartbeats sent meanwhile still unread, failed healthy
+    /// services: a hot-standby sonar beating every 10 ms was given up while the crashed
+    /// laser was restarted. Reading them first means a service is judged stalled only when
+    /// it really sent nothing in time.
+    fn feed_at(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
+        self.take_heartbeats(at_ns);
+        self.handle(at_ns, event)
+    }
+
     /// Hands an event that happened at `at_ns` to the core and carries out its decisions,
     /// and those of the events they cause, in order. Returns every decision taken.
     ///
@@ -367,7 +381,7 @@ impl<'r> Driver<'r> {
     /// was seen), not when this loop got to it: on a loaded machine the loop may run late,
     /// and the core must not take a heartbeat that arrived in time for a missed one. Times
     /// never go backwards.
-    fn feed_at(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
+    fn handle(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
         let mut queue = VecDeque::from([event]);
         let mut all = Vec::new();
         let at_ns = at_ns.max(self.last_ns);
@@ -485,7 +499,9 @@ impl<'r> Driver<'r> {
         Ok(())
     }
 
-    fn take_heartbeats(&mut self) {
+    /// Feeds every heartbeat waiting on the health channels, in the order they were sent
+    /// whatever their service, each at its publish time but no later than `until_ns`.
+    fn take_heartbeats(&mut self, until_ns: i64) {
         let mut beats = Vec::new();
         for (service, subscriber) in &mut self.health {
             while let Ok(Some(sample)) = subscriber.receive() {
@@ -499,10 +515,8 @@ impl<'r> Driver<'r> {
                 }
             }
         }
-        let now_ns = self.clock.now_ns();
-        for (sent_ns, service, health) in beats {
-            // The service's clock, bounded by ours (a clock ahead must not delay deadlines).
-            self.feed_at(sent_ns.min(now_ns), Event::Heartbeat { service, health });
+        for (at_ns, event) in heartbeats_in_order(beats, until_ns) {
+            self.handle(at_ns, event);
         }
     }
 
@@ -665,6 +679,23 @@ impl<'r> Driver<'r> {
     }
 }
 
+/// Heartbeats drained from the health channels (publish time, service, health), one
+/// channel after the other, as the core must take them: in the order they were sent across
+/// services (the core judges every deadline at each one's time, so a later heartbeat of one
+/// service taken before an earlier one of another would judge that other too early), each
+/// at its publish time but no later than `until_ns`, the time of the event they precede (a
+/// clock ahead of the broker's must not delay deadlines). Sorting is stable: one service's
+/// heartbeats keep their order.
+fn heartbeats_in_order(mut beats: Vec<(i64, String, Health)>, until_ns: i64) -> Vec<(i64, Event)> {
+    beats.sort_by_key(|(sent_ns, _, _)| *sent_ns);
+    beats
+        .into_iter()
+        .map(|(sent_ns, service, health)| {
+            (sent_ns.min(until_ns), Event::Heartbeat { service, health })
+        })
+        .collect()
+}
+
 /// The log level a line of a service says it has (tracing's format writes it as a word).
 fn level_of(text: &str) -> &'static str {
     for (word, level) in [
@@ -752,6 +783,7 @@ fn spawn_log_forwarder(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::broker::ServiceState;
 
     #[test]
     fn decisions_become_broker_messages_with_every_field_in_place() {
@@ -794,6 +826,156 @@ mod tests {
                 need: Need::Interface("RangeFinder".into()),
             },
             ["ask-for-help", "", "RangeFinder", "", "", ""],
+        );
+    }
+
+    const MS: i64 = 1_000_000;
+
+    fn service_state(driver: &Driver<'_>, service: &str) -> ServiceState {
+        driver
+            .core
+            .snapshot()
+            .services
+            .into_iter()
+            .find(|s| s.name == service)
+            .map(|s| s.state)
+            .expect("the service is in the snapshot")
+    }
+
+    /// A heartbeat of `service` stamped `sent_ns`, as its harness publishes it.
+    fn beat(publisher: &mut Publisher, service: &str, sent_ns: i64) {
+        let mut message = HealthMessage {
+            state: "ok".to_owned(),
+            ..HealthMessage::default()
+        };
+        message.header.provider = service.to_owned();
+        message.header.publish_time_ns = sent_ns;
+        publisher.publish(&cdr::to_vec(&message)).unwrap();
+    }
+
+    /// The crash loop with a hot standby (issue 3): while the broker's loop is held up
+    /// (iceoryx2's cleanup after the laser's exit), the laser and the sonar keep sending
+    /// heartbeats; the next event the loop takes must come after them, or the sonar is
+    /// given up although it beat every 10 ms. A service that then really goes silent is
+    /// still failed at its deadline. The driver is real (IPC, processes); the times are
+    /// given, not measured.
+    #[test]
+    fn heartbeats_sent_while_the_loop_was_held_up_are_taken_before_the_next_event() {
+        let dir = tempfile::tempdir().unwrap();
+        let robot_path = dir.path().join("robot.toml");
+        let text = r#"
+[robot]
+name = "held-up"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+startup_deadline_ms = 10000
+[[services]]
+name = "laser"
+command = ["sleep", "30"]
+start = "standby"
+restart = { max_restarts = 2, window_ms = 60000, backoff_initial_ms = 20, backoff_max_ms = 100 }
+provides = [{ interface = "RangeFinder", quality = 10, cost = 2 }]
+[[services]]
+name = "sonar"
+command = ["sleep", "30"]
+start = "standby"
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
+"#;
+        std::fs::write(&robot_path, text).unwrap();
+        let robot = crate::robot::parse(text, &robot_path, &["RangeFinder"]).unwrap();
+        let options = UpOptions {
+            robot_path,
+            namespace: Namespace::unique("held-up"),
+            lewis_exe: PathBuf::from("lewis"),
+            duration: None,
+            stop_grace: Duration::from_millis(300),
+        };
+        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
+        let services = Ipc::open(&options.namespace, "services").unwrap();
+        let health = |name: &str| {
+            services
+                .publisher(&names::health_channel(name), &names::health_config())
+                .unwrap()
+        };
+        let (mut laser, mut sonar) = (health("laser"), health("sonar"));
+
+        driver.feed(Event::BrokerStarted);
+        let t0 = driver.clock.now_ns();
+        beat(&mut laser, "laser", t0);
+        beat(&mut sonar, "sonar", t0);
+        driver.take_heartbeats(t0);
+        assert_eq!(
+            service_state(&driver, "sonar"),
+            ServiceState::Ready {
+                last_heartbeat_ns: t0
+            }
+        );
+
+        // Held up 155 ms: both beat every 10 ms meanwhile, the sonar's channel read after
+        // the laser's; then the laser's exit is taken.
+        for k in 1..=15 {
+            beat(&mut laser, "laser", t0 + k * 10 * MS);
+            beat(&mut sonar, "sonar", t0 + k * 10 * MS - 5 * MS);
+        }
+        let decisions = driver.feed_at(
+            t0 + 155 * MS,
+            Event::ProcessExited {
+                service: "laser".to_owned(),
+                status: ExitStatus::Signal(6),
+            },
+        );
+        assert!(
+            matches!(&decisions[..], [Decision { action: Action::RestartScheduled { service, .. }, .. }] if service == "laser"),
+            "{decisions:?}"
+        );
+        assert_eq!(
+            service_state(&driver, "sonar"),
+            ServiceState::Ready {
+                last_heartbeat_ns: t0 + 145 * MS
+            }
+        );
+
+        // From now on the sonar is silent: failed at its deadline, not later.
+        driver.feed_at(t0 + 194 * MS, Event::TimePassed);
+        assert!(matches!(
+            service_state(&driver, "sonar"),
+            ServiceState::Ready { .. }
+        ));
+        driver.feed_at(t0 + 195 * MS, Event::TimePassed);
+        assert!(
+            matches!(
+                service_state(&driver, "sonar"),
+                ServiceState::Stopping { .. }
+            ),
+            "{}",
+            driver.core.snapshot()
+        );
+        driver.shutdown();
+    }
+
+    #[test]
+    fn heartbeats_are_taken_in_the_order_they_were_sent_and_never_after_the_event() {
+        let beats = vec![
+            (30, "laser".to_owned(), Health::Ok),
+            (40, "laser".to_owned(), Health::Degraded("dusty".to_owned())),
+            (10, "sonar".to_owned(), Health::Ok),
+            (35, "sonar".to_owned(), Health::Ok),
+            (50, "sonar".to_owned(), Health::Ok),
+        ];
+        let order: Vec<(i64, String)> = heartbeats_in_order(beats, 45)
+            .into_iter()
+            .map(|(at, event)| (at, event.to_string()))
+            .collect();
+        assert_eq!(
+            order,
+            [
+                (10, "sonar heartbeat: ok".to_owned()),
+                (30, "laser heartbeat: ok".to_owned()),
+                (35, "sonar heartbeat: ok".to_owned()),
+                (40, "laser heartbeat: degraded (dusty)".to_owned()),
+                (45, "sonar heartbeat: ok".to_owned()),
+            ]
         );
     }
 
