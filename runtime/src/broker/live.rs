@@ -890,6 +890,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
             lewis_exe: PathBuf::from("lewis"),
             duration: None,
             stop_grace: Duration::from_millis(300),
+            clock: ClockSource::Wall,
         };
         let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
         let services = Ipc::open(&options.namespace, "services").unwrap();
