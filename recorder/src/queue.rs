@@ -106,7 +106,8 @@ impl Shared {
     }
 
     fn recycle(&self, mut batch: Batch) {
-        if batch.bytes.capacity() > RECYCLED_BYTES {
+        // An empty buffer saves nothing; a large one would keep its memory.
+        if batch.bytes.capacity() == 0 || batch.bytes.capacity() > RECYCLED_BYTES {
             return;
         }
         batch.clear();
@@ -226,7 +227,7 @@ impl Tap {
     pub fn batch(&self) -> TapBatch<'_> {
         TapBatch {
             tap: self,
-            batch: self.shared.take_batch(),
+            batch: Batch::default(),
             dropped: 0,
         }
     }
@@ -314,6 +315,9 @@ impl TapBatch<'_> {
             self.dropped += 1;
             return Err(dropped);
         }
+        if self.batch.messages.is_empty() && self.batch.bytes.capacity() == 0 {
+            self.batch = self.tap.shared.take_batch();
+        }
         self.batch.bytes.extend_from_slice(sample.data);
         self.batch.messages.push(Meta {
             channel: sample.channel,
@@ -343,7 +347,8 @@ impl TapBatch<'_> {
         if self.batch.messages.is_empty() {
             return Ok(());
         }
-        let batch = std::mem::replace(&mut self.batch, self.tap.shared.take_batch());
+        // The next message takes a recycled buffer.
+        let batch = std::mem::take(&mut self.batch);
         // The reservations bound the messages queued to the channel's capacity, so it is
         // never full; only a stopped writer refuses.
         match self.tap.sender.try_send(Entry::Batch(batch)) {

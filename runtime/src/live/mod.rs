@@ -198,15 +198,10 @@ pub fn run_service(
         servers,
         faults,
         waits: WaitSet::new(WakeMode::Event),
-        tick_period: None,
+        tick_period_ns: None,
         overruns,
     };
-    harness.tick_period = harness
-        .service
-        .tick_period_ns()
-        .and_then(|ns| u64::try_from(ns).ok())
-        .filter(|ns| *ns > 0)
-        .map(Duration::from_nanos);
+    harness.tick_period_ns = harness.service.tick_period_ns().filter(|ns| *ns > 0);
     harness.run(&signals, heartbeat_period)?;
     Ok(())
 }
@@ -219,7 +214,8 @@ struct Harness<'s> {
     /// Injected faults ([`fault`]).
     faults: CommandServer,
     waits: WaitSet,
-    tick_period: Option<Duration>,
+    /// On the service's clock.
+    tick_period_ns: Option<i64>,
     overruns: overrun::OverrunWatch,
 }
 
@@ -244,13 +240,12 @@ impl Harness<'_> {
                 self.backend.heartbeat();
                 next_heartbeat = advance(next_heartbeat, heartbeat_period, now);
             }
-            if let Some(period) = self.tick_period {
-                let period_ns = i64::try_from(period.as_nanos()).unwrap_or(i64::MAX);
+            if let Some(period_ns) = self.tick_period_ns {
                 let now_ns = self.backend.time.now_ns();
                 match next_tick {
                     // The first tick one period after the start, or after the played
                     // clock's first sample.
-                    None if self.backend.time.instant_at(now_ns).is_some() => {
+                    None if self.backend.time.started() => {
                         next_tick = Some(now_ns.saturating_add(period_ns));
                     }
                     Some(at) if now_ns >= at => {

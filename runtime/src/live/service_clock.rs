@@ -105,6 +105,14 @@ impl ServiceClock {
         }
     }
 
+    /// Whether the clock has a time: a played clock not before its first sample.
+    pub(super) fn started(&self) -> bool {
+        match self {
+            Self::Wall(_) => true,
+            Self::Played(played) => played.time.anchor.is_some(),
+        }
+    }
+
     /// When this clock will read `ns`, if it is advancing.
     pub(super) fn instant_at(&self, ns: i64) -> Option<Instant> {
         match self {

@@ -359,13 +359,8 @@ mod tests {
 
     #[test]
     fn costs_are_bit_for_bit_those_of_dijkstra_with_a_heap() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            f64::from(u32::try_from(state >> 32).unwrap()) / 4_294_967_296.0
-        };
+        let mut rng = lewis_runtime::service::Rng::new(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.next_f64();
         // One map rebuilt again and again, as the avoider does.
         let mut map = GoalCostMap::default();
         let (mut reached, mut cells) = (0, 0);

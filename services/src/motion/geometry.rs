@@ -219,15 +219,8 @@ mod tests {
             f64::INFINITY,
             -1.0,
         ];
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            #[allow(clippy::cast_precision_loss)]
-            let unit = (state >> 11) as f64 / (1u64 << 53) as f64;
-            unit * 2.0 - 1.0
-        };
+        let mut rng = lewis_runtime::service::Rng::new(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.uniform(-1.0, 1.0);
         for &radius in &radii {
             for _ in 0..20_000 {
                 let scale = if radius.is_finite() && radius > 0.0 {

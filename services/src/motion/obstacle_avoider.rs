@@ -977,13 +977,8 @@ mod tests {
         let cell_m = config.arc_point_spacing_m / 2.0;
         let mut avoider = ObstacleAvoider::new(config.clone()).unwrap();
         let mut shadow: Vec<(i64, Vec<Vec2>)> = Vec::new();
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            f64::from(u32::try_from(state >> 32).unwrap()) / 4_294_967_296.0
-        };
+        let mut rng = lewis_runtime::service::Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.next_f64();
         let mut stamp_ns = 0;
         for round in 0..300 {
             // Nearly the same place each time, so that readings share cells.
