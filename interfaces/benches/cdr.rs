@@ -92,6 +92,13 @@ where
             black_box(decoded.ok());
         });
     });
+
+    group.bench_function(BenchmarkId::new("view (read in place)", len), |b| {
+        b.iter(|| {
+            let view = T::view(black_box(&bytes));
+            black_box(view.is_ok());
+        });
+    });
     group.finish();
 }
 

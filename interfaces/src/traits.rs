@@ -5,7 +5,7 @@ use std::fmt::Debug;
 
 use thiserror::Error;
 
-use crate::cdr::{Decode, DecodeError, Encode};
+use crate::cdr::{Decode, DecodeError, DecodeView, Encode, ViewToOwned};
 use crate::msg::Header;
 
 /// Any generated struct: it has a CDR encoding and a ros2msg schema.
@@ -16,6 +16,19 @@ pub trait Struct:
     const SCHEMA_NAME: &'static str;
     /// The ros2msg schema text, dependencies appended as ROS 2 does.
     const SCHEMA_TEXT: &'static str;
+
+    /// The zero-copy view of this struct (`RangeFinderView<'a>` for `RangeFinder`): its
+    /// fields read in place from the CDR bytes ([`crate::cdr::DecodeView`]).
+    type View<'a>: DecodeView<'a> + ViewToOwned<Owned = Self>;
+
+    /// The view of `bytes` (a whole message, header included), checked as
+    /// [`crate::cdr::from_bytes`] checks, copying nothing.
+    ///
+    /// # Errors
+    /// When the bytes are not a valid `Self`.
+    fn view(bytes: &[u8]) -> Result<Self::View<'_>, DecodeError> {
+        crate::cdr::view(bytes)
+    }
 
     /// Checks that every array has the length its `array_size` field says.
     ///

@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use lewis_interfaces::cdr::{self, DecodeError, EncodeError};
+use lewis_interfaces::cdr::{self, DecodeError, EncodeError, ViewToOwned};
 use lewis_interfaces::idl::{self, FieldType, Idl, Primitive, StructType};
 use lewis_interfaces::msg::*;
 use lewis_interfaces::{Interface, Message, Struct};
@@ -173,9 +173,30 @@ fn check_roundtrip<T: Struct>(idl: &Idl, seed: u64) {
             available: bytes.len() - 1
         })
     );
-    // Every truncation is an error or (within the tolerated padding) the same value.
-    for cut in [1, 2, 5, bytes.len() / 2, bytes.len() - 4] {
-        let _: Result<T, DecodeError> = cdr::from_bytes(&bytes[..bytes.len().saturating_sub(cut)]);
+    // The zero-copy view reads the same value in place.
+    let view = T::view(&bytes).unwrap_or_else(|e| panic!("{} view: {e}", T::SCHEMA_NAME));
+    assert_eq!(
+        cdr::to_vec(&view.to_owned_value()),
+        bytes,
+        "{}'s view reads another value",
+        T::SCHEMA_NAME
+    );
+    // Every truncation is an error or (within the tolerated padding) the same value, and
+    // the view agrees with the decoder on which, and on the error.
+    for cut in [1, 2, 3, 4, 5, 9, bytes.len() / 2, bytes.len() - 4] {
+        let cut_bytes = &bytes[..bytes.len().saturating_sub(cut)];
+        let decoded: Result<T, DecodeError> = cdr::from_bytes(cut_bytes);
+        let viewed = T::view(cut_bytes).map(|v| v.to_owned_value());
+        match (decoded, viewed) {
+            (Ok(d), Ok(v)) => assert_eq!(cdr::to_vec(&d), cdr::to_vec(&v)),
+            (Err(d), Err(v)) => assert_eq!(d, v, "{} cut by {cut}", T::SCHEMA_NAME),
+            (d, v) => panic!(
+                "{} cut by {cut}: decode {:?} but view {:?}",
+                T::SCHEMA_NAME,
+                d.err(),
+                v.err()
+            ),
+        }
     }
 }
 
@@ -243,6 +264,36 @@ proptest! {
         let _ = cdr::from_bytes::<Blobs3D>(&framed);
         let _ = cdr::from_bytes::<ImageSource>(&framed);
         let _ = cdr::from_bytes::<Signs>(&bytes);
+        // The views agree with the decoder on what is valid.
+        prop_assert_eq!(RangeFinder::view(&framed).err(), cdr::from_bytes::<RangeFinder>(&framed).err());
+        prop_assert_eq!(Blobs3D::view(&framed).err(), cdr::from_bytes::<Blobs3D>(&framed).err());
+        prop_assert_eq!(Signs::view(&bytes).err(), cdr::from_bytes::<Signs>(&bytes).err());
+    }
+
+    #[test]
+    fn a_scan_read_in_place_has_the_fields_it_was_given(
+        ranges in prop::collection::vec(any::<f64>(), 0..500),
+        provider in "\\PC{0,20}",
+    ) {
+        let scan = RangeFinder {
+            header: Header { provider: provider.clone(), seq: 4, publish_time_ns: 77, inputs: vec![InputRef { channel: "/x".into(), seq: 9 }] },
+            range_count: ranges.len() as i32,
+            sensor_positions: (0..ranges.len()).map(|i| Pose3D { x: i as f64, psi: -(i as f64), ..Pose3D::default() }).collect(),
+            ranges: ranges.clone(),
+            max_range: 8.191,
+            ..Default::default()
+        };
+        let bytes = cdr::to_vec(&scan);
+        let view = RangeFinder::view(&bytes).unwrap();
+        prop_assert_eq!(view.header.provider, provider.as_str());
+        prop_assert_eq!(view.header.inputs.iter().map(|i| (i.channel, i.seq)).collect::<Vec<_>>(), vec![("/x", 9)]);
+        prop_assert_eq!(view.ranges.len(), ranges.len());
+        for (i, r) in ranges.iter().enumerate() {
+            prop_assert_eq!(view.ranges.get(i).unwrap().to_bits(), r.to_bits());
+            prop_assert_eq!(view.sensor_positions.get(i).unwrap(), scan.sensor_positions[i].clone());
+        }
+        prop_assert!(view.ranges.get(ranges.len()).is_none());
+        prop_assert_eq!(view.max_range, 8.191);
     }
 }
 

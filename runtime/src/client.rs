@@ -525,6 +525,50 @@ impl<T: Interface> Client<T> {
         }
     }
 
+    /// Reads the oldest unread sample in place, without waiting: `read` gets the
+    /// message's view ([`lewis_interfaces::cdr::DecodeView`]), its arrays where they lie
+    /// in shared memory, nothing copied. The sample is released when `read` returns.
+    /// `None` when there is no sample.
+    ///
+    /// # Errors
+    /// As [`Client::try_recv`].
+    pub fn try_recv_view<R>(
+        &mut self,
+        read: impl FnOnce(T::View<'_>) -> R,
+    ) -> Result<Option<R>, ClientError> {
+        self.raw.process()?;
+        let Some(received) = self.raw.receive()? else {
+            return Ok(None);
+        };
+        let view = T::view(received.bytes()).map_err(|e| self.decode_error(&e))?;
+        Ok(Some(read(view)))
+    }
+
+    /// [`Client::try_recv_view`], waiting at most `timeout` for the next sample (the
+    /// stream; `None` when the time is up).
+    ///
+    /// # Errors
+    /// As [`Client::try_recv`].
+    pub fn recv_view_timeout<R>(
+        &mut self,
+        timeout: Duration,
+        read: impl FnOnce(T::View<'_>) -> R,
+    ) -> Result<Option<R>, ClientError> {
+        let deadline = Instant::now() + timeout;
+        let mut read = Some(read);
+        loop {
+            self.raw.process()?;
+            if let Some(received) = self.raw.receive()? {
+                let view = T::view(received.bytes()).map_err(|e| self.decode_error(&e))?;
+                return Ok(read.take().map(|read| read(view)));
+            }
+            if Instant::now() >= deadline {
+                return Ok(None);
+            }
+            self.wait(deadline)?;
+        }
+    }
+
     /// Sends a command to the current provider and waits for its reply (at most `timeout`).
     ///
     /// # Errors
@@ -566,15 +610,19 @@ impl<T: Interface> Client<T> {
     }
 
     fn decode(&self, received: &Received) -> Result<Sample<T>, ClientError> {
-        let message = cdr::from_bytes::<T>(received.bytes()).map_err(|e| ClientError::Decode {
-            interface: T::NAME.to_owned(),
-            provider: self.raw.provider().unwrap_or_default().to_owned(),
-            reason: e.to_string(),
-        })?;
+        let message = cdr::from_bytes::<T>(received.bytes()).map_err(|e| self.decode_error(&e))?;
         Ok(Sample {
             message,
             channel: self.raw.data_channel().to_owned(),
         })
+    }
+
+    fn decode_error(&self, error: &cdr::DecodeError) -> ClientError {
+        ClientError::Decode {
+            interface: T::NAME.to_owned(),
+            provider: self.raw.provider().unwrap_or_default().to_owned(),
+            reason: error.to_string(),
+        }
     }
 
     fn unbound(&self) -> ClientError {

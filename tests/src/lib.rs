@@ -516,6 +516,8 @@ pub fn wait_node(ipc: &Ipc, name: &str, except: Option<u32>) -> u32 {
 /// sample came from. It contains no failover logic.
 pub struct RangeApp {
     client: Client<RangeFinder>,
+    /// Reads samples in place (`recv_view_timeout`) instead of decoding them.
+    in_place: bool,
     /// The provider of every sample received, in order.
     pub providers: Vec<String>,
 }
@@ -529,7 +531,17 @@ impl RangeApp {
     pub fn connect(ipc: &Rc<Ipc>) -> Self {
         Self {
             client: Client::connect(ipc, "app").expect("the client connects"),
+            in_place: false,
             providers: Vec::new(),
+        }
+    }
+
+    /// As [`RangeApp::connect`], reading every sample in place (zero-copy views).
+    #[must_use]
+    pub fn connect_in_place(ipc: &Rc<Ipc>) -> Self {
+        Self {
+            in_place: true,
+            ..Self::connect(ipc)
         }
     }
 
@@ -549,8 +561,15 @@ impl RangeApp {
                 "never got {count} samples in a row from {provider}; got from: {:?}",
                 &self.providers[start..]
             );
-            if let Some(sample) = self.client.recv_timeout(left).expect("the client works") {
-                let from = sample.message.header.provider;
+            let received = if self.in_place {
+                self.client
+                    .recv_view_timeout(left, |scan| scan.header.provider.to_owned())
+            } else {
+                self.client
+                    .recv_timeout(left)
+                    .map(|sample| sample.map(|s| s.message.header.provider))
+            };
+            if let Some(from) = received.expect("the client works") {
                 run = if from == provider { run + 1 } else { 0 };
                 self.providers.push(from);
             }

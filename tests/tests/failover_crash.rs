@@ -58,7 +58,8 @@ fn laser_killed_with_sigkill_beyond_its_restart_limit_rebinds_the_client_to_sona
     up.wait_line("broker up");
     let mut decisions = Decisions::subscribe(&up.namespace);
     let ipc = open_ipc(&up.namespace, "test-app");
-    let mut app = RangeApp::connect(&ipc);
+    // Reading in place: zero-copy views follow the rebinding as decoded samples do.
+    let mut app = RangeApp::connect_in_place(&ipc);
     app.wait_for("laser", 5);
 
     // Every kill within the policy is followed by a restart; the client stays on the laser.

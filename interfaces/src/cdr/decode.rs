@@ -104,6 +104,22 @@ impl<'a> Reader<'a> {
         }
     }
 
+    /// A reader at `position` of `payload`: to come back to a place an earlier reader
+    /// passed (alignment stays relative to the payload's start).
+    #[must_use]
+    pub(crate) fn at(payload: &'a [u8], position: usize) -> Self {
+        Self {
+            bytes: payload,
+            position: position.min(payload.len()),
+        }
+    }
+
+    /// The whole payload being read.
+    #[must_use]
+    pub(crate) fn payload(&self) -> &'a [u8] {
+        self.bytes
+    }
+
     /// Bytes consumed.
     #[must_use]
     pub fn position(&self) -> usize {
@@ -172,6 +188,47 @@ impl<'a> Reader<'a> {
         Ok(())
     }
 
+    /// Reads a string where it lies: a `u32` length counting the NUL, the UTF-8 bytes,
+    /// the NUL.
+    ///
+    /// # Errors
+    /// When the string is cut short, lacks its NUL or is not UTF-8.
+    pub fn str(&mut self) -> Result<&'a str, DecodeError> {
+        let len = u32::decode(self)? as usize;
+        if len == 0 {
+            // Not what ROS 2 writes for an empty string (length 1, a NUL), but seen in
+            // the wild from other CDR writers.
+            return Ok("");
+        }
+        let start = self.position();
+        let bytes = self.take(len)?;
+        let (last, text) = bytes.split_last().unwrap_or((&0, &[]));
+        if *last != 0 {
+            return Err(DecodeError::at(
+                start + super::ENCAPSULATION_LE.len() + len - 1,
+                DecodeErrorKind::MissingNul,
+            ));
+        }
+        std::str::from_utf8(text).map_err(|_| {
+            DecodeError::at(
+                start + super::ENCAPSULATION_LE.len(),
+                DecodeErrorKind::InvalidUtf8,
+            )
+        })
+    }
+
+    /// Reads a field's view, naming the field in the error path on failure.
+    #[inline]
+    pub fn view_field<T: super::DecodeView<'a>>(
+        &mut self,
+        name: &'static str,
+    ) -> Result<T, DecodeError> {
+        T::decode_view(self).map_err(|mut err| {
+            err.path.insert(0, name);
+            err
+        })
+    }
+
     /// Decodes a field, naming it in the error path on failure.
     #[inline]
     pub fn field<T: Decode>(&mut self, name: &'static str) -> Result<T, DecodeError> {
@@ -229,6 +286,9 @@ macro_rules! decode_number {
                 reader.align(SIZE)?;
                 reader.check_count(count, SIZE)?;
                 let bytes = reader.take(count * SIZE)?;
+                if cfg!(target_endian = "little") {
+                    return Ok(le_bulk_copy(bytes, count));
+                }
                 Ok(bytes
                     .chunks_exact(SIZE)
                     .map(|chunk| {
@@ -243,6 +303,24 @@ macro_rules! decode_number {
 }
 
 decode_number!(i8, i16, u16, i32, u32, i64, u64, f32, f64);
+
+/// `count` elements copied from their little-endian `bytes` in one pass, on a
+/// little-endian machine where memory holds them the same way. For the generated plain
+/// structs (`Pose3D`) as for numbers.
+#[doc(hidden)]
+#[must_use]
+pub fn le_bulk_copy<T>(bytes: &[u8], count: usize) -> Vec<T>
+where
+    T: zerocopy::FromBytes + zerocopy::IntoBytes,
+{
+    let Ok(mut items) = T::new_vec_zeroed(count) else {
+        // The allocation failed: as `Vec::with_capacity` would, report it and stop.
+        std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>());
+    };
+    let out = zerocopy::IntoBytes::as_mut_bytes(items.as_mut_slice());
+    out.copy_from_slice(bytes);
+    items
+}
 
 impl Decode for u8 {
     const MIN_LEN: usize = 1;
@@ -274,28 +352,7 @@ impl Decode for String {
 
     #[inline]
     fn decode(reader: &mut Reader<'_>) -> Result<Self, DecodeError> {
-        let len = u32::decode(reader)? as usize;
-        if len == 0 {
-            // Not what ROS 2 writes for an empty string (length 1, a NUL), but seen in
-            // the wild from other CDR writers.
-            return Ok(String::new());
-        }
-        let start = reader.position();
-        let bytes = reader.take(len)?;
-        let (last, text) = bytes.split_last().unwrap_or((&0, &[]));
-        if *last != 0 {
-            return Err(DecodeError::at(
-                start + super::ENCAPSULATION_LE.len() + len - 1,
-                DecodeErrorKind::MissingNul,
-            ));
-        }
-        match std::str::from_utf8(text) {
-            Ok(s) => Ok(s.to_owned()),
-            Err(_) => Err(DecodeError::at(
-                start + super::ENCAPSULATION_LE.len(),
-                DecodeErrorKind::InvalidUtf8,
-            )),
-        }
+        reader.str().map(str::to_owned)
     }
 }
 

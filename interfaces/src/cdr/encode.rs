@@ -178,6 +178,11 @@ macro_rules! encode_number {
                     return;
                 }
                 sink.align(SIZE);
+                if cfg!(target_endian = "little") {
+                    // In memory the numbers already are their encoding: one copy.
+                    sink.put(zerocopy::IntoBytes::as_bytes(items));
+                    return;
+                }
                 sink.put_with(items.len() * SIZE, |out| {
                     for (chunk, item) in out.chunks_exact_mut(SIZE).zip(items) {
                         chunk.copy_from_slice(&item.to_le_bytes());

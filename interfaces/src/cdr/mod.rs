@@ -10,9 +10,11 @@
 
 mod decode;
 mod encode;
+mod view;
 
-pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader};
+pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader, le_bulk_copy};
 pub use encode::{Encode, EncodeError, Sink, SizeSink, SliceSink, VecSink};
+pub use view::{DecodeView, LeItem, LeSlice, SeqIter, SeqView, ViewToOwned};
 
 /// The encapsulation header of little-endian plain CDR.
 pub const ENCAPSULATION_LE: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
@@ -70,6 +72,25 @@ pub fn to_vec<T: Encode + ?Sized>(value: &T) -> Vec<u8> {
 /// # Errors
 /// A [`DecodeError`] naming the field and offset when the bytes are not a valid `T`.
 pub fn from_bytes<T: Decode>(bytes: &[u8]) -> Result<T, DecodeError> {
+    read_whole(bytes, T::decode)
+}
+
+/// A `V` read in place from `bytes` (header included), checked as [`from_bytes`] checks:
+/// the view of a message, copying nothing (see [`DecodeView`]). For a generated struct
+/// `T`, `V` is `T::View<'a>`: [`crate::Struct::view`] names it.
+///
+/// # Errors
+/// As [`from_bytes`].
+pub fn view<'a, V: DecodeView<'a>>(bytes: &'a [u8]) -> Result<V, DecodeError> {
+    read_whole(bytes, V::decode_view)
+}
+
+/// Checks the encapsulation header, reads one value with `read`, and allows at most 3
+/// bytes of padding after it.
+fn read_whole<'a, T>(
+    bytes: &'a [u8],
+    read: impl FnOnce(&mut Reader<'a>) -> Result<T, DecodeError>,
+) -> Result<T, DecodeError> {
     let payload = match bytes.split_first_chunk::<4>() {
         Some((header, payload)) if *header == ENCAPSULATION_LE => payload,
         Some((header, _)) => {
@@ -86,7 +107,7 @@ pub fn from_bytes<T: Decode>(bytes: &[u8]) -> Result<T, DecodeError> {
         }
     };
     let mut reader = Reader::new(payload);
-    let value = T::decode(&mut reader)?;
+    let value = read(&mut reader)?;
     let trailing = reader.remaining();
     if trailing > 3 {
         return Err(DecodeError::at(

@@ -128,6 +128,15 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
         out,
         "#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]"
     );
+    if plain_layout(ty).is_some() {
+        // Laid out as its encoding (fields of one number type, no padding): arrays of it
+        // are copied to and from CDR in one pass on a little-endian machine.
+        let _ = writeln!(
+            out,
+            "#[derive(zerocopy::IntoBytes, zerocopy::FromBytes, zerocopy::Immutable)]"
+        );
+        let _ = writeln!(out, "#[repr(C)]");
+    }
     let _ = writeln!(out, "pub struct {name} {{");
     if ty.has_header() {
         let _ = writeln!(
@@ -197,8 +206,14 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
         emit_bulk_decode(out, ty, rust, size);
     }
     let _ = writeln!(out, "}}\n");
+    if let Some((rust, size)) = plain {
+        emit_le_item(out, ty, rust, size);
+    }
+
+    emit_view(out, idl, ty, &all_fields);
 
     let _ = writeln!(out, "impl crate::Struct for {name} {{");
+    let _ = writeln!(out, "    type View<'a> = {name}View<'a>;");
     let _ = writeln!(
         out,
         "    const SCHEMA_NAME: &'static str = \"{PACKAGE}/msg/{name}\";"
@@ -254,6 +269,103 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
     }
 }
 
+/// The type of a field in a struct's view: what is read in place of what is decoded.
+fn view_type(idl: &Idl, field: &Field) -> String {
+    match (&field.ty, field.is_array) {
+        (FieldType::Primitive { primitive, .. }, false) => match primitive {
+            Primitive::String => "&'a str".to_owned(),
+            Primitive::Bytes => "&'a [u8]".to_owned(),
+            p => p.rust().to_owned(),
+        },
+        (FieldType::Primitive { primitive, .. }, true) => match primitive {
+            Primitive::String => "crate::cdr::SeqView<'a, &'a str>".to_owned(),
+            Primitive::Bytes => "crate::cdr::SeqView<'a, &'a [u8]>".to_owned(),
+            p if p.rust() == "u8" => "&'a [u8]".to_owned(),
+            p => format!("crate::cdr::LeSlice<'a, {}>", p.rust()),
+        },
+        (FieldType::Struct(name), false) => format!("{name}View<'a>"),
+        (FieldType::Struct(name), true) => {
+            if idl.compound(name).and_then(plain_layout).is_some() {
+                format!("crate::cdr::LeSlice<'a, {name}>")
+            } else {
+                format!("crate::cdr::SeqView<'a, {name}View<'a>>")
+            }
+        }
+    }
+}
+
+/// The zero-copy view of a struct: the same public fields, borrowed from the bytes.
+fn emit_view(out: &mut String, idl: &Idl, ty: &StructType, all_fields: &[&str]) {
+    let name = &ty.name;
+    let _ = writeln!(
+        out,
+        "/// [`{name}`] read in place from its CDR bytes (see [`crate::cdr::DecodeView`])."
+    );
+    let _ = writeln!(out, "#[derive(Debug, Clone, Copy)]");
+    let _ = writeln!(out, "pub struct {name}View<'a> {{");
+    if ty.has_header() {
+        let _ = writeln!(out, "    /// As [`{name}::header`].");
+        let _ = writeln!(out, "    pub header: HeaderView<'a>,");
+    }
+    for field in &ty.fields {
+        let _ = writeln!(out, "    /// As [`{name}::{}`].", field.name);
+        let _ = writeln!(out, "    pub {}: {},", field.name, view_type(idl, field));
+    }
+    let _ = writeln!(out, "    _bytes: std::marker::PhantomData<&'a [u8]>,");
+    let _ = writeln!(out, "}}\n");
+
+    let _ = writeln!(
+        out,
+        "impl<'a> crate::cdr::DecodeView<'a> for {name}View<'a> {{"
+    );
+    let _ = writeln!(
+        out,
+        "    const MIN_LEN: usize = <{name} as crate::cdr::Decode>::MIN_LEN;"
+    );
+    let _ = writeln!(
+        out,
+        "    fn decode_view(reader: &mut crate::cdr::Reader<'a>) -> Result<Self, crate::cdr::DecodeError> {{"
+    );
+    let _ = writeln!(out, "        Ok(Self {{");
+    for f in all_fields {
+        let _ = writeln!(out, "            {f}: reader.view_field(\"{f}\")?,");
+    }
+    let _ = writeln!(out, "            _bytes: std::marker::PhantomData,");
+    let _ = writeln!(out, "        }})\n    }}\n}}\n");
+
+    let _ = writeln!(out, "impl crate::cdr::ViewToOwned for {name}View<'_> {{");
+    let _ = writeln!(out, "    type Owned = {name};");
+    let _ = writeln!(out, "    fn to_owned_value(&self) -> {name} {{");
+    let _ = writeln!(out, "        {name} {{");
+    for f in all_fields {
+        let _ = writeln!(
+            out,
+            "            {f}: crate::cdr::ViewToOwned::to_owned_value(&self.{f}),"
+        );
+    }
+    let _ = writeln!(out, "        }}\n    }}\n}}\n");
+}
+
+/// A plain struct is an element of [`crate::cdr::LeSlice`]s.
+fn emit_le_item(out: &mut String, ty: &StructType, rust: &str, size: usize) {
+    let name = &ty.name;
+    let _ = writeln!(out, "impl crate::cdr::LeItem for {name} {{");
+    let _ = writeln!(out, "    const SIZE: usize = {};", size * ty.fields.len());
+    let _ = writeln!(out, "    const ALIGN: usize = {size};");
+    let _ = writeln!(out, "    fn read_le(bytes: &[u8]) -> Self {{");
+    let _ = writeln!(out, "        Self {{");
+    for (i, f) in ty.fields.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "            {}: <{rust} as crate::cdr::LeItem>::read_le(&bytes[{}..{}]),",
+            f.name,
+            i * size,
+            (i + 1) * size
+        );
+    }
+    let _ = writeln!(out, "        }}\n    }}\n}}\n");
+}
+
 /// For a compound whose fields are all the same fixed-size number (Pose3D: six f64):
 /// the Rust type and its size. Such a struct has no padding inside or between elements,
 /// so slices of it are encoded and decoded in one bulk pass.
@@ -297,6 +409,11 @@ fn emit_bulk_encode(out: &mut String, ty: &StructType, rust: &str, size: usize) 
         "        if items.is_empty() {{\n            return;\n        }}"
     );
     let _ = writeln!(out, "        sink.align({size});");
+    let _ = writeln!(out, "        if cfg!(target_endian = \"little\") {{");
+    let _ = writeln!(
+        out,
+        "            sink.put(zerocopy::IntoBytes::as_bytes(items));\n            return;\n        }}"
+    );
     let _ = writeln!(out, "        sink.put_with(items.len() * {total}, |out| {{");
     let _ = writeln!(
         out,
@@ -327,6 +444,10 @@ fn emit_bulk_decode(out: &mut String, ty: &StructType, rust: &str, size: usize) 
     let _ = writeln!(out, "        reader.align({size})?;");
     let _ = writeln!(out, "        reader.check_count(count, {total})?;");
     let _ = writeln!(out, "        let bytes = reader.take(count * {total})?;");
+    let _ = writeln!(
+        out,
+        "        if cfg!(target_endian = \"little\") {{\n            return Ok(crate::cdr::le_bulk_copy(bytes, count));\n        }}"
+    );
     let _ = writeln!(out, "        let field = |chunk: &[u8], i: usize| {{");
     let _ = writeln!(out, "            let mut array = [0u8; {size}];");
     let _ = writeln!(

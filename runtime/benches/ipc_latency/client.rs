@@ -152,11 +152,25 @@ pub fn up_role() -> Res<()> {
     Ok(())
 }
 
+/// How the application reads each scan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Read {
+    /// Decoded into an owned `RangeFinder` (`recv_timeout`): every byte copied out.
+    Decode,
+    /// Read in place from shared memory (`recv_view_timeout`): nothing copied.
+    View,
+}
+
 /// The application: a `Client<RangeFinder>` receiving `count` scans in `mode`.
 pub fn receive_role() -> Res<()> {
     let namespace = Namespace::new(&var("BENCH_NAMESPACE")?)?;
     let mode = Mode::decode(&var("BENCH_MODE")?)?;
     let count: usize = var("BENCH_COUNT")?.parse()?;
+    let read = if var("BENCH_READ")? == "view" {
+        Read::View
+    } else {
+        Read::Decode
+    };
     let ipc = std::rc::Rc::new(Ipc::open(&namespace, "bench-app")?);
     let mut client =
         Client::<RangeFinder>::connect(&ipc, "bench-app")?.with_wake_mode(mode.wake_mode());
@@ -165,12 +179,22 @@ pub fn receive_role() -> Res<()> {
     let mut sends_ns = Vec::with_capacity(count);
     let meter = CpuMeter::start();
     while latencies_ns.len() < count {
-        let Some(sample) = client.recv_timeout(IDLE_LIMIT)? else {
+        // The clock is read once the sample is in hand: decoded, or its view built.
+        let stamps = match read {
+            Read::Decode => client.recv_timeout(IDLE_LIMIT)?.map(|sample| {
+                let t1 = mono_ns();
+                (t1, sample.message.x_offset, sample.message.y_offset)
+            }),
+            Read::View => client.recv_view_timeout(IDLE_LIMIT, |scan| {
+                let t1 = mono_ns();
+                (t1, scan.x_offset, scan.y_offset)
+            })?,
+        };
+        let Some((t1, sent, send_ns)) = stamps else {
             break;
         };
-        let t1 = mono_ns();
-        latencies_ns.push(t1.saturating_sub(sample.message.x_offset as u64));
-        sends_ns.push(sample.message.y_offset as u64);
+        latencies_ns.push(t1.saturating_sub(sent as u64));
+        sends_ns.push(send_ns as u64);
     }
     let stats = meter.stop(latencies_ns);
     print_result(stats, sends_ns);
@@ -178,8 +202,8 @@ pub fn receive_role() -> Res<()> {
 }
 
 /// One row: a broker with the source publishing every `period`, and the application in
-/// `mode`.
-pub fn run(mode: Mode, beams: u32, period: Duration, count: usize) -> Res<Row> {
+/// `mode`, reading as `read` says.
+pub fn run(mode: Mode, read: Read, beams: u32, period: Duration, count: usize) -> Res<Row> {
     let dir = tempfile::tempdir()?;
     let robot_path = dir.path().join("robot.toml");
     std::fs::write(&robot_path, robot_text(beams, period))?;
@@ -197,6 +221,10 @@ pub fn run(mode: Mode, beams: u32, period: Duration, count: usize) -> Res<Row> {
             ("BENCH_NAMESPACE", namespace.to_string()),
             ("BENCH_MODE", mode.encode()),
             ("BENCH_COUNT", count.to_string()),
+            (
+                "BENCH_READ",
+                if read == Read::View { "view" } else { "decode" }.to_owned(),
+            ),
         ],
     );
     let result = receiver.and_then(|r| r.result(&mut []));

@@ -32,8 +32,10 @@ mod client;
 mod common;
 mod raw;
 
+use client::Read;
 use common::{Mode, ROLE_ENV, Res, RoleChild, Row, median, print_result, var};
 use lewis_runtime::ipc::Namespace;
+use raw::Fill;
 
 const SIZES: [(&str, usize); 3] = [("64 B", 64), ("64 KiB", 64 << 10), ("1 MiB", 1 << 20)];
 
@@ -75,48 +77,57 @@ fn main() -> Res<()> {
         println!();
         println!("{}:", mode.label());
         println!(
-            "{:<7} {:>8} | {:>15} {:>15} {:>15} | {:>6} {:>6} | {:>5} {:>5} {:>5} | {:>5} {:>5} {:>5}",
+            "{:<7} {:>8} | {:>15} {:>15} {:>15} {:>15} {:>15} | {:>6} {:>6} | {:>5} {:>5} {:>5} {:>5} {:>5} | {:>5} {:>5} {:>5} {:>5} {:>5}",
             "payload",
             "bytes",
-            "raw",
+            "raw (fill)",
+            "raw (copy in)",
             "bytes layer",
-            "client",
-            "p50 x",
-            "p99 x",
+            "client (decode)",
+            "client (view)",
+            "x fill",
+            "x copy",
             "cpu",
             "",
             "",
+            "",
+            "",
             "send",
+            "",
+            "",
             "",
             ""
         );
         for (label, target) in SIZES {
             let beams = client::beams_for(target);
             let len = client::payload_len(beams);
-            let (mut raws, mut bytes, mut clients) = (Vec::new(), Vec::new(), Vec::new());
+            let mut runs: [Vec<Row>; 5] = Default::default();
             for _ in 0..repeat {
-                raws.push(pair(Layer::Raw, mode, len, count)?);
-                bytes.push(pair(Layer::Bytes, mode, len, count)?);
-                clients.push(client::run(mode, beams, common::GAP, count)?);
+                runs[0].push(pair(Layer::Raw(Fill::Pattern), mode, len, count)?);
+                runs[1].push(pair(Layer::Raw(Fill::CopyIn), mode, len, count)?);
+                runs[2].push(pair(Layer::Bytes, mode, len, count)?);
+                runs[3].push(client::run(mode, Read::Decode, beams, common::GAP, count)?);
+                runs[4].push(client::run(mode, Read::View, beams, common::GAP, count)?);
             }
-            let (raw, ours, typed) = (median(&raws), median(&bytes), median(&clients));
+            let [raw, copied, ours, decoded, viewed] = runs.each_ref().map(|r| median(r));
             warn_short(
                 count,
-                &[("raw", &raw), ("bytes", &ours), ("client", &typed)],
+                &[
+                    ("raw", &raw),
+                    ("raw copy", &copied),
+                    ("bytes", &ours),
+                    ("client decode", &decoded),
+                    ("client view", &viewed),
+                ],
             );
+            let rows = [&raw, &copied, &ours, &decoded, &viewed];
             println!(
-                "{label:<7} {len:>8} | {} {} {} | {:>6.2} {:>6.2} | {} {} {} | {} {} {}",
-                p50_p99(&raw),
-                p50_p99(&ours),
-                p50_p99(&typed),
-                typed.p50_ns as f64 / raw.p50_ns.max(1) as f64,
-                typed.p99_ns as f64 / raw.p99_ns.max(1) as f64,
-                cpu(&raw),
-                cpu(&ours),
-                cpu(&typed),
-                us(raw.send_p50_ns),
-                us(ours.send_p50_ns),
-                us(typed.send_p50_ns),
+                "{label:<7} {len:>8} | {} | {:>6.2} {:>6.2} | {} | {}",
+                rows.map(p50_p99).join(" "),
+                viewed.p50_ns as f64 / raw.p50_ns.max(1) as f64,
+                viewed.p50_ns as f64 / copied.p50_ns.max(1) as f64,
+                rows.map(cpu).join(" "),
+                rows.map(|r| us(r.send_p50_ns)).join(" "),
             );
         }
     }
@@ -140,7 +151,15 @@ fn main() -> Res<()> {
         let mut line = format!("{:<18}", mode.label());
         for (_, target) in SIZES {
             let rows = (0..repeat)
-                .map(|_| client::run(mode, client::beams_for(target), PERIODIC, count / 2))
+                .map(|_| {
+                    client::run(
+                        mode,
+                        Read::View,
+                        client::beams_for(target),
+                        PERIODIC,
+                        count / 2,
+                    )
+                })
                 .collect::<Res<Vec<Row>>>()?;
             let row = median(&rows);
             warn_short(count / 2, &[("client", &row)]);
@@ -153,7 +172,7 @@ fn main() -> Res<()> {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Layer {
-    Raw,
+    Raw(Fill),
     Bytes,
 }
 
@@ -161,7 +180,7 @@ enum Layer {
 fn pair(layer: Layer, mode: Mode, len: usize, count: usize) -> Res<Row> {
     let namespace = Namespace::unique("bench");
     let role = match layer {
-        Layer::Raw => "raw",
+        Layer::Raw(_) => "raw",
         Layer::Bytes => "bytes",
     };
     let mut receiver = RoleChild::spawn(
@@ -175,7 +194,7 @@ fn pair(layer: Layer, mode: Mode, len: usize, count: usize) -> Res<Row> {
     )?;
     receiver.expect_ready()?;
     let mut sends = match layer {
-        Layer::Raw => raw::publish(&namespace, mode, len, count)?,
+        Layer::Raw(fill) => raw::publish(&namespace, mode, fill, len, count)?,
         Layer::Bytes => bytes::publish(&namespace, len, count)?,
     };
     receiver.result(&mut sends)

@@ -83,9 +83,25 @@ pub fn receive(namespace: &Namespace, mode: Mode, len: usize, count: usize) -> R
     Ok(meter.stop(latencies_ns))
 }
 
-/// Publishes `count` samples of `len` bytes, each filled and stamped with the send time;
-/// notifies the listeners only in event mode. Returns the time of each send.
-pub fn publish(namespace: &Namespace, mode: Mode, len: usize, count: usize) -> Res<Vec<u64>> {
+/// How the raw publisher writes a payload into its loan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fill {
+    /// A constant byte: a memset, the least a publisher can do.
+    Pattern,
+    /// A copy of a message the publisher holds in its own memory (as a typed publisher
+    /// encodes its message into the loan).
+    CopyIn,
+}
+
+/// Publishes `count` samples of `len` bytes, each filled as `fill` says and stamped with
+/// the send time; notifies the listeners only in event mode. Returns the time of each send.
+pub fn publish(
+    namespace: &Namespace,
+    mode: Mode,
+    fill: Fill,
+    len: usize,
+    count: usize,
+) -> Res<Vec<u64>> {
     let node = node(namespace)?;
     let (data, events) = services(&node, len)?;
     let notifier = events.notifier_builder().create()?;
@@ -94,17 +110,22 @@ pub fn publish(namespace: &Namespace, mode: Mode, len: usize, count: usize) -> R
         .initial_max_slice_len(len)
         .allocation_strategy(AllocationStrategy::PowerOfTwo)
         .create()?;
+    let message = vec![0x5a_u8; len];
     let mut sends = Vec::with_capacity(count);
     let mut next = Instant::now();
     for _ in 0..count {
         let t0 = mono_ns();
-        let mut sample = publisher.loan_slice_uninit(len)?;
-        sample.payload_mut().fill(MaybeUninit::new(0x5a));
-        for (dst, src) in sample.payload_mut()[..8].iter_mut().zip(t0.to_le_bytes()) {
-            dst.write(src);
-        }
-        // SAFETY: every byte was written just above.
-        let sample = unsafe { sample.assume_init() };
+        let sample = publisher.loan_slice_uninit(len)?;
+        let mut sample = match fill {
+            Fill::Pattern => {
+                let mut sample = sample;
+                sample.payload_mut().fill(MaybeUninit::new(0x5a));
+                // SAFETY: every byte was written just above.
+                unsafe { sample.assume_init() }
+            }
+            Fill::CopyIn => sample.write_from_slice(&message),
+        };
+        sample.payload_mut()[..8].copy_from_slice(&t0.to_le_bytes());
         sample.send()?;
         if mode == Mode::Event {
             notifier.notify()?;
