@@ -1,16 +1,26 @@
 //! Any bytes decoded as every generated type: an error or a value, never a panic; a value
-//! re-encodes and decodes again to the same bytes.
+//! re-encodes and decodes again to the same bytes. The type's view (read in place) agrees:
+//! the same error, or a view whose owned value encodes to the same bytes.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use lewis_interfaces::cdr;
+use lewis_interfaces::Struct;
+use lewis_interfaces::cdr::{self, ViewToOwned};
 use lewis_interfaces::msg::*;
 
 macro_rules! decode_all {
     ($($ty:ident),* $(,)?) => {
         fn decode_all(data: &[u8]) {
             $(
-                if let Ok(value) = cdr::from_bytes::<$ty>(data) {
+                let decoded = cdr::from_bytes::<$ty>(data);
+                match (&decoded, <$ty as Struct>::view(data)) {
+                    (Ok(value), Ok(view)) => {
+                        assert_eq!(cdr::to_vec(&view.to_owned_value()), cdr::to_vec(value));
+                    }
+                    (Err(d), Err(v)) => assert_eq!(d, &v),
+                    (d, v) => panic!("decode {:?} but view {:?}", d.as_ref().err(), v.err()),
+                }
+                if let Ok(value) = decoded {
                     // The input may be non-canonical (padding bytes, booleans other
                     // than 0 and 1); its re-encoding is canonical and stable.
                     let again = cdr::to_vec(&value);

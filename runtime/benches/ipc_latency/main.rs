@@ -1,16 +1,17 @@
 //! One-way publication latency, two or more processes, side by side in one run:
 //!
-//! - **raw**: raw iceoryx2 publish-subscribe of a byte slice (the baseline);
+//! - **raw**: raw iceoryx2 publish-subscribe of a byte slice (the baseline), its publisher
+//!   filling the loan with a constant byte (a memset) or copying in a message it holds;
 //! - **bytes**: our byte layer (`ipc::Publisher`, `ipc::Subscriber`, `WaitSet`);
 //! - **client**: through everything an application and a service use: a source service
 //!   under the live harness publishing a `RangeFinder` with `Context::publish` (CDR encode
-//!   into the loan), a real broker binding a `Client<RangeFinder>` to it in another process
-//!   (CDR decode).
+//!   into the loan), a real broker binding a `Client<RangeFinder>` to it in another process,
+//!   which decodes each scan or reads it in place (its view).
 //!
 //! Every row of a table carries the same payload: the bytes of a CDR `RangeFinder` of
 //! about 64 B (the smallest scan, no beams), 64 KiB or 1 MiB. The send time is stamped
 //! with `CLOCK_MONOTONIC` just before the publication; the receiver reads the clock once
-//! the sample (decoded, for the client) is in hand. Messages are spaced by 500 µs, so the
+//! the sample (decoded or viewed, for the client) is in hand. Messages are spaced by 500 µs, so the
 //! receiver is idle (blocked or spinning) when each arrives. The receiver also measures
 //! its own CPU time over the run. The publisher's time in its publish call (loan, encode,
 //! send, notify) is given too: it shows what a notification costs.
