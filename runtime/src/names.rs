@@ -40,6 +40,8 @@ pub const CLOCK_CHANNEL: &str = "/lewis/clock";
 
 /// The iceoryx2 node name of the broker (`lewis up`).
 pub const BROKER_NODE: &str = "lewis-broker";
+/// The node of the broker's cleaner thread ([`crate::ipc::NodeCleaner`]).
+pub const BROKER_CLEANER_NODE: &str = "lewis-broker-cleaner";
 
 /// The provider name in the header of the sequencer's records (`lewis seq run`, `lewis up
 /// --script`).

@@ -12,8 +12,8 @@ use std::process::{Child, ChildStdin, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use lewis_runtime::ipc::{
-    ChannelConfig, CommandConfig, Ipc, NAMESPACE_ENV, Namespace, NodeLiveness, Subscriber, WaitSet,
-    WakeMode, Woken,
+    ChannelConfig, CommandConfig, Ipc, NAMESPACE_ENV, Namespace, NodeCleaner, NodeLiveness,
+    Subscriber, WaitSet, WakeMode, Woken,
 };
 
 const WATCHDOG: Duration = Duration::from_secs(30);
@@ -200,4 +200,39 @@ fn a_sigkilled_publisher_goes_unnoticed_by_subscribers_but_is_dead_in_the_node_l
             .collect::<Vec<_>>(),
         vec![ipc.node_id()]
     );
+}
+
+#[test]
+fn the_background_cleaner_removes_a_sigkilled_node_and_says_when_it_is_done() {
+    let ns = Namespace::unique("xp-cleaner");
+    let ipc = Ipc::open(&ns, "parent").unwrap();
+    let cleaner = NodeCleaner::start(&ns, "cleaner").unwrap();
+    // Nothing asked: nothing to wait for.
+    assert!(cleaner.wait_for(0, Duration::ZERO));
+
+    let mut sub = ipc.subscriber("alive", &config()).unwrap();
+    let mut peer = Peer::start(&ns, "publish-then-hang");
+    let waits = WaitSet::new(WakeMode::Event);
+    assert_eq!(receive_one(&waits, &mut sub), b"alive");
+    let peer_pid = peer.pid();
+    peer.child.kill().unwrap(); // SIGKILL
+    peer.child.wait().unwrap();
+    let dead = |ipc: &Ipc| {
+        ipc.nodes()
+            .unwrap()
+            .into_iter()
+            .filter(|n| n.pid == Some(peer_pid))
+            .count()
+    };
+    assert_eq!(dead(&ipc), 1);
+
+    let ticket = cleaner.request();
+    assert!(
+        cleaner.wait_for(ticket, WATCHDOG),
+        "the cleanup never ended"
+    );
+    assert_eq!(dead(&ipc), 0);
+    assert_eq!(cleaner.cleaned(), 1);
+    // The parent and the cleaner's own node are all that is left.
+    assert_eq!(ipc.nodes().unwrap().len(), 2);
 }

@@ -35,8 +35,8 @@ use nix::sys::signal::Signal;
 use super::{Action, BrokerCore, Decision, Event, ExitStatus, Health, Need};
 use crate::clock::LiveClock;
 use crate::ipc::{
-    CommandServer, FdSource, Ipc, IpcError, Namespace, NodeLiveness, Publisher, Subscriber,
-    WaitError, WaitSet, Waitable, WakeMode,
+    CommandServer, FdSource, Ipc, IpcError, Namespace, NodeCleaner, NodeLiveness, Publisher,
+    Subscriber, WaitError, WaitSet, Waitable, WakeMode,
 };
 use crate::live::{CLOCK_ENV, ClockSource};
 use crate::live::{StopSignals, health_from_message};
@@ -53,6 +53,10 @@ const LOG_QUEUE: usize = 4096;
 
 /// How often the broker looks for clients that died without a release.
 const CLIENT_SWEEP: Duration = Duration::from_millis(500);
+
+/// The longest a start waits for the cleanup after an exit (it took 140-220 ms on a
+/// loaded machine); past it the service is started anyway and the wait is logged.
+const CLEANUP_WAIT_LIMIT: Duration = Duration::from_secs(2);
 
 /// How `lewis up` runs.
 #[derive(Debug, Clone)]
@@ -238,6 +242,11 @@ struct Driver<'r> {
     core: BrokerCore,
     supervisor: Supervisor,
     ipc: Ipc,
+    /// Removes what exited services left in shared memory, off this loop.
+    cleaner: NodeCleaner,
+    /// The cleanup ticket asked for at each service's last exit: a start of that service
+    /// waits for it.
+    exit_cleanups: BTreeMap<String, u64>,
     decisions_out: Publisher,
     server: CommandServer,
     health: Vec<(String, Subscriber)>,
@@ -266,6 +275,7 @@ impl<'r> Driver<'r> {
                 source,
             })?;
         let ipc = Ipc::open(&options.namespace, names::BROKER_NODE)?;
+        let cleaner = NodeCleaner::start(&options.namespace, names::BROKER_CLEANER_NODE)?;
         let decisions_out = ipc.publisher(names::BROKER_CHANNEL, &names::broker_config())?;
         let server = ipc.command_server(names::BROKER_COMMAND, &names::broker_command_config())?;
         let health = robot
@@ -284,6 +294,8 @@ impl<'r> Driver<'r> {
             core: BrokerCore::new(robot),
             supervisor,
             ipc,
+            cleaner,
+            exit_cleanups: BTreeMap::new(),
             decisions_out,
             server,
             health,
@@ -364,7 +376,8 @@ impl<'r> Driver<'r> {
     ///
     /// The core judges every deadline at the time of the event it is handed. The loop can
     /// be held up between two reads of the health channels (iceoryx2's cleanup after an
-    /// exit took 140-220 ms here, a spawn tens of ms on a loaded machine), and an event
+    /// exit took 140-220 ms here before it moved to its own thread, a spawn takes tens of
+    /// ms on a loaded machine), and an event
     /// taken after that, with the heartbeats sent meanwhile still unread, failed healthy
     /// services: a hot-standby sonar beating every 10 ms was given up while the crashed
     /// laser was restarted. Reading them first means a service is judged stalled only when
@@ -461,6 +474,18 @@ impl<'r> Driver<'r> {
         for (key, value) in &spec.environment {
             child = child.env(key, value);
         }
+        // A service started again must not meet its dead predecessor's ports (a
+        // publisher or server slot still taken). The cleanup asked for at its exit may
+        // have ended during the backoff; this waits only when it has not, and other
+        // services (an on-demand replacement) never wait for it.
+        if let Some(ticket) = self.exit_cleanups.remove(service)
+            && !self.cleaner.wait_for(ticket, CLEANUP_WAIT_LIMIT)
+        {
+            tracing::warn!(
+                service,
+                "the IPC cleanup after {service}'s exit took over {CLEANUP_WAIT_LIMIT:?}: starting it anyway"
+            );
+        }
         match self.supervisor.start(child) {
             Ok(pid) => {
                 tracing::info!(service, pid, "started {service} (pid {pid})");
@@ -480,6 +505,10 @@ impl<'r> Driver<'r> {
             let seen_ns = self.clock.now_ns();
             if let SupervisorEvent::Exited { name, status, .. } = event {
                 self.kills.remove(&name);
+                // The dead process's ports and memory go, off this loop; a start of the
+                // same service waits for that before it opens the same channels (`start`).
+                self.exit_cleanups
+                    .insert(name.clone(), self.cleaner.request());
                 let status = match status {
                     ProcessExit::Exited { code } => ExitStatus::Code(code),
                     ProcessExit::Signalled { signal, .. } => ExitStatus::Signal(signal),
@@ -491,9 +520,6 @@ impl<'r> Driver<'r> {
                         status,
                     },
                 );
-                // The dead process's ports and memory go before a restart (which waits for
-                // its backoff) opens the same channels again.
-                let _ = self.ipc.cleanup_dead_nodes();
             }
         }
         Ok(())
@@ -548,7 +574,7 @@ impl<'r> Driver<'r> {
             tracing::info!(client, "client {client} died without a release");
             self.feed(Event::ClientGone { client });
         }
-        let _ = self.ipc.cleanup_dead_nodes();
+        let _ = self.cleaner.request();
     }
 
     fn kill_overdue(&mut self, now: Instant) {

@@ -15,9 +15,11 @@
 //!   with a deadline, in event, adaptive (spin then block), predictive (block until a
 //!   periodic sample is due, then spin) or busy-poll mode.
 //! - [`Ipc::nodes`] / [`Ipc::cleanup_dead_nodes`]: liveness of the processes in the
-//!   namespace, the only way to see a publisher that was killed with SIGKILL.
+//!   namespace, the only way to see a publisher that was killed with SIGKILL;
+//!   [`NodeCleaner`] cleans on a thread of its own, for loops that must not stall.
 
 mod channel;
+mod cleaner;
 mod command;
 mod liveness;
 mod namespace;
@@ -28,6 +30,7 @@ pub use channel::{
     ChannelConfig, Drain, OverflowPolicy, PublishError, Published, Publisher, ReceiveError,
     Received, Subscriber,
 };
+pub use cleaner::NodeCleaner;
 pub use command::{
     CallError, CallId, CallOutcome, CommandClient, CommandConfig, CommandServer, Reply, ReplyError,
     Request,
