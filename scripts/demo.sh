@@ -7,6 +7,9 @@ cd "$root"
 cargo build --release -q --workspace --locked
 lewis=target/release/lewis
 mkdir -p logs
+# The demo's own outputs from an earlier run: the recorder never overwrites a recording
+# (it would run the robot without recording), so they go first.
+rm -f logs/demo.mcap logs/demo-replay.mcap logs/demo-replay.json logs/demo.rrd
 echo "== lewis up robots/sim.toml --goal 12,13 -o logs/demo.mcap (drive from the lobby into the corridor)"
 $lewis up robots/sim.toml --goal 12,13 -o logs/demo.mcap --namespace "demo-$$"
 echo "== lewis info logs/demo.mcap"
