@@ -203,7 +203,11 @@ impl Up {
             .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "300"])
             .args(args)
             .current_dir(dir.path())
-            .env("RUST_LOG", "info")
+            // `LEWIS_TEST_LOG=lewis_runtime=debug` to see more of a run under study.
+            .env(
+                "RUST_LOG",
+                std::env::var("LEWIS_TEST_LOG").unwrap_or_else(|_| "info".to_owned()),
+            )
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())

@@ -54,6 +54,15 @@ const LOG_QUEUE: usize = 4096;
 /// How often the broker looks for clients that died without a release.
 const CLIENT_SWEEP: Duration = Duration::from_millis(500);
 
+/// The IPC cleanups asked for at a service's exits ([`NodeCleaner::request`] tickets).
+#[derive(Debug, Default)]
+struct ExitCleanups {
+    /// At its last exit.
+    last: Option<u64>,
+    /// At the exit before that one.
+    before_last: Option<u64>,
+}
+
 /// The longest a start waits for the cleanup after an exit (it took 140-220 ms on a
 /// loaded machine); past it the service is started anyway and the wait is logged.
 const CLEANUP_WAIT_LIMIT: Duration = Duration::from_secs(2);
@@ -244,9 +253,8 @@ struct Driver<'r> {
     ipc: Ipc,
     /// Removes what exited services left in shared memory, off this loop.
     cleaner: NodeCleaner,
-    /// The cleanup ticket asked for at each service's last exit: a start of that service
-    /// waits for it.
-    exit_cleanups: BTreeMap<String, u64>,
+    /// The cleanup tickets asked for at each service's last two exits.
+    exit_cleanups: BTreeMap<String, ExitCleanups>,
     decisions_out: Publisher,
     server: CommandServer,
     health: Vec<(String, Subscriber)>,
@@ -474,17 +482,25 @@ impl<'r> Driver<'r> {
         for (key, value) in &spec.environment {
             child = child.env(key, value);
         }
-        // A service started again must not meet its dead predecessor's ports (a
-        // publisher or server slot still taken). The cleanup asked for at its exit may
-        // have ended during the backoff; this waits only when it has not, and other
-        // services (an on-demand replacement) never wait for it.
-        if let Some(ticket) = self.exit_cleanups.remove(service)
-            && !self.cleaner.wait_for(ticket, CLEANUP_WAIT_LIMIT)
-        {
-            tracing::warn!(
-                service,
-                "the IPC cleanup after {service}'s exit took over {CLEANUP_WAIT_LIMIT:?}: starting it anyway"
-            );
+        // A service started again may meet one dead predecessor's ports (its channels
+        // have a publisher and a server slot to spare for it: `names::command_config`),
+        // not two: the cleanup after the exit before the last one must be over. It
+        // usually is (a cleanup took about 150 ms, a backoff and a start as long), and
+        // other services (an on-demand replacement) never wait for it.
+        if let Some(ticket) = self.exit_cleanups.get(service).and_then(|c| c.before_last) {
+            let waiting = Instant::now();
+            if self.cleaner.wait_for(ticket, CLEANUP_WAIT_LIMIT) {
+                tracing::debug!(
+                    service,
+                    "waited {:?} for the IPC cleanup after {service}'s exit",
+                    waiting.elapsed()
+                );
+            } else {
+                tracing::warn!(
+                    service,
+                    "the IPC cleanup after {service}'s exit took over {CLEANUP_WAIT_LIMIT:?}: starting it anyway"
+                );
+            }
         }
         match self.supervisor.start(child) {
             Ok(pid) => {
@@ -507,8 +523,9 @@ impl<'r> Driver<'r> {
                 self.kills.remove(&name);
                 // The dead process's ports and memory go, off this loop; a start of the
                 // same service waits for that before it opens the same channels (`start`).
-                self.exit_cleanups
-                    .insert(name.clone(), self.cleaner.request());
+                let ticket = self.cleaner.request();
+                let cleanups = self.exit_cleanups.entry(name.clone()).or_default();
+                cleanups.before_last = cleanups.last.replace(ticket);
                 let status = match status {
                     ProcessExit::Exited { code } => ExitStatus::Code(code),
                     ProcessExit::Signalled { signal, .. } => ExitStatus::Signal(signal),

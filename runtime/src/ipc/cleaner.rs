@@ -79,7 +79,14 @@ impl NodeCleaner {
                 for () in incoming {
                     // Every request made before this pass starts is covered by it.
                     let covers = thread_shared.lock().requested;
+                    let started = Instant::now();
                     let report = ipc.cleanup_dead_nodes();
+                    tracing::debug!(
+                        cleaned = report.cleaned,
+                        failed = report.failed,
+                        "IPC cleanup of dead nodes took {:?}",
+                        started.elapsed()
+                    );
                     let mut progress = thread_shared.lock();
                     progress.done = covers;
                     progress.cleaned += report.cleaned;
