@@ -4,6 +4,10 @@
 //! by itself and says so in one log line. The application sees only the provider's name
 //! change in the headers of the samples.
 //!
+//! A sample is decoded into an owned message ([`Client::recv_timeout`]) or read in place in
+//! shared memory ([`Client::recv_view_timeout`]: the message's view, nothing copied), which
+//! is what a consumer of camera frames or large scans wants.
+//!
 //! [`RawClient`] is the untyped core (interface given by name), used by the live harness
 //! for a service's required interfaces; [`Client`] wraps it for applications.
 
