@@ -497,8 +497,7 @@ impl<T: Interface> Client<T> {
     /// # Errors
     /// When the broker rejects the interface, or a sample cannot be received or decoded.
     pub fn try_recv(&mut self) -> Result<Option<Sample<T>>, ClientError> {
-        self.raw.process()?;
-        let received = self.raw.receive()?;
+        let received = self.try_received()?;
         received.map(|r| self.decode(&r)).transpose()
     }
 
@@ -517,16 +516,8 @@ impl<T: Interface> Client<T> {
     /// # Errors
     /// As [`Client::try_recv`].
     pub fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<Sample<T>>, ClientError> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(sample) = self.try_recv()? {
-                return Ok(Some(sample));
-            }
-            if Instant::now() >= deadline {
-                return Ok(None);
-            }
-            self.wait(deadline)?;
-        }
+        let received = self.received_within(timeout)?;
+        received.map(|r| self.decode(&r)).transpose()
     }
 
     /// Reads the oldest unread sample in place, without waiting: `read` gets the
@@ -540,12 +531,8 @@ impl<T: Interface> Client<T> {
         &mut self,
         read: impl FnOnce(T::View<'_>) -> R,
     ) -> Result<Option<R>, ClientError> {
-        self.raw.process()?;
-        let Some(received) = self.raw.receive()? else {
-            return Ok(None);
-        };
-        let view = T::view(received.bytes()).map_err(|e| self.decode_error(&e))?;
-        Ok(Some(read(view)))
+        let received = self.try_received()?;
+        received.map(|r| self.read_view(&r, read)).transpose()
     }
 
     /// [`Client::try_recv_view`], waiting at most `timeout` for the next sample (the
@@ -558,19 +545,8 @@ impl<T: Interface> Client<T> {
         timeout: Duration,
         read: impl FnOnce(T::View<'_>) -> R,
     ) -> Result<Option<R>, ClientError> {
-        let deadline = Instant::now() + timeout;
-        let mut read = Some(read);
-        loop {
-            self.raw.process()?;
-            if let Some(received) = self.raw.receive()? {
-                let view = T::view(received.bytes()).map_err(|e| self.decode_error(&e))?;
-                return Ok(read.take().map(|read| read(view)));
-            }
-            if Instant::now() >= deadline {
-                return Ok(None);
-            }
-            self.wait(deadline)?;
-        }
+        let received = self.received_within(timeout)?;
+        received.map(|r| self.read_view(&r, read)).transpose()
     }
 
     /// Sends a command to the current provider and waits for its reply (at most `timeout`).
@@ -611,6 +587,35 @@ impl<T: Interface> Client<T> {
         let sources = self.raw.waitables();
         self.waits.wait(&sources, Some(deadline))?;
         Ok(())
+    }
+
+    /// The oldest unread sample of the current provider, after the broker's news.
+    fn try_received(&mut self) -> Result<Option<Received>, ClientError> {
+        self.raw.process()?;
+        self.raw.receive()
+    }
+
+    /// [`Client::try_received`], waiting at most `timeout` for one.
+    fn received_within(&mut self, timeout: Duration) -> Result<Option<Received>, ClientError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(received) = self.try_received()? {
+                return Ok(Some(received));
+            }
+            if Instant::now() >= deadline {
+                return Ok(None);
+            }
+            self.wait(deadline)?;
+        }
+    }
+
+    fn read_view<R>(
+        &self,
+        received: &Received,
+        read: impl FnOnce(T::View<'_>) -> R,
+    ) -> Result<R, ClientError> {
+        let view = T::view(received.bytes()).map_err(|e| self.decode_error(&e))?;
+        Ok(read(view))
     }
 
     fn decode(&self, received: &Received) -> Result<Sample<T>, ClientError> {

@@ -119,8 +119,8 @@ pub fn data_config(interface: &str) -> ChannelConfig {
 /// The settings of health channels: the broker drains them before every event it takes;
 /// the last heartbeat is kept for a broker that joins late. Both the broker and the recorder
 /// take a buffer of 64 (640 ms of heartbeats every 10 ms): the broker's loop can be held up
-/// for a while (iceoryx2's cleanup after an exit took up to 220 ms), and a heartbeat dropped
-/// from a full buffer would leave a gap that the broker takes for a stall.
+/// for a while (a spawn on a loaded machine, a restart waiting for an IPC cleanup), and a
+/// heartbeat dropped from a full buffer would leave a gap that the broker takes for a stall.
 #[must_use]
 pub fn health_config() -> ChannelConfig {
     ChannelConfig {

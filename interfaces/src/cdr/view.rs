@@ -66,9 +66,27 @@ macro_rules! le_number {
                 <$ty>::from_le_bytes(array)
             }
         }
+    )*};
+}
 
+le_number!(u8, i8, i16, u16, i32, u32, i64, u64, f32, f64);
+
+impl LeItem for bool {
+    const SIZE: usize = 1;
+    const ALIGN: usize = 1;
+
+    /// Any non-zero byte is true, as decoding reads it.
+    #[inline]
+    fn read_le(bytes: &[u8]) -> Self {
+        bytes.first().is_some_and(|b| *b != 0)
+    }
+}
+
+/// A value with nothing to borrow is its own view: read as decoding reads it.
+macro_rules! view_as_decoded {
+    ($($ty:ty),*) => {$(
         impl DecodeView<'_> for $ty {
-            const MIN_LEN: usize = size_of::<$ty>();
+            const MIN_LEN: usize = <$ty as Decode>::MIN_LEN;
 
             #[inline]
             fn decode_view(reader: &mut Reader<'_>) -> Result<Self, DecodeError> {
@@ -87,36 +105,7 @@ macro_rules! le_number {
     )*};
 }
 
-le_number!(u8, i8, i16, u16, i32, u32, i64, u64, f32, f64);
-
-impl LeItem for bool {
-    const SIZE: usize = 1;
-    const ALIGN: usize = 1;
-
-    /// Any non-zero byte is true, as decoding reads it.
-    #[inline]
-    fn read_le(bytes: &[u8]) -> Self {
-        bytes.first().is_some_and(|b| *b != 0)
-    }
-}
-
-impl DecodeView<'_> for bool {
-    const MIN_LEN: usize = 1;
-
-    #[inline]
-    fn decode_view(reader: &mut Reader<'_>) -> Result<Self, DecodeError> {
-        <bool as Decode>::decode(reader)
-    }
-}
-
-impl ViewToOwned for bool {
-    type Owned = bool;
-
-    #[inline]
-    fn to_owned_value(&self) -> bool {
-        *self
-    }
-}
+view_as_decoded!(u8, i8, i16, u16, i32, u32, i64, u64, f32, f64, bool);
 
 impl<'a> DecodeView<'a> for &'a str {
     const MIN_LEN: usize = 4;

@@ -384,12 +384,11 @@ impl<'r> Driver<'r> {
     ///
     /// The core judges every deadline at the time of the event it is handed. The loop can
     /// be held up between two reads of the health channels (iceoryx2's cleanup after an
-    /// exit took 140-220 ms here before it moved to its own thread, a spawn takes tens of
-    /// ms on a loaded machine), and an event
-    /// taken after that, with the heartbeats sent meanwhile still unread, failed healthy
-    /// services: a hot-standby sonar beating every 10 ms was given up while the crashed
-    /// laser was restarted. Reading them first means a service is judged stalled only when
-    /// it really sent nothing in time.
+    /// exit took 140-220 ms here before it moved to its own thread; a spawn takes tens of
+    /// ms on a loaded machine), and an event taken after that, with the heartbeats sent
+    /// meanwhile still unread, failed healthy services: a hot-standby sonar beating every
+    /// 10 ms was given up while the crashed laser was restarted. Reading them first means
+    /// a service is judged stalled only when it really sent nothing in time.
     fn feed_at(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
         self.take_heartbeats(at_ns);
         self.handle(at_ns, event)
@@ -591,7 +590,7 @@ impl<'r> Driver<'r> {
             tracing::info!(client, "client {client} died without a release");
             self.feed(Event::ClientGone { client });
         }
-        let _ = self.cleaner.request();
+        self.cleaner.request();
     }
 
     fn kill_overdue(&mut self, now: Instant) {
