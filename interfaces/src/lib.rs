@@ -15,8 +15,8 @@ pub mod idl;
 mod traits;
 
 pub use traits::{
-    Command, CommandDecodeError, CommandInfo, CommandSet, Interface, InterfaceInfo, Message,
-    SchemaInfo, SizeMismatch, Struct,
+    Command, CommandDecodeError, CommandInfo, CommandSet, InPlace, Interface, InterfaceInfo,
+    Message, SchemaInfo, SizeMismatch, Struct,
 };
 
 /// The types generated from `idl/*.xml`: one struct per compound type, publication,

@@ -5,7 +5,7 @@ use std::fmt::Debug;
 
 use thiserror::Error;
 
-use crate::cdr::{Decode, DecodeError, DecodeView, Encode, ViewToOwned};
+use crate::cdr::{Decode, DecodeError, DecodeView, Encode, Sink, ViewToOwned};
 use crate::msg::Header;
 
 /// Any generated struct: it has a CDR encoding and a ros2msg schema.
@@ -37,6 +37,40 @@ pub trait Struct:
     fn check_sizes(&self) -> Result<(), SizeMismatch>;
 }
 
+/// A struct whose arrays of numbers and of plain structs can be written in place in the
+/// encoded bytes (see [`crate::cdr::encode_in_place`]): what a publisher of camera frames
+/// or scans uses to write them straight into shared memory. Every generated struct has
+/// it; `RangeFinder`'s writer is `RangeFinderBulk<'a>`, its lengths `RangeFinderBulkLens`.
+pub trait InPlace: Struct {
+    /// The writer of the arrays, borrowed from the encoded bytes: a
+    /// [`crate::cdr::LeSliceMut`] (or `&mut [u8]` for bytes) per array, named as the field.
+    type Bulk<'a>;
+    /// One number per array written in place, named as the field: their lengths (or,
+    /// from [`InPlace::encode_shape`], where they start).
+    type Lens: Copy + Debug + Default + PartialEq + Eq;
+
+    /// Encodes the fields of `self` but for the arrays written in place: for those, the
+    /// count from `lens` and the room for the elements, left unwritten (`self`'s own arrays
+    /// there are ignored). Returns where each array's elements start in the payload.
+    fn encode_shape<S: Sink>(&self, lens: &Self::Lens, sink: &mut S) -> Self::Lens;
+
+    /// The writer of the arrays of a payload encoded by [`InPlace::encode_shape`] with the
+    /// same `lens`, which returned `starts`.
+    fn bulk<'a>(payload: &'a mut [u8], lens: &Self::Lens, starts: &Self::Lens) -> Self::Bulk<'a>;
+
+    /// The lengths of `self`'s own arrays.
+    fn bulk_lens(&self) -> Self::Lens;
+
+    /// Writes `self`'s own arrays: the in-place encoding is then `self`'s encoding.
+    fn write_bulk(&self, bulk: Self::Bulk<'_>);
+
+    /// [`Struct::check_sizes`] with the arrays written in place of the lengths `lens`.
+    ///
+    /// # Errors
+    /// The first array whose length disagrees.
+    fn check_shape(&self, lens: &Self::Lens) -> Result<(), SizeMismatch>;
+}
+
 /// A struct that travels on its own: a publication, a command or a reply. It starts with
 /// the common [`Header`].
 pub trait Message: Struct {
@@ -47,7 +81,7 @@ pub trait Message: Struct {
 }
 
 /// An interface, named by the type of its publication: `Client<RangeFinder>`.
-pub trait Interface: Message {
+pub trait Interface: Message + InPlace {
     /// Its name, as in the XML.
     const NAME: &'static str;
     /// Its version, `MAJOR.MINOR`.

@@ -12,7 +12,7 @@ use std::path::Path;
 use lewis_interfaces::cdr::{self, DecodeError, EncodeError, ViewToOwned};
 use lewis_interfaces::idl::{self, FieldType, Idl, Primitive, StructType};
 use lewis_interfaces::msg::*;
-use lewis_interfaces::{Interface, Message, Struct};
+use lewis_interfaces::{InPlace, Interface, Message, Struct};
 use proptest::prelude::*;
 
 /// A small deterministic generator: splitmix64.
@@ -147,7 +147,7 @@ fn random_message(idl: &Idl, ty: &StructType, seed: u64) -> Vec<u8> {
     w.out
 }
 
-fn check_roundtrip<T: Struct>(idl: &Idl, seed: u64) {
+fn check_roundtrip<T: Struct + InPlace>(idl: &Idl, seed: u64) {
     let ty = idl
         .all_structs()
         .find(|s| format!("lewis_interfaces/msg/{}", s.name) == T::SCHEMA_NAME)
@@ -181,6 +181,18 @@ fn check_roundtrip<T: Struct>(idl: &Idl, seed: u64) {
         "{}'s view reads another value",
         T::SCHEMA_NAME
     );
+    // Written in place over stale bytes, its arrays filled afterwards, it is the same
+    // message: the generated shape and writer leave room for exactly the arrays they fill.
+    let lens = value.bulk_lens();
+    assert_eq!(cdr::in_place_len(&value, &lens), bytes.len());
+    // Random counts rarely match their size fields: both checks must agree on that.
+    assert_eq!(value.check_shape(&lens), value.check_sizes());
+    let mut loan = vec![0xA5; bytes.len()];
+    let bulk = cdr::encode_in_place(&value, &lens, &mut loan)
+        .unwrap_or_else(|e| panic!("{} in place: {e}", T::SCHEMA_NAME));
+    value.write_bulk(bulk);
+    assert_eq!(loan, bytes, "{} written in place differs", T::SCHEMA_NAME);
+    assert!(cdr::encode_in_place(&value, &lens, &mut loan[..bytes.len() - 1]).is_err());
     // Every truncation is an error or (within the tolerated padding) the same value, and
     // the view agrees with the decoder on which, and on the error.
     for cut in [1, 2, 3, 4, 5, 9, bytes.len() / 2, bytes.len() - 4] {
@@ -268,6 +280,37 @@ proptest! {
         prop_assert_eq!(RangeFinder::view(&framed).err(), cdr::from_bytes::<RangeFinder>(&framed).err());
         prop_assert_eq!(Blobs3D::view(&framed).err(), cdr::from_bytes::<Blobs3D>(&framed).err());
         prop_assert_eq!(Signs::view(&bytes).err(), cdr::from_bytes::<Signs>(&bytes).err());
+    }
+
+    #[test]
+    fn a_scan_written_in_place_from_a_template_without_arrays_is_the_scan(
+        ranges in prop::collection::vec(any::<f64>(), 0..500),
+        provider in "\\PC{0,20}",
+    ) {
+        let scan = RangeFinder {
+            header: Header { provider, seq: 4, publish_time_ns: 77, inputs: vec![] },
+            range_count: ranges.len() as i32,
+            sensor_positions: (0..ranges.len()).map(|i| Pose3D { y: i as f64, ..Pose3D::default() }).collect(),
+            ranges: ranges.clone(),
+            uniform: true,
+            ..Default::default()
+        };
+        // What a publisher holds: the small fields, no arrays; their lengths apart.
+        let template = RangeFinder { ranges: vec![], sensor_positions: vec![], ..scan.clone() };
+        let lens = RangeFinderBulkLens { ranges: ranges.len(), sensor_positions: ranges.len() };
+        prop_assert!(template.check_sizes().is_err() || ranges.is_empty());
+        template.check_shape(&lens).unwrap();
+        let mut loan = vec![0xFF; cdr::in_place_len(&template, &lens)];
+        let mut bulk = cdr::encode_in_place(&template, &lens, &mut loan).unwrap();
+        prop_assert_eq!(bulk.ranges.fill_from(ranges.iter().copied()), ranges.len());
+        for i in 0..ranges.len() {
+            let pose = Pose3D { y: i as f64, ..Pose3D::default() };
+            prop_assert!(bulk.sensor_positions.set(i, &pose));
+        }
+        prop_assert_eq!(loan, cdr::to_vec(&scan));
+        // Lengths that disagree with range_count are refused, as check_sizes refuses them.
+        let wrong = RangeFinderBulkLens { ranges: ranges.len() + 1, ..lens };
+        prop_assert!(template.check_shape(&wrong).is_err());
     }
 
     #[test]

@@ -14,6 +14,10 @@ pub trait Sink {
     /// Appends `len` bytes that `fill` writes; the bulk path for arrays of primitives.
     fn put_with(&mut self, len: usize, fill: impl FnOnce(&mut [u8]));
 
+    /// Leaves `len` bytes for the caller to write later ([`crate::InPlace`]): a slice
+    /// keeps what it held there, a `Vec` gets zeros.
+    fn skip(&mut self, len: usize);
+
     /// Appends zero bytes up to a multiple of `align`.
     #[inline]
     fn align(&mut self, align: usize) {
@@ -42,6 +46,12 @@ impl Sink for SizeSink {
     #[inline]
     fn put_with(&mut self, len: usize, _fill: impl FnOnce(&mut [u8])) {
         self.position += len;
+    }
+    #[inline]
+    fn skip(&mut self, len: usize) {
+        // A reserved length may be absurd (a caller's bug): it must size no buffer, not
+        // overflow.
+        self.position = self.position.saturating_add(len);
     }
 }
 
@@ -98,6 +108,12 @@ impl Sink for SliceSink<'_> {
             None => self.overflow = true,
         }
     }
+    #[inline]
+    fn skip(&mut self, len: usize) {
+        if self.room(len).is_none() {
+            self.overflow = true;
+        }
+    }
 }
 
 /// Appends to a `Vec`, whose allocation the caller reuses from message to message.
@@ -129,6 +145,10 @@ impl Sink for VecSink<'_> {
         let start = self.buffer.len();
         self.buffer.resize(start + len, 0);
         fill(&mut self.buffer[start..]);
+    }
+    #[inline]
+    fn skip(&mut self, len: usize) {
+        self.buffer.resize(self.buffer.len() + len, 0);
     }
 }
 

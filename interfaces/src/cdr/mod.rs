@@ -10,10 +10,12 @@
 
 mod decode;
 mod encode;
+mod in_place;
 mod view;
 
 pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader, le_bulk_copy};
 pub use encode::{Encode, EncodeError, Sink, SizeSink, SliceSink, VecSink};
+pub use in_place::{BulkParts, LeSliceMut, bulk_len, reserve_bulk};
 pub use view::{DecodeView, LeItem, LeSlice, SeqIter, SeqView, ViewToOwned};
 
 /// The encapsulation header of little-endian plain CDR.
@@ -49,6 +51,42 @@ pub fn encode_into<T: Encode + ?Sized>(value: &T, buffer: &mut [u8]) -> Result<u
         Some(written) => Ok(written + ENCAPSULATION_LE.len()),
         None => Err(too_small()),
     }
+}
+
+/// The number of bytes `value` takes encoded with arrays of the lengths `lens` written in
+/// place ([`crate::InPlace`]), header included.
+pub fn in_place_len<T: crate::InPlace>(value: &T, lens: &T::Lens) -> usize {
+    let mut sink = SizeSink::default();
+    value.encode_shape(lens, &mut sink);
+    ENCAPSULATION_LE.len() + sink.position()
+}
+
+/// Encodes `value` into `buffer` (header included) but for its arrays written in place,
+/// which get the lengths `lens` and whose room is left as it is; returns their writer.
+/// Once every element is written, `buffer[..in_place_len(value, lens)]` is the message.
+///
+/// # Errors
+/// [`EncodeError::BufferTooSmall`] when `buffer` is shorter than [`in_place_len`].
+pub fn encode_in_place<'a, T: crate::InPlace>(
+    value: &T,
+    lens: &T::Lens,
+    buffer: &'a mut [u8],
+) -> Result<T::Bulk<'a>, EncodeError> {
+    let available = buffer.len();
+    let too_small = || EncodeError::BufferTooSmall {
+        needed: in_place_len(value, lens),
+        available,
+    };
+    let Some((header, payload)) = buffer.split_at_mut_checked(ENCAPSULATION_LE.len()) else {
+        return Err(too_small());
+    };
+    header.copy_from_slice(&ENCAPSULATION_LE);
+    let mut sink = SliceSink::new(payload);
+    let starts = value.encode_shape(lens, &mut sink);
+    if sink.finish().is_none() {
+        return Err(too_small());
+    }
+    Ok(T::bulk(payload, lens, &starts))
 }
 
 /// Encodes `value` into `buffer`, replacing its contents (its allocation is reused).

@@ -51,6 +51,9 @@ pub trait LeItem: Sized {
 
     /// Reads one element from exactly [`LeItem::SIZE`] bytes.
     fn read_le(bytes: &[u8]) -> Self;
+
+    /// Writes the element into exactly [`LeItem::SIZE`] bytes.
+    fn write_le(&self, bytes: &mut [u8]);
 }
 
 macro_rules! le_number {
@@ -64,6 +67,11 @@ macro_rules! le_number {
                 let mut array = [0; size_of::<$ty>()];
                 array.copy_from_slice(bytes);
                 <$ty>::from_le_bytes(array)
+            }
+
+            #[inline]
+            fn write_le(&self, bytes: &mut [u8]) {
+                bytes.copy_from_slice(&self.to_le_bytes());
             }
         }
     )*};
@@ -79,6 +87,13 @@ impl LeItem for bool {
     #[inline]
     fn read_le(bytes: &[u8]) -> Self {
         bytes.first().is_some_and(|b| *b != 0)
+    }
+
+    #[inline]
+    fn write_le(&self, bytes: &mut [u8]) {
+        if let Some(b) = bytes.first_mut() {
+            *b = u8::from(*self);
+        }
     }
 }
 

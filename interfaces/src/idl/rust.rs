@@ -211,6 +211,7 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
     }
 
     emit_view(out, idl, ty, &all_fields);
+    emit_in_place(out, idl, ty);
 
     let _ = writeln!(out, "impl crate::Struct for {name} {{");
     let _ = writeln!(out, "    type View<'a> = {name}View<'a>;");
@@ -227,12 +228,39 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
         out,
         "    fn check_sizes(&self) -> Result<(), crate::SizeMismatch> {{"
     );
+    emit_size_checks(out, idl, ty, |field| format!("self.{}.len()", field.name));
+    let _ = writeln!(out, "        Ok(())\n    }}\n}}\n");
+
+    if ty.has_header() {
+        let _ = writeln!(out, "impl crate::Message for {name} {{");
+        let _ = writeln!(
+            out,
+            "    fn header(&self) -> &Header {{\n        &self.header\n    }}"
+        );
+        let _ = writeln!(
+            out,
+            "    fn header_mut(&mut self) -> &mut Header {{\n        &mut self.header\n    }}"
+        );
+        let _ = writeln!(out, "}}\n");
+    }
+}
+
+/// The checks of every array's length against the field that gives its size, the length
+/// of a field given by `len_of`; nested structs are checked whole.
+fn emit_size_checks(
+    out: &mut String,
+    idl: &Idl,
+    ty: &StructType,
+    len_of: impl Fn(&Field) -> String,
+) {
+    let name = &ty.name;
     for field in &ty.fields {
         if let Some(size) = &field.array_size {
             let _ = writeln!(
                 out,
-                "        crate::SizeMismatch::check(\"{name}\", \"{}\", self.{}.len(), \"{size}\", i128::from(self.{size}))?;",
-                field.name, field.name
+                "        crate::SizeMismatch::check(\"{name}\", \"{}\", {}, \"{size}\", i128::from(self.{size}))?;",
+                field.name,
+                len_of(field)
             );
         }
         if let FieldType::Struct(inner) = &field.ty
@@ -252,20 +280,6 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
                 );
             }
         }
-    }
-    let _ = writeln!(out, "        Ok(())\n    }}\n}}\n");
-
-    if ty.has_header() {
-        let _ = writeln!(out, "impl crate::Message for {name} {{");
-        let _ = writeln!(
-            out,
-            "    fn header(&self) -> &Header {{\n        &self.header\n    }}"
-        );
-        let _ = writeln!(
-            out,
-            "    fn header_mut(&mut self) -> &mut Header {{\n        &mut self.header\n    }}"
-        );
-        let _ = writeln!(out, "}}\n");
     }
 }
 
@@ -346,6 +360,176 @@ fn emit_view(out: &mut String, idl: &Idl, ty: &StructType, all_fields: &[&str]) 
     let _ = writeln!(out, "        }}\n    }}\n}}\n");
 }
 
+/// How a field is written in place ([`crate::InPlace`]), if it is: its element type, and
+/// whether it is a byte array (written as `&mut [u8]`, not a `LeSliceMut`).
+fn bulk_element(idl: &Idl, field: &Field) -> Option<(String, bool)> {
+    match (&field.ty, field.is_array) {
+        (
+            FieldType::Primitive {
+                primitive: Primitive::Bytes,
+                ..
+            },
+            false,
+        ) => Some(("u8".to_owned(), true)),
+        (FieldType::Primitive { primitive, .. }, true) => match primitive {
+            // Not every byte is a bool; strings and byte strings vary in size.
+            Primitive::Bool | Primitive::String | Primitive::Bytes => None,
+            p => Some((p.rust().to_owned(), p.rust() == "u8")),
+        },
+        (FieldType::Struct(name), true) if idl.compound(name).and_then(plain_layout).is_some() => {
+            Some((name.clone(), false))
+        }
+        _ => None,
+    }
+}
+
+/// The in-place writer of a struct's arrays, their lengths, and its `InPlace` impl.
+fn emit_in_place(out: &mut String, idl: &Idl, ty: &StructType) {
+    let name = &ty.name;
+    let bulk: Vec<(&Field, String, bool)> = ty
+        .fields
+        .iter()
+        .filter_map(|f| bulk_element(idl, f).map(|(element, bytes)| (f, element, bytes)))
+        .collect();
+    let _ = writeln!(
+        out,
+        "/// The arrays of [`{name}`] written in place in its encoded bytes (see [`crate::InPlace`])."
+    );
+    let _ = writeln!(out, "#[derive(Debug)]");
+    let _ = writeln!(out, "pub struct {name}Bulk<'a> {{");
+    for (field, element, bytes) in &bulk {
+        let _ = writeln!(out, "    /// As [`{name}::{}`].", field.name);
+        let ty = if *bytes {
+            "&'a mut [u8]".to_owned()
+        } else {
+            format!("crate::cdr::LeSliceMut<'a, {element}>")
+        };
+        let _ = writeln!(out, "    pub {}: {ty},", field.name);
+    }
+    let _ = writeln!(out, "    _bytes: std::marker::PhantomData<&'a mut [u8]>,");
+    let _ = writeln!(out, "}}\n");
+
+    let _ = writeln!(
+        out,
+        "/// One number per array of [`{name}`] written in place (see [`crate::InPlace::Lens`])."
+    );
+    let _ = writeln!(out, "#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]");
+    let _ = writeln!(out, "pub struct {name}BulkLens {{");
+    for (field, _, _) in &bulk {
+        let _ = writeln!(out, "    /// For [`{name}::{}`].", field.name);
+        let _ = writeln!(out, "    pub {}: usize,", field.name);
+    }
+    let _ = writeln!(out, "}}\n");
+
+    let is_bulk = |f: &Field| bulk.iter().any(|(b, _, _)| b.name == f.name);
+    let none = bulk.is_empty();
+    let unused = |s: &str| if none { format!("_{s}") } else { s.to_owned() };
+    let _ = writeln!(out, "impl crate::InPlace for {name} {{");
+    let _ = writeln!(out, "    type Bulk<'a> = {name}Bulk<'a>;");
+    let _ = writeln!(out, "    type Lens = {name}BulkLens;");
+    let _ = writeln!(
+        out,
+        "    fn encode_shape<S: crate::cdr::Sink>(&self, {}: &{name}BulkLens, sink: &mut S) -> {name}BulkLens {{",
+        unused("lens")
+    );
+    let _ = writeln!(
+        out,
+        "        let {}starts = {name}BulkLens::default();",
+        if none { "" } else { "mut " }
+    );
+    if ty.has_header() {
+        let _ = writeln!(
+            out,
+            "        crate::cdr::Encode::encode(&self.header, sink);"
+        );
+    }
+    for field in &ty.fields {
+        let f = &field.name;
+        match bulk.iter().find(|(b, _, _)| b.name == *f) {
+            Some((_, element, _)) => {
+                let _ = writeln!(
+                    out,
+                    "        starts.{f} = crate::cdr::reserve_bulk::<{element}, S>(lens.{f}, sink);"
+                );
+            }
+            None => {
+                let _ = writeln!(out, "        crate::cdr::Encode::encode(&self.{f}, sink);");
+            }
+        }
+    }
+    let _ = writeln!(out, "        starts\n    }}");
+
+    let _ = writeln!(
+        out,
+        "    fn bulk<'a>({}: &'a mut [u8], {}: &{name}BulkLens, {}: &{name}BulkLens) -> {name}Bulk<'a> {{",
+        unused("payload"),
+        unused("lens"),
+        unused("starts")
+    );
+    if !none {
+        let _ = writeln!(
+            out,
+            "        let mut parts = crate::cdr::BulkParts::new(payload);"
+        );
+    }
+    let _ = writeln!(out, "        {name}Bulk {{");
+    for (field, element, bytes) in &bulk {
+        let f = &field.name;
+        let take = format!("parts.take(starts.{f}, crate::cdr::bulk_len::<{element}>(lens.{f}))");
+        if *bytes {
+            let _ = writeln!(out, "            {f}: {take},");
+        } else {
+            let _ = writeln!(out, "            {f}: crate::cdr::LeSliceMut::new({take}),");
+        }
+    }
+    let _ = writeln!(out, "            _bytes: std::marker::PhantomData,");
+    let _ = writeln!(out, "        }}\n    }}");
+
+    let _ = writeln!(out, "    fn bulk_lens(&self) -> {name}BulkLens {{");
+    let _ = writeln!(out, "        {name}BulkLens {{");
+    for (field, _, _) in &bulk {
+        let _ = writeln!(out, "            {0}: self.{0}.len(),", field.name);
+    }
+    let _ = writeln!(out, "        }}\n    }}");
+
+    let _ = writeln!(
+        out,
+        "    fn write_bulk(&self, {}: {name}Bulk<'_>) {{",
+        unused("bulk")
+    );
+    for (field, _, bytes) in &bulk {
+        let f = &field.name;
+        if *bytes {
+            let _ = writeln!(
+                out,
+                "        let n = bulk.{f}.len().min(self.{f}.len());\n        bulk.{f}[..n].copy_from_slice(&self.{f}[..n]);"
+            );
+        } else {
+            let _ = writeln!(out, "        let mut {f} = bulk.{f};");
+            let _ = writeln!(out, "        {f}.copy_from_slice(&self.{f});");
+        }
+    }
+    let _ = writeln!(out, "    }}");
+
+    let _ = writeln!(
+        out,
+        "    fn check_shape(&self, {}: &{name}BulkLens) -> Result<(), crate::SizeMismatch> {{",
+        if bulk.iter().any(|(f, _, _)| f.array_size.is_some()) {
+            "lens"
+        } else {
+            "_lens"
+        }
+    );
+    emit_size_checks(out, idl, ty, |field| {
+        if is_bulk(field) {
+            format!("lens.{}", field.name)
+        } else {
+            format!("self.{}.len()", field.name)
+        }
+    });
+    let _ = writeln!(out, "        Ok(())\n    }}\n}}\n");
+}
+
 /// A plain struct is an element of [`crate::cdr::LeSlice`]s.
 fn emit_le_item(out: &mut String, ty: &StructType, rust: &str, size: usize) {
     let name = &ty.name;
@@ -363,7 +547,18 @@ fn emit_le_item(out: &mut String, ty: &StructType, rust: &str, size: usize) {
             (i + 1) * size
         );
     }
-    let _ = writeln!(out, "        }}\n    }}\n}}\n");
+    let _ = writeln!(out, "        }}\n    }}");
+    let _ = writeln!(out, "    fn write_le(&self, bytes: &mut [u8]) {{");
+    for (i, f) in ty.fields.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "        crate::cdr::LeItem::write_le(&self.{}, &mut bytes[{}..{}]);",
+            f.name,
+            i * size,
+            (i + 1) * size
+        );
+    }
+    let _ = writeln!(out, "    }}\n}}\n");
 }
 
 /// For a compound whose fields are all the same fixed-size number (Pose3D: six f64):
