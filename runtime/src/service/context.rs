@@ -206,6 +206,39 @@ impl Context<'_> {
         Ok(seq)
     }
 
+    /// Publishes a message whose arrays of numbers and of plain structs `fill` writes
+    /// straight into the channel's shared memory ([`lewis_interfaces::InPlace`]): a camera
+    /// frame or a scan is then written once, where its subscribers read it, rather than
+    /// built in the service's vectors and copied. `message` gives the other fields (its
+    /// header is filled as [`Context::publish`] fills it; its own arrays that are written
+    /// in place are ignored, so they are best left empty) and `lens` the lengths of the
+    /// arrays. The room `fill` gets is not cleared: it must write every element. Returns the
+    /// sequence number.
+    ///
+    /// # Errors
+    /// As [`Context::publish`], the lengths in `lens` checked against their size fields.
+    pub fn publish_in_place<T: Interface>(
+        &mut self,
+        message: &mut T,
+        lens: &T::Lens,
+        fill: impl FnOnce(T::Bulk<'_>),
+    ) -> Result<u64, ContextError> {
+        message.check_shape(lens)?;
+        let seq = self.stamp(T::NAME, message.header_mut());
+        let len = cdr::in_place_len(message, lens);
+        let mut fill = Some(fill);
+        let mut encode = |buf: &mut [u8]| {
+            // The loan was sized by `in_place_len`, so this cannot run short.
+            if let (Ok(bulk), Some(fill)) =
+                (cdr::encode_in_place(&*message, lens, buf), fill.take())
+            {
+                fill(bulk);
+            }
+        };
+        self.backend.publish(T::NAME, len, &mut encode)?;
+        Ok(seq)
+    }
+
     /// Sends command `command` to the current provider of its interface (which this service
     /// must require). Asynchronous: the reply, or a timeout after
     /// [`DEFAULT_CALL_TIMEOUT`], comes back as [`Service::on_reply`](super::Service::on_reply).
@@ -307,7 +340,7 @@ impl Context<'_> {
 
 #[cfg(test)]
 mod tests {
-    use lewis_interfaces::msg::{RangeFinder, RangeFinderGetGeometry};
+    use lewis_interfaces::msg::{Pose3D, RangeFinder, RangeFinderBulkLens, RangeFinderGetGeometry};
 
     use super::*;
 
@@ -376,6 +409,50 @@ mod tests {
         assert_eq!(decoded.header.seq, 2);
         assert_eq!(decoded.header.publish_time_ns, 42);
         assert_eq!(decoded.header.inputs, vec![input]);
+    }
+
+    #[test]
+    fn a_scan_written_in_place_is_published_as_the_same_scan_encoded() {
+        let mut state = ContextState::new("laser", 1);
+        let mut backend = Recorder {
+            now_ns: 42,
+            ..Recorder::default()
+        };
+        let ranges: Vec<f64> = (0..361).map(|i| f64::from(i) * 0.01).collect();
+        let mut template = RangeFinder {
+            range_count: 361,
+            max_range: 8.0,
+            ..RangeFinder::default()
+        };
+        let lens = RangeFinderBulkLens {
+            ranges: 361,
+            sensor_positions: 361,
+        };
+        let mut ctx = state.context(&mut backend);
+        let seq = ctx.publish_in_place(&mut template, &lens, |mut bulk| {
+            bulk.ranges.fill_from(ranges.iter().copied());
+            bulk.sensor_positions
+                .fill_from((0..361).map(|_| Pose3D::default()));
+        });
+        assert_eq!(seq, Ok(1));
+        let decoded: RangeFinder = cdr::from_bytes(&backend.published[0].1).unwrap();
+        assert_eq!(decoded.ranges, ranges);
+        assert_eq!(decoded.sensor_positions, vec![Pose3D::default(); 361]);
+        assert_eq!(
+            (decoded.header.provider.as_str(), decoded.header.seq),
+            ("laser", 1)
+        );
+        assert_eq!(decoded.header.publish_time_ns, 42);
+        // Lengths that disagree with range_count are refused before anything is sent.
+        let wrong = RangeFinderBulkLens {
+            ranges: 360,
+            ..lens
+        };
+        let got = state
+            .context(&mut backend)
+            .publish_in_place(&mut template, &wrong, |_| {});
+        assert!(matches!(got, Err(ContextError::Size(_))), "{got:?}");
+        assert_eq!(backend.published.len(), 1);
     }
 
     #[test]
