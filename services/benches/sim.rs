@@ -53,7 +53,7 @@ fn per_frame(c: &mut Criterion) {
         b.iter(|| black_box(sonar.scan(&world, black_box(CORRIDOR))));
     });
     let mut camera = SimCamera::new(CameraConfig::default(), 1).unwrap();
-    let mut rgb = Vec::new();
+    let mut rgb = vec![0; camera.frame_len()];
     group.bench_function("camera_640x480", |b| {
         b.iter(|| {
             camera.render_into(&world, black_box(CORRIDOR), &mut rgb);
@@ -90,7 +90,7 @@ fn robot(seed: u64) -> Robot {
 
 /// Every device at its real rate for `seconds` simulated seconds, the robot driving down the
 /// corridor and weaving.
-fn simulate(world: &World, seconds: i64, robot: &mut Robot, rgb: &mut Vec<u8>) {
+fn simulate(world: &World, seconds: i64, robot: &mut Robot, rgb: &mut [u8]) {
     const NS: i64 = 1_000_000_000;
     let Robot {
         base,
@@ -136,7 +136,7 @@ fn simulate(world: &World, seconds: i64, robot: &mut Robot, rgb: &mut Vec<u8>) {
 
 fn all_devices(c: &mut Criterion) {
     let world = world();
-    let mut rgb = Vec::new();
+    let mut rgb = vec![0; robot(1).camera.frame_len()];
     let mut group = c.benchmark_group("sim_all_devices");
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(10));

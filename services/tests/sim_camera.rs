@@ -305,3 +305,27 @@ fn the_conference_world_shows_its_signs_and_the_red_cap() {
         }
     }
 }
+
+#[test]
+fn a_frame_rendered_over_stale_bytes_is_the_same_frame() {
+    // Published in place, a frame is rendered into a shared-memory loan that still holds
+    // an earlier frame: every byte must be written. Two cameras with the same seed give
+    // the same noise, so the frames must match byte for byte.
+    let world = room(vec![WorldObject {
+        name: "sign".to_owned(),
+        kind: ObjectKind::Sign(sign(ArrowDirection::Left)),
+    }]);
+    let robot = Pose2::new(3.0, 5.0, 0.0);
+    let expected = camera().render(&world, robot).data;
+    for stale in [0x00, 0xFF, 0x5A] {
+        let mut cam = camera();
+        let mut loan = vec![stale; cam.frame_len()];
+        cam.render_into(&world, robot, &mut loan);
+        assert!(loan == expected, "stale byte {stale:#x} shows through");
+    }
+    // A buffer of the wrong length is refused, not half painted.
+    let mut cam = camera();
+    let mut short = vec![7; cam.frame_len() - 1];
+    cam.render_into(&world, robot, &mut short);
+    assert!(short.iter().all(|b| *b == 7));
+}

@@ -276,7 +276,7 @@ impl SimCamera {
     /// Renders the view from `robot_pose` as the ImageSource publication (rgb8; header left
     /// for the service to fill).
     pub fn render(&mut self, world: &World, robot_pose: Pose2) -> ImageSource {
-        let mut data = Vec::new();
+        let mut data = vec![0; self.frame_len()];
         self.render_into(world, robot_pose, &mut data);
         let k = self.intrinsics();
         let width = i32::try_from(self.config.width_px).unwrap_or(i32::MAX);
@@ -294,12 +294,21 @@ impl SimCamera {
         }
     }
 
-    /// Renders the view from `robot_pose` into `rgb` (resized to width x height x 3, rows
-    /// top first), reusing its allocation.
-    pub fn render_into(&mut self, world: &World, robot_pose: Pose2, rgb: &mut Vec<u8>) {
+    /// The bytes of one rgb8 frame: width x height x 3.
+    #[must_use]
+    pub fn frame_len(&self) -> usize {
+        self.config.width_px as usize * self.config.height_px as usize * 3
+    }
+
+    /// Renders the view from `robot_pose` into `rgb`, rows top first: every byte is
+    /// written, whatever it held (a shared-memory loan holds an earlier frame). `rgb` must be
+    /// [`SimCamera::frame_len`] bytes long; a buffer of another length is left as it is.
+    pub fn render_into(&mut self, world: &World, robot_pose: Pose2, rgb: &mut [u8]) {
         let width = self.config.width_px as usize;
         let height = self.config.height_px as usize;
-        rgb.resize(width * height * 3, 0);
+        if rgb.len() != self.frame_len() {
+            return;
+        }
         let k = self.intrinsics();
         let cam = self.camera_pose(robot_pose);
         let origin = cam.position();

@@ -29,8 +29,8 @@ use std::path::PathBuf;
 
 use lewis_interfaces::msg::{
     CameraControl, CameraControlCommand, CameraControlSetExposureReply, CameraControlSetFocusReply,
-    CameraControlSetPanTiltReply, CameraControlSetZoomReply, ImageSource, ImageSourceCommand,
-    ImageSourceSetRateReply,
+    CameraControlSetPanTiltReply, CameraControlSetZoomReply, ImageSource, ImageSourceBulkLens,
+    ImageSourceCommand, ImageSourceSetRateReply,
 };
 use lewis_runtime::service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
@@ -163,8 +163,6 @@ pub struct SimCameraService {
     control_changed: bool,
     publish_image: bool,
     publish_control: bool,
-    /// The frame being published, kept to reuse its pixel buffer.
-    frame: ImageSource,
 }
 
 /// Builds a `sim-camera` service from its robot-file entry.
@@ -195,7 +193,6 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         control_changed: true,
         publish_image: provides::<ImageSource>(config),
         publish_control: provides::<CameraControl>(config),
-        frame: ImageSource::default(),
     }))
 }
 
@@ -212,24 +209,38 @@ impl SimCameraService {
         }
     }
 
-    fn render(&mut self, pose: crate::sim::geometry::Pose2) {
-        let mut data = std::mem::take(&mut self.frame.data);
-        self.camera.render_into(&self.world, pose, &mut data);
+    /// The frame's fields but its pixels, which are rendered in place (header left to the
+    /// context).
+    fn frame_fields(&self) -> ImageSource {
         let k = self.camera.intrinsics();
         let c = self.camera.config();
         let width = i32::try_from(c.width_px).unwrap_or(i32::MAX);
-        self.frame = ImageSource {
+        ImageSource {
             width,
             height: i32::try_from(c.height_px).unwrap_or(i32::MAX),
             encoding: "rgb8".to_owned(),
             step: width.saturating_mul(3),
-            data,
             focal_length_x: k.focal_length_px,
             focal_length_y: k.focal_length_px,
             principal_point_x: k.principal_x_px,
             principal_point_y: k.principal_y_px,
             ..ImageSource::default()
+        }
+    }
+
+    /// Renders the frame seen from `pose` straight into the channel's shared memory: a
+    /// 640x480 frame is 900 KiB that would otherwise be rendered into a buffer and copied.
+    fn publish_frame(&mut self, ctx: &mut Context<'_>, pose: crate::sim::geometry::Pose2) {
+        let mut frame = self.frame_fields();
+        let lens = ImageSourceBulkLens {
+            data: self.camera.frame_len(),
         };
+        let (camera, world) = (&mut self.camera, &self.world);
+        if let Err(e) = ctx.publish_in_place(&mut frame, &lens, |bulk| {
+            camera.render_into(world, pose, bulk.data);
+        }) {
+            ctx.warn(&format!("cannot publish ImageSource: {e}"));
+        }
     }
 }
 
@@ -267,10 +278,7 @@ impl Service for SimCameraService {
         }
         self.next_frame_ns = Some(next);
         if self.publish_image {
-            self.render(pose);
-            let mut frame = std::mem::take(&mut self.frame);
-            publish(ctx, &mut frame);
-            self.frame = frame;
+            self.publish_frame(ctx, pose);
         }
     }
 
