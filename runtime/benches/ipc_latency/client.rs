@@ -1,7 +1,8 @@
 //! Through our typed layers, as an application and a service use them: a real `lewis up`
 //! broker (`run_up`), a source service in its own process under the live harness
 //! (`run_service`) that publishes a `RangeFinder` with `Context::publish` on its ticks (CDR
-//! encoding into the loan included), and an application process with a
+//! encoding into the loan included) or computes its arrays straight into the loan with
+//! `Context::publish_in_place`, and an application process with a
 //! `Client<RangeFinder>` (CDR decoding included) bound to it by the broker.
 //!
 //! The send time rides in the message: `x_offset` holds the publisher's `CLOCK_MONOTONIC`
@@ -11,7 +12,7 @@
 use std::time::Duration;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{INTERFACES, Pose3D, RangeFinder};
+use lewis_interfaces::msg::{INTERFACES, Pose3D, RangeFinder, RangeFinderBulkLens};
 use lewis_runtime::broker::live::{UpOptions, run_up};
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::{Ipc, Namespace};
@@ -28,7 +29,7 @@ const SOURCE: &str = "src";
 
 /// The robot: one source publishing every `period`, started on demand when the
 /// application asks for RangeFinder.
-fn robot_text(beams: u32, period: Duration) -> String {
+fn robot_text(beams: u32, period: Duration, publish: Publish) -> String {
     format!(
         r#"[robot]
 name = "ipc-bench"
@@ -46,8 +47,10 @@ provides = [{{ interface = "RangeFinder", quality = 1, cost = 1 }}]
 [services.parameters]
 beams = {beams}
 period_us = {period}
+in_place = {in_place}
 "#,
-        period = period.as_micros()
+        period = period.as_micros(),
+        in_place = publish == Publish::InPlace,
     )
 }
 
@@ -61,12 +64,17 @@ fn scan(beams: u32) -> RangeFinder {
     let n = usize::try_from(beams).unwrap_or(0);
     RangeFinder {
         range_count: i32::try_from(beams).unwrap_or(i32::MAX),
-        ranges: (0..n).map(|i| 1.0 + (i % 100) as f64 * 0.01).collect(),
+        ranges: (0..n).map(range).collect(),
         max_range: 8.0,
         uniform: false,
         sensor_positions: vec![Pose3D::default(); n],
         ..RangeFinder::default()
     }
+}
+
+/// Beam `i` of the source's scan.
+fn range(i: usize) -> f64 {
+    1.0 + (i % 100) as f64 * 0.01
 }
 
 /// The bytes of a scan of `beams` beams on the wire (what the raw baseline sends).
@@ -88,11 +96,24 @@ pub fn beams_for(target: usize) -> u32 {
 struct Params {
     beams: u32,
     period_us: u64,
+    in_place: bool,
+}
+
+/// How the source publishes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Publish {
+    /// The scan it holds in its vectors, encoded into the loan (`Context::publish`): one
+    /// copy, as raw copying its message in.
+    Encode,
+    /// The scan's arrays written straight into the loan (`Context::publish_in_place`), by
+    /// the same memset of the same byte as raw fills its loan.
+    InPlace,
 }
 
 /// The source: on every tick, stamps and publishes its scan.
 struct Source {
     scan: RangeFinder,
+    in_place: bool,
     period: Duration,
     last_publish_ns: u64,
 }
@@ -106,7 +127,22 @@ impl Service for Source {
         let t0 = mono_ns();
         self.scan.x_offset = t0 as f64;
         self.scan.y_offset = self.last_publish_ns as f64;
-        let _ = ctx.publish(&mut self.scan);
+        if self.in_place {
+            // The template holds no arrays; the beams are computed where they are sent.
+            let n = usize::try_from(self.scan.range_count).unwrap_or(0);
+            let lens = RangeFinderBulkLens {
+                ranges: n,
+                sensor_positions: n,
+            };
+            let _ = ctx.publish_in_place(&mut self.scan, &lens, |mut bulk| {
+                // The same work as raw's fill: every byte of the arrays set to the same
+                // constant by a memset (what a real source computes costs both the same).
+                bulk.ranges.as_bytes_mut().fill(0x5a);
+                bulk.sensor_positions.as_bytes_mut().fill(0x5a);
+            });
+        } else {
+            let _ = ctx.publish(&mut self.scan);
+        }
         self.last_publish_ns = mono_ns().saturating_sub(t0);
     }
 }
@@ -120,8 +156,14 @@ pub fn service_role(args: &[String]) -> Res<()> {
     let mut registry = ServiceRegistry::new();
     registry.register(KIND, |config| {
         let params: Params = config.parameters()?;
+        let mut message = scan(params.beams);
+        if params.in_place {
+            message.ranges = Vec::new();
+            message.sensor_positions = Vec::new();
+        }
         Ok(Box::new(Source {
-            scan: scan(params.beams),
+            scan: message,
+            in_place: params.in_place,
             period: Duration::from_micros(params.period_us),
             last_publish_ns: 0,
         }) as Box<dyn Service>)
@@ -201,12 +243,19 @@ pub fn receive_role() -> Res<()> {
     Ok(())
 }
 
-/// One row: a broker with the source publishing every `period`, and the application in
-/// `mode`, reading as `read` says.
-pub fn run(mode: Mode, read: Read, beams: u32, period: Duration, count: usize) -> Res<Row> {
+/// One row: a broker with the source publishing every `period` as `publish` says, and the
+/// application in `mode`, reading as `read` says.
+pub fn run(
+    mode: Mode,
+    publish: Publish,
+    read: Read,
+    beams: u32,
+    period: Duration,
+    count: usize,
+) -> Res<Row> {
     let dir = tempfile::tempdir()?;
     let robot_path = dir.path().join("robot.toml");
-    std::fs::write(&robot_path, robot_text(beams, period))?;
+    std::fs::write(&robot_path, robot_text(beams, period, publish))?;
     let namespace = Namespace::unique("bench-client");
     let up = RoleChild::spawn(
         "up",

@@ -15,9 +15,15 @@ pub type Res<T> = Result<T, Box<dyn Error>>;
 pub const ROLE_ENV: &str = "LEWIS_BENCH_ROLE";
 /// Samples dropped at the start of every row (connections, page faults, caches).
 pub const WARMUP: usize = 300;
-/// Time between two publications: the receiver is idle (blocked or spinning) when each
-/// arrives.
-pub const GAP: Duration = Duration::from_micros(500);
+/// Time between two publications (`LEWIS_BENCH_GAP_US`, default 500 µs): the receiver is
+/// idle (blocked or spinning) when each arrives.
+pub fn gap() -> Duration {
+    let us = std::env::var("LEWIS_BENCH_GAP_US")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(500);
+    Duration::from_micros(us)
+}
 /// A receiver that sees nothing for this long gives up (a publisher that died).
 pub const IDLE_LIMIT: Duration = Duration::from_secs(5);
 
@@ -225,7 +231,7 @@ impl RoleChild {
 
 /// Sleeps until one gap after the previous publication.
 pub fn pace(next: &mut Instant) {
-    *next += GAP;
+    *next += gap();
     let now = Instant::now();
     if *next > now {
         std::thread::sleep(*next - now);

@@ -5,7 +5,9 @@
 //! - **bytes**: our byte layer (`ipc::Publisher`, `ipc::Subscriber`, `WaitSet`);
 //! - **client**: through everything an application and a service use: a source service
 //!   under the live harness publishing a `RangeFinder` with `Context::publish` (CDR encode
-//!   into the loan), a real broker binding a `Client<RangeFinder>` to it in another process,
+//!   of the scan it holds into the loan: compare with raw copying in) or computing its
+//!   arrays straight into the loan with `Context::publish_in_place` (compare with raw
+//!   filling), a real broker binding a `Client<RangeFinder>` to it in another process,
 //!   which decodes each scan or reads it in place (its view).
 //!
 //! Every row of a table carries the same payload: the bytes of a CDR `RangeFinder` of
@@ -17,8 +19,11 @@
 //! send, notify) is given too: it shows what a notification costs.
 //!
 //! Run: `cargo bench --workspace --bench ipc_latency` (`LEWIS_BENCH_COUNT` messages per
-//! row, default 2000, the first 300 dropped as warm-up; `LEWIS_BENCH_REPEAT` runs of each
-//! row, default 3, of which the median is shown, the layers taking turns).
+//! row, default 2000, the first 300 dropped as warm-up; `LEWIS_BENCH_GAP_US` the time
+//! between two messages, default 500; `LEWIS_BENCH_REPEAT` runs of each
+//! row, default 3, of which the median is shown, the layers taking turns;
+//! `LEWIS_BENCH_ROWS` a comma-separated list of the rows to run, each a substring of a
+//! row's name such as `busy-poll 64 B`, `event 1 MiB` or `periodic`, default all).
 
 #![allow(
     clippy::print_stdout,
@@ -33,7 +38,7 @@ mod client;
 mod common;
 mod raw;
 
-use client::Read;
+use client::{Publish, Read};
 use common::{Mode, ROLE_ENV, Res, RoleChild, Row, median, print_result, var};
 use lewis_runtime::ipc::Namespace;
 use raw::Fill;
@@ -67,18 +72,19 @@ fn main() -> Res<()> {
         .transpose()?
         .unwrap_or(3)
         .max(1);
+    let rows_filter = RowFilter::from_env();
     println!(
         "one-way latency, {count} messages per row ({} warm-up dropped), one every {:?}, \
          median of {repeat} runs; times in microseconds, p50 / p99; cpu: the receiver's, \
          share of one core; send: the publisher's p50 time in its publish call",
         common::WARMUP,
-        common::GAP
+        common::gap()
     );
     for mode in [Mode::Event, Mode::BusyPoll] {
         println!();
         println!("{}:", mode.label());
         println!(
-            "{:<7} {:>8} | {:>15} {:>15} {:>15} {:>15} {:>15} | {:>6} {:>6} | {:>5} {:>5} {:>5} {:>5} {:>5} | {:>5} {:>5} {:>5} {:>5} {:>5}",
+            "{:<7} {:>8} | {:>15} {:>15} {:>15} {:>15} {:>15} {:>15} | {:>6} {:>6} | {:<35} | {:<35}",
             "payload",
             "bytes",
             "raw (fill)",
@@ -86,31 +92,42 @@ fn main() -> Res<()> {
             "bytes layer",
             "client (decode)",
             "client (view)",
+            "client (in place)",
             "x fill",
             "x copy",
             "cpu",
-            "",
-            "",
-            "",
-            "",
             "send",
-            "",
-            "",
-            "",
-            ""
         );
         for (label, target) in SIZES {
+            if !rows_filter.runs(&format!("{} {label}", mode.label())) {
+                continue;
+            }
             let beams = client::beams_for(target);
             let len = client::payload_len(beams);
-            let mut runs: [Vec<Row>; 5] = Default::default();
+            let mut runs: [Vec<Row>; 6] = Default::default();
             for _ in 0..repeat {
                 runs[0].push(pair(Layer::Raw(Fill::Pattern), mode, len, count)?);
                 runs[1].push(pair(Layer::Raw(Fill::CopyIn), mode, len, count)?);
                 runs[2].push(pair(Layer::Bytes, mode, len, count)?);
-                runs[3].push(client::run(mode, Read::Decode, beams, common::GAP, count)?);
-                runs[4].push(client::run(mode, Read::View, beams, common::GAP, count)?);
+                for (i, (publish, read)) in [
+                    (Publish::Encode, Read::Decode),
+                    (Publish::Encode, Read::View),
+                    (Publish::InPlace, Read::View),
+                ]
+                .into_iter()
+                .enumerate()
+                {
+                    runs[3 + i].push(client::run(
+                        mode,
+                        publish,
+                        read,
+                        beams,
+                        common::gap(),
+                        count,
+                    )?);
+                }
             }
-            let [raw, copied, ours, decoded, viewed] = runs.each_ref().map(|r| median(r));
+            let [raw, copied, ours, decoded, viewed, in_place] = runs.each_ref().map(|r| median(r));
             warn_short(
                 count,
                 &[
@@ -119,18 +136,22 @@ fn main() -> Res<()> {
                     ("bytes", &ours),
                     ("client decode", &decoded),
                     ("client view", &viewed),
+                    ("client in place", &in_place),
                 ],
             );
-            let rows = [&raw, &copied, &ours, &decoded, &viewed];
+            let rows = [&raw, &copied, &ours, &decoded, &viewed, &in_place];
             println!(
                 "{label:<7} {len:>8} | {} | {:>6.2} {:>6.2} | {} | {}",
                 rows.map(p50_p99).join(" "),
-                viewed.p50_ns as f64 / raw.p50_ns.max(1) as f64,
+                in_place.p50_ns as f64 / raw.p50_ns.max(1) as f64,
                 viewed.p50_ns as f64 / copied.p50_ns.max(1) as f64,
                 rows.map(cpu).join(" "),
                 rows.map(|r| us(r.send_p50_ns)).join(" "),
             );
         }
+    }
+    if !rows_filter.runs("periodic") {
+        return Ok(());
     }
     println!();
     println!(
@@ -155,6 +176,7 @@ fn main() -> Res<()> {
                 .map(|_| {
                     client::run(
                         mode,
+                        Publish::Encode,
                         Read::View,
                         client::beams_for(target),
                         PERIODIC,
@@ -169,6 +191,25 @@ fn main() -> Res<()> {
         println!("{line}");
     }
     Ok(())
+}
+
+/// The rows chosen with `LEWIS_BENCH_ROWS`.
+struct RowFilter(Option<Vec<String>>);
+
+impl RowFilter {
+    fn from_env() -> Self {
+        Self(
+            std::env::var("LEWIS_BENCH_ROWS")
+                .ok()
+                .map(|s| s.split(',').map(|p| p.trim().to_owned()).collect()),
+        )
+    }
+
+    fn runs(&self, row: &str) -> bool {
+        self.0
+            .as_ref()
+            .is_none_or(|parts| parts.iter().any(|p| row.contains(p.as_str())))
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
