@@ -1,10 +1,11 @@
 //! Any bytes decoded as every generated type: an error or a value, never a panic; a value
 //! re-encodes and decodes again to the same bytes. The type's view (read in place) agrees:
-//! the same error, or a view whose owned value encodes to the same bytes.
+//! the same error, or a view whose owned value encodes to the same bytes. Written in place
+//! over stale bytes, arrays filled afterwards, a decoded value encodes to the same bytes.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use lewis_interfaces::Struct;
+use lewis_interfaces::{InPlace, Struct};
 use lewis_interfaces::cdr::{self, ViewToOwned};
 use lewis_interfaces::msg::*;
 
@@ -26,6 +27,11 @@ macro_rules! decode_all {
                     let again = cdr::to_vec(&value);
                     let value2: $ty = cdr::from_bytes(&again).expect("a canonical encoding decodes");
                     assert_eq!(cdr::to_vec(&value2), again);
+                    let lens = value.bulk_lens();
+                    let mut loan = vec![0xA5; cdr::in_place_len(&value, &lens)];
+                    let bulk = cdr::encode_in_place(&value, &lens, &mut loan).expect("sized by in_place_len");
+                    value.write_bulk(bulk);
+                    assert_eq!(loan, again);
                 }
             )*
         }

@@ -65,7 +65,10 @@ impl<'a, T: LeItem> LeSliceMut<'a, T> {
         let Some(start) = index.checked_mul(T::SIZE) else {
             return false;
         };
-        match self.bytes.get_mut(start..start + T::SIZE) {
+        let Some(end) = start.checked_add(T::SIZE) else {
+            return false;
+        };
+        match self.bytes.get_mut(start..end) {
             Some(slot) => {
                 value.write_le(slot);
                 true
