@@ -17,7 +17,7 @@ use std::fmt;
 use std::marker::PhantomData;
 
 use super::encode::{Encode, Sink};
-use super::view::LeItem;
+use super::view::{LeItem, LeSlice};
 
 /// A sequence of fixed-size little-endian elements, written where they lie in the
 /// encoded bytes. As with [`super::LeSlice`], the bytes are not aligned in memory for `T`,
@@ -38,10 +38,16 @@ impl<'a, T: LeItem> LeSliceMut<'a, T> {
         }
     }
 
+    /// What is written so far, read as a [`LeSlice`].
+    #[must_use]
+    pub fn as_view(&self) -> LeSlice<'_, T> {
+        LeSlice::from_le_bytes(self.bytes)
+    }
+
     /// The number of elements.
     #[must_use]
     pub fn len(&self) -> usize {
-        self.bytes.len() / T::SIZE
+        self.as_view().len()
     }
 
     /// Whether it has no elements.
@@ -53,10 +59,7 @@ impl<'a, T: LeItem> LeSliceMut<'a, T> {
     /// Element `index`, as written so far, if there is one.
     #[must_use]
     pub fn get(&self, index: usize) -> Option<T> {
-        let start = index.checked_mul(T::SIZE)?;
-        self.bytes
-            .get(start..start.checked_add(T::SIZE)?)
-            .map(T::read_le)
+        self.as_view().get(index)
     }
 
     /// Writes element `index`; returns false (writing nothing) when there is no such

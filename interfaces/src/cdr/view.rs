@@ -176,6 +176,16 @@ impl<T> Clone for LeSlice<'_, T> {
 
 impl<T> Copy for LeSlice<'_, T> {}
 
+impl<'a, T> LeSlice<'a, T> {
+    /// The elements encoded in `bytes` (a whole number of them, checked by the caller).
+    pub(super) fn from_le_bytes(bytes: &'a [u8]) -> Self {
+        Self {
+            bytes,
+            element: PhantomData,
+        }
+    }
+}
+
 impl<'a, T: LeItem + 'a> LeSlice<'a, T> {
     /// The number of elements.
     #[must_use]
@@ -226,11 +236,7 @@ impl<'a, T: LeItem> DecodeView<'a> for LeSlice<'a, T> {
             reader.align(T::ALIGN)?;
         }
         reader.check_count(count, T::SIZE)?;
-        let bytes = reader.take(count * T::SIZE)?;
-        Ok(Self {
-            bytes,
-            element: PhantomData,
-        })
+        Ok(Self::from_le_bytes(reader.take(count * T::SIZE)?))
     }
 }
 
