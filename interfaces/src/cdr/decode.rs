@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use super::view::LeItem;
+
 /// What went wrong decoding.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum DecodeErrorKind {
@@ -279,24 +281,7 @@ macro_rules! decode_number {
 
             #[inline]
             fn decode_vec(reader: &mut Reader<'_>, count: usize) -> Result<Vec<Self>, DecodeError> {
-                const SIZE: usize = size_of::<$ty>();
-                if count == 0 {
-                    return Ok(Vec::new());
-                }
-                reader.align(SIZE)?;
-                reader.check_count(count, SIZE)?;
-                let bytes = reader.take(count * SIZE)?;
-                if cfg!(target_endian = "little") {
-                    return Ok(le_bulk_copy(bytes, count));
-                }
-                Ok(bytes
-                    .chunks_exact(SIZE)
-                    .map(|chunk| {
-                        let mut array = [0; SIZE];
-                        array.copy_from_slice(chunk);
-                        <$ty>::from_le_bytes(array)
-                    })
-                    .collect())
+                decode_le_vec(reader, count)
             }
         }
     )*};
@@ -304,22 +289,32 @@ macro_rules! decode_number {
 
 decode_number!(i8, i16, u16, i32, u32, i64, u64, f32, f64);
 
-/// `count` elements copied from their little-endian `bytes` in one pass, on a
-/// little-endian machine where memory holds them the same way. For the generated plain
-/// structs (`Pose3D`) as for numbers.
+/// `count` elements of an array of fixed-size little-endian elements (the numbers, the
+/// generated plain structs like `Pose3D`): aligned, checked against the bytes left, then
+/// one copy on a little-endian machine, where memory holds them the same way.
+///
+/// # Errors
+/// When the bytes cannot hold `count` elements.
 #[doc(hidden)]
-#[must_use]
-pub fn le_bulk_copy<T>(bytes: &[u8], count: usize) -> Vec<T>
+pub fn decode_le_vec<T>(reader: &mut Reader<'_>, count: usize) -> Result<Vec<T>, DecodeError>
 where
-    T: zerocopy::FromBytes + zerocopy::IntoBytes,
+    T: LeItem + zerocopy::FromBytes + zerocopy::IntoBytes,
 {
-    let Ok(mut items) = T::new_vec_zeroed(count) else {
-        // The allocation failed: as `Vec::with_capacity` would, report it and stop.
-        std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>());
-    };
-    let out = zerocopy::IntoBytes::as_mut_bytes(items.as_mut_slice());
-    out.copy_from_slice(bytes);
-    items
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    reader.align(T::ALIGN)?;
+    reader.check_count(count, T::SIZE)?;
+    let bytes = reader.take(count * T::SIZE)?;
+    if cfg!(target_endian = "little") {
+        let Ok(mut items) = T::new_vec_zeroed(count) else {
+            // The allocation failed: as `Vec::with_capacity` would, report it and stop.
+            std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>());
+        };
+        zerocopy::IntoBytes::as_mut_bytes(items.as_mut_slice()).copy_from_slice(bytes);
+        return Ok(items);
+    }
+    Ok(bytes.chunks_exact(T::SIZE).map(T::read_le).collect())
 }
 
 impl Decode for u8 {

@@ -2,6 +2,8 @@
 
 use thiserror::Error;
 
+use super::view::LeItem;
+
 /// Where encoded bytes go. Positions count from the end of the encapsulation header,
 /// which is what CDR alignment is relative to.
 pub trait Sink {
@@ -182,6 +184,31 @@ pub trait Encode {
     }
 }
 
+/// The elements of an array of fixed-size little-endian elements (the numbers, the
+/// generated plain structs like `Pose3D`), aligned: one copy on a little-endian machine,
+/// where memory already holds their encoding.
+#[doc(hidden)]
+#[inline]
+pub fn encode_le_slice<T, S>(items: &[T], sink: &mut S)
+where
+    T: LeItem + zerocopy::IntoBytes + zerocopy::Immutable,
+    S: Sink,
+{
+    if items.is_empty() {
+        return;
+    }
+    sink.align(T::ALIGN);
+    if cfg!(target_endian = "little") {
+        sink.put(zerocopy::IntoBytes::as_bytes(items));
+        return;
+    }
+    sink.put_with(items.len() * T::SIZE, |out| {
+        for (chunk, item) in out.chunks_exact_mut(T::SIZE).zip(items) {
+            item.write_le(chunk);
+        }
+    });
+}
+
 macro_rules! encode_number {
     ($($ty:ty),*) => {$(
         impl Encode for $ty {
@@ -193,21 +220,7 @@ macro_rules! encode_number {
 
             #[inline]
             fn encode_slice<S: Sink>(items: &[Self], sink: &mut S) {
-                const SIZE: usize = size_of::<$ty>();
-                if items.is_empty() {
-                    return;
-                }
-                sink.align(SIZE);
-                if cfg!(target_endian = "little") {
-                    // In memory the numbers already are their encoding: one copy.
-                    sink.put(zerocopy::IntoBytes::as_bytes(items));
-                    return;
-                }
-                sink.put_with(items.len() * SIZE, |out| {
-                    for (chunk, item) in out.chunks_exact_mut(SIZE).zip(items) {
-                        chunk.copy_from_slice(&item.to_le_bytes());
-                    }
-                });
+                encode_le_slice(items, sink);
             }
         }
     )*};

@@ -13,8 +13,8 @@ mod encode;
 mod in_place;
 mod view;
 
-pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader, le_bulk_copy};
-pub use encode::{Encode, EncodeError, Sink, SizeSink, SliceSink, VecSink};
+pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader, decode_le_vec};
+pub use encode::{Encode, EncodeError, Sink, SizeSink, SliceSink, VecSink, encode_le_slice};
 pub use in_place::{BulkParts, LeSliceMut, bulk_len, reserve_bulk};
 pub use view::{DecodeView, LeItem, LeSlice, SeqIter, SeqView, ViewToOwned};
 
@@ -34,23 +34,8 @@ pub fn encoded_len<T: Encode + ?Sized>(value: &T) -> usize {
 /// [`EncodeError::BufferTooSmall`] when `buffer` is shorter than [`encoded_len`]; the
 /// buffer's contents are then unspecified.
 pub fn encode_into<T: Encode + ?Sized>(value: &T, buffer: &mut [u8]) -> Result<usize, EncodeError> {
-    let available = buffer.len();
-    // One pass when the buffer is big enough (the usual case: it was sized by
-    // `encoded_len`); the size is computed only to explain a failure.
-    let too_small = || EncodeError::BufferTooSmall {
-        needed: encoded_len(value),
-        available,
-    };
-    let Some((header, payload)) = buffer.split_at_mut_checked(ENCAPSULATION_LE.len()) else {
-        return Err(too_small());
-    };
-    header.copy_from_slice(&ENCAPSULATION_LE);
-    let mut sink = SliceSink::new(payload);
-    value.encode(&mut sink);
-    match sink.finish() {
-        Some(written) => Ok(written + ENCAPSULATION_LE.len()),
-        None => Err(too_small()),
-    }
+    let (_, (), written) = encode_framed(buffer, || encoded_len(value), |sink| value.encode(sink))?;
+    Ok(written)
 }
 
 /// The number of bytes `value` takes encoded with arrays of the lengths `lens` written in
@@ -72,21 +57,35 @@ pub fn encode_in_place<'a, T: crate::InPlace>(
     lens: &T::Lens,
     buffer: &'a mut [u8],
 ) -> Result<T::Bulk<'a>, EncodeError> {
+    let (payload, starts, _) = encode_framed(
+        buffer,
+        || in_place_len(value, lens),
+        |sink| value.encode_shape(lens, sink),
+    )?;
+    Ok(T::bulk(payload, lens, &starts))
+}
+
+/// Writes the encapsulation header into `buffer` and runs `encode` on a sink over the rest;
+/// returns that rest (the payload), what `encode` returned and the bytes written, header
+/// included. One pass when the buffer is big enough (the usual case: it was sized first);
+/// `needed` is computed only to explain a failure.
+fn encode_framed<R>(
+    buffer: &mut [u8],
+    needed: impl FnOnce() -> usize,
+    encode: impl FnOnce(&mut SliceSink<'_>) -> R,
+) -> Result<(&mut [u8], R, usize), EncodeError> {
     let available = buffer.len();
-    let too_small = || EncodeError::BufferTooSmall {
-        needed: in_place_len(value, lens),
-        available,
-    };
+    let too_small = |needed: usize| EncodeError::BufferTooSmall { needed, available };
     let Some((header, payload)) = buffer.split_at_mut_checked(ENCAPSULATION_LE.len()) else {
-        return Err(too_small());
+        return Err(too_small(needed()));
     };
     header.copy_from_slice(&ENCAPSULATION_LE);
     let mut sink = SliceSink::new(payload);
-    let starts = value.encode_shape(lens, &mut sink);
-    if sink.finish().is_none() {
-        return Err(too_small());
+    let out = encode(&mut sink);
+    match sink.finish() {
+        Some(written) => Ok((payload, out, written + ENCAPSULATION_LE.len())),
+        None => Err(too_small(needed())),
     }
-    Ok(T::bulk(payload, lens, &starts))
 }
 
 /// Encodes `value` into `buffer`, replacing its contents (its allocation is reused).

@@ -168,8 +168,12 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
     }
     let _ = writeln!(out, "    }}");
     let plain = plain_layout(ty);
-    if let Some((rust, size)) = plain {
-        emit_bulk_encode(out, ty, rust, size);
+    if plain.is_some() {
+        // Arrays of a plain struct go the numbers' way: one copy, see `LeItem`.
+        let _ = writeln!(
+            out,
+            "    fn encode_slice<S: crate::cdr::Sink>(items: &[Self], sink: &mut S) {{\n        crate::cdr::encode_le_slice(items, sink);\n    }}"
+        );
     }
     let _ = writeln!(out, "}}\n");
 
@@ -202,8 +206,11 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
         let _ = writeln!(out, "            {f}: reader.field(\"{f}\")?,");
     }
     let _ = writeln!(out, "        }})\n    }}");
-    if let Some((rust, size)) = plain {
-        emit_bulk_decode(out, ty, rust, size);
+    if plain.is_some() {
+        let _ = writeln!(
+            out,
+            "    fn decode_vec(reader: &mut crate::cdr::Reader<'_>, count: usize) -> Result<Vec<Self>, crate::cdr::DecodeError> {{\n        crate::cdr::decode_le_vec(reader, count)\n    }}"
+        );
     }
     let _ = writeln!(out, "}}\n");
     if let Some((rust, size)) = plain {
@@ -283,28 +290,50 @@ fn emit_size_checks(
     }
 }
 
+/// An array whose elements lie in the CDR bytes as they lie in memory on a little-endian
+/// machine: numbers, `bool`, plain structs (`Pose3D`), bytes. Its element type, and whether
+/// it is bytes (`&[u8]` rather than an `LeSlice`). Read in place by views, written in place
+/// by `InPlace` (but `bool`).
+fn le_array(idl: &Idl, field: &Field) -> Option<(String, bool)> {
+    match (&field.ty, field.is_array) {
+        (
+            FieldType::Primitive {
+                primitive: Primitive::Bytes,
+                ..
+            },
+            false,
+        ) => Some(("u8".to_owned(), true)),
+        (FieldType::Primitive { primitive, .. }, true) => match primitive {
+            Primitive::String | Primitive::Bytes => None,
+            p => Some((p.rust().to_owned(), p.rust() == "u8")),
+        },
+        (FieldType::Struct(name), true) if idl.compound(name).and_then(plain_layout).is_some() => {
+            Some((name.clone(), false))
+        }
+        _ => None,
+    }
+}
+
 /// The type of a field in a struct's view: what is read in place of what is decoded.
 fn view_type(idl: &Idl, field: &Field) -> String {
+    if let Some((element, bytes)) = le_array(idl, field) {
+        return if bytes {
+            "&'a [u8]".to_owned()
+        } else {
+            format!("crate::cdr::LeSlice<'a, {element}>")
+        };
+    }
     match (&field.ty, field.is_array) {
         (FieldType::Primitive { primitive, .. }, false) => match primitive {
             Primitive::String => "&'a str".to_owned(),
-            Primitive::Bytes => "&'a [u8]".to_owned(),
             p => p.rust().to_owned(),
         },
         (FieldType::Primitive { primitive, .. }, true) => match primitive {
             Primitive::String => "crate::cdr::SeqView<'a, &'a str>".to_owned(),
-            Primitive::Bytes => "crate::cdr::SeqView<'a, &'a [u8]>".to_owned(),
-            p if p.rust() == "u8" => "&'a [u8]".to_owned(),
-            p => format!("crate::cdr::LeSlice<'a, {}>", p.rust()),
+            _ => "crate::cdr::SeqView<'a, &'a [u8]>".to_owned(),
         },
         (FieldType::Struct(name), false) => format!("{name}View<'a>"),
-        (FieldType::Struct(name), true) => {
-            if idl.compound(name).and_then(plain_layout).is_some() {
-                format!("crate::cdr::LeSlice<'a, {name}>")
-            } else {
-                format!("crate::cdr::SeqView<'a, {name}View<'a>>")
-            }
-        }
+        (FieldType::Struct(name), true) => format!("crate::cdr::SeqView<'a, {name}View<'a>>"),
     }
 }
 
@@ -360,27 +389,10 @@ fn emit_view(out: &mut String, idl: &Idl, ty: &StructType, all_fields: &[&str]) 
     let _ = writeln!(out, "        }}\n    }}\n}}\n");
 }
 
-/// How a field is written in place ([`crate::InPlace`]), if it is: its element type, and
-/// whether it is a byte array (written as `&mut [u8]`, not a `LeSliceMut`).
+/// How a field is written in place ([`crate::InPlace`]), if it is: as [`le_array`] says,
+/// but for arrays of `bool` (not every byte is a `bool`).
 fn bulk_element(idl: &Idl, field: &Field) -> Option<(String, bool)> {
-    match (&field.ty, field.is_array) {
-        (
-            FieldType::Primitive {
-                primitive: Primitive::Bytes,
-                ..
-            },
-            false,
-        ) => Some(("u8".to_owned(), true)),
-        (FieldType::Primitive { primitive, .. }, true) => match primitive {
-            // Not every byte is a bool; strings and byte strings vary in size.
-            Primitive::Bool | Primitive::String | Primitive::Bytes => None,
-            p => Some((p.rust().to_owned(), p.rust() == "u8")),
-        },
-        (FieldType::Struct(name), true) if idl.compound(name).and_then(plain_layout).is_some() => {
-            Some((name.clone(), false))
-        }
-        _ => None,
-    }
+    le_array(idl, field).filter(|(element, _)| element != "bool")
 }
 
 /// The in-place writer of a struct's arrays, their lengths, and its `InPlace` impl.
@@ -591,78 +603,6 @@ fn plain_layout(ty: &StructType) -> Option<(&'static str, usize)> {
         layout = Some(this);
     }
     layout
-}
-
-fn emit_bulk_encode(out: &mut String, ty: &StructType, rust: &str, size: usize) {
-    let total = size * ty.fields.len();
-    let _ = writeln!(
-        out,
-        "    fn encode_slice<S: crate::cdr::Sink>(items: &[Self], sink: &mut S) {{"
-    );
-    let _ = writeln!(
-        out,
-        "        if items.is_empty() {{\n            return;\n        }}"
-    );
-    let _ = writeln!(out, "        sink.align({size});");
-    let _ = writeln!(out, "        if cfg!(target_endian = \"little\") {{");
-    let _ = writeln!(
-        out,
-        "            sink.put(zerocopy::IntoBytes::as_bytes(items));\n            return;\n        }}"
-    );
-    let _ = writeln!(out, "        sink.put_with(items.len() * {total}, |out| {{");
-    let _ = writeln!(
-        out,
-        "            for (chunk, item) in out.chunks_exact_mut({total}).zip(items) {{"
-    );
-    for (i, f) in ty.fields.iter().enumerate() {
-        let _ = writeln!(
-            out,
-            "                chunk[{}..{}].copy_from_slice(&{rust}::to_le_bytes(item.{}));",
-            i * size,
-            (i + 1) * size,
-            f.name
-        );
-    }
-    let _ = writeln!(out, "            }}\n        }});\n    }}");
-}
-
-fn emit_bulk_decode(out: &mut String, ty: &StructType, rust: &str, size: usize) {
-    let total = size * ty.fields.len();
-    let _ = writeln!(
-        out,
-        "    fn decode_vec(reader: &mut crate::cdr::Reader<'_>, count: usize) -> Result<Vec<Self>, crate::cdr::DecodeError> {{"
-    );
-    let _ = writeln!(
-        out,
-        "        if count == 0 {{\n            return Ok(Vec::new());\n        }}"
-    );
-    let _ = writeln!(out, "        reader.align({size})?;");
-    let _ = writeln!(out, "        reader.check_count(count, {total})?;");
-    let _ = writeln!(out, "        let bytes = reader.take(count * {total})?;");
-    let _ = writeln!(
-        out,
-        "        if cfg!(target_endian = \"little\") {{\n            return Ok(crate::cdr::le_bulk_copy(bytes, count));\n        }}"
-    );
-    let _ = writeln!(out, "        let field = |chunk: &[u8], i: usize| {{");
-    let _ = writeln!(out, "            let mut array = [0u8; {size}];");
-    let _ = writeln!(
-        out,
-        "            array.copy_from_slice(&chunk[i * {size}..(i + 1) * {size}]);"
-    );
-    let _ = writeln!(out, "            {rust}::from_le_bytes(array)");
-    let _ = writeln!(out, "        }};");
-    let inits: Vec<String> = ty
-        .fields
-        .iter()
-        .enumerate()
-        .map(|(i, f)| format!("{}: field(chunk, {i})", f.name))
-        .collect();
-    let _ = writeln!(
-        out,
-        "        Ok(bytes.chunks_exact({total}).map(|chunk| Self {{ {} }}).collect())",
-        inits.join(", ")
-    );
-    let _ = writeln!(out, "    }}");
 }
 
 /// Whether a struct (or anything inside it) has an array sized by a field.

@@ -278,6 +278,16 @@ impl SimCamera {
     pub fn render(&mut self, world: &World, robot_pose: Pose2) -> ImageSource {
         let mut data = vec![0; self.frame_len()];
         self.render_into(world, robot_pose, &mut data);
+        ImageSource {
+            data,
+            ..self.frame_fields()
+        }
+    }
+
+    /// The ImageSource publication of a frame but its pixels: size, rgb8, intrinsics
+    /// (header left for the service to fill). What a frame rendered in place is sent with.
+    #[must_use]
+    pub fn frame_fields(&self) -> ImageSource {
         let k = self.intrinsics();
         let width = i32::try_from(self.config.width_px).unwrap_or(i32::MAX);
         ImageSource {
@@ -285,7 +295,6 @@ impl SimCamera {
             height: i32::try_from(self.config.height_px).unwrap_or(i32::MAX),
             encoding: "rgb8".to_owned(),
             step: width.saturating_mul(3),
-            data,
             focal_length_x: k.focal_length_px,
             focal_length_y: k.focal_length_px,
             principal_point_x: k.principal_x_px,

@@ -209,29 +209,10 @@ impl SimCameraService {
         }
     }
 
-    /// The frame's fields but its pixels, which are rendered in place (header left to the
-    /// context).
-    fn frame_fields(&self) -> ImageSource {
-        let k = self.camera.intrinsics();
-        let c = self.camera.config();
-        let width = i32::try_from(c.width_px).unwrap_or(i32::MAX);
-        ImageSource {
-            width,
-            height: i32::try_from(c.height_px).unwrap_or(i32::MAX),
-            encoding: "rgb8".to_owned(),
-            step: width.saturating_mul(3),
-            focal_length_x: k.focal_length_px,
-            focal_length_y: k.focal_length_px,
-            principal_point_x: k.principal_x_px,
-            principal_point_y: k.principal_y_px,
-            ..ImageSource::default()
-        }
-    }
-
     /// Renders the frame seen from `pose` straight into the channel's shared memory: a
     /// 640x480 frame is 900 KiB that would otherwise be rendered into a buffer and copied.
     fn publish_frame(&mut self, ctx: &mut Context<'_>, pose: crate::sim::geometry::Pose2) {
-        let mut frame = self.frame_fields();
+        let mut frame = self.camera.frame_fields();
         let lens = ImageSourceBulkLens {
             data: self.camera.frame_len(),
         };
