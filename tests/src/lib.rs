@@ -104,7 +104,7 @@ use std::time::{Duration, Instant};
 
 use lewis_interfaces::msg::RangeFinder;
 use lewis_runtime::client::Client;
-use lewis_runtime::ipc::{Ipc, Namespace, NodeLiveness};
+use lewis_runtime::ipc::{Ipc, Namespace, NodeLiveness, WakeMode};
 
 /// The longest any end-to-end wait may take before the test fails: a watchdog against
 /// deadlocks, not a timing assertion.
@@ -546,6 +546,16 @@ impl RangeApp {
         Self {
             in_place: true,
             ..Self::connect(ipc)
+        }
+    }
+
+    /// This application, busy polling for its samples ([`WakeMode::BusyPoll`]) rather than
+    /// waiting for wake-ups.
+    #[must_use]
+    pub fn busy_polling(self) -> Self {
+        Self {
+            client: self.client.with_wake_mode(WakeMode::BusyPoll),
+            ..self
         }
     }
 

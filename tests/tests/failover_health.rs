@@ -10,6 +10,15 @@ use lewis_tests::{RangeApp, Up, open_ipc};
 /// Starts `lewis up` on the test robot with a fault file for the laser, connects the
 /// application and waits until it receives from the laser.
 fn start_with_fault_file(tag: &str, fail_back: bool) -> (Up, RangeApp, std::path::PathBuf) {
+    start_reading(tag, fail_back, |app| app)
+}
+
+/// [`start_with_fault_file`], the application set up by `setup`.
+fn start_reading(
+    tag: &str,
+    fail_back: bool,
+    setup: impl FnOnce(RangeApp) -> RangeApp,
+) -> (Up, RangeApp, std::path::PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let fault = dir.path().join("laser.fault");
     let robot = test_robot(&TestRobot {
@@ -20,7 +29,7 @@ fn start_with_fault_file(tag: &str, fail_back: bool) -> (Up, RangeApp, std::path
     let mut up = Up::start_in(dir, Namespace::unique(tag), &robot);
     up.wait_line("broker up");
     let ipc = open_ipc(&up.namespace, "test-app");
-    let mut app = RangeApp::connect(&ipc);
+    let mut app = setup(RangeApp::connect(&ipc));
     app.wait_for("laser", 5);
     (up, app, fault)
 }
@@ -57,7 +66,8 @@ fn laser_out_of_service_rebinds_the_client_at_once() {
 
 #[test]
 fn client_fails_back_to_the_laser_when_configured() {
-    let (mut up, mut app, fault) = start_with_fault_file("failback", true);
+    // Busy polling: the client that spins on its data follows both rebinds as well.
+    let (mut up, mut app, fault) = start_reading("failback", true, RangeApp::busy_polling);
     set_fault(&fault, "out-of-service");
     app.wait_for("sonar", 5);
     set_fault(&fault, "ok");

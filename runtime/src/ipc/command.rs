@@ -432,6 +432,16 @@ impl CommandClient {
         self.pending.len()
     }
 
+    /// Whether a call has an outcome to take: its reply came, or its time is up (no system
+    /// call).
+    pub fn has_outcome(&self) -> bool {
+        if self.pending.is_empty() {
+            return false;
+        }
+        let now = Instant::now();
+        (0..self.pending.len()).any(|i| self.is_finished(i, now))
+    }
+
     /// The command name.
     pub fn command(&self) -> &str {
         &self.command
@@ -475,11 +485,7 @@ impl CommandClient {
 
 impl wait::sealed::Source for CommandClient {
     fn is_ready(&self) -> bool {
-        if self.pending.is_empty() {
-            return false;
-        }
-        let now = Instant::now();
-        (0..self.pending.len()).any(|i| self.is_finished(i, now))
+        self.has_outcome()
     }
 
     fn wake_fd(&self) -> Option<BorrowedFd<'_>> {
