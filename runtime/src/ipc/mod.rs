@@ -39,6 +39,7 @@ pub use liveness::{CleanupReport, LivenessError, NodeInfo, NodeLiveness};
 pub use namespace::{
     DEFAULT_NAMESPACE, MAX_NAMESPACE_LEN, NAMESPACE_ENV, Namespace, NamespaceError,
 };
+pub(crate) use wait::SPINS_PER_CLOCK_READ;
 pub use wait::{FdSource, Fired, MAX_WAIT_SOURCES, WaitError, WaitSet, Waitable, WakeMode, Woken};
 
 use iceoryx2::node::{Node, NodeBuilder};

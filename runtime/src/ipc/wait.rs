@@ -175,8 +175,9 @@ pub struct WaitSet {
     arrivals: ArrivalPredictor,
 }
 
-/// Spins between two reads of the clock in the spinning modes.
-const SPINS_PER_CLOCK_READ: u32 = 32;
+/// Spins between two reads of the clock in the spinning modes (the wait set's, and a
+/// busy-polling client's own loop).
+pub(crate) const SPINS_PER_CLOCK_READ: u32 = 32;
 /// Spins between two non-blocking polls of file-descriptor-only sources in busy-poll mode.
 const SPINS_PER_FD_POLL: u32 = 1024;
 
