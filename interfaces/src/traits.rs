@@ -26,6 +26,7 @@ pub trait Struct:
     ///
     /// # Errors
     /// When the bytes are not a valid `Self`.
+    #[inline]
     fn view(bytes: &[u8]) -> Result<Self::View<'_>, DecodeError> {
         crate::cdr::view(bytes)
     }

@@ -35,31 +35,61 @@ pub enum DecodeErrorKind {
 
 /// A decoding failure: what, where (byte offset from the start of the message), and in
 /// which field (outermost first).
+///
+/// Boxed, so that a `Result` of a decoded number is two words and comes back in
+/// registers: decoding and views run one such `Result` per field.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct DecodeError {
-    /// What went wrong.
-    pub kind: DecodeErrorKind,
-    /// Byte offset in the message, encapsulation header included.
-    pub offset: usize,
-    /// The field path, outermost first (`header.inputs`).
-    pub path: Vec<&'static str>,
+pub struct DecodeError(Box<Failure>);
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Failure {
+    kind: DecodeErrorKind,
+    offset: usize,
+    path: Vec<&'static str>,
 }
 
 impl DecodeError {
     /// An error at a byte offset, outside any field.
     #[must_use]
+    #[cold]
     pub fn at(offset: usize, kind: DecodeErrorKind) -> Self {
-        Self {
+        Self(Box::new(Failure {
             kind,
             offset,
             path: Vec::new(),
-        }
+        }))
+    }
+
+    /// What went wrong.
+    #[must_use]
+    pub fn kind(&self) -> &DecodeErrorKind {
+        &self.0.kind
+    }
+
+    /// Byte offset in the message, encapsulation header included.
+    #[must_use]
+    pub fn offset(&self) -> usize {
+        self.0.offset
+    }
+
+    /// The field path, outermost first (`header.inputs`).
+    #[must_use]
+    pub fn path(&self) -> &[&'static str] {
+        &self.0.path
+    }
+
+    /// This error, inside field `name` of the value being decoded.
+    #[must_use]
+    #[cold]
+    pub fn in_field(mut self, name: &'static str) -> Self {
+        self.0.path.insert(0, name);
+        self
     }
 }
 
 impl fmt::Display for DecodeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match &self.kind {
+        match &self.0.kind {
             DecodeErrorKind::Truncated { needed, left } => {
                 write!(f, "message truncated: {needed} bytes needed, {left} left")?;
             }
@@ -79,9 +109,9 @@ impl fmt::Display for DecodeError {
             DecodeErrorKind::TrailingBytes(n) => write!(f, "{n} bytes left after the message")?,
             DecodeErrorKind::UnknownCommand(name) => write!(f, "unknown command `{name}`")?,
         }
-        write!(f, " at byte {}", self.offset)?;
-        if !self.path.is_empty() {
-            write!(f, " in field `{}`", self.path.join("."))?;
+        write!(f, " at byte {}", self.0.offset)?;
+        if !self.0.path.is_empty() {
+            write!(f, " in field `{}`", self.0.path.join("."))?;
         }
         Ok(())
     }
@@ -134,6 +164,8 @@ impl<'a> Reader<'a> {
         self.bytes.len() - self.position
     }
 
+    #[cold]
+    #[inline(never)]
     fn error(&self, kind: DecodeErrorKind) -> DecodeError {
         DecodeError::at(self.position + super::ENCAPSULATION_LE.len(), kind)
     }
@@ -225,19 +257,13 @@ impl<'a> Reader<'a> {
         &mut self,
         name: &'static str,
     ) -> Result<T, DecodeError> {
-        T::decode_view(self).map_err(|mut err| {
-            err.path.insert(0, name);
-            err
-        })
+        T::decode_view(self).map_err(|err| err.in_field(name))
     }
 
     /// Decodes a field, naming it in the error path on failure.
     #[inline]
     pub fn field<T: Decode>(&mut self, name: &'static str) -> Result<T, DecodeError> {
-        T::decode(self).map_err(|mut err| {
-            err.path.insert(0, name);
-            err
-        })
+        T::decode(self).map_err(|err| err.in_field(name))
     }
 }
 

@@ -108,6 +108,7 @@ pub fn to_vec<T: Encode + ?Sized>(value: &T) -> Vec<u8> {
 ///
 /// # Errors
 /// A [`DecodeError`] naming the field and offset when the bytes are not a valid `T`.
+#[inline]
 pub fn from_bytes<T: Decode>(bytes: &[u8]) -> Result<T, DecodeError> {
     read_whole(bytes, T::decode)
 }
@@ -118,12 +119,14 @@ pub fn from_bytes<T: Decode>(bytes: &[u8]) -> Result<T, DecodeError> {
 ///
 /// # Errors
 /// As [`from_bytes`].
+#[inline]
 pub fn view<'a, V: DecodeView<'a>>(bytes: &'a [u8]) -> Result<V, DecodeError> {
     read_whole(bytes, V::decode_view)
 }
 
 /// Checks the encapsulation header, reads one value with `read`, and allows at most 3
 /// bytes of padding after it.
+#[inline]
 fn read_whole<'a, T>(
     bytes: &'a [u8],
     read: impl FnOnce(&mut Reader<'a>) -> Result<T, DecodeError>,
