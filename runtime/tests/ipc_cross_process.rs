@@ -234,5 +234,6 @@ fn the_background_cleaner_removes_a_sigkilled_node_and_says_when_it_is_done() {
     assert_eq!(dead(&ipc), 0);
     assert_eq!(cleaner.cleaned(), 1);
     // The parent and the cleaner's own node are all that is left.
-    assert_eq!(ipc.nodes().unwrap().len(), 2);
+    let left = ipc.nodes().unwrap();
+    assert_eq!(left.len(), 2, "nodes left: {left:?}");
 }

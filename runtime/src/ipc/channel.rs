@@ -16,6 +16,7 @@ use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::port::{BackpressureAction, BackpressureInfo};
 use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, ZeroCopySend, ipc};
 use iceoryx2::sample::Sample;
+use iceoryx2::sample_mut::SampleMut;
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use super::wait::{self, Waitable};
@@ -214,6 +215,9 @@ pub struct Published {
     pub delivered_to: usize,
 }
 
+/// A loaned sample of the channel, written and not yet sent.
+type Loan = SampleMut<ipc::Service, [u8], FrameHeader>;
+
 /// The sending end of a data channel.
 pub struct Publisher {
     channel: String,
@@ -222,6 +226,13 @@ pub struct Publisher {
     next_seq: u64,
     max_len_bytes: usize,
     discarded: Arc<AtomicU64>,
+    /// The length of the last publication.
+    last_len: usize,
+    /// A sample of `last_len` bytes loaned after the last publication, when the two before
+    /// it had the same length: the next publication of that length writes into it, so the
+    /// loan (its pass over the subscribers' returned samples and the pool) is not on the
+    /// way from the message to its subscribers.
+    spare: Option<Loan>,
 }
 
 impl fmt::Debug for Publisher {
@@ -248,22 +259,14 @@ impl Publisher {
                 max_len_bytes: self.max_len_bytes,
             });
         }
-        let mut sample =
-            self.port
-                .loan_slice_uninit(len_bytes)
-                .map_err(|e| PublishError::Loan {
-                    channel: self.channel.clone(),
-                    len_bytes,
-                    reason: e.to_string(),
-                })?;
+        // A spare of another length goes back to the pool before the new loan.
+        let spare = self.spare.take().filter(|s| s.payload().len() == len_bytes);
+        let mut sample = match spare {
+            Some(spare) => spare,
+            None => self.loan(len_bytes)?,
+        };
         let seq = self.next_seq;
         sample.user_header_mut().seq = seq;
-        // SAFETY: the payload is `u8`s in a shared-memory segment that iceoryx2 maps with
-        // mmap: fresh pages are zero-filled by the kernel and recycled chunks hold the bytes
-        // of an earlier payload, so every byte already holds a valid `u8`. Only `u8` payloads
-        // are ever written to these segments (the payload type is fixed to `[u8]`). Skipping
-        // the zero-fill keeps a 1 MiB publication at one write of the payload.
-        let mut sample = unsafe { sample.assume_init() };
         encode(sample.payload_mut());
         // A failed send still consumes the number: subscribers then count it as lost.
         self.next_seq += 1;
@@ -275,7 +278,30 @@ impl Publisher {
             channel: self.channel.clone(),
             reason: e.to_string(),
         })?;
+        // A stream of one length (a sensor's) gets its next loan now, after its subscribers
+        // have this sample; a stream of varying lengths would only loan twice.
+        if len_bytes == self.last_len {
+            self.spare = self.loan(len_bytes).ok();
+        }
+        self.last_len = len_bytes;
         Ok(Published { seq, delivered_to })
+    }
+
+    fn loan(&self, len_bytes: usize) -> Result<Loan, PublishError> {
+        let sample = self
+            .port
+            .loan_slice_uninit(len_bytes)
+            .map_err(|e| PublishError::Loan {
+                channel: self.channel.clone(),
+                len_bytes,
+                reason: e.to_string(),
+            })?;
+        // SAFETY: the payload is `u8`s in a shared-memory segment that iceoryx2 maps with
+        // mmap: fresh pages are zero-filled by the kernel and recycled chunks hold the bytes
+        // of an earlier payload, so every byte already holds a valid `u8`. Only `u8` payloads
+        // are ever written to these segments (the payload type is fixed to `[u8]`). Skipping
+        // the zero-fill keeps a 1 MiB publication at one write of the payload.
+        Ok(unsafe { sample.assume_init() })
     }
 
     /// Publishes a copy of `bytes`.
@@ -572,6 +598,8 @@ impl Ipc {
             next_seq: 0,
             max_len_bytes: config.max_len_bytes,
             discarded,
+            last_len: 0,
+            spare: None,
         })
     }
 
