@@ -17,10 +17,13 @@ use lewis_runtime::broker::live::{UpOptions, run_up};
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::{Ipc, Namespace};
 use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::service::{Context, Service, ServiceRegistry};
+use lewis_runtime::service::{BuildError, Context, Service, ServiceRegistry};
 use serde::Deserialize;
 
-use crate::common::{CpuMeter, IDLE_LIMIT, Mode, Res, RoleChild, Row, mono_ns, print_result, var};
+use crate::common::{
+    CpuMeter, IDLE_LIMIT, Mode, Res, RoleChild, Row, Stats, mono_ns, print_result, var,
+};
+use crate::raw::{Fill, RawPublisher, RawReceiver};
 
 /// The service kind of the source, known only to this benchmark.
 const KIND: &str = "bench-source";
@@ -28,8 +31,9 @@ const KIND: &str = "bench-source";
 const SOURCE: &str = "src";
 
 /// The robot: one source publishing every `period`, started on demand when the
-/// application asks for RangeFinder.
-fn robot_text(beams: u32, period: Duration, publish: Publish) -> String {
+/// application asks for RangeFinder. With `twin`, the source alternates its publications
+/// with raw iceoryx2 ones ([`Twin`]), one every `period` each.
+fn robot_text(beams: u32, period: Duration, publish: Publish, twin: Option<Mode>) -> String {
     format!(
         r#"[robot]
 name = "ipc-bench"
@@ -48,9 +52,11 @@ provides = [{{ interface = "RangeFinder", quality = 1, cost = 1 }}]
 beams = {beams}
 period_us = {period}
 in_place = {in_place}
+twin = "{twin}"
 "#,
         period = period.as_micros(),
         in_place = publish == Publish::InPlace,
+        twin = twin.map(Mode::encode).unwrap_or_default(),
     )
 }
 
@@ -97,6 +103,8 @@ struct Params {
     beams: u32,
     period_us: u64,
     in_place: bool,
+    /// The wake-up mode of the raw twin's receiver, empty for none.
+    twin: String,
 }
 
 /// How the source publishes.
@@ -116,15 +124,34 @@ struct Source {
     in_place: bool,
     period: Duration,
     last_publish_ns: u64,
+    twin: Option<Twin>,
+}
+
+/// A raw iceoryx2 publisher in the source's process, publishing the same bytes on the
+/// baseline's channel ([`RawPublisher`]) on every other tick: the baseline and our layers
+/// then wake the same way, in the same processes, taking turns every tick.
+struct Twin {
+    publisher: RawPublisher,
+    /// Whether the next tick is the twin's.
+    due: bool,
 }
 
 impl Service for Source {
     fn tick_period_ns(&self) -> Option<i64> {
-        i64::try_from(self.period.as_nanos()).ok()
+        // Taking turns, each stream still publishes once every period.
+        let ticks_per_period = if self.twin.is_some() { 2 } else { 1 };
+        i64::try_from(self.period.as_nanos() / ticks_per_period).ok()
     }
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
         let t0 = mono_ns();
+        if let Some(twin) = &mut self.twin {
+            twin.due = !twin.due;
+            if !twin.due {
+                let _ = twin.publisher.send(t0);
+                return;
+            }
+        }
         self.scan.x_offset = t0 as f64;
         self.scan.y_offset = self.last_publish_ns as f64;
         if self.in_place {
@@ -157,6 +184,29 @@ pub fn service_role(args: &[String]) -> Res<()> {
     registry.register(KIND, |config| {
         let params: Params = config.parameters()?;
         let mut message = scan(params.beams);
+        message.header.provider = SOURCE.to_owned();
+        let fail = |e: Box<dyn std::error::Error>| BuildError::Parameters {
+            service: SOURCE.to_owned(),
+            reason: format!("cannot open the raw twin: {e}"),
+        };
+        let twin = if params.twin.is_empty() {
+            None
+        } else {
+            let mode = Mode::decode(&params.twin).map_err(fail)?;
+            // Fill as our layers write: a memset in place, or a copy of the encoded scan.
+            let fill = if params.in_place {
+                Fill::Pattern
+            } else {
+                Fill::CopyIn
+            };
+            let namespace = Namespace::from_env().map_err(|e| fail(e.into()))?;
+            let publisher =
+                RawPublisher::open(&namespace, mode, fill, cdr::to_vec(&message)).map_err(fail)?;
+            Some(Twin {
+                publisher,
+                due: false,
+            })
+        };
         if params.in_place {
             message.ranges = Vec::new();
             message.sensor_positions = Vec::new();
@@ -166,6 +216,7 @@ pub fn service_role(args: &[String]) -> Res<()> {
             in_place: params.in_place,
             period: Duration::from_micros(params.period_us),
             last_publish_ns: 0,
+            twin,
         }) as Box<dyn Service>)
     });
     lewis_runtime::live::run_service(
@@ -203,7 +254,8 @@ pub enum Read {
     View,
 }
 
-/// The application: a `Client<RangeFinder>` receiving `count` scans in `mode`.
+/// The application: a `Client<RangeFinder>` receiving `count` scans in `mode`; with
+/// `BENCH_TWIN_SIZE`, also the raw twin's samples, taking turns with the scans.
 pub fn receive_role() -> Res<()> {
     let namespace = Namespace::new(&var("BENCH_NAMESPACE")?)?;
     let mode = Mode::decode(&var("BENCH_MODE")?)?;
@@ -213,33 +265,69 @@ pub fn receive_role() -> Res<()> {
     } else {
         Read::Decode
     };
+    let twin = match std::env::var("BENCH_TWIN_SIZE") {
+        Ok(len) => Some(RawReceiver::open(&namespace, mode, len.parse()?)?),
+        Err(_) => None,
+    };
     let ipc = std::rc::Rc::new(Ipc::open(&namespace, "bench-app")?);
     let mut client =
         Client::<RangeFinder>::connect(&ipc, "bench-app")?.with_wake_mode(mode.wake_mode());
     client.wait_bound(Duration::from_secs(30))?;
     let mut latencies_ns = Vec::with_capacity(count);
+    let mut twin_latencies_ns = Vec::with_capacity(count);
     let mut sends_ns = Vec::with_capacity(count);
+    // The send time of the last sample counted: a sample sent before it is one left over
+    // from before the receiver joined, or out of turn, and is skipped.
+    let mut last_sent = 0;
     let meter = CpuMeter::start();
-    while latencies_ns.len() < count {
-        // The clock is read once the sample is in hand: decoded, or its view built.
-        let stamps = match read {
-            Read::Decode => client.recv_timeout(IDLE_LIMIT)?.map(|sample| {
+    'turns: while latencies_ns.len() < count {
+        if let Some(twin) = &twin {
+            loop {
+                let Some(sent) = twin.next()? else {
+                    break 'turns;
+                };
                 let t1 = mono_ns();
-                (t1, sample.message.x_offset, sample.message.y_offset)
-            }),
-            Read::View => client.recv_view_timeout(IDLE_LIMIT, |scan| {
-                let t1 = mono_ns();
-                (t1, scan.x_offset, scan.y_offset)
-            })?,
-        };
-        let Some((t1, sent, send_ns)) = stamps else {
-            break;
-        };
-        latencies_ns.push(t1.saturating_sub(sent as u64));
-        sends_ns.push(send_ns as u64);
+                if sent > last_sent {
+                    twin_latencies_ns.push(t1.saturating_sub(sent));
+                    last_sent = sent;
+                    break;
+                }
+            }
+        }
+        loop {
+            // The clock is read once the sample is in hand: decoded, or its view built.
+            let stamps = match read {
+                Read::Decode => client.recv_timeout(IDLE_LIMIT)?.map(|sample| {
+                    let t1 = mono_ns();
+                    (t1, sample.message.x_offset, sample.message.y_offset)
+                }),
+                Read::View => client.recv_view_timeout(IDLE_LIMIT, |scan| {
+                    let t1 = mono_ns();
+                    (t1, scan.x_offset, scan.y_offset)
+                })?,
+            };
+            let Some((t1, sent, send_ns)) = stamps else {
+                break 'turns;
+            };
+            let sent = sent as u64;
+            if sent > last_sent {
+                latencies_ns.push(t1.saturating_sub(sent));
+                sends_ns.push(send_ns as u64);
+                last_sent = sent;
+                break;
+            }
+        }
     }
     let stats = meter.stop(latencies_ns);
+    // Taking turns, both share the receiver's CPU time.
+    let twin_stats = Stats {
+        latencies_ns: twin_latencies_ns,
+        ..stats
+    };
     print_result(stats, sends_ns);
+    if twin.is_some() {
+        print_result(twin_stats, Vec::new());
+    }
     Ok(())
 }
 
@@ -253,9 +341,71 @@ pub fn run(
     period: Duration,
     count: usize,
 ) -> Res<Row> {
+    let mut receiver = start(mode, publish, read, beams, period, count, false)?;
+    let ours = receiver.row(&mut []);
+    receiver.stop()?;
+    ours
+}
+
+/// One row taking turns with the raw baseline in the same processes: the source publishes
+/// as `publish` says and its raw twin the same bytes (copied in, or filled as in place
+/// fills), one tick each; the application reads our scans as `read` says and the twin's
+/// samples with a raw subscriber, both waiting in `mode`. Returns (raw, ours).
+pub fn run_paired(
+    mode: Mode,
+    publish: Publish,
+    read: Read,
+    beams: u32,
+    count: usize,
+) -> Res<(Row, Row)> {
+    let mut receiver = start(
+        mode,
+        publish,
+        read,
+        beams,
+        crate::common::gap(),
+        count,
+        true,
+    )?;
+    let rows = receiver
+        .row(&mut [])
+        .and_then(|ours| Ok((receiver.row(&mut [])?, ours)));
+    receiver.stop()?;
+    rows
+}
+
+/// A broker (with its source) and an application, running.
+struct Running {
+    up: RoleChild,
+    receiver: RoleChild,
+    /// Holds the robot file the broker reads.
+    _dir: tempfile::TempDir,
+}
+
+impl Running {
+    fn row(&mut self, sends_ns: &mut [u64]) -> Res<Row> {
+        self.receiver.row(sends_ns)
+    }
+
+    fn stop(mut self) -> Res<()> {
+        let _ = self.receiver.child.wait();
+        stop(self.up)
+    }
+}
+
+fn start(
+    mode: Mode,
+    publish: Publish,
+    read: Read,
+    beams: u32,
+    period: Duration,
+    count: usize,
+    twin: bool,
+) -> Res<Running> {
     let dir = tempfile::tempdir()?;
     let robot_path = dir.path().join("robot.toml");
-    std::fs::write(&robot_path, robot_text(beams, period, publish))?;
+    let text = robot_text(beams, period, publish, twin.then_some(mode));
+    std::fs::write(&robot_path, text)?;
     let namespace = Namespace::unique("bench-client");
     let up = RoleChild::spawn(
         "up",
@@ -264,21 +414,29 @@ pub fn run(
             ("BENCH_NAMESPACE", namespace.to_string()),
         ],
     )?;
-    let receiver = RoleChild::spawn(
-        "client",
-        &[
-            ("BENCH_NAMESPACE", namespace.to_string()),
-            ("BENCH_MODE", mode.encode()),
-            ("BENCH_COUNT", count.to_string()),
-            (
-                "BENCH_READ",
-                if read == Read::View { "view" } else { "decode" }.to_owned(),
-            ),
-        ],
-    );
-    let result = receiver.and_then(|r| r.result(&mut []));
-    stop(up)?;
-    result
+    let mut env = vec![
+        ("BENCH_NAMESPACE", namespace.to_string()),
+        ("BENCH_MODE", mode.encode()),
+        ("BENCH_COUNT", count.to_string()),
+        (
+            "BENCH_READ",
+            if read == Read::View { "view" } else { "decode" }.to_owned(),
+        ),
+    ];
+    if twin {
+        env.push(("BENCH_TWIN_SIZE", payload_len(beams).to_string()));
+    }
+    match RoleChild::spawn("client", &env) {
+        Ok(receiver) => Ok(Running {
+            up,
+            receiver,
+            _dir: dir,
+        }),
+        Err(e) => {
+            stop(up)?;
+            Err(e)
+        }
+    }
 }
 
 fn stop(mut up: RoleChild) -> Res<()> {

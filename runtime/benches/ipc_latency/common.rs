@@ -203,8 +203,14 @@ impl RoleChild {
 
     /// Reads the result line and reaps the child.
     pub fn result(mut self, send_ns: &mut [u64]) -> Res<Row> {
-        let line = self.lines.next().ok_or("receiver gave no result")??;
+        let row = self.row(send_ns);
         self.child.wait()?;
+        row
+    }
+
+    /// Reads the next result line.
+    pub fn row(&mut self, send_ns: &mut [u64]) -> Res<Row> {
+        let line = self.lines.next().ok_or("receiver gave no result")??;
         let fields: Vec<u64> = line
             .split_whitespace()
             .skip(1)

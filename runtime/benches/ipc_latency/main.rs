@@ -10,6 +10,13 @@
 //!   filling), a real broker binding a `Client<RangeFinder>` to it in another process,
 //!   which decodes each scan or reads it in place (its view).
 //!
+//! - **side by side**: the client and the raw baseline in the same processes, taking
+//!   turns: the source service also holds a raw iceoryx2 publisher (its twin) and publishes
+//!   on every other tick through it, the application also holds a raw subscriber. Both
+//!   paths then wake the same way (the live harness's wait, the same receiver) and meet the
+//!   same machine at the same moment, so their ratio, taken within each run, does not
+//!   depend on which second of a virtual machine's shifting speed each was measured in.
+//!
 //! Every row of a table carries the same payload: the bytes of a CDR `RangeFinder` of
 //! about 64 B (the smallest scan, no beams), 64 KiB or 1 MiB. The send time is stamped
 //! with `CLOCK_MONOTONIC` just before the publication; the receiver reads the clock once
@@ -150,6 +157,7 @@ fn main() -> Res<()> {
             );
         }
     }
+    paired_table(&rows_filter, count, repeat)?;
     if !rows_filter.runs("periodic") {
         return Ok(());
     }
@@ -189,6 +197,85 @@ fn main() -> Res<()> {
             line.push_str(&format!(" | {} {}", p50_p99(&row), cpu(&row)));
         }
         println!("{line}");
+    }
+    Ok(())
+}
+
+/// The client and the raw baseline taking turns in the same processes, so that both meet
+/// the same machine: where the tables above run each layer on its own, one after the
+/// other, a host whose speed shifts from one second to the next (a virtual machine's) can
+/// favour one layer over another. Each ratio is taken within one run, then the median of
+/// the runs is shown.
+fn paired_table(rows_filter: &RowFilter, count: usize, repeat: usize) -> Res<()> {
+    const PAIRS: [(Publish, Read); 3] = [
+        (Publish::Encode, Read::Decode),
+        (Publish::Encode, Read::View),
+        (Publish::InPlace, Read::View),
+    ];
+    let mut header_printed = false;
+    for mode in [Mode::Event, Mode::BusyPoll] {
+        for (label, target) in SIZES {
+            let row_name = format!("paired {} {label}", mode.label());
+            if !rows_filter.runs(&row_name) {
+                continue;
+            }
+            if !header_printed {
+                println!();
+                println!(
+                    "side by side in the same processes: the source and a raw iceoryx2 twin take \
+                     turns (the same bytes, one publication each every {:?}), one application \
+                     reads both; p50 / p99 and ours over raw at p50 (median of the runs' ratios)",
+                    common::gap()
+                );
+                println!(
+                    "{:<9} {:<7} {:>8} | {:>15} {:>15} {:>6} | {:>15} {:>15} {:>6} | {:>15} {:>17} {:>6}",
+                    "mode",
+                    "payload",
+                    "bytes",
+                    "raw (copy in)",
+                    "client (decode)",
+                    "x",
+                    "raw (copy in)",
+                    "client (view)",
+                    "x",
+                    "raw (fill)",
+                    "client (in place)",
+                    "x",
+                );
+                header_printed = true;
+            }
+            let beams = client::beams_for(target);
+            let mut runs: [Vec<(Row, Row)>; 3] = Default::default();
+            for _ in 0..repeat {
+                for (i, (publish, read)) in PAIRS.into_iter().enumerate() {
+                    runs[i].push(client::run_paired(mode, publish, read, beams, count)?);
+                }
+            }
+            let mut line = format!(
+                "{:<9} {label:<7} {:>8}",
+                mode.label(),
+                client::payload_len(beams)
+            );
+            for (i, pairs) in runs.iter().enumerate() {
+                let raw_rows: Vec<Row> = pairs.iter().map(|(raw, _)| *raw).collect();
+                let our_rows: Vec<Row> = pairs.iter().map(|(_, ours)| *ours).collect();
+                let (raw, ours) = (median(&raw_rows), median(&our_rows));
+                warn_short(count, &[("raw twin", &raw), ("client", &ours)]);
+                let mut ratios: Vec<f64> = pairs
+                    .iter()
+                    .map(|(raw, ours)| ours.p50_ns as f64 / raw.p50_ns.max(1) as f64)
+                    .collect();
+                ratios.sort_by(f64::total_cmp);
+                let ratio = ratios.get(ratios.len() / 2).copied().unwrap_or(0.0);
+                let width = if i == 2 { 17 } else { 15 };
+                line.push_str(&format!(
+                    " | {} {:>width$} {ratio:>6.2}",
+                    p50_p99(&raw),
+                    p50_p99(&ours).trim(),
+                ));
+            }
+            println!("{line}");
+        }
     }
     Ok(())
 }

@@ -52,33 +52,62 @@ fn stamp(bytes: &[u8]) -> u64 {
     u64::from_le_bytes(t)
 }
 
+/// The receiving end of the baseline, as an application would write it by hand.
+pub struct RawReceiver {
+    // The ports before the node that owns them.
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    sub: iceoryx2::port::subscriber::Subscriber<ipc::Service, [u8], ()>,
+    _node: Node<ipc::Service>,
+    mode: Mode,
+}
+
+impl RawReceiver {
+    /// Subscribes to the baseline's channel of `len`-byte samples, waiting in `mode` (event
+    /// or busy polling only).
+    pub fn open(namespace: &Namespace, mode: Mode, len: usize) -> Res<Self> {
+        let node = node(namespace)?;
+        let (data, events) = services(&node, len)?;
+        Ok(Self {
+            listener: events.listener_builder().create()?,
+            sub: data.subscriber_builder().buffer_size(BUFFER).create()?,
+            _node: node,
+            mode,
+        })
+    }
+
+    /// The send time stamped in the next sample, once it is in hand; `None` after
+    /// [`IDLE_LIMIT`] without one.
+    pub fn next(&self) -> Res<Option<u64>> {
+        let deadline = Instant::now() + IDLE_LIMIT;
+        let mut spins: u32 = 0;
+        loop {
+            if let Some(sample) = self.sub.receive()? {
+                return Ok(Some(stamp(sample.payload())));
+            }
+            if self.mode == Mode::Event {
+                self.listener.timed_wait(|_| {}, IDLE_LIMIT)?;
+            } else {
+                std::hint::spin_loop();
+            }
+            spins = spins.wrapping_add(1);
+            if spins.is_multiple_of(64) && Instant::now() >= deadline {
+                return Ok(None);
+            }
+        }
+    }
+}
+
 /// Receives `count` samples of `len` bytes in `mode` (event or busy polling only).
 pub fn receive(namespace: &Namespace, mode: Mode, len: usize, count: usize) -> Res<Stats> {
-    let node = node(namespace)?;
-    let (data, events) = services(&node, len)?;
-    let listener = events.listener_builder().create()?;
-    let sub = data.subscriber_builder().buffer_size(BUFFER).create()?;
+    let receiver = RawReceiver::open(namespace, mode, len)?;
     ready()?;
     let mut latencies_ns = Vec::with_capacity(count);
     let meter = CpuMeter::start();
-    let mut idle_since = Instant::now();
     while latencies_ns.len() < count {
-        let mut got = false;
-        while let Some(sample) = sub.receive()? {
-            let t1 = mono_ns();
-            latencies_ns.push(t1.saturating_sub(stamp(sample.payload())));
-            got = true;
-        }
-        if got {
-            idle_since = Instant::now();
-        } else if idle_since.elapsed() > IDLE_LIMIT {
+        let Some(sent) = receiver.next()? else {
             break;
-        }
-        if mode == Mode::Event {
-            listener.timed_wait(|_| {}, IDLE_LIMIT)?;
-        } else {
-            std::hint::spin_loop();
-        }
+        };
+        latencies_ns.push(mono_ns().saturating_sub(sent));
     }
     Ok(meter.stop(latencies_ns))
 }
@@ -93,8 +122,61 @@ pub enum Fill {
     CopyIn,
 }
 
+/// The sending end of the baseline, as an application would write it by hand: loan, fill
+/// as [`Fill`] says, stamp, send, and notify in event mode.
+pub struct RawPublisher {
+    // The ports before the node that owns them.
+    notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    publisher: iceoryx2::port::publisher::Publisher<ipc::Service, [u8], ()>,
+    _node: Node<ipc::Service>,
+    mode: Mode,
+    fill: Fill,
+    message: Vec<u8>,
+}
+
+impl RawPublisher {
+    /// Publishes `message` (its first 8 bytes replaced by the send time) on the
+    /// baseline's channel of its length.
+    pub fn open(namespace: &Namespace, mode: Mode, fill: Fill, message: Vec<u8>) -> Res<Self> {
+        let node = node(namespace)?;
+        let (data, events) = services(&node, message.len())?;
+        Ok(Self {
+            notifier: events.notifier_builder().create()?,
+            publisher: data
+                .publisher_builder()
+                .initial_max_slice_len(message.len())
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .create()?,
+            _node: node,
+            mode,
+            fill,
+            message,
+        })
+    }
+
+    /// Publishes one sample stamped with `t0`, the time the publication started.
+    pub fn send(&self, t0: u64) -> Res<()> {
+        let sample = self.publisher.loan_slice_uninit(self.message.len())?;
+        let mut sample = match self.fill {
+            Fill::Pattern => {
+                let mut sample = sample;
+                sample.payload_mut().fill(MaybeUninit::new(0x5a));
+                // SAFETY: every byte was written just above.
+                unsafe { sample.assume_init() }
+            }
+            Fill::CopyIn => sample.write_from_slice(&self.message),
+        };
+        sample.payload_mut()[..8].copy_from_slice(&t0.to_le_bytes());
+        sample.send()?;
+        if self.mode == Mode::Event {
+            self.notifier.notify()?;
+        }
+        Ok(())
+    }
+}
+
 /// Publishes `count` samples of `len` bytes, each filled as `fill` says and stamped with
-/// the send time; notifies the listeners only in event mode. Returns the time of each send.
+/// the send time. Returns the time of each send.
 pub fn publish(
     namespace: &Namespace,
     mode: Mode,
@@ -102,34 +184,12 @@ pub fn publish(
     len: usize,
     count: usize,
 ) -> Res<Vec<u64>> {
-    let node = node(namespace)?;
-    let (data, events) = services(&node, len)?;
-    let notifier = events.notifier_builder().create()?;
-    let publisher = data
-        .publisher_builder()
-        .initial_max_slice_len(len)
-        .allocation_strategy(AllocationStrategy::PowerOfTwo)
-        .create()?;
-    let message = vec![0x5a_u8; len];
+    let publisher = RawPublisher::open(namespace, mode, fill, vec![0x5a_u8; len])?;
     let mut sends = Vec::with_capacity(count);
     let mut next = Instant::now();
     for _ in 0..count {
         let t0 = mono_ns();
-        let sample = publisher.loan_slice_uninit(len)?;
-        let mut sample = match fill {
-            Fill::Pattern => {
-                let mut sample = sample;
-                sample.payload_mut().fill(MaybeUninit::new(0x5a));
-                // SAFETY: every byte was written just above.
-                unsafe { sample.assume_init() }
-            }
-            Fill::CopyIn => sample.write_from_slice(&message),
-        };
-        sample.payload_mut()[..8].copy_from_slice(&t0.to_le_bytes());
-        sample.send()?;
-        if mode == Mode::Event {
-            notifier.notify()?;
-        }
+        publisher.send(t0)?;
         sends.push(mono_ns().saturating_sub(t0));
         pace(&mut next);
     }
