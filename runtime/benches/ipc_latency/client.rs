@@ -331,42 +331,34 @@ pub fn receive_role() -> Res<()> {
     Ok(())
 }
 
-/// One row: a broker with the source publishing every `period` as `publish` says, and the
-/// application in `mode`, reading as `read` says.
-pub fn run(
-    mode: Mode,
-    publish: Publish,
-    read: Read,
-    beams: u32,
-    period: Duration,
-    count: usize,
-) -> Res<Row> {
-    let mut receiver = start(mode, publish, read, beams, period, count, false)?;
+/// What one row of the client runs: a broker with the source publishing every `period`
+/// as `publish` says, and the application waiting in `mode` for `count` scans of `beams`
+/// beams, reading them as `read` says.
+#[derive(Debug, Clone, Copy)]
+pub struct Setup {
+    pub mode: Mode,
+    pub publish: Publish,
+    pub read: Read,
+    pub beams: u32,
+    pub period: Duration,
+    pub count: usize,
+}
+
+/// One row, as `setup` says.
+pub fn run(setup: Setup) -> Res<Row> {
+    let mut receiver = start(setup, false)?;
     let ours = receiver.row(&mut []);
     receiver.stop()?;
     ours
 }
 
 /// One row taking turns with the raw baseline in the same processes: the source publishes
-/// as `publish` says and its raw twin the same bytes (copied in, or filled as in place
-/// fills), one tick each; the application reads our scans as `read` says and the twin's
-/// samples with a raw subscriber, both waiting in `mode`. Returns (raw, ours).
-pub fn run_paired(
-    mode: Mode,
-    publish: Publish,
-    read: Read,
-    beams: u32,
-    count: usize,
-) -> Res<(Row, Row)> {
-    let mut receiver = start(
-        mode,
-        publish,
-        read,
-        beams,
-        crate::common::gap(),
-        count,
-        true,
-    )?;
+/// as the setup says and its raw twin the same bytes (copied in, or filled as in place
+/// fills), one tick each, each once a period; the application reads our scans as the setup
+/// says and the twin's samples with a raw subscriber, both waiting in its mode. Returns
+/// (raw, ours).
+pub fn run_paired(setup: Setup) -> Res<(Row, Row)> {
+    let mut receiver = start(setup, true)?;
     let rows = receiver
         .row(&mut [])
         .and_then(|ours| Ok((receiver.row(&mut [])?, ours)));
@@ -393,15 +385,15 @@ impl Running {
     }
 }
 
-fn start(
-    mode: Mode,
-    publish: Publish,
-    read: Read,
-    beams: u32,
-    period: Duration,
-    count: usize,
-    twin: bool,
-) -> Res<Running> {
+fn start(setup: Setup, twin: bool) -> Res<Running> {
+    let Setup {
+        mode,
+        publish,
+        read,
+        beams,
+        period,
+        count,
+    } = setup;
     let dir = tempfile::tempdir()?;
     let robot_path = dir.path().join("robot.toml");
     let text = robot_text(beams, period, publish, twin.then_some(mode));

@@ -45,7 +45,7 @@ mod client;
 mod common;
 mod raw;
 
-use client::{Publish, Read};
+use client::{Publish, Read, Setup};
 use common::{Mode, ROLE_ENV, Res, RoleChild, Row, median, print_result, var};
 use lewis_runtime::ipc::Namespace;
 use raw::Fill;
@@ -124,14 +124,14 @@ fn main() -> Res<()> {
                 .into_iter()
                 .enumerate()
                 {
-                    runs[3 + i].push(client::run(
+                    runs[3 + i].push(client::run(Setup {
                         mode,
                         publish,
                         read,
                         beams,
-                        common::gap(),
+                        period: common::gap(),
                         count,
-                    )?);
+                    })?);
                 }
             }
             let [raw, copied, ours, decoded, viewed, in_place] = runs.each_ref().map(|r| median(r));
@@ -182,14 +182,14 @@ fn main() -> Res<()> {
         for (_, target) in SIZES {
             let rows = (0..repeat)
                 .map(|_| {
-                    client::run(
+                    client::run(Setup {
                         mode,
-                        Publish::Encode,
-                        Read::View,
-                        client::beams_for(target),
-                        PERIODIC,
-                        count / 2,
-                    )
+                        publish: Publish::Encode,
+                        read: Read::View,
+                        beams: client::beams_for(target),
+                        period: PERIODIC,
+                        count: count / 2,
+                    })
                 })
                 .collect::<Res<Vec<Row>>>()?;
             let row = median(&rows);
@@ -248,7 +248,14 @@ fn paired_table(rows_filter: &RowFilter, count: usize, repeat: usize) -> Res<()>
             let mut runs: [Vec<(Row, Row)>; 3] = Default::default();
             for _ in 0..repeat {
                 for (i, (publish, read)) in PAIRS.into_iter().enumerate() {
-                    runs[i].push(client::run_paired(mode, publish, read, beams, count)?);
+                    runs[i].push(client::run_paired(Setup {
+                        mode,
+                        publish,
+                        read,
+                        beams,
+                        period: common::gap(),
+                        count,
+                    })?);
                 }
             }
             let mut line = format!(
