@@ -276,26 +276,19 @@ pub fn receive_role() -> Res<()> {
     let mut latencies_ns = Vec::with_capacity(count);
     let mut twin_latencies_ns = Vec::with_capacity(count);
     let mut sends_ns = Vec::with_capacity(count);
-    // The send time of the last sample counted: a sample sent before it is one left over
-    // from before the receiver joined, or out of turn, and is skipped.
+    // The send time of the last sample counted, ours or the twin's ([`next_newer`]).
     let mut last_sent = 0;
     let meter = CpuMeter::start();
-    'turns: while latencies_ns.len() < count {
+    while latencies_ns.len() < count {
         if let Some(twin) = &twin {
-            loop {
-                let Some(sent) = twin.next()? else {
-                    break 'turns;
-                };
-                let t1 = mono_ns();
-                if sent > last_sent {
-                    twin_latencies_ns.push(t1.saturating_sub(sent));
-                    last_sent = sent;
-                    break;
-                }
-            }
+            let next = || Ok(twin.next()?.map(|sent| (mono_ns(), sent, 0)));
+            let Some((latency, _)) = next_newer(&mut last_sent, next)? else {
+                break;
+            };
+            twin_latencies_ns.push(latency);
         }
-        loop {
-            // The clock is read once the sample is in hand: decoded, or its view built.
+        // The clock is read once the sample is in hand: decoded, or its view built.
+        let next = || -> Res<_> {
             let stamps = match read {
                 Read::Decode => client.recv_timeout(IDLE_LIMIT)?.map(|sample| {
                     let t1 = mono_ns();
@@ -306,17 +299,13 @@ pub fn receive_role() -> Res<()> {
                     (t1, scan.x_offset, scan.y_offset)
                 })?,
             };
-            let Some((t1, sent, send_ns)) = stamps else {
-                break 'turns;
-            };
-            let sent = sent as u64;
-            if sent > last_sent {
-                latencies_ns.push(t1.saturating_sub(sent));
-                sends_ns.push(send_ns as u64);
-                last_sent = sent;
-                break;
-            }
-        }
+            Ok(stamps.map(|(t1, sent, send_ns)| (t1, sent as u64, send_ns as u64)))
+        };
+        let Some((latency, send_ns)) = next_newer(&mut last_sent, next)? else {
+            break;
+        };
+        latencies_ns.push(latency);
+        sends_ns.push(send_ns);
     }
     let stats = meter.stop(latencies_ns);
     // Taking turns, both share the receiver's CPU time.
@@ -329,6 +318,23 @@ pub fn receive_role() -> Res<()> {
         print_result(twin_stats, Vec::new());
     }
     Ok(())
+}
+
+/// The latency of the first sample from `next` (its receipt time, its send time and what
+/// else it carries) sent after `last_sent`, and what else it carries; `None` when `next`
+/// gives up. A sample sent before is one left over from before the receiver joined, or
+/// out of turn, and is skipped.
+fn next_newer<E>(
+    last_sent: &mut u64,
+    mut next: impl FnMut() -> Res<Option<(u64, u64, E)>>,
+) -> Res<Option<(u64, E)>> {
+    while let Some((t1, sent, extra)) = next()? {
+        if sent > *last_sent {
+            *last_sent = sent;
+            return Ok(Some((t1.saturating_sub(sent), extra)));
+        }
+    }
+    Ok(None)
 }
 
 /// What one row of the client runs: a broker with the source publishing every `period`
@@ -344,11 +350,26 @@ pub struct Setup {
     pub count: usize,
 }
 
+impl Setup {
+    /// A row of the latency tables: a scan every [`crate::common::gap`], published and read
+    /// as `how` says.
+    pub fn spaced(mode: Mode, (publish, read): (Publish, Read), beams: u32, count: usize) -> Self {
+        Self {
+            mode,
+            publish,
+            read,
+            beams,
+            period: crate::common::gap(),
+            count,
+        }
+    }
+}
+
 /// One row, as `setup` says.
 pub fn run(setup: Setup) -> Res<Row> {
-    let mut receiver = start(setup, false)?;
-    let ours = receiver.row(&mut []);
-    receiver.stop()?;
+    let mut running = start(setup, false)?;
+    let ours = running.receiver.row(&mut []);
+    running.stop()?;
     ours
 }
 
@@ -358,11 +379,12 @@ pub fn run(setup: Setup) -> Res<Row> {
 /// says and the twin's samples with a raw subscriber, both waiting in its mode. Returns
 /// (raw, ours).
 pub fn run_paired(setup: Setup) -> Res<(Row, Row)> {
-    let mut receiver = start(setup, true)?;
+    let mut running = start(setup, true)?;
+    let receiver = &mut running.receiver;
     let rows = receiver
         .row(&mut [])
         .and_then(|ours| Ok((receiver.row(&mut [])?, ours)));
-    receiver.stop()?;
+    running.stop()?;
     rows
 }
 
@@ -375,10 +397,6 @@ struct Running {
 }
 
 impl Running {
-    fn row(&mut self, sends_ns: &mut [u64]) -> Res<Row> {
-        self.receiver.row(sends_ns)
-    }
-
     fn stop(mut self) -> Res<()> {
         let _ = self.receiver.child.wait();
         stop(self.up)

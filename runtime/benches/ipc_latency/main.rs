@@ -52,6 +52,14 @@ use raw::Fill;
 
 const SIZES: [(&str, usize); 3] = [("64 B", 64), ("64 KiB", 64 << 10), ("1 MiB", 1 << 20)];
 
+/// How the client's columns of both latency tables publish and read: encoded and decoded,
+/// encoded and viewed, written in place and viewed.
+const CLIENT_ROWS: [(Publish, Read); 3] = [
+    (Publish::Encode, Read::Decode),
+    (Publish::Encode, Read::View),
+    (Publish::InPlace, Read::View),
+];
+
 /// The period of the stream in the last table: a fast sensor (200 Hz), slow enough that a
 /// predictable beat is not lost in the scheduling jitter of a loaded machine.
 const PERIODIC: std::time::Duration = std::time::Duration::from_millis(5);
@@ -116,22 +124,8 @@ fn main() -> Res<()> {
                 runs[0].push(pair(Layer::Raw(Fill::Pattern), mode, len, count)?);
                 runs[1].push(pair(Layer::Raw(Fill::CopyIn), mode, len, count)?);
                 runs[2].push(pair(Layer::Bytes, mode, len, count)?);
-                for (i, (publish, read)) in [
-                    (Publish::Encode, Read::Decode),
-                    (Publish::Encode, Read::View),
-                    (Publish::InPlace, Read::View),
-                ]
-                .into_iter()
-                .enumerate()
-                {
-                    runs[3 + i].push(client::run(Setup {
-                        mode,
-                        publish,
-                        read,
-                        beams,
-                        period: common::gap(),
-                        count,
-                    })?);
+                for (i, how) in CLIENT_ROWS.into_iter().enumerate() {
+                    runs[3 + i].push(client::run(Setup::spaced(mode, how, beams, count))?);
                 }
             }
             let [raw, copied, ours, decoded, viewed, in_place] = runs.each_ref().map(|r| median(r));
@@ -207,11 +201,6 @@ fn main() -> Res<()> {
 /// favour one layer over another. Each ratio is taken within one run, then the median of
 /// the runs is shown.
 fn paired_table(rows_filter: &RowFilter, count: usize, repeat: usize) -> Res<()> {
-    const PAIRS: [(Publish, Read); 3] = [
-        (Publish::Encode, Read::Decode),
-        (Publish::Encode, Read::View),
-        (Publish::InPlace, Read::View),
-    ];
     let mut header_printed = false;
     for mode in [Mode::Event, Mode::BusyPoll] {
         for (label, target) in SIZES {
@@ -247,15 +236,8 @@ fn paired_table(rows_filter: &RowFilter, count: usize, repeat: usize) -> Res<()>
             let beams = client::beams_for(target);
             let mut runs: [Vec<(Row, Row)>; 3] = Default::default();
             for _ in 0..repeat {
-                for (i, (publish, read)) in PAIRS.into_iter().enumerate() {
-                    runs[i].push(client::run_paired(Setup {
-                        mode,
-                        publish,
-                        read,
-                        beams,
-                        period: common::gap(),
-                        count,
-                    })?);
+                for (i, how) in CLIENT_ROWS.into_iter().enumerate() {
+                    runs[i].push(client::run_paired(Setup::spaced(mode, how, beams, count))?);
                 }
             }
             let mut line = format!(

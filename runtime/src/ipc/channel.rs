@@ -279,7 +279,8 @@ impl Publisher {
             reason: e.to_string(),
         })?;
         // A stream of one length (a sensor's) gets its next loan now, after its subscribers
-        // have this sample; a stream of varying lengths would only loan twice.
+        // have this sample. Only after two publications of one length in a row: a stream
+        // whose length changes every time would return every spare unused.
         if len_bytes == self.last_len {
             self.spare = self.loan(len_bytes).ok();
         }
