@@ -7,6 +7,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use lewis_runtime::logs::Verbosity;
 
 mod bench;
 mod fake_device;
@@ -40,6 +41,13 @@ mod view;
                   recordings deterministically."
 )]
 pub struct Cli {
+    /// Say more: `-v` shows the broker's every decision and each service's routine lines,
+    /// `-vv` what only a developer needs.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+    /// Say only warnings and errors.
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    pub quiet: bool,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -103,6 +111,17 @@ pub enum Command {
 /// # Errors
 /// When the command cannot run; the caller prints the error chain and exits with 2.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    // A service started by `lewis up` says as much as `lewis up` was asked to.
+    let verbosity = match (cli.verbose, cli.quiet) {
+        (0, false) => Verbosity::inherited().unwrap_or_default(),
+        (verbose, quiet) => Verbosity::from_flags(verbose, quiet),
+    };
+    if matches!(
+        cli.command,
+        Command::Up(_) | Command::Service(_) | Command::Record(_) | Command::StressPublish(_)
+    ) {
+        lewis_runtime::logs::init(verbosity);
+    }
     match cli.command {
         Command::Idl(command) => idl::run(command),
         Command::Info(args) => info::run(&args),

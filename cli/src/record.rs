@@ -14,7 +14,7 @@ use lewis_recorder::{Compression, QueueOptions, RecorderOptions, RobotDescriptio
 use lewis_runtime::ipc::{NAMESPACE_ENV, Namespace};
 use lewis_runtime::supervise::{ChildSpec, Stream, Supervisor, SupervisorEvent};
 
-use crate::up::{init_logs, load_robot, namespace};
+use crate::up::{load_robot, namespace};
 
 /// The line `lewis record` writes on stdout once every channel is subscribed: nothing
 /// published after it is missed. `lewis up` waits for it before starting the services.
@@ -61,7 +61,6 @@ pub struct RecordArgs {
 
 /// Runs `lewis record`.
 pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
-    init_logs();
     let namespace = namespace(args.namespace.as_deref())?;
     let robot = args.robot.as_deref().map(load_robot).transpose()?;
     // Without --robot the robot is not known yet: the default name says `recording`.

@@ -9,7 +9,7 @@ use clap::Args;
 use lewis_runtime::live::{CLOCK_ENV, ClockSource, run_service};
 use lewis_runtime::service::ServiceRegistry;
 
-use crate::up::{init_logs, load_robot, namespace};
+use crate::up::{load_robot, namespace};
 
 /// Arguments of `lewis service`.
 #[derive(Debug, Args)]
@@ -36,7 +36,6 @@ pub fn registry() -> ServiceRegistry {
 
 /// Runs `lewis service`.
 pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
-    init_logs();
     let robot = load_robot(&args.robot)?;
     let namespace = namespace(args.namespace.as_deref())?;
     let clock = match args.clock {

@@ -14,7 +14,7 @@ use clap::Args;
 use lewis_recorder::live::load::publish_stress;
 use lewis_recorder::stress::robot_toml;
 
-use crate::up::{init_logs, namespace};
+use crate::up::namespace;
 
 /// Arguments of `lewis stress-publish`.
 #[derive(Debug, Args)]
@@ -40,7 +40,6 @@ pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
         out.write_all(robot_toml().as_bytes())?;
         return Ok(ExitCode::SUCCESS);
     }
-    init_logs();
     let namespace = namespace(args.namespace.as_deref())?;
     let duration = Duration::try_from_secs_f64(args.duration)
         .ok()

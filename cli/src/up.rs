@@ -51,7 +51,6 @@ pub struct UpArgs {
 
 /// Runs `lewis up`.
 pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
-    init_logs();
     let robot = load_robot(&args.robot)?;
     let namespace = namespace(args.namespace.as_deref())?;
     let duration = match args.duration {
@@ -127,14 +126,4 @@ pub(crate) fn load_robot(path: &Path) -> anyhow::Result<Robot> {
         .map(|i| i.name)
         .collect();
     Ok(robot::load(path, &known)?)
-}
-
-/// Logs to stderr, filtered by `RUST_LOG` (default `info`).
-pub(crate) fn init_logs() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .try_init();
 }

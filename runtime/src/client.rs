@@ -274,7 +274,7 @@ impl RawClient {
                 change.reason
             ),
             (None, Some(to)) => {
-                tracing::info!(client = self.client, "{} bound to {to}", self.interface);
+                tracing::debug!(client = self.client, "{} bound to {to}", self.interface);
             }
             (Some(from), None) => tracing::warn!(
                 client = self.client,

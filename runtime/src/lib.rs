@@ -9,6 +9,7 @@ pub mod client;
 pub mod clock;
 pub mod ipc;
 pub mod live;
+pub mod logs;
 pub mod names;
 pub mod robot;
 pub mod service;

@@ -425,11 +425,19 @@ impl<'r> Driver<'r> {
 
     fn publish(&mut self, decision: &Decision) {
         self.decisions += 1;
+        // Failures and failovers are what a person watching the robot needs; starting and
+        // binding what is needed is routine, shown with `-v`.
         match &decision.action {
             Action::AskForHelp { .. } | Action::ServiceFailed { .. } => {
-                tracing::warn!("broker: {decision}");
+                tracing::warn!(subject = "broker", "{decision}");
             }
-            _ => tracing::info!("broker: {decision}"),
+            Action::Rebind { .. }
+            | Action::Unbind { .. }
+            | Action::Reject { .. }
+            | Action::RestartScheduled { .. } => tracing::info!(subject = "broker", "{decision}"),
+            Action::Start { .. } | Action::Stop { .. } | Action::Bind { .. } => {
+                tracing::debug!(subject = "broker", "{decision}");
+            }
         }
         let message = decision_message(decision);
         let len = cdr::encoded_len(&message);
@@ -503,7 +511,7 @@ impl<'r> Driver<'r> {
         }
         match self.supervisor.start(child) {
             Ok(pid) => {
-                tracing::info!(service, pid, "started {service} (pid {pid})");
+                tracing::debug!(service, "started (pid {pid})");
                 Event::ProviderStarted {
                     service: service.to_owned(),
                 }
@@ -713,7 +721,7 @@ impl<'r> Driver<'r> {
     fn shutdown(&mut self) {
         for (name, result) in self.supervisor.stop_all() {
             match result {
-                Ok(Some(status)) => tracing::info!(service = name, "stopped {name}: {status}"),
+                Ok(Some(status)) => tracing::debug!(service = name, "stopped: {status}"),
                 Ok(None) => {}
                 Err(e) => tracing::warn!(service = name, "cannot stop {name}: {e}"),
             }

@@ -133,12 +133,24 @@ impl Forward {
         splitter.finish(&mut |piece| self.emit(piece));
     }
 
-    fn emit(&mut self, piece: Piece) {
-        tracing::info!(
-            target: "lewis::service",
-            service = %self.name, pid = self.pid, stream = %self.stream,
-            "{}", piece.text
-        );
+    fn emit(&mut self, mut piece: Piece) {
+        let (level, plain) = crate::logs::forwarded_line(&self.name, &piece.text);
+        piece.text = plain;
+        // `tracing`'s macros take the level as a constant.
+        macro_rules! forward {
+            ($level:expr) => {
+                tracing::event!(
+                    target: "lewis::service", $level,
+                    service = %self.name, pid = self.pid, stream = %self.stream,
+                    "{}", piece.text
+                )
+            };
+        }
+        match level {
+            tracing::Level::ERROR => forward!(tracing::Level::ERROR),
+            tracing::Level::WARN => forward!(tracing::Level::WARN),
+            _ => forward!(tracing::Level::INFO),
+        }
         let Some(sink) = &self.sink else { return };
         let line = LogLine {
             name: Arc::clone(&self.name),

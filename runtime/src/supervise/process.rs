@@ -120,6 +120,8 @@ impl Process {
         if spec.env_clear {
             command.env_clear();
         }
+        // Children say as much as their parent was asked to; a spec may still override it.
+        command.env(crate::logs::VERBOSITY_ENV, crate::logs::current().as_env());
         for (key, value) in &spec.env {
             command.env(key, value);
         }

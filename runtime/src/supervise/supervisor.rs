@@ -323,7 +323,7 @@ impl Supervisor {
                 return;
             }
         };
-        tracing::info!(service = name, pid, "service {status}");
+        tracing::trace!(service = name, "{status} (pid {pid})");
         self.pending.push_back(SupervisorEvent::Exited {
             name: name.to_owned(),
             pid,
@@ -447,7 +447,7 @@ impl Supervisor {
         }
         self.next_token += 1;
         self.tokens.insert(token, spec.name.clone());
-        tracing::info!(service = %spec.name, pid, program = %spec.program.display(), "service started");
+        tracing::trace!(service = %spec.name, "started {} (pid {pid})", spec.program.display());
         Ok((process, token))
     }
 
