@@ -17,7 +17,7 @@ out=logs/reference/sim-goal.mcap
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 echo "== lewis up robots/sim-reference.toml --goal 12,13 -o $out"
-"$LEWIS" up robots/sim-reference.toml --goal 12,13 --goal-timeout 120 \
+"$LEWIS" up robots/sim-reference.toml --goal 12,13 --goal-timeout 120s \
     -o "$tmp/sim-goal.mcap" --namespace "reference-$$"
 echo "== lewis replay $out --check (an unchanged replay must match it)"
 "$LEWIS" replay "$tmp/sim-goal.mcap" -o "$tmp/replay.mcap" --check

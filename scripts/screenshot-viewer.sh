@@ -41,7 +41,7 @@ trap cleanup EXIT
 # 1. The drive, recorded, with the laser killed until the broker gives it up.
 if [ -z "${SKIP_DRIVE:-}" ]; then
 rm -f "$out/run.mcap"
-"$lewis" up robots/sim.toml --goal 12,13 --goal-timeout 120 --namespace "$namespace" \
+"$lewis" up robots/sim.toml --goal 12,13 --goal-timeout 120s --namespace "$namespace" \
     -o "$out/run.mcap" > "$out/up.log" 2>&1 &
 up=$!
 pids+=("$up")

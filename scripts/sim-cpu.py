@@ -90,11 +90,11 @@ def main() -> int:
     args = parser.parse_args()
 
     out_dir = tempfile.mkdtemp(prefix="lewis-cpu-")
-    command = [args.lewis, "up", args.robot, "--duration", str(args.duration)]
+    command = [args.lewis, "up", args.robot, "--duration", f"{args.duration}s"]
     command += ["--namespace", f"cpu-{os.getpid()}"]
     command += ["-o", os.path.join(out_dir, "run.mcap")] if args.record else ["--no-record"]
     if args.goal:
-        command += ["--goal", args.goal, "--goal-timeout", str(args.duration)]
+        command += ["--goal", args.goal, "--goal-timeout", f"{args.duration}s"]
     started = time.monotonic()
     child = subprocess.Popen(command, stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
 

@@ -54,9 +54,9 @@ pub struct GoalArgs {
     /// `odom` (odometry: the robot starts at 0,0 facing +x).
     #[arg(long, value_enum, default_value_t = GoalFrame::World, value_name = "FRAME")]
     pub goal_frame: GoalFrame,
-    /// Seconds the robot has to arrive, counted from the start of `lewis up`.
-    #[arg(long, value_name = "SECS", default_value_t = 300.0)]
-    pub goal_timeout: f64,
+    /// How long the robot has to arrive (`120s`, `5m`), counted from the start of `lewis up`.
+    #[arg(long, value_name = "DURATION", default_value = "5m", value_parser = lewis_stdx::parse_duration)]
+    pub goal_timeout: Duration,
 }
 
 /// A goal point, in metres.
@@ -142,12 +142,7 @@ pub fn start(
     let Some(goal) = args.goal else {
         return Ok(None);
     };
-    let timeout = Duration::try_from_secs_f64(args.goal_timeout).map_err(|_| {
-        anyhow::anyhow!(
-            "--goal-timeout {}: give a number of seconds",
-            args.goal_timeout
-        )
-    })?;
+    let timeout = args.goal_timeout;
     let provides = |interface: &str| {
         robot
             .services

@@ -56,10 +56,10 @@ pub struct CarmenArgs {
     /// Chunk compression: zstd, lz4 or none.
     #[arg(long, default_value = "zstd", value_name = "KIND")]
     pub compression: Compression,
-    /// Split the recording into parts of this much log time, in s (with a parts index
-    /// `STEM.parts.json` that replay takes as one run).
-    #[arg(long, value_name = "S")]
-    pub split_duration: Option<f64>,
+    /// Split the recording into parts of this much log time, as `4s` or `1m` (with a parts
+    /// index `STEM.parts.json` that replay takes as one run).
+    #[arg(long, value_name = "DURATION", value_parser = lewis_stdx::parse_duration_ns)]
+    pub split_duration: Option<i64>,
 }
 
 fn parse_point(text: &str) -> Result<(f64, f64), String> {
@@ -98,14 +98,8 @@ fn carmen(args: &CarmenArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| default_output(&args.log));
     let mut write = WriteOptions::new(&output);
     write.compression = args.compression;
-    if let Some(seconds) = args.split_duration {
-        anyhow::ensure!(
-            seconds.is_finite() && seconds > 0.0,
-            "--split-duration {seconds}: give a positive number of seconds"
-        );
-        // Bounded above by the check: at most i64::MAX ns after saturation.
-        #[allow(clippy::cast_possible_truncation)]
-        let ns = (seconds * 1e9).min(9.2e18) as i64;
+    if let Some(ns) = args.split_duration {
+        anyhow::ensure!(ns > 0, "--split-duration 0s: give a duration above 0");
         write.split_duration_ns = Some(ns);
     }
     let import = CarmenImport::open(&args.log, options)?;

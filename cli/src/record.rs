@@ -44,12 +44,12 @@ pub struct RecordArgs {
     /// Start a new file when the current one reaches this many bytes.
     #[arg(long, value_name = "BYTES")]
     pub split_size: Option<u64>,
-    /// Start a new file when the current one spans this many seconds.
-    #[arg(long, value_name = "SECS")]
-    pub split_duration: Option<f64>,
-    /// Stop after this many seconds (default: until Ctrl-C or SIGTERM).
-    #[arg(long, value_name = "SECS")]
-    pub duration: Option<f64>,
+    /// Start a new file when the current one spans this long (`60s`, `10m`).
+    #[arg(long, value_name = "DURATION", value_parser = lewis_stdx::parse_duration_ns)]
+    pub split_duration: Option<i64>,
+    /// Stop after this long, as `8s` or `500ms` (default: until Ctrl-C or SIGTERM).
+    #[arg(long, value_name = "DURATION", value_parser = lewis_stdx::parse_duration)]
+    pub duration: Option<Duration>,
     /// Test knob: the writer pauses this many microseconds after each message (a slow
     /// disk).
     #[arg(long, value_name = "US", hide = true)]
@@ -72,10 +72,11 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
     let mut recorder = RecorderOptions::new(&path);
     recorder.compression = args.compression;
     recorder.split_size_bytes = args.split_size;
-    recorder.split_duration_ns = args
-        .split_duration
-        .map(|secs| seconds_ns("--split-duration", secs))
-        .transpose()?;
+    anyhow::ensure!(
+        args.split_duration != Some(0) && args.duration.is_none_or(|d| !d.is_zero()),
+        "--split-duration and --duration must be longer than 0s"
+    );
+    recorder.split_duration_ns = args.split_duration;
     if let Some(file) = &args.robot {
         recorder.robot_description = Some(RobotDescription {
             file_name: file.file_name().map_or_else(
@@ -98,10 +99,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
                 .unwrap_or(QueueOptions::default().capacity_messages),
             ..QueueOptions::default()
         },
-        duration: args
-            .duration
-            .map(|secs| seconds_ns("--duration", secs).map(nanos))
-            .transpose()?,
+        duration: args.duration,
     };
     let report = record(&options, announce_ready)?;
     let recording = &report.recording;
@@ -169,20 +167,6 @@ fn peak_resident_kib() -> Option<u64> {
         .next()?
         .parse()
         .ok()
-}
-
-/// `SECS` as nanoseconds, refusing what is not a finite positive number.
-fn seconds_ns(flag: &str, secs: f64) -> anyhow::Result<i64> {
-    anyhow::ensure!(
-        secs.is_finite() && secs > 0.0,
-        "{flag} {secs}: give a number of seconds above 0"
-    );
-    #[allow(clippy::cast_possible_truncation)]
-    Ok((secs * 1e9).min(i64::MAX as f64) as i64)
-}
-
-fn nanos(ns: i64) -> Duration {
-    Duration::from_nanos(u64::try_from(ns).unwrap_or(0))
 }
 
 /// `FOLDER/<robot>-<UTC time>.mcap`, creating the folder.

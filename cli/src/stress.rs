@@ -22,9 +22,9 @@ pub struct StressArgs {
     /// The IPC namespace (default: `LEWIS_NAMESPACE`, else `default`).
     #[arg(long)]
     pub namespace: Option<String>,
-    /// Seconds of traffic.
-    #[arg(long, value_name = "SECS", default_value_t = 30.0)]
-    pub duration: f64,
+    /// How long the traffic lasts (`30s`).
+    #[arg(long, value_name = "DURATION", default_value = "30s", value_parser = lewis_stdx::parse_duration)]
+    pub duration: Duration,
     /// Write the report (JSON) here rather than on stdout.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
@@ -41,15 +41,11 @@ pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let namespace = namespace(args.namespace.as_deref())?;
-    let duration = Duration::try_from_secs_f64(args.duration)
-        .ok()
-        .filter(|d| !d.is_zero())
-        .with_context(|| {
-            format!(
-                "--duration {}: give a number of seconds above 0",
-                args.duration
-            )
-        })?;
+    let duration = args.duration;
+    anyhow::ensure!(
+        !duration.is_zero(),
+        "--duration 0s: give a duration above 0"
+    );
     let report = publish_stress(&namespace, duration)?;
     let json = serde_json::to_string_pretty(&report)?;
     match &args.report {

@@ -20,9 +20,9 @@ pub struct UpArgs {
     /// The IPC namespace (default: `LEWIS_NAMESPACE`, else `default`).
     #[arg(long)]
     pub namespace: Option<String>,
-    /// Stop after this many seconds (default: run until Ctrl-C or SIGTERM).
-    #[arg(long, value_name = "SECS")]
-    pub duration: Option<f64>,
+    /// Stop after this long, as `8s` or `500ms` (default: run until Ctrl-C or SIGTERM).
+    #[arg(long, value_name = "DURATION", value_parser = lewis_stdx::parse_duration)]
+    pub duration: Option<Duration>,
     /// Milliseconds a service has between SIGTERM and SIGKILL when it is stopped.
     #[arg(long, value_name = "MS")]
     pub stop_grace_ms: Option<u64>,
@@ -53,11 +53,7 @@ pub struct UpArgs {
 pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
     let robot = load_robot(&args.robot)?;
     let namespace = namespace(args.namespace.as_deref())?;
-    let duration = match args.duration {
-        Some(secs) if secs.is_finite() && secs >= 0.0 => Some(Duration::from_secs_f64(secs)),
-        Some(secs) => anyhow::bail!("--duration {secs}: give a number of seconds, 0 or more"),
-        None => None,
-    };
+    let duration = args.duration;
     let options = UpOptions {
         // Services get an absolute path: they may run in another directory.
         robot_path: std::path::absolute(&args.robot)

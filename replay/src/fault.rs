@@ -170,15 +170,17 @@ impl FromStr for FaultSpec {
                     Some((start, end)) => (start, Some(end)),
                     None => (window, None),
                 };
-                let start = parse_time(start).ok_or_else(|| {
-                    syntax(&format!("`{start}` is not a time (12.5s, 12.5 or 500ms)"))
-                })?;
-                let end = match end {
-                    Some(end) => Some(parse_time(end).ok_or_else(|| {
-                        syntax(&format!("`{end}` is not a time (12.5s, 12.5 or 500ms)"))
-                    })?),
-                    None => None,
+                let time = |text: &str| {
+                    lewis_stdx::parse_duration_ns(text).map_err(|e| {
+                        syntax(&format!(
+                            "`{text}` is not a time ({}): {}",
+                            e.reason,
+                            e.hint()
+                        ))
+                    })
                 };
+                let start = time(start)?;
+                let end = end.map(time).transpose()?;
                 if end.is_some_and(|end| end <= start) {
                     return Err(syntax("the window ends before it starts"));
                 }
@@ -233,23 +235,6 @@ impl FaultSpec {
     }
 }
 
-/// `12.5s`, `12.5` (seconds) or `500ms`, as nanoseconds; `None` when not a finite,
-/// non-negative time.
-fn parse_time(text: &str) -> Option<i64> {
-    let (number, scale) = if let Some(ms) = text.strip_suffix("ms") {
-        (ms, 1e6)
-    } else if let Some(s) = text.strip_suffix('s') {
-        (s, 1e9)
-    } else {
-        (text, 1e9)
-    };
-    let value: f64 = number.parse().ok()?;
-    let ns = (value * scale).round();
-    // Bounded above, so the cast cannot overflow.
-    #[allow(clippy::cast_possible_truncation)]
-    (value.is_finite() && value >= 0.0 && ns < 9.0e18).then_some(ns as i64)
-}
-
 /// A duration in seconds for people: `12.5s`.
 #[must_use]
 pub fn format_seconds(ns: i64) -> String {
@@ -290,7 +275,7 @@ mod tests {
             Ok(("laser", Some(12_500_000_000), None, FaultKind::Stall)),
         );
         check(
-            "laser@12.5:crash",
+            "laser@12.5s:crash",
             Ok(("laser", Some(12_500_000_000), None, FaultKind::Crash)),
         );
         check(
@@ -312,6 +297,11 @@ mod tests {
     fn malformed_specs_say_what_is_wrong_and_how_to_write_one() {
         check("laser:explode", Err("unknown kind `explode`"));
         check("laser@soon", Err("`soon` is not a time"));
+        // Durations are written one way everywhere: with a unit.
+        check(
+            "laser@12.5:crash",
+            Err("`12.5` is not a time (it has no unit)"),
+        );
         check("laser@5s-2s", Err("ends before it starts"));
         check("@5s", Err("the provider must be a service name"));
         check("laser@-1s", Err("is not a time"));

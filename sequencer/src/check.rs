@@ -16,7 +16,7 @@ use crate::mission::{Mission, MissionState, Target};
 use crate::resolve::{ProgramResolver, ResolveError, SystemResolver};
 use crate::script::{EnvVar, Script, parse};
 use crate::source::{FileSystem, SourceLoader};
-use crate::suggest::closest;
+use lewis_stdx::closest;
 
 /// A script without errors: what was written, the mission it describes, and its warnings.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -308,7 +308,7 @@ impl Problem {
             },
             Self::QuotedKeyword => "write the keyword without quotes".into(),
             Self::ExpectedWord { expected, found, usage } => {
-                if crate::suggest::is_close(found, expected) {
+                if lewis_stdx::is_close(found, expected) {
                     format!("did you mean `{expected}`?")
                 } else {
                     format!("write `{usage}`")

@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use serde::{Deserialize, Serialize};
 
 use crate::mission::{Mission, MissionState, Target};
-use crate::script::format_duration_ns;
+use lewis_stdx::format_duration_ns;
 
 /// Who answers when the sequencer asks where to resume (after recovery, or when recovery
 /// itself failed), decided once by the driver before the mission starts.

@@ -80,7 +80,6 @@ pub mod replay;
 pub mod resolve;
 pub mod script;
 pub mod source;
-mod suggest;
 pub mod terminal;
 
 pub use check::{CheckedScript, check_file, check_script, check_with};

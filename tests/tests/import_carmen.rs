@@ -283,7 +283,7 @@ fn the_parts_of_a_split_import_replay_as_one_run_from_their_index_or_in_any_orde
         d,
         FREIBURG,
         "split.mcap",
-        &["--limit-scans", "50", "--split-duration", "4"],
+        &["--limit-scans", "50", "--split-duration", "4s"],
     );
     assert!(
         stdout.contains("split_000.mcap, split_001.mcap, split_002.mcap"),

@@ -80,7 +80,7 @@ fn thirty_seconds_of_the_stress_mix_lose_nothing_and_a_slowed_writer_counts_ever
     let report_path = dir.path().join("load.json");
     let mut publisher = Command::new(lewis_exe())
         .args(["stress-publish", "--namespace", namespace.as_str()])
-        .args(["--duration", &SECONDS.to_string()])
+        .args(["--duration", &format!("{SECONDS}s")])
         .arg("--report")
         .arg(&report_path)
         .stdin(Stdio::null())

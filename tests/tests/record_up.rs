@@ -65,7 +65,7 @@ fn lewis_up_and_lewis_record_write_files_every_reader_decodes_with_every_sample(
             OsStr::new("--compression"),
             OsStr::new("none"),
             OsStr::new("--split-duration"),
-            OsStr::new("0.5"),
+            OsStr::new("500ms"),
         ],
     );
     let zstd = dir.path().join("run.mcap");

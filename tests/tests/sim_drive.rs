@@ -98,7 +98,7 @@ impl GoalDrive {
             .arg(robot)
             .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "500"])
             .args(["--no-record", "--goal", goal])
-            .args(["--goal-timeout", &timeout_secs.to_string()])
+            .args(["--goal-timeout", &format!("{timeout_secs}s")])
             .current_dir(dir.path())
             .env("RUST_LOG", "info")
             .stdin(Stdio::null())

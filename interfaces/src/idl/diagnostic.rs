@@ -117,20 +117,5 @@ impl From<Diagnostic> for Diagnostics {
     }
 }
 
-/// The candidate closest to `word` by edit distance, when it is close enough to be a
-/// plausible typo.
-pub(super) fn closest<'a>(
-    word: &str,
-    candidates: impl IntoIterator<Item = &'a str>,
-) -> Option<&'a str> {
-    candidates
-        .into_iter()
-        .map(|c| (edit_distance(&word.to_lowercase(), &c.to_lowercase()), c))
-        .filter(|&(d, c)| d <= 2.max(c.len() / 3))
-        .min()
-        .map(|(_, c)| c)
-}
-
-fn edit_distance(a: &str, b: &str) -> usize {
-    strsim::levenshtein(a, b)
-}
+/// The one did-you-mean of Lewis.
+pub(super) use lewis_stdx::closest;

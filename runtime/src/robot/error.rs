@@ -64,16 +64,4 @@ impl fmt::Display for Problems<'_> {
     }
 }
 
-/// The 1-based line and column (in characters) of byte `offset` in `text`; an offset past
-/// the end or inside a character is moved back to the nearest character boundary.
-pub(super) fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let mut offset = offset.min(text.len());
-    while !text.is_char_boundary(offset) {
-        offset -= 1;
-    }
-    let before = &text[..offset];
-    let line = before.matches('\n').count() + 1;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    let column = before[line_start..].chars().count() + 1;
-    (line, column)
-}
+pub(super) use lewis_stdx::line_column;

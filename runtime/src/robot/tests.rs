@@ -330,16 +330,6 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
     assert_eq!(argv("sonar"), ["/opt/sonar", "--rate", "5"]);
 }
 
-#[test]
-fn positions_count_characters_and_survive_offsets_past_the_end() {
-    use super::error::line_column;
-    assert_eq!(line_column("ab\ncd", 0), (1, 1));
-    assert_eq!(line_column("ab\ncd", 4), (2, 2));
-    assert_eq!(line_column("é\nx", 1), (1, 1));
-    assert_eq!(line_column("é\nx", 2), (1, 2));
-    assert_eq!(line_column("ab", 99), (1, 3));
-}
-
 proptest! {
     #[test]
     fn any_text_gives_a_robot_or_placed_problems(text in ".{0,400}") {

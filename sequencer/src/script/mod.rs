@@ -6,5 +6,4 @@ mod lexer;
 mod parser;
 
 pub use ast::{Action, EnvVar, Script, State};
-pub(crate) use duration::format_duration_ns;
 pub use parser::{MAX_INCLUDE_DEPTH, parse};

@@ -9,12 +9,12 @@
 use std::path::{Path, PathBuf};
 
 use super::ast::{Action, EnvVar, Script, State};
-use super::duration::parse_duration_ns;
+use super::duration::parse_timeout_ns;
 use super::lexer::{Token, tokenize};
 use crate::diagnostic::{Diagnostic, Diagnostics, Problem};
 use crate::location::{Location, Spanned};
 use crate::source::SourceLoader;
-use crate::suggest::closest;
+use lewis_stdx::closest;
 
 /// How deep includes may nest.
 pub const MAX_INCLUDE_DEPTH: usize = 32;
@@ -450,7 +450,7 @@ impl Parser<'_> {
         let token = line.expect("a duration")?;
         let column = token.column;
         let timeout_ns =
-            parse_duration_ns(&token.text).map_err(|problem| line.error(column, problem))?;
+            parse_timeout_ns(&token.text).map_err(|problem| line.error(column, problem))?;
         line.finish()?;
         let timeout_ns = Spanned::new(timeout_ns, location.clone());
         set_once(

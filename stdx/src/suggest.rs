@@ -7,7 +7,8 @@ fn distance(a: &str, b: &str) -> usize {
 }
 
 /// Whether `found` is plausibly a misspelling of `wanted`.
-pub(crate) fn is_close(found: &str, wanted: &str) -> bool {
+#[must_use]
+pub fn is_close(found: &str, wanted: &str) -> bool {
     // Long words are compared only when their lengths are near, which also bounds the work.
     let (found_len, wanted_len) = (found.chars().count(), wanted.chars().count());
     if found_len.abs_diff(wanted_len) > 2 || found_len > 64 {
@@ -18,10 +19,8 @@ pub(crate) fn is_close(found: &str, wanted: &str) -> bool {
 }
 
 /// The candidate closest to `found`, when one is close enough to suggest.
-pub(crate) fn closest<'a>(
-    found: &str,
-    candidates: impl IntoIterator<Item = &'a str>,
-) -> Option<&'a str> {
+#[must_use]
+pub fn closest<'a>(found: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
     candidates
         .into_iter()
         .filter(|candidate| is_close(found, candidate))
