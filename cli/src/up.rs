@@ -9,7 +9,7 @@ use clap::Args;
 use lewis_runtime::broker::live::{UpOptions, run_up};
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
-use lewis_runtime::robot::{self, Robot};
+use lewis_runtime::robot::Robot;
 use lewis_runtime::supervise::DEFAULT_STOP_GRACE;
 
 /// Arguments of `lewis up`.
@@ -115,11 +115,7 @@ pub(crate) fn namespace(given: Option<&str>) -> anyhow::Result<Namespace> {
     })
 }
 
-/// Loads a robot description, knowing every compiled interface.
+/// Loads a robot description, checked whole: interfaces, kinds and their parameters.
 pub(crate) fn load_robot(path: &Path) -> anyhow::Result<Robot> {
-    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
-        .iter()
-        .map(|i| i.name)
-        .collect();
-    Ok(robot::load(path, &known)?)
+    Ok(lewis_services::load_robot(path)?)
 }

@@ -100,3 +100,60 @@ fn info_on_a_file_that_is_not_mcap_exits_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("README.md is not an MCAP file"));
 }
+
+#[test]
+fn up_refuses_a_misspelt_kind_or_parameter_before_starting_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let robot = std::fs::read_to_string(repo().join("robots/sim.toml")).unwrap();
+    let bad = robot
+        .replacen("kind = \"sim-laser\"", "kind = \"sim-lazer\"", 1)
+        .replacen("max_range_m = 5.0", "max_rnage_m = 5.0", 1);
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, &bad).unwrap();
+    // A namespace of its own, so that nothing could meet another test's services.
+    let out = Command::new(env!("CARGO_BIN_EXE_lewis"))
+        .args([
+            "up",
+            path.to_str().unwrap(),
+            "--duration",
+            "5s",
+            "--no-record",
+        ])
+        .env(
+            "LEWIS_NAMESPACE",
+            format!("bad-robot-{}", std::process::id()),
+        )
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let line_of = |text: &str| bad.lines().position(|l| l.contains(text)).unwrap() + 1;
+    assert!(
+        stderr.contains(&format!(
+            "bad.toml:{}:8: service `laser` has kind `sim-lazer`, which this lewis does not know: did you mean `sim-laser`?",
+            line_of("sim-lazer")
+        )),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!(
+            "bad.toml:{}:1: parameters of service `sonar` (kind `sim-sonar`): unknown field `max_rnage_m`: did you mean `max_range_m`?",
+            line_of("max_rnage_m")
+        )),
+        "{stderr}"
+    );
+    // Found at load: the broker never came up, so no service was started.
+    assert!(!stderr.contains("broker up"), "{stderr}");
+}
+
+#[test]
+fn durations_are_written_with_a_unit_everywhere() {
+    let out = lewis(&["up", "robots/sim.toml", "--duration", "5"]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("invalid duration `5`: it has no unit"),
+        "{stderr}"
+    );
+}

@@ -12,6 +12,9 @@ pub mod range_distance;
 pub mod sim;
 pub mod testing;
 
+use std::path::Path;
+
+use lewis_runtime::robot::{self, Known, Robot, RobotError};
 use lewis_runtime::service::ServiceRegistry;
 
 /// Every service kind of this crate, registered: what `lewis service`, `lewis replay` and the
@@ -28,6 +31,25 @@ pub fn registry() -> ServiceRegistry {
     registry
 }
 
+/// Reads a robot file and checks it whole before anything starts: its syntax, its
+/// interfaces, and each service's kind and parameters against [`registry`].
+///
+/// # Errors
+/// [`RobotError::Read`] when the file cannot be read; [`RobotError::Invalid`] with every
+/// problem at its `file:line:column` otherwise.
+pub fn load_robot(path: &Path) -> Result<Robot, RobotError> {
+    let interfaces: Vec<&str> = lewis_interfaces::msg::INTERFACES
+        .iter()
+        .map(|i| i.name)
+        .collect();
+    let registry = registry();
+    let known = Known {
+        interfaces: &interfaces,
+        kinds: Some(&registry),
+    };
+    robot::load_checked(path, known)
+}
+
 /// The kinds that talk to a device or to the simulated world: a replay feeds them from the
 /// recording by default, even when they require something (the simulated sensors require
 /// GroundTruth).
@@ -41,3 +63,36 @@ pub const SOURCE_KINDS: &[&str] = &[
     camera::KIND,
     testing::range::KIND,
 ];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_checks_its_parameters_when_a_robot_file_is_loaded() {
+        assert_eq!(
+            registry().kinds_without_parameter_check(),
+            Vec::<&str>::new()
+        );
+    }
+
+    #[test]
+    fn every_shipped_robot_file_loads_checked() {
+        let robots = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots");
+        let mut loaded = 0;
+        for entry in std::fs::read_dir(&robots).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                if let Err(e) = load_robot(&path) {
+                    panic!("{e}");
+                }
+                loaded += 1;
+            }
+        }
+        assert!(
+            loaded >= 5,
+            "found {loaded} robot files in {}",
+            robots.display()
+        );
+    }
+}

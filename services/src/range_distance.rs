@@ -33,7 +33,7 @@ pub const KIND: &str = "range_distance";
 
 /// Registers the `range_distance` kind.
 pub fn register(registry: &mut ServiceRegistry) {
-    registry.register(KIND, build);
+    registry.register_with_parameters::<Params>(KIND, build);
 }
 
 /// The sector counts accepted.

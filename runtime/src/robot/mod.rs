@@ -223,6 +223,57 @@ pub enum StartMode {
     Always,
 }
 
+/// The service kinds a robot file's `kind`s and `parameters` are checked against when it
+/// is loaded, so that a misspelt kind or parameter stops `lewis up` before anything starts
+/// (implemented by [`crate::service::ServiceRegistry`]).
+pub trait Kinds {
+    /// Every known kind, sorted.
+    fn kind_names(&self) -> Vec<&str>;
+    /// `None` when `kind` is unknown; otherwise whether `parameters` fit it, and what is
+    /// wrong when they do not.
+    fn check_parameters(&self, kind: &str, parameters: &toml::Table) -> Option<Result<(), String>>;
+}
+
+/// What a robot file is checked against: the interface names it may use and, when given,
+/// the service kinds it may name.
+#[derive(Clone, Copy)]
+pub struct Known<'a> {
+    /// The interfaces a service may provide or require.
+    pub interfaces: &'a [&'a str],
+    /// The service kinds and their parameters; `None` checks only that a kind is a name.
+    pub kinds: Option<&'a dyn Kinds>,
+}
+
+impl std::fmt::Debug for Known<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Known")
+            .field("interfaces", &self.interfaces)
+            .field("kinds", &self.kinds.map(Kinds::kind_names))
+            .finish()
+    }
+}
+
+/// Parses and validates a robot description against `known` interfaces and kinds.
+///
+/// # Errors
+/// A [`RobotError::Invalid`] listing every problem found, with its line and column.
+pub fn parse_checked(text: &str, origin: &Path, known: Known<'_>) -> Result<Robot, RobotError> {
+    validate::parse(text, origin, known)
+}
+
+/// Reads, parses and validates the robot description at `path` against `known` interfaces
+/// and kinds: what `lewis up`, `lewis service` and replay load robots with.
+///
+/// # Errors
+/// [`RobotError::Read`] when the file cannot be read, [`RobotError::Invalid`] otherwise.
+pub fn load_checked(path: &Path, known: Known<'_>) -> Result<Robot, RobotError> {
+    let text = std::fs::read_to_string(path).map_err(|source| RobotError::Read {
+        path: PathBuf::from(path),
+        source,
+    })?;
+    parse_checked(&text, path, known)
+}
+
 /// Parses and validates a robot description. `origin` names the text in error messages
 /// (usually its path); `known_interfaces` are the interface names a service may provide
 /// or require.
@@ -230,7 +281,11 @@ pub enum StartMode {
 /// # Errors
 /// A [`RobotError::Invalid`] listing every problem found, with its line and column.
 pub fn parse(text: &str, origin: &Path, known_interfaces: &[&str]) -> Result<Robot, RobotError> {
-    validate::parse(text, origin, known_interfaces)
+    let known = Known {
+        interfaces: known_interfaces,
+        kinds: None,
+    };
+    validate::parse(text, origin, known)
 }
 
 /// Reads, parses and validates the robot description at `path`.

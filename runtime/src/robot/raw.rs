@@ -55,8 +55,7 @@ pub(super) struct RawService {
     pub description: String,
     pub kind: Option<Spanned<String>>,
     pub command: Option<Spanned<Vec<Spanned<String>>>>,
-    #[serde(default)]
-    pub parameters: toml::Table,
+    pub parameters: Option<Spanned<toml::Table>>,
     #[serde(default)]
     pub provides: Vec<Spanned<RawProvision>>,
     #[serde(default)]

@@ -9,7 +9,9 @@ use toml::Spanned;
 
 use super::error::{Problem, RobotError, line_column};
 use super::raw::{RawBroker, RawProvision, RawRobot, RawService};
-use super::{BrokerSettings, Launch, Provision, Robot, SCORE_RANGE, ServiceSpec, StartMode};
+use super::{
+    BrokerSettings, Kinds, Known, Launch, Provision, Robot, SCORE_RANGE, ServiceSpec, StartMode,
+};
 use crate::supervise::RestartPolicy;
 
 pub(super) const DEFAULT_HEARTBEAT_PERIOD_MS: u64 = 20;
@@ -19,15 +21,12 @@ pub(super) const DEFAULT_STARTUP_DEADLINE_MS: u64 = 5_000;
 /// Names (robot, service, kind) become parts of IPC names and file names.
 const MAX_NAME_LEN: usize = 64;
 
-pub(super) fn parse(
-    text: &str,
-    origin: &Path,
-    known_interfaces: &[&str],
-) -> Result<Robot, RobotError> {
+pub(super) fn parse(text: &str, origin: &Path, known: Known<'_>) -> Result<Robot, RobotError> {
     let mut checker = Checker {
         text,
         origin,
-        known: known_interfaces.iter().copied().collect(),
+        known: known.interfaces.iter().copied().collect(),
+        kinds: known.kinds,
         problems: Vec::new(),
     };
     let raw: RawRobot = match toml::from_str(text) {
@@ -50,6 +49,7 @@ struct Checker<'a> {
     text: &'a str,
     origin: &'a Path,
     known: BTreeSet<&'a str>,
+    kinds: Option<&'a dyn Kinds>,
     problems: Vec<(usize, Problem)>,
 }
 
@@ -156,6 +156,13 @@ impl Checker<'_> {
         let name = raw.name.get_ref().clone();
         self.identifier(&raw.name, "service name");
         let launch = self.launch(&name, &raw.name.span(), raw.kind, raw.command);
+        let parameters = raw.parameters.map_or_else(
+            || (0..0, toml::Table::new()),
+            |p| (p.span(), p.into_inner()),
+        );
+        if let Launch::Kind(kind) = &launch {
+            self.parameters_fit(&name, kind, &parameters.0, &parameters.1);
+        }
 
         let mut provides = Vec::with_capacity(raw.provides.len());
         let mut provided: BTreeSet<String> = BTreeSet::new();
@@ -236,7 +243,7 @@ impl Checker<'_> {
             name,
             description: raw.description,
             launch,
-            parameters: raw.parameters,
+            parameters: parameters.1,
             provides,
             requires,
             restart,
@@ -275,7 +282,9 @@ impl Checker<'_> {
                 Launch::Command(Vec::new())
             }
             (Some(kind), None) => {
-                self.identifier(&kind, "service kind");
+                if self.identifier(&kind, "service kind") {
+                    self.known_kind(name, &kind);
+                }
                 Launch::Kind(kind.into_inner())
             }
             (None, Some(command)) => {
@@ -305,6 +314,50 @@ impl Checker<'_> {
                 Launch::Command(argv.into_iter().map(Spanned::into_inner).collect())
             }
         }
+    }
+
+    /// A kind the binary knows, or a problem with the closest known one.
+    fn known_kind(&mut self, service: &str, kind: &Spanned<String>) {
+        let Some(kinds) = self.kinds else { return };
+        let names = kinds.kind_names();
+        if names.contains(&kind.get_ref().as_str()) {
+            return;
+        }
+        let hint = match lewis_stdx::closest(kind.get_ref(), names.iter().copied()) {
+            Some(near) => format!("did you mean `{near}`?"),
+            None => format!("known kinds: {}", names.join(", ")),
+        };
+        self.report(
+            &kind.span(),
+            format!(
+                "service `{service}` has kind `{}`, which this lewis does not know: {hint}",
+                kind.get_ref()
+            ),
+        );
+    }
+
+    /// The parameters of a known kind, checked by its own parameter type. The problem is
+    /// placed at the parameter it names when the file has it, else at the table.
+    fn parameters_fit(
+        &mut self,
+        service: &str,
+        kind: &str,
+        span: &Range<usize>,
+        parameters: &toml::Table,
+    ) {
+        let Some(kinds) = self.kinds else { return };
+        let Some(Err(reason)) = kinds.check_parameters(kind, parameters) else {
+            return;
+        };
+        let place = parameters
+            .keys()
+            .filter(|key| reason.contains(&format!("`{key}`")))
+            .find_map(|key| key_offset(self.text, span, key))
+            .map_or_else(|| span.clone(), |offset| offset..offset);
+        self.report(
+            &place,
+            format!("parameters of service `{service}` (kind `{kind}`): {reason}"),
+        );
     }
 
     fn provision(&mut self, service: &str, raw: RawProvision) -> Provision {
@@ -401,7 +454,8 @@ impl Checker<'_> {
         Some(deadline_ms)
     }
 
-    fn identifier(&mut self, name: &Spanned<String>, what: &str) {
+    /// Whether `name` is a valid name; a problem when it is not.
+    fn identifier(&mut self, name: &Spanned<String>, what: &str) -> bool {
         let n = name.get_ref();
         let valid = n.len() <= MAX_NAME_LEN
             && n.starts_with(|c: char| c.is_ascii_alphabetic())
@@ -416,6 +470,7 @@ impl Checker<'_> {
                 ),
             );
         }
+        valid
     }
 
     fn interface_name(&mut self, name: &Spanned<String>, context: &str) {
@@ -457,4 +512,31 @@ impl Checker<'_> {
             }
         }
     }
+}
+
+/// Where `key = ...` is in the parameters table that starts at `span`: within an inline
+/// table, or on a line of a `[...parameters]` table before the next table header.
+fn key_offset(text: &str, span: &Range<usize>, key: &str) -> Option<usize> {
+    let rest = text.get(span.start..)?;
+    let mut offset = span.start;
+    for (i, line) in rest.split_inclusive('\n').enumerate() {
+        if i > 0 && line.trim_start().starts_with('[') {
+            return None;
+        }
+        let mut from = 0;
+        while let Some(found) = line[from..].find(key) {
+            let at = from + found;
+            let before_ok = line[..at]
+                .chars()
+                .next_back()
+                .is_none_or(|c| c.is_whitespace() || c == '{' || c == ',');
+            let after = &line[at + key.len()..];
+            if before_ok && after.trim_start().starts_with('=') {
+                return Some(offset + at);
+            }
+            from = at + key.len();
+        }
+        offset += line.len();
+    }
+    None
 }

@@ -89,10 +89,19 @@ pub enum BuildError {
 pub type Constructor =
     Box<dyn Fn(&ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> + Send + Sync>;
 
+/// Checks a kind's parameters table without building anything: what serde finds wrong.
+type ParameterCheck = Box<dyn Fn(&toml::Table) -> Result<(), String> + Send + Sync>;
+
+/// A registered kind: how to build it and, when known, how to check its parameters.
+struct Kind {
+    constructor: Constructor,
+    check: Option<ParameterCheck>,
+}
+
 /// The kinds of service known to a binary.
 #[derive(Default)]
 pub struct ServiceRegistry {
-    kinds: BTreeMap<String, Constructor>,
+    kinds: BTreeMap<String, Kind>,
 }
 
 impl fmt::Debug for ServiceRegistry {
@@ -111,6 +120,8 @@ impl ServiceRegistry {
     }
 
     /// Registers `kind` (a later registration of the same kind replaces the earlier one).
+    /// Its parameters are checked only when it is built; prefer
+    /// [`Self::register_with_parameters`].
     pub fn register(
         &mut self,
         kind: &str,
@@ -119,8 +130,47 @@ impl ServiceRegistry {
         + Sync
         + 'static,
     ) -> &mut Self {
-        self.kinds.insert(kind.to_owned(), Box::new(constructor));
+        let kind_entry = Kind {
+            constructor: Box::new(constructor),
+            check: None,
+        };
+        self.kinds.insert(kind.to_owned(), kind_entry);
         self
+    }
+
+    /// Registers `kind` whose parameters table is a `P` (with `deny_unknown_fields`, so that
+    /// a misspelt parameter is an error): a robot file is checked against `P` when it is
+    /// loaded, before any service starts.
+    pub fn register_with_parameters<P: DeserializeOwned>(
+        &mut self,
+        kind: &str,
+        constructor: impl Fn(&ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
+        + Send
+        + Sync
+        + 'static,
+    ) -> &mut Self {
+        let check: ParameterCheck = Box::new(|table: &toml::Table| {
+            toml::Value::Table(table.clone())
+                .try_into::<P>()
+                .map(drop)
+                .map_err(|e| with_suggestion(e.message().trim_end().trim_end_matches('.')))
+        });
+        let kind_entry = Kind {
+            constructor: Box::new(constructor),
+            check: Some(check),
+        };
+        self.kinds.insert(kind.to_owned(), kind_entry);
+        self
+    }
+
+    /// The kinds registered without a parameter type, whose mistakes show only at start-up.
+    #[must_use]
+    pub fn kinds_without_parameter_check(&self) -> Vec<&str> {
+        self.kinds
+            .iter()
+            .filter(|(_, kind)| kind.check.is_none())
+            .map(|(name, _)| name.as_str())
+            .collect()
     }
 
     /// The registered kinds, sorted.
@@ -142,7 +192,7 @@ impl ServiceRegistry {
                 });
             }
         };
-        let constructor = self
+        let entry = self
             .kinds
             .get(kind)
             .ok_or_else(|| BuildError::UnknownKind {
@@ -150,6 +200,54 @@ impl ServiceRegistry {
                 kind: kind.clone(),
                 known: self.kinds().join(", "),
             })?;
-        constructor(config)
+        (entry.constructor)(config)
+    }
+}
+
+impl crate::robot::Kinds for ServiceRegistry {
+    fn kind_names(&self) -> Vec<&str> {
+        self.kinds()
+    }
+
+    fn check_parameters(&self, kind: &str, parameters: &toml::Table) -> Option<Result<(), String>> {
+        let entry = self.kinds.get(kind)?;
+        Some(
+            entry
+                .check
+                .as_ref()
+                .map_or(Ok(()), |check| check(parameters)),
+        )
+    }
+}
+
+/// serde's "unknown field `x`, expected one of `a`, `b`" as "unknown field `x`: did you
+/// mean `a`?" when one is close; the message as it is otherwise.
+fn with_suggestion(message: &str) -> String {
+    let suggestion = message
+        .strip_prefix("unknown field `")
+        .and_then(|rest| rest.split_once('`'))
+        .and_then(|(found, rest)| {
+            let expected = rest.split('`').skip(1).step_by(2);
+            lewis_stdx::closest(found, expected).map(|near| (found, near))
+        });
+    match suggestion {
+        Some((found, near)) => format!("unknown field `{found}`: did you mean `{near}`?"),
+        None => message.to_owned(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_field_close_to_a_known_one_is_suggested() {
+        assert_eq!(
+            with_suggestion("unknown field `max_rnage_m`, expected one of `world`, `max_range_m`"),
+            "unknown field `max_rnage_m`: did you mean `max_range_m`?"
+        );
+        let far = "unknown field `banana`, expected one of `world`, `seed`";
+        assert_eq!(with_suggestion(far), far);
+        assert_eq!(with_suggestion("invalid type"), "invalid type");
     }
 }

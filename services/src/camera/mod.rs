@@ -61,7 +61,7 @@ pub const KIND: &str = "camera";
 
 /// Registers the `camera` kind.
 pub fn register(registry: &mut ServiceRegistry) {
-    registry.register(KIND, build);
+    registry.register_with_parameters::<Params>(KIND, build);
 }
 
 /// The parameters of `camera`.

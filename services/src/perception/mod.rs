@@ -31,7 +31,11 @@ pub use cmvision::{
 /// and the `camera` that feeds them ([`crate::camera`]).
 pub fn register(registry: &mut ServiceRegistry) {
     crate::camera::register(registry);
-    registry.register(blobfinder::KIND, blobfinder::build);
-    registry.register(blobfinder3d::KIND, blobfinder3d::build);
-    registry.register(sign_detector::KIND, sign_detector::build);
+    registry.register_with_parameters::<blobfinder::Params>(blobfinder::KIND, blobfinder::build);
+    registry
+        .register_with_parameters::<blobfinder3d::Params>(blobfinder3d::KIND, blobfinder3d::build);
+    registry.register_with_parameters::<sign_detector::Params>(
+        sign_detector::KIND,
+        sign_detector::build,
+    );
 }

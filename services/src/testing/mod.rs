@@ -10,5 +10,5 @@ use lewis_runtime::service::ServiceRegistry;
 
 /// Registers the test service kinds (`test-range`).
 pub fn register(registry: &mut ServiceRegistry) {
-    registry.register(range::KIND, range::build);
+    registry.register_with_parameters::<range::Params>(range::KIND, range::build);
 }

@@ -26,8 +26,8 @@ use crate::sim::{Pose2, SensorMount};
 
 /// Registers `sick` and `rflex`.
 pub fn register(registry: &mut ServiceRegistry) {
-    registry.register(sick::KIND, sick::build);
-    registry.register(rflex::KIND, rflex::build);
+    registry.register_with_parameters::<sick::SickParams>(sick::KIND, sick::build);
+    registry.register_with_parameters::<rflex::RflexParams>(rflex::KIND, rflex::build);
 }
 
 /// A parameter error of service `config`.

@@ -35,8 +35,12 @@ use super::GoalError;
 
 /// Registers the motion service kinds (`vector_mover`, `obstacle_avoider`).
 pub fn register(registry: &mut ServiceRegistry) {
-    registry.register(vector_mover::KIND, vector_mover::build);
-    registry.register(obstacle_avoider::KIND, obstacle_avoider::build);
+    registry
+        .register_with_parameters::<vector_mover::Params>(vector_mover::KIND, vector_mover::build);
+    registry.register_with_parameters::<obstacle_avoider::Params>(
+        obstacle_avoider::KIND,
+        obstacle_avoider::build,
+    );
 }
 
 /// Decodes a Mover command, carries it out with `handle` (a mover's `handle`) and answers

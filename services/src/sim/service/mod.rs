@@ -38,10 +38,10 @@ pub use sonar::{SimSonarService, SonarParams};
 
 /// Registers `sim-base`, `sim-laser`, `sim-sonar` and `sim-camera`.
 pub fn register(registry: &mut ServiceRegistry) {
-    registry.register(base::KIND, base::build);
-    registry.register(laser::KIND, laser::build);
-    registry.register(sonar::KIND, sonar::build);
-    registry.register(camera::KIND, camera::build);
+    registry.register_with_parameters::<BaseParams>(base::KIND, base::build);
+    registry.register_with_parameters::<LaserParams>(laser::KIND, laser::build);
+    registry.register_with_parameters::<SonarParams>(sonar::KIND, sonar::build);
+    registry.register_with_parameters::<CameraParams>(camera::KIND, camera::build);
 }
 
 /// A pose in the world frame, as robot files write it.
