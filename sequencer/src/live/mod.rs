@@ -18,7 +18,9 @@ use std::collections::{BTreeMap, VecDeque};
 use std::io;
 use std::path::PathBuf;
 use std::sync::mpsc::SyncSender;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
+
+use lewis_runtime::clock::LiveClock;
 
 use lewis_runtime::supervise::{
     ChildSpec, DEFAULT_STOP_GRACE, ExitStatus, SuperviseError, Supervisor, SupervisorEvent,
@@ -119,7 +121,11 @@ pub fn run_mission(
     };
     let mut driver = Driver {
         supervisor,
-        recorder: Recorder { sink, next_seq: 0 },
+        recorder: Recorder {
+            sink,
+            next_seq: 0,
+            clock: LiveClock::new(),
+        },
         pending: VecDeque::new(),
         current: None,
         outcome: None,
@@ -167,13 +173,16 @@ struct Current {
 struct Recorder<'s> {
     sink: &'s mut dyn RecordSink,
     next_seq: u64,
+    /// The runtime's clock, as every Lewis process reads it: records line up with the
+    /// services' publications.
+    clock: LiveClock,
 }
 
 impl Recorder<'_> {
     fn emit(&mut self, entry: Entry) {
         let record = Record {
             seq: self.next_seq,
-            time_ns: now_unix_ns(),
+            time_ns: self.clock.now_ns(),
             entry,
         };
         self.next_seq += 1;
@@ -364,15 +373,4 @@ impl Driver<'_> {
             Err(e) => tracing::error!(state = %current.state, "{e}"),
         }
     }
-}
-
-/// The same instant as the records use, for callers that add their own (nanoseconds since
-/// the Unix epoch).
-#[must_use]
-pub fn now_unix_ns() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .ok()
-        .and_then(|d| i64::try_from(d.as_nanos()).ok())
-        .unwrap_or(0)
 }

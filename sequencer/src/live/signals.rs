@@ -1,19 +1,22 @@
 //! Ctrl-C: SIGINT, SIGTERM and SIGHUP to the sequencer become [`Controller::interrupt`], so
-//! the mission stops its program and ends as aborted instead of dying with it.
+//! the mission stops its program and ends as aborted instead of dying with it. The signals
+//! are caught by the runtime's one catcher ([`StopSignals`]); a thread waits on it.
 
-use std::io;
+use std::io::{self, Write as _};
+use std::os::unix::net::UnixStream;
 use std::thread::JoinHandle;
 
-use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-use signal_hook::iterator::{Handle, Signals};
+use lewis_runtime::live::StopSignals;
+use nix::sys::signal::Signal;
+use rustix::event::{PollFd, PollFlags, poll};
 
 use super::control::Controller;
 
-/// Forwards the signals while it lives; dropping it stops forwarding (the signals are then
-/// still caught, and ignored, for the rest of the process's life).
+/// Forwards the signals while it lives; dropping it stops forwarding and uninstalls the
+/// handlers.
 #[derive(Debug)]
 pub struct SignalForwarder {
-    handle: Handle,
+    stop: UnixStream,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -24,28 +27,49 @@ impl SignalForwarder {
     /// # Errors
     /// When the handlers cannot be installed or the thread cannot start.
     pub fn start(controller: Controller) -> io::Result<Self> {
-        let mut signals = Signals::new([SIGINT, SIGTERM, SIGHUP])?;
-        let handle = signals.handle();
+        let signals = StopSignals::install_for(&[Signal::SIGINT, Signal::SIGTERM, Signal::SIGHUP])?;
+        let (stop, stopped) = UnixStream::pair()?;
         let thread = std::thread::Builder::new()
             .name("lewis-seq-signals".into())
-            .spawn(move || {
-                for signal in signals.forever() {
-                    let name = nix::sys::signal::Signal::try_from(signal)
-                        .map_or_else(|_| format!("signal {signal}"), |s| s.as_str().to_owned());
-                    tracing::info!("{name} received: stopping the mission");
-                    controller.interrupt(name);
-                }
-            })?;
+            .spawn(move || forward(&signals, &stopped, &controller))?;
         Ok(Self {
-            handle,
+            stop,
             thread: Some(thread),
         })
     }
 }
 
+/// Waits for a signal or for the forwarder to be dropped.
+fn forward(signals: &StopSignals, stopped: &UnixStream, controller: &Controller) {
+    loop {
+        let mut fds = [
+            PollFd::new(signals, PollFlags::IN),
+            PollFd::new(stopped, PollFlags::IN),
+        ];
+        match poll(&mut fds, None) {
+            Ok(_) => {}
+            Err(rustix::io::Errno::INTR) => continue,
+            Err(e) => {
+                tracing::error!("cannot wait for signals any more: {e}");
+                return;
+            }
+        }
+        if !fds[1].revents().is_empty() {
+            return;
+        }
+        for signal in signals.take_signals() {
+            let name = signal.as_str().to_owned();
+            tracing::info!("{name} received: stopping the mission");
+            controller.interrupt(name);
+        }
+    }
+}
+
 impl Drop for SignalForwarder {
     fn drop(&mut self) {
-        self.handle.close();
+        // A byte, or the end of the stream if it cannot be written: either wakes the thread.
+        let _ = self.stop.write_all(&[0]);
+        let _ = self.stop.shutdown(std::net::Shutdown::Both);
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }
