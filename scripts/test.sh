@@ -9,6 +9,16 @@ scripts/setup-python.sh
 npm ci --silent --no-audit --no-fund --prefix sequencer/gui-test
 cargo fmt --all --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
+# What the layout promises, checked (cargo check only: no second full build). The docs
+# build without a warning; the workspace builds without default features (no V4L2, no
+# viewer); the fuzz targets, packages of their own, still compile (one shared target
+# folder, so their common dependencies are checked once).
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --workspace --locked --quiet
+cargo check --workspace --all-targets --no-default-features --locked --quiet
+for manifest in */fuzz/Cargo.toml components/*/fuzz/Cargo.toml; do
+    [ -f "$manifest" ] || continue
+    CARGO_TARGET_DIR="$root/target/fuzz-check" cargo check --manifest-path "$manifest" --locked --quiet
+done
 # `cargo test --workspace` builds target/debug/lewis with the features of this build; the
 # end-to-end tests run that one rather than building `lewis` again with other features.
 LEWIS_EXE="$root/target/debug/lewis" cargo test --workspace --locked

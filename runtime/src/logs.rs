@@ -122,7 +122,7 @@ fn colour_wanted(terminal: bool) -> bool {
 
 /// A line of the child `name` as it is forwarded: without escape codes or the child's own
 /// `name: ` subject (the parent puts it first), and with its level read back from the
-/// `warning:`/`error:` word that [`PeopleFormat`] puts first.
+/// `warning:`/`error:` word that this module's format puts first.
 #[must_use]
 pub fn forwarded_line(name: &str, text: &str) -> (Level, String) {
     let mut plain = anstream::adapter::strip_str(text).to_string();

@@ -15,7 +15,7 @@
 //! baud rate) for up to the startup deadline. After that every handler must return well
 //! within the heartbeat deadline: a service stuck in a handler sends no heartbeat, and that
 //! is how the broker sees a stall. A handler that takes more than half of its deadline is
-//! reported once ([`overrun`]). Work that blocks (a device that may go silent for seconds)
+//! reported once (`overrun.rs`). Work that blocks (a device that may go silent for seconds)
 //! belongs in a device reader that the loop waits on (see [`Service::device`]).
 //!
 //! The service's clock ([`Context::now`]) reads the time its current event was taken up, for

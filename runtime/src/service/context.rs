@@ -241,7 +241,7 @@ impl Context<'_> {
 
     /// Sends command `command` to the current provider of its interface (which this service
     /// must require). Asynchronous: the reply, or a timeout after
-    /// [`DEFAULT_CALL_TIMEOUT`], comes back as [`Service::on_reply`](super::Service::on_reply).
+    /// `DEFAULT_CALL_TIMEOUT`, comes back as [`Service::on_reply`](super::Service::on_reply).
     ///
     /// # Errors
     /// When the call cannot be sent (the interface has no provider now, or is not required).
