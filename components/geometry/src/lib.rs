@@ -1,6 +1,6 @@
 //! The vocabulary every component crate shares: plane vectors ([`Vec2`]), poses ([`Pose2`]
 //! and the change of frame for the interface's `Pose2D`), the one angle convention
-//! ([`wrap_angle`]: (-pi, pi]), where sensors sit on the robot ([`SensorMount`], the B21r's
+//! ([`wrap_angle`]: [-pi, pi)), where sensors sit on the robot ([`SensorMount`], the B21r's
 //! sonar ring), and Distance from range readings ([`SectorLayout`],
 //! [`distance_from_range_finder`]), which the simulated and the real drivers and the
 //! `range_distance` service all publish the same way.

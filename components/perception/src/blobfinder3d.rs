@@ -28,8 +28,7 @@
 //! A blob with no usable reading is still published, with `range_valid` false and a zero
 //! position and size.
 
-use std::f64::consts::PI;
-
+use lewis_geometry::wrap_angle;
 use lewis_images::ImageIntrinsics;
 use lewis_interfaces::msg::{
     Blob, Blob3D, Blobs, Blobs3D, Blobs3DCommand, Blobs3DSetMaxRangeReply, InputRef, Point3D,
@@ -133,18 +132,13 @@ impl Scan {
             .map(|(i, beam)| {
                 (
                     i,
-                    angle_between(beam.bearing_rad, bearing_of(beam.origin)).abs(),
+                    wrap_angle(beam.bearing_rad - bearing_of(beam.origin)).abs(),
                 )
             })
             .filter(|&(_, gap)| gap < 3f64.to_radians())
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _)| i)
     }
-}
-
-/// The signed difference `a - b`, in [-pi, pi).
-fn angle_between(a: f64, b: f64) -> f64 {
-    (a - b + PI).rem_euclid(2.0 * PI) - PI
 }
 
 /// Places blobs in space with a camera model and a range scan.
@@ -385,6 +379,8 @@ impl Service for BlobFinder3D {
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::PI;
+
     use super::*;
 
     /// A uniform scan from a laser at (0.12, 0) seeing a wall `wall_m` ahead everywhere
