@@ -12,7 +12,60 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("lewis-runtime", &["lewis-interfaces"]),
     ("lewis-recorder", &["lewis-interfaces", "lewis-runtime"]),
     ("lewis-sequencer", &["lewis-interfaces", "lewis-runtime"]),
-    ("lewis-services", &["lewis-interfaces", "lewis-runtime"]),
+    // The components: shared vocabulary below all of them, nothing borrowed sideways.
+    ("lewis-geometry", &["lewis-interfaces"]),
+    ("lewis-images", &["lewis-interfaces"]),
+    (
+        "lewis-sim",
+        &["lewis-geometry", "lewis-interfaces", "lewis-runtime"],
+    ),
+    (
+        "lewis-drivers",
+        &[
+            "lewis-geometry",
+            "lewis-images",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    (
+        "lewis-motion",
+        &["lewis-geometry", "lewis-interfaces", "lewis-runtime"],
+    ),
+    (
+        "lewis-perception",
+        &[
+            "lewis-geometry",
+            "lewis-images",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    (
+        "lewis-emulators",
+        &[
+            "lewis-drivers",
+            "lewis-sim",
+            "lewis-geometry",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    // The registry of every kind, above all the components.
+    (
+        "lewis-services",
+        &[
+            "lewis-sim",
+            "lewis-drivers",
+            "lewis-motion",
+            "lewis-perception",
+            "lewis-emulators",
+            "lewis-geometry",
+            "lewis-images",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
     (
         "lewis-replay",
         &[
@@ -20,7 +73,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-runtime",
             "lewis-recorder",
             "lewis-sequencer",
-            "lewis-services",
+            "lewis-motion",
+            "lewis-perception",
         ],
     ),
     ("lewis-viewer", &["lewis-interfaces"]),
@@ -33,6 +87,11 @@ const ONLY_IN: &[(&str, &[&str], &str)] = &[
         "iceoryx2",
         &["lewis-runtime"],
         "only the runtime knows iceoryx2",
+    ),
+    (
+        "lewis-emulators",
+        &["lewis-services"],
+        "the emulators and test services are for the lewis binary and tests, not for components",
     ),
     (
         "mcap",
@@ -105,7 +164,7 @@ fn crates_depend_only_on_the_layers_below_them() {
 #[test]
 fn a_service_that_uses_the_recorder_or_rerun_is_named() {
     let metadata = serde_json::json!({"packages": [
-        {"name": "lewis-services", "dependencies": [
+        {"name": "lewis-motion", "dependencies": [
             {"name": "lewis-runtime", "kind": null},
             {"name": "lewis-recorder", "kind": null},
             {"name": "rerun", "kind": null},
@@ -115,8 +174,32 @@ fn a_service_that_uses_the_recorder_or_rerun_is_named() {
     assert_eq!(
         violations(&metadata),
         [
-            "lewis-services -> lewis-recorder: lewis-services may use only [\"lewis-interfaces\", \"lewis-runtime\"]",
-            "lewis-services -> rerun: only the viewer knows Rerun",
+            "lewis-motion -> lewis-recorder: lewis-motion may use only [\"lewis-geometry\", \"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis-motion -> rerun: only the viewer knows Rerun",
+        ]
+    );
+}
+
+#[test]
+fn a_component_that_borrows_from_the_simulator_or_the_emulators_is_named() {
+    let metadata = serde_json::json!({"packages": [
+        {"name": "lewis-drivers", "dependencies": [
+            {"name": "lewis-geometry", "kind": null},
+            {"name": "lewis-sim", "kind": null},
+        ]},
+        {"name": "lewis-perception", "dependencies": [
+            {"name": "lewis-emulators", "kind": null},
+        ]},
+        {"name": "lewis-tests", "dependencies": [
+            {"name": "lewis-emulators", "kind": "dev"},
+        ]},
+    ]});
+    assert_eq!(
+        violations(&metadata),
+        [
+            "lewis-drivers -> lewis-sim: lewis-drivers may use only [\"lewis-geometry\", \"lewis-images\", \"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis-perception -> lewis-emulators: lewis-perception may use only [\"lewis-geometry\", \"lewis-images\", \"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis-perception -> lewis-emulators: the emulators and test services are for the lewis binary and tests, not for components",
         ]
     );
 }
