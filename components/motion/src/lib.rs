@@ -10,6 +10,9 @@
 //!
 //! The service kinds in [`service`] (`vector_mover`, `obstacle_avoider`) feed them
 //! Egomotion, readings and commands, and publish their Mover status.
+//!
+//! It knows no device and no simulator: readings come through the interfaces from whichever
+//! provider the broker binds, and vectors, poses and angles are `lewis-geometry`'s.
 
 mod avoider_drive;
 pub mod cost_map;

@@ -7,6 +7,11 @@
 //! pass time in and publish what comes out. Given a seed and the same commands, every model
 //! produces the same outputs, bit for bit. Each device draws from its own generator, so
 //! stopping one device does not change what the others produce.
+//!
+//! It owns the world and the simulated devices; the vocabulary they share with the rest of
+//! the robot (poses, vectors, the angle convention, sensor mounts, Distance) is
+//! `lewis-geometry`'s, and the emulators that put a world behind a real driver's port are in
+//! `lewis-emulators`.
 
 pub mod base;
 pub mod camera;
