@@ -187,10 +187,16 @@ struct Camera {
     #[cfg(feature = "v4l2")]
     device: Option<device::DeviceSource>,
     /// The last frame from the video device, RGB8 (its buffer is reused).
-    #[cfg_attr(not(feature = "v4l2"), expect(dead_code, reason = "read by V4L2 capture only"))]
+    #[cfg_attr(
+        not(feature = "v4l2"),
+        expect(dead_code, reason = "read by V4L2 capture only")
+    )]
     rgb: Vec<u8>,
     /// Whether the robot file says this service provides CameraControl.
-    #[cfg_attr(not(feature = "v4l2"), expect(dead_code, reason = "read by V4L2 capture only"))]
+    #[cfg_attr(
+        not(feature = "v4l2"),
+        expect(dead_code, reason = "read by V4L2 capture only")
+    )]
     publish_control: bool,
 }
 
