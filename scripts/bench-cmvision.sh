@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# CMVision against OpenCV in one run (services/benches/cmvision.rs): the same frames and
-# colour classes, both timed, the region counts compared. Makes .venv-bench with OpenCV
+# CMVision against OpenCV in one run (components/perception/benches/cmvision.rs): the same
+# frames and colour classes, both timed, the region counts compared. Makes .venv-bench with OpenCV
 # (opencv-python-headless and numpy from PyPI) the first time.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)

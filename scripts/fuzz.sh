@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
-# Runs every fuzz target of the repository (the cargo-fuzz packages in */fuzz/) for N seconds
+# Runs every fuzz target of the repository (the cargo-fuzz packages in */fuzz/ and
+# components/*/fuzz/) for N seconds
 # each, and prints how many inputs each ran. By hand, not in CI:
 #
 #   scripts/fuzz.sh [SECONDS]        (default 60)
 #
 # cargo-fuzz needs nightly features: RUSTC_BOOTSTRAP=1 lets the stable toolchain build them.
 # It needs `cargo fuzz` (cargo install cargo-fuzz --locked). A crash stops the run of its
-# target and leaves the input in */fuzz/artifacts/TARGET/; turn it into a regression test
-# next to the code it broke, then fix the code. The corpus grows in */fuzz/corpus/ (not
-# committed).
+# target and leaves the input in PACKAGE/fuzz/artifacts/TARGET/; turn it into a regression
+# test next to the code it broke, then fix the code. The corpus grows in PACKAGE/fuzz/corpus/
+# (not committed).
 set -euo pipefail
 seconds=${1:-60}
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,7 +21,7 @@ fi
 export RUSTC_BOOTSTRAP=1
 summary=()
 failed=0
-for manifest in */fuzz/Cargo.toml; do
+for manifest in */fuzz/Cargo.toml components/*/fuzz/Cargo.toml; do
     package=$(dirname "$(dirname "$manifest")")
     for target in $(cd "$package" && cargo fuzz list); do
         log=$(mktemp)
@@ -33,7 +34,7 @@ for manifest in */fuzz/Cargo.toml; do
             tail -n 40 "$log" >&2
         fi
         runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -n 1)
-        summary+=("$(printf '%-12s %-20s %-7s %10s runs in %s s' "$package" "$target" "$result" "${runs:-?}" "$seconds")")
+        summary+=("$(printf '%-22s %-20s %-7s %10s runs in %s s' "$package" "$target" "$result" "${runs:-?}" "$seconds")")
         rm -f "$log"
     done
 done

@@ -11,7 +11,7 @@ times, per frame, inside Python around the OpenCV calls only:
         mask = cv2.inRange(yuv, lo, hi)
         cv2.connectedComponentsWithStats(mask, connectivity=4)
 
-M is the matrix of services/src/perception/cmvision/yuv.rs divided by 256, with the offsets
+M is the matrix of components/perception/src/cmvision/yuv.rs divided by 256, with the offsets
 (16, 128, 128) plus 1/1024: Lewis floors (a + 128) / 256, cv2.transform rounds a / 256 to the
 nearest (ties to even); the extra 1/1024 sends the ties up, and is too small to move any other
 value (a / 256 is a multiple of 1/256, exact in float32), so both give the same YUV. The
@@ -70,7 +70,7 @@ def load_player_thresholds(path):
 
 
 def exact_yuv(rgb):
-    """The integer formula of services/src/perception/cmvision/yuv.rs."""
+    """The integer formula of components/perception/src/cmvision/yuv.rs."""
     r, g, b = (rgb[..., k].astype(np.int32) for k in range(3))
     y = ((66 * r + 129 * g + 25 * b + 128) >> 8) + 16
     u = ((-38 * r - 74 * g + 112 * b + 128) >> 8) + 128
@@ -126,7 +126,7 @@ def main():
         path = args.frames_dir / f"{name}.png"
         bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if bgr is None:
-            sys.exit(f"{path} is missing: run `cargo bench -p lewis-services --bench cmvision` first, it writes the frames")
+            sys.exit(f"{path} is missing: run `cargo bench -p lewis-perception --bench cmvision` first, it writes the frames")
         rgb = np.ascontiguousarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
         if rgb.shape != (HEIGHT, WIDTH, 3):
             sys.exit(f"{path}: expected {WIDTH}x{HEIGHT}, found {rgb.shape[1]}x{rgb.shape[0]}")

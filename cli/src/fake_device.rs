@@ -9,9 +9,9 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
+use lewis_emulators::{DeviceKind, Standalone, StandaloneOptions, parse_faults};
+use lewis_geometry::Pose2;
 use lewis_runtime::live::StopSignals;
-use lewis_services::drivers::io::{DeviceKind, Standalone, StandaloneOptions, parse_faults};
-use lewis_services::sim::Pose2;
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 
 /// Arguments of `lewis fake-device`.

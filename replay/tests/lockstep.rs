@@ -9,6 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
+use lewis_emulators::testing::range::{Params, Room, SyntheticScanner};
 use lewis_interfaces::msg::{
     CommandLog, Distance, Health as HealthMessage, RangeFinder, RangeFinderGetGeometry,
     RangeFinderGetGeometryReply,
@@ -24,7 +25,6 @@ use lewis_runtime::names;
 use lewis_runtime::service::{
     Context, Input, ReplyEvent, Rng, Service, ServiceConfig, ServiceRegistry,
 };
-use lewis_services::testing::range::{Params, Room, SyntheticScanner};
 
 const T0: i64 = 1_000_000_000;
 const MS: i64 = 1_000_000;
@@ -119,7 +119,7 @@ impl Service for Consumer {
 
 fn registry() -> ServiceRegistry {
     let mut registry = ServiceRegistry::new();
-    lewis_services::testing::register(&mut registry);
+    lewis_emulators::testing::register(&mut registry);
     registry.register("test-consumer", |config: &ServiceConfig<'_>| {
         let params: ConsumerParams = config.parameters()?;
         Ok(Box::new(Consumer {

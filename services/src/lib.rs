@@ -1,33 +1,28 @@
-//! Lewis services: device drivers (SICK laser, RFlex base, camera), the simulator,
-//! motion (VectorMover, ObstacleAvoider), perception (BlobFinder, BlobFinder3D,
-//! SignDetector) and Distance from any RangeFinder (`range_distance`).
+//! The service registry: every service kind of the component crates, by the name robot files
+//! give it (`kind = "..."`), and which of them are sources. `lewis service`, `lewis replay` and
+//! the replay benchmark build their services from it.
 //!
-//! Services see only the runtime's `Context`: they know nothing of recording or replay.
-
-pub mod camera;
-pub mod drivers;
-pub mod motion;
-pub mod perception;
-pub mod range_distance;
-pub mod sim;
-pub mod testing;
+//! It owns no service: the simulator's are in `lewis-sim`, the drivers' in `lewis-drivers`,
+//! motion's in `lewis-motion`, perception's in `lewis-perception`, and the test service
+//! `test-range` in `lewis-emulators` (registered here too, so that a robot file such as
+//! `robots/test.toml` runs and replays through the same registry as any other).
 
 use std::path::Path;
 
 use lewis_runtime::robot::{self, Known, Robot, RobotError};
 use lewis_runtime::service::ServiceRegistry;
 
-/// Every service kind of this crate, registered: what `lewis service`, `lewis replay` and the
-/// replay benchmark build services from.
+/// Every service kind, registered: what `lewis service`, `lewis replay` and the replay
+/// benchmark build services from.
 #[must_use]
 pub fn registry() -> ServiceRegistry {
     let mut registry = ServiceRegistry::new();
-    testing::register(&mut registry);
-    drivers::service::register(&mut registry);
-    sim::service::register(&mut registry);
-    motion::service::register(&mut registry);
-    perception::register(&mut registry);
-    range_distance::register(&mut registry);
+    lewis_emulators::testing::register(&mut registry);
+    lewis_drivers::service::register(&mut registry);
+    lewis_sim::service::register(&mut registry);
+    lewis_motion::service::register(&mut registry);
+    lewis_drivers::camera::register(&mut registry);
+    lewis_perception::register(&mut registry);
     registry
 }
 
@@ -54,14 +49,14 @@ pub fn load_robot(path: &Path) -> Result<Robot, RobotError> {
 /// recording by default, even when they require something (the simulated sensors require
 /// GroundTruth).
 pub const SOURCE_KINDS: &[&str] = &[
-    sim::service::base::KIND,
-    sim::service::laser::KIND,
-    sim::service::sonar::KIND,
-    sim::service::camera::KIND,
-    drivers::service::sick::KIND,
-    drivers::service::rflex::KIND,
-    camera::KIND,
-    testing::range::KIND,
+    lewis_sim::service::base::KIND,
+    lewis_sim::service::laser::KIND,
+    lewis_sim::service::sonar::KIND,
+    lewis_sim::service::camera::KIND,
+    lewis_drivers::service::sick::KIND,
+    lewis_drivers::service::rflex::KIND,
+    lewis_drivers::camera::KIND,
+    lewis_emulators::testing::range::KIND,
 ];
 
 #[cfg(test)]

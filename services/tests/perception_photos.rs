@@ -3,13 +3,13 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod perception_support;
+mod support;
 
 use lewis_interfaces::msg::{
     Blobs, BlobsSetMinArea, ImageSource, ImageSourceSetRate, ImageSourceSetRateReply,
 };
 use lewis_runtime::broker::Health;
-use perception_support::{Harness, build, repository, robot, shared_data};
+use support::{Harness, build, repository, robot, shared_data};
 
 const MS: i64 = 1_000_000;
 

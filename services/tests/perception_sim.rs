@@ -7,19 +7,16 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod perception_support;
+mod support;
 
 use std::f64::consts::PI;
 use std::path::Path;
 
+use lewis_geometry::{Pose2, Vec2};
 use lewis_interfaces::msg::{Blobs, Blobs3D, ImageSource, Signs};
-use lewis_services::sim::world::{
-    ArrowDirection, ObjectKind, OccupancyGrid, Rgb, Sign, WorldObject,
-};
-use lewis_services::sim::{
-    CameraConfig, LaserConfig, Pose2, SimCamera, SimLaser, Vec2, World, WorldLook,
-};
-use perception_support::{Harness, build, repository, robot};
+use lewis_sim::world::{ArrowDirection, ObjectKind, OccupancyGrid, Rgb, Sign, WorldObject};
+use lewis_sim::{CameraConfig, LaserConfig, SimCamera, SimLaser, World, WorldLook};
+use support::{Harness, build, repository, robot};
 
 fn save(frame: &ImageSource, name: &str) {
     let Some(dir) = std::env::var_os("LEWIS_PERCEPTION_FRAMES_DIR") else {

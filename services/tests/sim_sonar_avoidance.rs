@@ -6,10 +6,11 @@
 
 mod support;
 
-use lewis_services::motion::{AvoiderDrive, MoverStatus, ObstacleAvoiderConfig, VectorMoverConfig};
-use lewis_services::sim::service::SonarParams;
-use lewis_services::sim::{BaseConfig, Pose2, SimBase, SimSonar, World};
-use support::repository_path;
+use lewis_geometry::Pose2;
+use lewis_motion::{AvoiderDrive, MoverStatus, ObstacleAvoiderConfig, VectorMoverConfig};
+use lewis_sim::service::SonarParams;
+use lewis_sim::{BaseConfig, SimBase, SimSonar, World};
+use support::repository;
 
 const STEP_NS: i64 = 20_000_000;
 
@@ -23,7 +24,7 @@ struct Outcome {
 /// Drives from the lobby to `goal` (world frame) on the sonar alone, with the sonar's
 /// parameters from `sonar_toml` (the service's defaults for the rest).
 fn drive_on_sonar(sonar_toml: &str, goal: (f64, f64), seed: u64) -> Outcome {
-    let world_dir = repository_path("robots/worlds/conference");
+    let world_dir = repository("robots/worlds/conference");
     let world = World::load(&world_dir).unwrap();
     let params: SonarParams = toml::from_str(&format!(
         "world = {:?}\n{sonar_toml}",

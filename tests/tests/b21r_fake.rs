@@ -16,18 +16,19 @@ use std::rc::Rc;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use lewis_drivers::faults::Faults;
+use lewis_drivers::io::{
+    DriverHealth, RflexDriver, RflexDriverConfig, RflexEvent, SickDriver, SickDriverConfig,
+};
+use lewis_drivers::rflex::{BumperLayout, RflexDeviceConfig};
+use lewis_drivers::sick::{ScanLayout, SickDeviceConfig};
+use lewis_emulators::{FakeRflex, FakeSick, PoseFile, RflexEmulatorOptions};
+use lewis_geometry::Pose2;
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker, RangeFinder, Synchrodrive, SynchrodriveSetVelocity};
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber};
 use lewis_runtime::names;
-use lewis_services::drivers::faults::Faults;
-use lewis_services::drivers::io::{
-    DriverHealth, FakeRflex, FakeSick, PoseFile, RflexDriver, RflexDriverConfig,
-    RflexEmulatorOptions, RflexEvent, SickDriver, SickDriverConfig,
-};
-use lewis_services::drivers::rflex::{BumperLayout, Pose2 as RflexPose, RflexDeviceConfig};
-use lewis_services::drivers::sick::{ScanLayout, SickDeviceConfig};
 use lewis_tests::{RangeApp, Up, WATCHDOG, lewis_exe, open_ipc, repo_root, signal, wait_child};
 
 /// A `lewis fake-device` process, killed when dropped.
@@ -127,7 +128,7 @@ impl Devices {
         .unwrap();
         let base = FakeRflex::start(
             RflexDeviceConfig::default(),
-            |_: &RflexPose| (0..48).map(|i| 0.5 + 0.1 * f64::from(i)).collect(),
+            |_: &Pose2| (0..48).map(|i| 0.5 + 0.1 * f64::from(i)).collect(),
             RflexEmulatorOptions::default(),
             Some(&dir.path().join("ttyRFLEX")),
         )

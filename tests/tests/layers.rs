@@ -8,22 +8,99 @@ use std::process::Command;
 
 /// Which of our crates each crate may use (normal and build dependencies).
 const ALLOWED: &[(&str, &[&str])] = &[
-    ("lewis-interfaces", &[]),
-    ("lewis-runtime", &["lewis-interfaces"]),
-    ("lewis-recorder", &["lewis-interfaces", "lewis-runtime"]),
-    ("lewis-sequencer", &["lewis-interfaces", "lewis-runtime"]),
-    ("lewis-services", &["lewis-interfaces", "lewis-runtime"]),
+    // What people type (positions, did-you-mean, durations): below everything.
+    ("lewis-stdx", &[]),
+    ("lewis-interfaces", &["lewis-stdx"]),
+    ("lewis-runtime", &["lewis-stdx", "lewis-interfaces"]),
+    (
+        "lewis-recorder",
+        &["lewis-stdx", "lewis-interfaces", "lewis-runtime"],
+    ),
+    (
+        "lewis-sequencer",
+        &["lewis-stdx", "lewis-interfaces", "lewis-runtime"],
+    ),
+    // The components: shared vocabulary below all of them, nothing borrowed sideways.
+    ("lewis-geometry", &["lewis-stdx", "lewis-interfaces"]),
+    ("lewis-images", &["lewis-stdx", "lewis-interfaces"]),
+    (
+        "lewis-sim",
+        &[
+            "lewis-stdx",
+            "lewis-geometry",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    (
+        "lewis-drivers",
+        &[
+            "lewis-stdx",
+            "lewis-geometry",
+            "lewis-images",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    (
+        "lewis-motion",
+        &[
+            "lewis-stdx",
+            "lewis-geometry",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    (
+        "lewis-perception",
+        &[
+            "lewis-stdx",
+            "lewis-geometry",
+            "lewis-images",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    (
+        "lewis-emulators",
+        &[
+            "lewis-stdx",
+            "lewis-drivers",
+            "lewis-sim",
+            "lewis-geometry",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    // The registry of every kind, above all the components.
+    (
+        "lewis-services",
+        &[
+            "lewis-stdx",
+            "lewis-sim",
+            "lewis-drivers",
+            "lewis-motion",
+            "lewis-perception",
+            "lewis-emulators",
+            "lewis-geometry",
+            "lewis-images",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
     (
         "lewis-replay",
         &[
+            "lewis-stdx",
             "lewis-interfaces",
             "lewis-runtime",
             "lewis-recorder",
             "lewis-sequencer",
-            "lewis-services",
+            "lewis-motion",
+            "lewis-perception",
         ],
     ),
-    ("lewis-viewer", &["lewis-interfaces"]),
+    ("lewis-viewer", &["lewis-stdx", "lewis-interfaces"]),
 ];
 
 /// Outside crates that only some of ours may use: the mechanism lives in one place.
@@ -33,6 +110,11 @@ const ONLY_IN: &[(&str, &[&str], &str)] = &[
         "iceoryx2",
         &["lewis-runtime"],
         "only the runtime knows iceoryx2",
+    ),
+    (
+        "lewis-emulators",
+        &["lewis-stdx", "lewis-services"],
+        "the emulators and test services are for the lewis binary and tests, not for components",
     ),
     (
         "mcap",
@@ -105,7 +187,7 @@ fn crates_depend_only_on_the_layers_below_them() {
 #[test]
 fn a_service_that_uses_the_recorder_or_rerun_is_named() {
     let metadata = serde_json::json!({"packages": [
-        {"name": "lewis-services", "dependencies": [
+        {"name": "lewis-motion", "dependencies": [
             {"name": "lewis-runtime", "kind": null},
             {"name": "lewis-recorder", "kind": null},
             {"name": "rerun", "kind": null},
@@ -115,8 +197,32 @@ fn a_service_that_uses_the_recorder_or_rerun_is_named() {
     assert_eq!(
         violations(&metadata),
         [
-            "lewis-services -> lewis-recorder: lewis-services may use only [\"lewis-interfaces\", \"lewis-runtime\"]",
-            "lewis-services -> rerun: only the viewer knows Rerun",
+            "lewis-motion -> lewis-recorder: lewis-motion may use only [\"lewis-stdx\", \"lewis-geometry\", \"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis-motion -> rerun: only the viewer knows Rerun",
+        ]
+    );
+}
+
+#[test]
+fn a_component_that_borrows_from_the_simulator_or_the_emulators_is_named() {
+    let metadata = serde_json::json!({"packages": [
+        {"name": "lewis-drivers", "dependencies": [
+            {"name": "lewis-geometry", "kind": null},
+            {"name": "lewis-sim", "kind": null},
+        ]},
+        {"name": "lewis-perception", "dependencies": [
+            {"name": "lewis-emulators", "kind": null},
+        ]},
+        {"name": "lewis-tests", "dependencies": [
+            {"name": "lewis-emulators", "kind": "dev"},
+        ]},
+    ]});
+    assert_eq!(
+        violations(&metadata),
+        [
+            "lewis-drivers -> lewis-sim: lewis-drivers may use only [\"lewis-stdx\", \"lewis-geometry\", \"lewis-images\", \"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis-perception -> lewis-emulators: lewis-perception may use only [\"lewis-stdx\", \"lewis-geometry\", \"lewis-images\", \"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis-perception -> lewis-emulators: the emulators and test services are for the lewis binary and tests, not for components",
         ]
     );
 }

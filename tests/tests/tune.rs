@@ -8,12 +8,13 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use lewis_geometry::Pose2;
+use lewis_images::sequence::load_rgb;
+use lewis_images::{ImageIntrinsics, image_message};
 use lewis_interfaces::msg::ImageSource;
 use lewis_interfaces::{Interface, interface_info};
 use lewis_recorder::{ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
-use lewis_services::camera::sequence::load_rgb;
-use lewis_services::perception::image_view::{ImageIntrinsics, image_message};
-use lewis_services::sim::{CameraConfig, Pose2, SimCamera, World};
+use lewis_sim::{CameraConfig, SimCamera, World};
 use lewis_tests::{lewis_exe, python_tool, repo_root, run_ok, shared_data};
 
 /// The robot the recordings say they come from: a camera reading a folder.
@@ -258,7 +259,7 @@ fn tune_pick_prints_the_colour_lines_of_a_rectangle_of_an_image_or_a_recording()
     // The line it prints is a colour file that loads, and its class holds the candy.
     let file = dir.path().join("picked.txt");
     std::fs::write(&file, lines[2..].join("\n")).unwrap();
-    let config = lewis_services::perception::ColorConfig::load(&file).unwrap();
+    let config = lewis_perception::ColorConfig::load(&file).unwrap();
     let blue = &config.colors[0];
     assert!(blue.u.lo > 150 && blue.v.hi < 140, "{blue:?}");
 

@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::Context as _;
+use lewis_images::sequence::resolve;
 use lewis_interfaces::Struct as _;
 use lewis_interfaces::msg::ImageSource;
+use lewis_perception::tuning::Tuner;
 use lewis_replay::recording::{Recording, Topic};
-use lewis_services::camera::sequence::resolve;
-use lewis_services::perception::tuning::Tuner;
 
 /// The topic that images read from files are written on, and their spacing in time.
 pub const FILES_TOPIC: &str = "/tune/images/ImageSource";

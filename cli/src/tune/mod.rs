@@ -13,7 +13,7 @@
 //!   patch of pixels of an image file, or of the recorded image shown at T seconds into a
 //!   recording, as the two lines of a Player colour file.
 //!
-//! The perception work is done by `lewis_services::perception::tuning`; recordings are read
+//! The perception work is done by `lewis_perception::tuning`; recordings are read
 //! with `lewis_replay::recording` and written with `lewis_recorder`. This module wires them.
 
 mod frames;
@@ -27,9 +27,9 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args, Subcommand};
-use lewis_services::perception::ColorConfig;
-use lewis_services::perception::sign_detector::{self, SignDetector};
-use lewis_services::perception::tuning::{Tuner, save_png};
+use lewis_perception::ColorConfig;
+use lewis_perception::sign_detector::{self, SignDetector};
+use lewis_perception::tuning::{Tuner, save_png};
 
 pub use pick::PickArgs;
 

@@ -10,8 +10,8 @@ use std::sync::Arc;
 use anyhow::Context as _;
 use lewis_interfaces::msg::{Blobs, Header, ImageSource, InputRef, Signs};
 use lewis_interfaces::{Interface, interface_info};
+use lewis_perception::tuning::TunedFrame;
 use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
-use lewis_services::perception::tuning::TunedFrame;
 
 use super::frames::{FILES_TOPIC, Frame, Input};
 

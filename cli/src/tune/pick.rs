@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::Args;
 use lewis_interfaces::msg::ImageSource;
-use lewis_services::perception::tuning::{Patch, Pick, pick, pick_in_file, rgb_image};
+use lewis_perception::tuning::{Patch, Pick, pick, pick_in_file, rgb_image};
 
 use super::frames::Input;
 

@@ -1,52 +1,28 @@
-//! Drives a service through the `Service` trait as the live harness does, on a clock the
-//! test sets, and keeps what it published: for tests of service kinds without processes.
+//! Drives services through the `Service` trait with a backend that keeps what they publish,
+//! on a clock the test sets: the smallest harness that runs a service as the live one does.
 
-// Helpers for tests: they unwrap values the tests built, and not every test file uses all.
-#![allow(clippy::unwrap_used, clippy::expect_used, dead_code)]
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::{Path, PathBuf};
 
-use lewis_interfaces::msg::InputRef;
-use lewis_interfaces::{Command, Interface, Message, cdr};
+use lewis_interfaces::{Interface, cdr};
 use lewis_runtime::broker::Health;
-use lewis_runtime::robot::{self, Robot};
 use lewis_runtime::service::{
-    Backend, BuildError, CallFailure, CallId, CommandError, ContextError, ContextState,
-    IncomingCommand, Input, Level, Service, ServiceConfig, ServiceRegistry,
+    Backend, CallFailure, CallId, ContextError, ContextState, IncomingCommand, Input, Level, Reply,
+    Service, ServiceConfig, ServiceRegistry,
 };
 
-/// A path from the repository's root.
-pub fn repository_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("..")
-        .join(relative)
-}
-
-/// One publication: the interface and the CDR bytes.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Publication {
-    /// The interface published.
-    pub interface: String,
-    /// The message, CDR-encoded.
-    pub bytes: Vec<u8>,
-}
-
-/// A backend that keeps everything the service did, on a clock the test sets.
-#[derive(Debug, Default)]
-pub struct RecordingBackend {
-    /// The service's clock, in ns.
+/// What the service did, on the test's clock.
+#[derive(Default)]
+pub struct TestBackend {
     pub now_ns: i64,
-    /// Every publication, in order.
-    pub published: Vec<Publication>,
-    /// Every log line.
-    pub logs: Vec<(Level, String)>,
-    /// Every health change.
+    pub provides: Vec<String>,
+    pub published: Vec<(String, Vec<u8>)>,
     pub health: Vec<Health>,
-    /// Every call: interface and command.
-    pub calls: Vec<(String, String)>,
+    pub logs: Vec<(Level, String)>,
 }
 
-impl Backend for RecordingBackend {
+impl Backend for TestBackend {
     fn now_ns(&self) -> i64 {
         self.now_ns
     }
@@ -57,12 +33,15 @@ impl Backend for RecordingBackend {
         len_bytes: usize,
         encode: &mut dyn FnMut(&mut [u8]),
     ) -> Result<(), ContextError> {
+        if !self.provides.iter().any(|p| p == interface) {
+            return Err(ContextError::NotProvided {
+                service: "under-test".into(),
+                interface: interface.into(),
+            });
+        }
         let mut bytes = vec![0; len_bytes];
         encode(&mut bytes);
-        self.published.push(Publication {
-            interface: interface.to_owned(),
-            bytes,
-        });
+        self.published.push((interface.to_owned(), bytes));
         Ok(())
     }
 
@@ -70,11 +49,10 @@ impl Backend for RecordingBackend {
         &mut self,
         _call: CallId,
         interface: &str,
-        command: &'static str,
+        _command: &'static str,
         _frame: &[u8],
         _timeout_ns: i64,
     ) -> Result<(), CallFailure> {
-        self.calls.push((interface.to_owned(), command.to_owned()));
         Err(CallFailure::NoProvider {
             interface: interface.to_owned(),
         })
@@ -89,133 +67,147 @@ impl Backend for RecordingBackend {
     }
 }
 
-/// A robot description from TOML text, knowing every compiled interface.
-pub fn robot(text: &str) -> Robot {
-    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+/// A service under test, with its context state and backend.
+pub struct Harness {
+    pub service: Box<dyn Service>,
+    pub state: ContextState,
+    pub backend: TestBackend,
+}
+
+/// Every perception and camera kind, as `lewis service` registers them.
+pub fn registry() -> ServiceRegistry {
+    let mut registry = ServiceRegistry::new();
+    lewis_perception::register(&mut registry);
+    lewis_drivers::camera::register(&mut registry);
+    registry
+}
+
+/// Builds the service `name` of a robot file's text, through the registry.
+pub fn build(robot_toml: &str, name: &str) -> Result<Harness, String> {
+    let interfaces: Vec<&str> = lewis_interfaces::msg::INTERFACES
         .iter()
         .map(|i| i.name)
         .collect();
-    robot::parse(text, Path::new("test-robot.toml"), &known)
-        .unwrap_or_else(|e| panic!("the test's robot file does not parse: {e}"))
+    let robot = lewis_runtime::robot::parse(robot_toml, Path::new("robot.toml"), &interfaces)
+        .map_err(|e| e.to_string())?;
+    let spec = robot.service(name).ok_or("no such service")?;
+    let config = ServiceConfig {
+        spec,
+        heartbeat_period_ms: 100,
+    };
+    let service = registry().build(&config).map_err(|e| e.to_string())?;
+    Ok(Harness {
+        service,
+        state: ContextState::new(name, config.seed()),
+        backend: TestBackend {
+            provides: spec.provides.iter().map(|p| p.interface.clone()).collect(),
+            ..TestBackend::default()
+        },
+    })
 }
 
-/// A service under test and the backend that records it.
-pub struct Harness {
-    service: Box<dyn Service>,
-    state: ContextState,
-    /// What the service did.
-    pub backend: RecordingBackend,
-    name: String,
+/// A robot file with one service.
+pub fn robot(kind: &str, requires: &[&str], provides: &[&str], parameters: &str) -> String {
+    let quote = |list: &[&str]| {
+        list.iter()
+            .map(|s| format!("\"{s}\""))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let provides = provides
+        .iter()
+        .map(|p| format!("{{ interface = \"{p}\", quality = 1, cost = 1 }}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    // The robot file must have a provider for each required interface.
+    let providers: String = requires
+        .iter()
+        .map(|r| {
+            format!(
+                "[[services]]\nname = \"{}\"\nkind = \"source\"\n\
+                 provides = [{{ interface = \"{r}\", quality = 1, cost = 1 }}]\n\n",
+                r.to_lowercase()
+            )
+        })
+        .collect();
+    format!(
+        "[robot]\nname = \"t\"\n\n{providers}[[services]]\nname = \"under-test\"\n\
+         kind = \"{kind}\"\nrequires = [{}]\nprovides = [{provides}]\n\n\
+         [services.parameters]\n{parameters}\n",
+        quote(requires)
+    )
 }
 
 impl Harness {
-    /// Builds service `name` of `robot` with `registry`'s kinds (not started yet).
-    ///
-    /// # Errors
-    /// The build error of the kind's constructor.
-    pub fn build(
-        robot: &Robot,
-        name: &str,
-        registry: &ServiceRegistry,
-    ) -> Result<Self, BuildError> {
-        let spec = robot
-            .service(name)
-            .unwrap_or_else(|| panic!("the test's robot has no service `{name}`"));
-        let config = ServiceConfig {
-            spec,
-            heartbeat_period_ms: robot.broker.heartbeat_period_ms,
-        };
-        let service = registry.build(&config)?;
-        Ok(Self {
-            service,
-            state: ContextState::new(name, config.seed()),
-            backend: RecordingBackend::default(),
-            name: name.to_owned(),
-        })
-    }
-
-    /// The service's name.
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
-    /// The service's tick period, in ns.
-    pub fn tick_period_ns(&self) -> Option<i64> {
-        self.service.tick_period_ns()
-    }
-
-    /// Runs `on_start` at `now_ns`.
-    pub fn start(&mut self, now_ns: i64) -> Result<(), String> {
-        self.backend.now_ns = now_ns;
-        self.state.set_inputs(Vec::new());
+    pub fn start(&mut self) -> Result<(), String> {
         self.service
             .on_start(&mut self.state.context(&mut self.backend))
     }
 
-    /// Runs `on_tick` at `now_ns`.
     pub fn tick(&mut self, now_ns: i64) {
         self.backend.now_ns = now_ns;
-        self.state.set_inputs(Vec::new());
         self.service
             .on_tick(&mut self.state.context(&mut self.backend));
     }
 
-    /// Hands the service a sample that arrived on `channel` from `provider` at `now_ns`, with
-    /// the provenance the live harness gives it.
-    pub fn input(&mut self, now_ns: i64, provider: &str, channel: &str, publication: &Publication) {
-        self.backend.now_ns = now_ns;
-        let seq = lewis_runtime::service::decode_header_seq(&publication.bytes);
-        self.state.set_inputs(vec![InputRef {
-            channel: channel.to_owned(),
-            seq,
-        }]);
+    /// Hands the service a sample of `T` from provider `from`.
+    pub fn input<T: Interface>(&mut self, from: &str, message: &T) {
+        let bytes = cdr::to_vec(message);
+        let channel = format!("/{from}/{}", T::NAME);
         let input = Input {
-            interface: &publication.interface,
-            provider,
-            channel,
-            bytes: &publication.bytes,
+            interface: T::NAME,
+            provider: from,
+            channel: &channel,
+            bytes: &bytes,
         };
         self.service
             .on_input(&mut self.state.context(&mut self.backend), &input);
-        self.state.set_inputs(Vec::new());
     }
 
-    /// Sends `command` at `now_ns`; returns the decoded reply or the refusal.
-    pub fn command<C: Command>(
+    /// Sends a command of interface `T` (its CDR bytes) and returns the reply or refusal.
+    pub fn command<T: Interface, C: lewis_interfaces::Command>(
         &mut self,
-        now_ns: i64,
         command: &C,
-    ) -> Result<C::Reply, CommandError> {
-        self.backend.now_ns = now_ns;
-        self.state.set_inputs(Vec::new());
+    ) -> Result<Reply, String> {
         let bytes = cdr::to_vec(command);
         let incoming = IncomingCommand {
-            interface: <C::Interface as Interface>::NAME,
+            interface: T::NAME,
             command: C::NAME,
             bytes: &bytes,
         };
-        let reply = self
-            .service
-            .on_command(&mut self.state.context(&mut self.backend), &incoming)?;
-        Ok(cdr::from_bytes(reply.bytes()).expect("the reply decodes as the command's reply"))
+        self.service
+            .on_command(&mut self.state.context(&mut self.backend), &incoming)
+            .map_err(|e| e.0)
     }
 
-    /// Takes the publications made since the last call.
-    pub fn take_published(&mut self) -> Vec<Publication> {
-        std::mem::take(&mut self.backend.published)
+    /// Everything published on `T`, decoded, and forgotten.
+    pub fn take<T: Interface>(&mut self) -> Vec<T> {
+        let (mine, rest): (Vec<_>, Vec<_>) = std::mem::take(&mut self.backend.published)
+            .into_iter()
+            .partition(|(i, _)| i == T::NAME);
+        self.backend.published = rest;
+        mine.into_iter()
+            .map(|(_, bytes)| cdr::from_bytes(&bytes).unwrap())
+            .collect()
     }
 }
 
-/// The publications of interface `T`, decoded.
-pub fn decoded<T: Interface>(published: &[Publication]) -> Vec<T> {
-    published
-        .iter()
-        .filter(|p| p.interface == T::NAME)
-        .map(|p| cdr::from_bytes::<T>(&p.bytes).expect("a publication decodes"))
-        .collect()
+/// A file of the shared data folder, or a clear failure when it is missing.
+pub fn shared_data(relative: &str) -> PathBuf {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data")
+        .join(relative);
+    assert!(
+        path.exists(),
+        "{} is missing: these tests need the project's shared data folder (/work/shared/data)",
+        path.display()
+    );
+    path
 }
 
-/// The header of a message, for provenance checks.
-pub fn header_of<T: Message>(message: &T) -> &lewis_interfaces::msg::Header {
-    message.header()
+/// A file of the repository.
+pub fn repository(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(relative)
 }

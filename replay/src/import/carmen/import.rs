@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{Distance, Egomotion, Header, Health, InputRef, Pose2D, RangeFinder};
 use lewis_interfaces::{Interface, Struct};
+use lewis_perception::range_distance::{self, RangeToDistance};
 use lewis_runtime::names::{data_channel, health_channel};
-use lewis_services::range_distance::{self, RangeToDistance};
 
 use super::laser::{
     BeamGeometry, DEFAULT_MAX_RANGE_M, LaserMount, LaserSetup, ReadingCounts, SonarOptions,

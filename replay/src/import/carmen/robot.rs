@@ -20,8 +20,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use lewis_services::motion::service::{obstacle_avoider, vector_mover};
-use lewis_services::range_distance;
+use lewis_motion::service::{obstacle_avoider, vector_mover};
+use lewis_perception::range_distance;
 
 use super::import::{BASE, DISTANCE, ImportReport, LASER, OdometrySource, SONAR};
 

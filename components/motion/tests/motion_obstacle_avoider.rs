@@ -1,0 +1,492 @@
+//! ObstacleAvoider driving a unicycle around obstacles in a small test world, on a laser, a
+//! sonar ring and Distance readings.
+
+// The helpers shared by the tests unwrap values the tests themselves built.
+#![allow(clippy::unwrap_used)]
+
+mod motion_support;
+
+use lewis_interfaces::msg::{MoverReply, Pose2D};
+use lewis_motion::{
+    AvoiderDrive, HoldReason, MoverStatus, ObstacleAvoider, ObstacleAvoiderConfig, VectorMover,
+    VectorMoverConfig, VelocityCommand,
+};
+use motion_support::{
+    B21R_RADIUS_M, Laser, Rng, Robot, STEP_NS, Sonar, World, distance_from_laser, p,
+};
+
+/// What the robot reads at a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Sensor {
+    Laser,
+    Sonar,
+    /// Distance sectors computed from the laser.
+    Distance,
+    /// Nothing arrives (the device is down).
+    Silent,
+}
+
+struct Outcome {
+    status: MoverStatus,
+    robot: Robot,
+    holds: Vec<HoldReason>,
+    steps: usize,
+}
+
+/// Anything that turns readings and poses into velocities: the drive that owns its
+/// VectorMover, or an avoider talking to a separate VectorMover through Mover commands.
+trait Driver {
+    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng);
+    fn step(&mut self, pose: &Pose2D, now_ns: i64) -> VelocityCommand;
+    fn status(&self) -> MoverStatus;
+    fn hold(&self) -> Option<HoldReason>;
+}
+
+fn read(sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng) -> Option<Reading> {
+    match sensor {
+        Sensor::Laser => Some(Reading::Range(Laser::default().read(
+            world,
+            &robot.world_pose,
+            rng,
+        ))),
+        Sensor::Sonar => Some(Reading::Range(Sonar::default().read(
+            world,
+            &robot.world_pose,
+            rng,
+        ))),
+        Sensor::Distance => {
+            let laser = Laser::default().read(world, &robot.world_pose, rng);
+            Some(Reading::Distance(distance_from_laser(&laser, 36)))
+        }
+        Sensor::Silent => None,
+    }
+}
+
+enum Reading {
+    Range(lewis_interfaces::msg::RangeFinder),
+    Distance(lewis_interfaces::msg::Distance),
+}
+
+impl Driver for AvoiderDrive {
+    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng) {
+        let pose = robot.odom_pose();
+        match read(sensor, world, robot, rng) {
+            Some(Reading::Range(r)) => self.observe_range_finder(&r, &pose, robot.now_ns).unwrap(),
+            Some(Reading::Distance(d)) => self.observe_distance(&d, &pose, robot.now_ns).unwrap(),
+            None => {}
+        }
+    }
+    fn step(&mut self, pose: &Pose2D, now_ns: i64) -> VelocityCommand {
+        AvoiderDrive::step(self, pose, now_ns)
+    }
+    fn status(&self) -> MoverStatus {
+        AvoiderDrive::status(self)
+    }
+    fn hold(&self) -> Option<HoldReason> {
+        self.avoider().hold_reason()
+    }
+}
+
+/// The avoider and a VectorMover as two services would be: Mover commands between them.
+struct Split {
+    avoider: ObstacleAvoider,
+    mover: VectorMover,
+    commands_sent: usize,
+}
+
+impl Driver for Split {
+    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng) {
+        let pose = robot.odom_pose();
+        match read(sensor, world, robot, rng) {
+            Some(Reading::Range(r)) => self
+                .avoider
+                .observe_range_finder(&r, &pose, robot.now_ns)
+                .unwrap(),
+            Some(Reading::Distance(d)) => self
+                .avoider
+                .observe_distance(&d, &pose, robot.now_ns)
+                .unwrap(),
+            None => {}
+        }
+    }
+    fn step(&mut self, pose: &Pose2D, now_ns: i64) -> VelocityCommand {
+        if let Some(request) = self.avoider.step(pose, now_ns).request {
+            self.commands_sent += 1;
+            self.mover.handle(&request.to_command()).unwrap();
+        }
+        self.mover.step(pose, now_ns)
+    }
+    fn status(&self) -> MoverStatus {
+        self.avoider.status()
+    }
+    fn hold(&self) -> Option<HoldReason> {
+        self.avoider.hold_reason()
+    }
+}
+
+fn drive() -> AvoiderDrive {
+    AvoiderDrive::new(
+        ObstacleAvoiderConfig::default(),
+        VectorMoverConfig::default(),
+    )
+    .unwrap()
+}
+
+/// Runs until the goal is over and the robot at rest, or `max_steps`.
+fn run(
+    driver: &mut dyn Driver,
+    world: &World,
+    mut robot: Robot,
+    schedule: &dyn Fn(usize) -> Sensor,
+    max_steps: usize,
+    seed: u64,
+) -> Outcome {
+    let mut rng = Rng::new(seed);
+    let mut holds = Vec::new();
+    let mut steps = 0;
+    for step in 0..max_steps {
+        steps = step + 1;
+        let sensor = schedule(step);
+        // The sonar ring is slower than the laser: every other step.
+        if sensor != Sensor::Sonar || step % 2 == 0 {
+            driver.observe(sensor, world, &robot, &mut rng);
+        }
+        let command = driver.step(&robot.odom_pose(), robot.now_ns);
+        if let Some(hold) = driver.hold()
+            && holds.last() != Some(&hold)
+        {
+            holds.push(hold);
+        }
+        robot.drive(world, command);
+        if driver.status().is_final() && command == VelocityCommand::ZERO {
+            break;
+        }
+    }
+    Outcome {
+        status: driver.status(),
+        robot,
+        holds,
+        steps,
+    }
+}
+
+fn wall_world() -> World {
+    World::default().wall(p(2.0, -1.5), p(2.0, 1.5))
+}
+
+/// The robot reached the world goal without ever touching anything.
+fn check_arrival(outcome: &Outcome, goal: (f64, f64), what: &str) {
+    assert_eq!(
+        outcome.status,
+        MoverStatus::Arrived,
+        "{what}: after {} steps, holds {:?}",
+        outcome.steps,
+        outcome.holds
+    );
+    let end = &outcome.robot.world_pose;
+    let miss = (end.x - goal.0).hypot(end.y - goal.1);
+    assert!(
+        miss <= ObstacleAvoiderConfig::default().position_tolerance_m + 0.01,
+        "{what}: ended {miss} m from the goal"
+    );
+    assert!(
+        outcome.robot.min_clearance_m >= B21R_RADIUS_M,
+        "{what}: the robot came {} m from an obstacle, closer than its radius",
+        outcome.robot.min_clearance_m
+    );
+}
+
+#[test]
+fn a_goal_in_plain_sight_is_approached_in_a_straight_line() {
+    let world = World::default().wall(p(6.0, -3.0), p(6.0, 3.0));
+    let mut d = drive();
+    d.goto(3.0, 1.0).unwrap();
+    let outcome = run(
+        &mut d,
+        &world,
+        Robot::at(Pose2D::default()),
+        &|_| Sensor::Laser,
+        400,
+        1,
+    );
+    check_arrival(&outcome, (3.0, 1.0), "laser, open");
+    let worst = outcome
+        .robot
+        .path
+        .iter()
+        .map(|q| (q.x * 1.0 - q.y * 3.0).abs() / 10f64.sqrt())
+        .fold(0.0, f64::max);
+    assert!(worst < 0.1, "strayed {worst} m from the straight line");
+}
+
+#[test]
+fn a_goal_behind_a_wall_is_reached_around_it_on_the_laser() {
+    let mut d = drive();
+    d.goto(4.0, 0.0).unwrap();
+    let outcome = run(
+        &mut d,
+        &wall_world(),
+        Robot::at(Pose2D::default()),
+        &|_| Sensor::Laser,
+        600,
+        2,
+    );
+    check_arrival(&outcome, (4.0, 0.0), "laser");
+    assert!(
+        outcome.robot.path.iter().any(|q| q.y.abs() > 1.5),
+        "the robot went through the wall?"
+    );
+}
+
+#[test]
+fn a_goal_behind_a_wall_is_reached_on_a_coarse_noisy_sonar_ring() {
+    for seed in 3..7 {
+        let mut d = drive();
+        d.goto(4.0, 0.0).unwrap();
+        let outcome = run(
+            &mut d,
+            &wall_world(),
+            Robot::at(Pose2D::default()),
+            &|_| Sensor::Sonar,
+            900,
+            seed,
+        );
+        check_arrival(&outcome, (4.0, 0.0), &format!("sonar, noise seed {seed}"));
+    }
+}
+
+#[test]
+fn a_goal_behind_a_wall_is_reached_on_distance_sectors() {
+    let mut d = drive();
+    d.goto(4.0, 0.0).unwrap();
+    let outcome = run(
+        &mut d,
+        &wall_world(),
+        Robot::at(Pose2D::default()),
+        &|_| Sensor::Distance,
+        600,
+        4,
+    );
+    check_arrival(&outcome, (4.0, 0.0), "distance");
+}
+
+#[test]
+fn losing_the_laser_mid_run_and_going_on_with_sonar_still_reaches_the_goal() {
+    // Laser for 4 s, nothing for 1.5 s (the broker failing over), then the sonar ring.
+    let schedule = |step: usize| match step {
+        0..40 => Sensor::Laser,
+        40..55 => Sensor::Silent,
+        _ => Sensor::Sonar,
+    };
+    let mut d = drive();
+    d.goto(4.0, 0.0).unwrap();
+    let outcome = run(
+        &mut d,
+        &wall_world(),
+        Robot::at(Pose2D::default()),
+        &schedule,
+        900,
+        5,
+    );
+    check_arrival(&outcome, (4.0, 0.0), "laser then sonar");
+    assert_eq!(
+        outcome.holds,
+        vec![HoldReason::StaleReadings],
+        "held while no readings came, then went on"
+    );
+}
+
+#[test]
+fn goals_and_poses_are_in_the_odometry_frame_and_readings_in_the_robot_frame() {
+    // The odometry frame starts at a rotated, shifted world pose: the wall is behind the
+    // robot's start in odometry terms, and the goal is given in odometry coordinates.
+    let start = Pose2D {
+        x: 5.0,
+        y: 1.0,
+        theta: std::f64::consts::PI,
+    };
+    let robot = Robot::at(start);
+    let goal_world = (1.0, 0.5);
+    let (gx, gy) = robot.world_to_odom(goal_world.0, goal_world.1);
+    let world = World::default().wall(p(3.0, -0.5), p(3.0, 2.5));
+    let mut d = drive();
+    d.goto(gx, gy).unwrap();
+    let outcome = run(&mut d, &world, robot, &|_| Sensor::Laser, 600, 6);
+    check_arrival(&outcome, goal_world, "odometry frame");
+}
+
+#[test]
+fn readings_older_than_the_limit_stop_the_robot_and_then_fail_the_goal() {
+    let avoider = ObstacleAvoiderConfig {
+        fail_after_ns: 5_000_000_000,
+        ..ObstacleAvoiderConfig::default()
+    };
+    let mover = VectorMoverConfig::default();
+    let mut d = AvoiderDrive::new(avoider.clone(), mover.clone()).unwrap();
+    d.goto(4.0, 0.0).unwrap();
+    let last_reading_step = 30;
+    let schedule = move |step: usize| {
+        if step <= last_reading_step {
+            Sensor::Laser
+        } else {
+            Sensor::Silent
+        }
+    };
+    let outcome = run(
+        &mut d,
+        &wall_world(),
+        Robot::at(Pose2D::default()),
+        &schedule,
+        300,
+        7,
+    );
+    assert_eq!(outcome.status, MoverStatus::Failed);
+    assert_eq!(outcome.holds, vec![HoldReason::StaleReadings]);
+    // At rest within the age limit plus the braking time, and never moving again.
+    let stale_step = last_reading_step + (avoider.max_reading_age_ns / STEP_NS) as usize + 1;
+    let braking_steps =
+        (mover.max_translation_m_s / mover.translation_accel_m_s2 / 0.1).ceil() as usize;
+    for (i, c) in outcome
+        .robot
+        .commands
+        .iter()
+        .enumerate()
+        .skip(stale_step + braking_steps + 1)
+    {
+        assert_eq!(
+            *c,
+            VelocityCommand::ZERO,
+            "moving at step {i} without readings"
+        );
+    }
+    assert!(outcome.robot.min_clearance_m >= B21R_RADIUS_M);
+    assert_eq!(d.publication().status, "failed");
+}
+
+#[test]
+fn a_goal_that_cannot_be_reached_is_reported_blocked_without_touching_anything() {
+    // The goal is inside a closed box: wherever the robot goes around it, it gets no closer.
+    let world = World::default()
+        .wall(p(3.2, -0.8), p(4.8, -0.8))
+        .wall(p(4.8, -0.8), p(4.8, 0.8))
+        .wall(p(4.8, 0.8), p(3.2, 0.8))
+        .wall(p(3.2, 0.8), p(3.2, -0.8));
+    let mut d = drive();
+    d.goto(4.0, 0.0).unwrap();
+    let mut robot = Robot::at(Pose2D::default());
+    let mut rng = Rng::new(8);
+    let mut blocked_at = None;
+    for step in 0..500 {
+        d.observe(Sensor::Laser, &world, &robot, &mut rng);
+        let command = d.step(&robot.odom_pose(), robot.now_ns);
+        robot.drive(&world, command);
+        if d.status() == MoverStatus::Blocked && blocked_at.is_none() {
+            blocked_at = Some(step);
+        }
+    }
+    assert!(blocked_at.is_some(), "never reported blocked");
+    assert_eq!(
+        d.status(),
+        MoverStatus::Blocked,
+        "blocked is kept while the way stays shut"
+    );
+    assert_eq!(d.avoider().hold_reason(), Some(HoldReason::NoProgress));
+    assert_eq!(d.publication().status, "blocked");
+    assert_eq!(*robot.commands.last().unwrap(), VelocityCommand::ZERO);
+    assert!(
+        robot.min_clearance_m >= B21R_RADIUS_M,
+        "came {} m from a wall",
+        robot.min_clearance_m
+    );
+}
+
+#[test]
+fn an_avoider_and_a_separate_vector_mover_talking_mover_commands_reach_the_goal() {
+    let mut split = Split {
+        avoider: ObstacleAvoider::new(ObstacleAvoiderConfig::default()).unwrap(),
+        mover: VectorMover::new(VectorMoverConfig::default()).unwrap(),
+        commands_sent: 0,
+    };
+    let reply = split
+        .avoider
+        .handle(&lewis_motion::MoverRequest::Goto { x_m: 4.0, y_m: 0.0 }.to_command());
+    assert!(matches!(reply, Ok(MoverReply::Goto(r)) if r.goal_id == 1));
+    let outcome = run(
+        &mut split,
+        &wall_world(),
+        Robot::at(Pose2D::default()),
+        &|_| Sensor::Laser,
+        600,
+        9,
+    );
+    check_arrival(&outcome, (4.0, 0.0), "split services");
+    assert!(
+        split.commands_sent < outcome.steps / 2,
+        "{} commands in {} steps",
+        split.commands_sent,
+        outcome.steps
+    );
+}
+
+#[test]
+fn a_translate_towards_a_wall_stops_short_and_reports_blocked_and_rotate_needs_no_readings() {
+    let world = World::default().wall(p(1.5, -1.0), p(1.5, 1.0));
+    let mut d = drive();
+    d.translate(3.0).unwrap();
+    let outcome = run(
+        &mut d,
+        &world,
+        Robot::at(Pose2D::default()),
+        &|_| Sensor::Laser,
+        150,
+        10,
+    );
+    assert_eq!(outcome.status, MoverStatus::Blocked);
+    assert_eq!(outcome.holds, vec![HoldReason::PathObstructed]);
+    assert!(outcome.robot.min_clearance_m >= B21R_RADIUS_M);
+    assert!(
+        outcome.robot.world_pose.x > 0.5,
+        "it did drive until the wall was near"
+    );
+
+    let mut d = drive();
+    d.rotate(std::f64::consts::FRAC_PI_2).unwrap();
+    let outcome = run(
+        &mut d,
+        &world,
+        Robot::at(Pose2D::default()),
+        &|_| Sensor::Silent,
+        150,
+        11,
+    );
+    assert_eq!(outcome.status, MoverStatus::Arrived);
+    assert!((outcome.robot.world_pose.theta - std::f64::consts::FRAC_PI_2).abs() < 0.04);
+}
+
+#[test]
+fn the_publication_carries_the_avoider_goal_waypoint_and_the_mover_velocities() {
+    let mut d = drive();
+    let id = d.goto(4.0, 0.0).unwrap();
+    let world = wall_world();
+    let mut robot = Robot::at(Pose2D::default());
+    let mut rng = Rng::new(12);
+    for _ in 0..15 {
+        d.observe(Sensor::Laser, &world, &robot, &mut rng);
+        let command = d.step(&robot.odom_pose(), robot.now_ns);
+        robot.drive(&world, command);
+    }
+    let publication = d.publication();
+    assert_eq!(publication.goal_id, id.get());
+    assert_eq!((publication.goal.x, publication.goal.y), (4.0, 0.0));
+    assert_eq!(publication.status, "moving");
+    assert!(
+        publication.waypoint.y.abs() > 1.5,
+        "the waypoint is past an end of the wall: {:?}",
+        publication.waypoint
+    );
+    assert_eq!(
+        publication.translation_velocity,
+        d.mover().last_command().translation_m_s
+    );
+    assert!(publication.distance_to_goal > 3.0);
+}

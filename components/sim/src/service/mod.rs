@@ -1,0 +1,199 @@
+//! The simulated devices as services, each in its own process: `sim-base` owns the true
+//! pose and publishes it as GroundTruth; `sim-laser`, `sim-sonar` and `sim-camera` require
+//! GroundTruth and render the world from the latest true pose at their own rates. Killing
+//! one leaves the others running.
+//!
+//! Every kind loads the world from its `world` parameter (a folder holding `world.toml`
+//! and its map). A relative path is taken from the current directory of the process, which
+//! `lewis up` passes on to the services it starts: run `lewis up` from the repository's
+//! root, or give an absolute path.
+//!
+//! Each device's noise is drawn from its own generator, seeded from the service's `seed`
+//! parameter (a hash of the service's name when absent), so the same seed and the same
+//! commands at the same times give the same bytes.
+//!
+//! Every sensor publication names, in its header's `inputs`, the GroundTruth sample it was
+//! rendered from.
+
+pub mod base;
+pub mod camera;
+pub mod laser;
+pub mod sonar;
+
+use std::path::Path;
+
+use lewis_geometry::{Pose2, SensorMount};
+use lewis_interfaces::Interface;
+use lewis_interfaces::msg::{GroundTruth, InputRef};
+use lewis_runtime::service::{BuildError, Context, Input, ServiceConfig, ServiceRegistry};
+use serde::Deserialize;
+
+use super::world::World;
+
+pub use base::{BaseLimits, BaseParams, BatteryParams, BodyParams, OdometryParams, SimBaseService};
+pub use camera::{CameraParams, SimCameraService};
+pub use laser::{LaserParams, SimLaserService};
+pub use sonar::{SimSonarService, SonarParams};
+
+/// Registers `sim-base`, `sim-laser`, `sim-sonar` and `sim-camera`.
+pub fn register(registry: &mut ServiceRegistry) {
+    registry.register_with_parameters::<BaseParams>(base::KIND, base::build);
+    registry.register_with_parameters::<LaserParams>(laser::KIND, laser::build);
+    registry.register_with_parameters::<SonarParams>(sonar::KIND, sonar::build);
+    registry.register_with_parameters::<CameraParams>(camera::KIND, camera::build);
+}
+
+/// A pose in the world frame, as robot files write it.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseParams {
+    /// East, in m.
+    pub x_m: f64,
+    /// North, in m.
+    pub y_m: f64,
+    /// Heading, counter-clockwise from east, in degrees.
+    #[serde(default)]
+    pub heading_deg: f64,
+}
+
+impl PoseParams {
+    /// As the simulator's pose.
+    #[must_use]
+    pub fn to_pose(self) -> Pose2 {
+        Pose2::new(self.x_m, self.y_m, self.heading_deg.to_radians())
+    }
+}
+
+/// Where a sensor sits on the robot, as robot files write it.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountParams {
+    /// Forward of the robot's centre, in m.
+    pub x_m: f64,
+    /// Left of the robot's centre, in m.
+    pub y_m: f64,
+    /// Where it looks, counter-clockwise from straight ahead, in degrees.
+    #[serde(default)]
+    pub heading_deg: f64,
+    /// Above the floor, in m.
+    pub height_m: f64,
+}
+
+impl MountParams {
+    /// As the simulator's mount.
+    #[must_use]
+    pub fn to_mount(self) -> SensorMount {
+        SensorMount {
+            pose: Pose2::new(self.x_m, self.y_m, self.heading_deg.to_radians()),
+            height_m: self.height_m,
+        }
+    }
+
+    /// The parameters that describe `mount`.
+    #[must_use]
+    pub fn from_mount(mount: SensorMount) -> Self {
+        Self {
+            x_m: mount.pose.x_m,
+            y_m: mount.pose.y_m,
+            heading_deg: mount.pose.heading_rad.to_degrees(),
+            height_m: mount.height_m,
+        }
+    }
+}
+
+/// A parameter error of service `config`.
+fn invalid(config: &ServiceConfig<'_>, reason: impl Into<String>) -> BuildError {
+    BuildError::Parameters {
+        service: config.name().to_owned(),
+        reason: reason.into(),
+    }
+}
+
+/// The period of a rate parameter, in ns.
+fn period_ns(config: &ServiceConfig<'_>, field: &str, rate_hz: f64) -> Result<i64, BuildError> {
+    if !(rate_hz.is_finite() && (0.01..=1000.0).contains(&rate_hz)) {
+        return Err(invalid(
+            config,
+            format!("`{field}` is {rate_hz}: give a rate between 0.01 and 1000 Hz"),
+        ));
+    }
+    // 1e9 / rate is at most 1e11 for a rate in range: it fits an i64.
+    #[allow(clippy::cast_possible_truncation)]
+    Ok((1e9 / rate_hz).round() as i64)
+}
+
+/// Loads the world of service `config` from folder `dir`.
+fn load_world(config: &ServiceConfig<'_>, dir: &Path) -> Result<World, BuildError> {
+    World::load(dir).map_err(|e| {
+        let place = if dir.is_relative() {
+            std::env::current_dir().map_or_else(
+                |_| String::new(),
+                |cwd| format!(" (relative to {})", cwd.display()),
+            )
+        } else {
+            String::new()
+        };
+        invalid(config, format!("world `{}`{place}: {e}", dir.display()))
+    })
+}
+
+/// Whether service `config` provides `T` in the robot file.
+fn provides<T: Interface>(config: &ServiceConfig<'_>) -> bool {
+    config.spec.provision(T::NAME).is_some()
+}
+
+/// Publishes `message`, logging (not failing) when the channel refuses it: a sensor that
+/// misses one sample goes on with the next.
+fn publish<T: Interface>(ctx: &mut Context<'_>, message: &mut T) {
+    if let Err(e) = ctx.publish(message) {
+        ctx.warn(&format!("cannot publish {}: {e}", T::NAME));
+    }
+}
+
+/// The true pose a sensor renders from: the latest GroundTruth sample, and the reference
+/// to it that every publication rendered from it carries as provenance.
+#[derive(Debug, Clone, Default)]
+pub struct TruthFollower {
+    latest: Option<(Pose2, InputRef)>,
+    warned: bool,
+}
+
+impl TruthFollower {
+    /// Takes in `input` when it is a GroundTruth sample (other inputs are ignored).
+    pub fn take(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        if input.interface != GroundTruth::NAME {
+            return;
+        }
+        match input.decode::<GroundTruth>() {
+            Ok(truth) => {
+                let source = InputRef {
+                    channel: input.channel.to_owned(),
+                    seq: truth.header.seq,
+                };
+                self.latest = Some((Pose2::from_msg(&truth.pose), source));
+                self.warned = false;
+            }
+            Err(e) => {
+                if !self.warned {
+                    ctx.warn(&format!("ignoring a GroundTruth sample: {e}"));
+                    self.warned = true;
+                }
+            }
+        }
+    }
+
+    /// The latest true pose, after setting the provenance of the publications that follow
+    /// to its sample; `None` (nothing to render) before the first sample.
+    pub fn pose_for_rendering(&self, ctx: &mut Context<'_>) -> Option<Pose2> {
+        let (pose, source) = self.latest.as_ref()?;
+        ctx.set_inputs(vec![source.clone()]);
+        Some(*pose)
+    }
+}
+
+/// A sector count from a command or a parameter, checked.
+fn sector_count(count: i64) -> Option<usize> {
+    usize::try_from(count)
+        .ok()
+        .filter(|n| (1..=360).contains(n))
+}
