@@ -112,7 +112,6 @@ pub fn run(command: &BenchCommand) -> anyhow::Result<ExitCode> {
 }
 
 // For display only.
-#[allow(clippy::cast_precision_loss)]
 fn nanos_to_secs(ns: i64) -> f64 {
     ns as f64 / 1e9
 }

@@ -137,7 +137,6 @@ fn default_output(log: &Path) -> PathBuf {
 }
 
 // For display only.
-#[allow(clippy::cast_precision_loss)]
 fn secs(ns: i64) -> f64 {
     ns as f64 / 1e9
 }

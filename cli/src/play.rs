@@ -131,7 +131,6 @@ pub fn run(args: &PlayArgs) -> anyhow::Result<ExitCode> {
 }
 
 // For display only.
-#[allow(clippy::cast_precision_loss)]
 fn secs(ns: i64) -> f64 {
     ns as f64 / 1e9
 }

@@ -120,7 +120,6 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
         let _ = writeln!(summary, "parts index: {}", index.display());
     }
     if let Some(peak) = peak_resident_kib() {
-        #[allow(clippy::cast_precision_loss)]
         let _ = writeln!(
             summary,
             "peak resident memory {:.1} MiB (VmHWM)",

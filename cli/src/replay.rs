@@ -160,7 +160,6 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
 }
 
 // For display only.
-#[allow(clippy::cast_precision_loss)]
 fn secs(ns: i64) -> f64 {
     ns as f64 / 1e9
 }

@@ -160,7 +160,7 @@ fn blobfinder(args: &BlobfinderArgs) -> anyhow::Result<ExitCode> {
         writeln!(summary, "{stats}")?;
     }
     if args.signs {
-        #[allow(clippy::cast_precision_loss)] // counts far below 2^52
+        // counts far below 2^52
         let per_frame = signs as f64 / frames as f64;
         writeln!(summary, "signs: {per_frame:.2} per frame, {signs} in all")?;
     }

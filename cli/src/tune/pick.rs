@@ -176,7 +176,7 @@ fn recorded_image(
             .join(", ")
     );
     let start_ns = recording.start_ns();
-    #[allow(clippy::cast_possible_truncation)] // seconds of a recording, far below 2^63 ns
+    // seconds of a recording, far below 2^63 ns
     let at_ns = start_ns.saturating_add((seconds * 1e9).round() as i64);
     let mut shown = None;
     for frame in input.frames()? {
@@ -189,7 +189,7 @@ fn recorded_image(
     let Some(frame) = shown else {
         anyhow::bail!("{} has no image", path.display());
     };
-    #[allow(clippy::cast_precision_loss)] // nanoseconds of a recording
+    // nanoseconds of a recording
     let when_s = (frame.log_time_ns - start_ns) as f64 / 1e9;
     let said = format!(
         "{} {} seq {} at {when_s:.3} s",

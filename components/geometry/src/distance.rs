@@ -39,7 +39,7 @@ impl SectorLayout {
     /// `sector_count` sectors covering bearings `from_rad` to `to_rad` (counter-clockwise).
     #[must_use]
     pub fn spanning(from_rad: f64, to_rad: f64, sector_count: usize) -> Self {
-        #[allow(clippy::cast_precision_loss)] // sector counts are small
+        // sector counts are small
         let width = (to_rad - from_rad) / sector_count.max(1) as f64;
         Self {
             first_sector_angle_rad: from_rad + width / 2.0,
@@ -57,9 +57,8 @@ impl SectorLayout {
         let start = self.first_sector_angle_rad - self.sector_width_rad / 2.0;
         let offset = wrap_angle(bearing_rad - start).rem_euclid(TAU);
         let k = (offset / self.sector_width_rad).floor();
-        #[allow(clippy::cast_precision_loss)]
         let in_span = k >= 0.0 && k < self.sector_count as f64;
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // checked above
+        // checked above
         in_span.then_some(k as usize)
     }
 }
@@ -113,7 +112,6 @@ pub fn range_readings(scan: &RangeFinder) -> Vec<RangeReading> {
             continue;
         }
         let pose = if scan.uniform {
-            #[allow(clippy::cast_precision_loss)]
             let k = i as f64;
             Pose3D {
                 x: scan.x_offset + k * scan.x_separation,

@@ -45,7 +45,6 @@ pub fn b21r_sonar_ring() -> Vec<SensorMount> {
     const RADIUS_M: f64 = 0.26;
     let ring = |height_m: f64| {
         (0..B21R_RING_SIZE).map(move |j| {
-            #[allow(clippy::cast_precision_loss)]
             let angle = TAU * j as f64 / B21R_RING_SIZE as f64;
             let at = Vec2::from_angle(angle) * RADIUS_M;
             SensorMount {

@@ -88,9 +88,7 @@ impl GoalCostMap {
             goal.y.max(robot.y) + margin_m,
         );
         let span = hi - lo;
-        #[allow(clippy::cast_precision_loss)]
         let cell_m = cell_m.max((span.x * span.y / max_cells.max(1) as f64).sqrt());
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let (width, height) = (
             ((span.x / cell_m).ceil() as usize).max(1),
             ((span.y / cell_m).ceil() as usize).max(1),
@@ -113,15 +111,12 @@ impl GoalCostMap {
             open[y * row] = false;
             open[y * row + row - 1] = false;
         }
-        #[allow(clippy::cast_possible_truncation)]
         let reach = (blocked_radius_m / cell_m).ceil() as i64;
         for &p in obstacles {
             let Some((cx, cy)) = self.cell_of(p, reach) else {
                 continue;
             };
-            #[allow(clippy::cast_sign_loss, clippy::cast_possible_truncation)]
             for y in (cy - reach).max(0) as usize..=(cy + reach).min(height as i64 - 1) as usize {
-                #[allow(clippy::cast_sign_loss, clippy::cast_possible_truncation)]
                 for x in (cx - reach).max(0) as usize..=(cx + reach).min(width as i64 - 1) as usize
                 {
                     let index = self.index(x, y);
@@ -134,7 +129,6 @@ impl GoalCostMap {
             }
         }
         if let Some((gx, gy)) = self.cell_of(goal, 0) {
-            #[allow(clippy::cast_sign_loss, clippy::cast_possible_truncation)]
             self.flood(self.index(gx as usize, gy as usize), &open);
         }
         self.open = open;
@@ -143,12 +137,10 @@ impl GoalCostMap {
     /// The cell of a point, allowing `slack` cells outside the grid.
     fn cell_of(&self, p: Vec2, slack: i64) -> Option<(i64, i64)> {
         let rel = p - self.origin;
-        #[allow(clippy::cast_possible_truncation)]
         let (x, y) = (
             (rel.x / self.cell_m).floor() as i64,
             (rel.y / self.cell_m).floor() as i64,
         );
-        #[allow(clippy::cast_possible_wrap)]
         let inside = x >= -slack
             && y >= -slack
             && x < self.width as i64 + slack
@@ -163,7 +155,6 @@ impl GoalCostMap {
     }
 
     fn centre(&self, x: usize, y: usize) -> Vec2 {
-        #[allow(clippy::cast_precision_loss)]
         let (x, y) = (x as f64, y as f64);
         self.origin + Vec2::new((x + 0.5) * self.cell_m, (y + 0.5) * self.cell_m)
     }
@@ -177,7 +168,6 @@ impl GoalCostMap {
     /// Dijkstra's: the same bits whatever the order of the work.
     fn flood(&mut self, start: usize, open: &[bool]) {
         let bucket_m = self.cell_m / 2.0;
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let bucket_of = |cost: f64| (cost / bucket_m) as usize;
         let straight = self.cell_m;
         let diagonal = SQRT_2 * self.cell_m;
@@ -246,7 +236,6 @@ impl GoalCostMap {
     #[must_use]
     pub fn cost_m(&self, p: Vec2) -> f64 {
         match self.cell_of(p, 0) {
-            #[allow(clippy::cast_sign_loss, clippy::cast_possible_truncation)]
             Some((x, y)) => self.cost_m[self.index(x as usize, y as usize)],
             None => f64::INFINITY,
         }

@@ -81,18 +81,14 @@ pub fn free_distance_m(
 
 /// Indices of the grid directions (k * 2pi / n) within `half_rad` of `centre_rad`.
 fn grid_indices(centre_rad: f64, half_rad: f64, n: usize) -> impl Iterator<Item = usize> {
-    #[allow(clippy::cast_precision_loss)]
     let step = TAU / n as f64;
     let (lo, hi) = if half_rad >= PI {
         (0, n.saturating_sub(1) as i64)
     } else {
-        #[allow(clippy::cast_possible_truncation)]
         let lo = ((centre_rad - half_rad) / step).ceil() as i64;
-        #[allow(clippy::cast_possible_truncation)]
         let hi = ((centre_rad + half_rad) / step).floor() as i64;
         (lo, hi.min(lo + n as i64 - 1))
     };
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     (lo..=hi).map(move |k| k.rem_euclid(n as i64) as usize)
 }
 
@@ -144,13 +140,11 @@ pub fn free_distances(
     coverage: &Coverage,
     n: usize,
 ) -> Vec<f64> {
-    #[allow(clippy::cast_precision_loss)]
     let step = TAU / n as f64;
     let mut free = vec![coverage.unseen_reach_m; n];
     let mut seen = vec![false; n];
     // Each point tries the few directions its disc can touch; their unit vectors are the
     // same every time, so they are worked out once rather than per point and direction.
-    #[allow(clippy::cast_precision_loss)]
     let directions: Vec<Vec2> = (0..n).map(|k| Vec2::from_angle(k as f64 * step)).collect();
     for (end, half) in &coverage.wedges {
         let rel = *end - from;
@@ -192,7 +186,6 @@ pub fn closest_reachable(
     sample_m: f64,
     cost: &dyn Fn(Vec2) -> f64,
 ) -> Candidate {
-    #[allow(clippy::cast_precision_loss)]
     let step = TAU / n as f64;
     let to_goal = goal - from;
     if to_goal.norm() == 0.0
@@ -223,7 +216,6 @@ pub fn closest_reachable(
         if free_m <= 0.0 {
             continue;
         }
-        #[allow(clippy::cast_precision_loss)]
         let dir = Vec2::from_angle(k as f64 * step);
         let nearest_goal = to_goal.dot(dir).clamp(0.0, free_m);
         let mut consider = |s: f64| {

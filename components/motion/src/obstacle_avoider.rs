@@ -146,7 +146,6 @@ impl ObstacleAvoiderConfig {
             ("memory_ns", self.memory_ns),
         ] {
             if value <= 0 {
-                #[allow(clippy::cast_precision_loss)]
                 return Err(ConfigError {
                     field,
                     value: value as f64,
@@ -161,7 +160,6 @@ impl ObstacleAvoiderConfig {
             ("cost_max_cells", self.cost_max_cells),
         ] {
             if value == 0 {
-                #[allow(clippy::cast_precision_loss)]
                 return Err(ConfigError {
                     field,
                     value: value as f64,
@@ -568,7 +566,6 @@ impl ObstacleAvoider {
     ) -> f64 {
         self.refresh_points();
         let coverage = self.newest_coverage();
-        #[allow(clippy::cast_precision_loss)]
         let min_half = TAU / self.config.direction_count as f64 / 2.0;
         free_distance_m(
             position(pose_in_odom),
@@ -815,7 +812,6 @@ impl ObstacleAvoider {
         };
         let to_current = current - here;
         let reached = to_current.norm() <= self.config.position_tolerance_m;
-        #[allow(clippy::cast_precision_loss)]
         let min_half = TAU / self.config.direction_count as f64 / 2.0;
         let reachable = to_current.norm() == 0.0
             || free_distance_m(
@@ -857,7 +853,6 @@ impl ObstacleAvoider {
             heading + std::f64::consts::PI
         };
         let coverage = self.newest_coverage();
-        #[allow(clippy::cast_precision_loss)]
         let min_half = TAU / self.config.direction_count as f64 / 2.0;
         let free = free_distance_m(
             here,
@@ -942,7 +937,6 @@ impl ObstacleAvoider {
 
 /// The cell of `cell_m` that holds `p`.
 fn cell_of(p: Vec2, cell_m: f64) -> Cell {
-    #[allow(clippy::cast_possible_truncation)]
     ((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64)
 }
 

@@ -37,14 +37,12 @@ impl Beam {
         } else {
             0.0
         };
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let count = if self.hit {
             (wanted.max(0.0) as usize + 1).min(max_points.max(1))
         } else {
             0
         };
         (0..count).map(move |i| {
-            #[allow(clippy::cast_precision_loss)]
             let fraction = if count == 1 {
                 0.5
             } else {
@@ -180,7 +178,6 @@ impl RangeScan {
             let dt = check_finite(RF, "theta_separation", reading.theta_separation)?;
             (0..reading.ranges.len())
                 .map(|i| {
-                    #[allow(clippy::cast_precision_loss)]
                     let i = i as f64;
                     (
                         Vec2::new(x0 + i * dx, y0 + i * dy),
@@ -253,7 +250,6 @@ impl RangeScan {
             unusable: 0,
         };
         for (i, &range_m) in reading.sector_distances.iter().enumerate() {
-            #[allow(clippy::cast_precision_loss)]
             let bearing = first + i as f64 * width;
             scan.push(Vec2::default(), bearing, width.abs() / 2.0, range_m);
         }

@@ -97,7 +97,6 @@ impl VectorMoverConfig {
             ("max_step_ns", self.max_step_ns),
         ] {
             if value <= 0 {
-                #[allow(clippy::cast_precision_loss)]
                 return Err(ConfigError {
                     field,
                     value: value as f64,
@@ -367,9 +366,8 @@ impl VectorMover {
                 .clamp(0, self.config.max_step_ns),
         };
         self.last_step_ns = Some(now_ns);
-        #[allow(clippy::cast_precision_loss)]
-        let dt_s = step_ns as f64 / NANOS_PER_SEC;
-        dt_s
+
+        step_ns as f64 / NANOS_PER_SEC
     }
 
     /// The velocities the law asks for, before the acceleration limits; marks arrival.

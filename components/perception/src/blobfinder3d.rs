@@ -97,7 +97,7 @@ impl Scan {
             .enumerate()
             .map(|(i, &range_m)| {
                 if scan.uniform {
-                    #[allow(clippy::cast_precision_loss)] // beam counts are small
+                    // beam counts are small
                     let i = i as f64;
                     Beam {
                         origin: Point2::new(

@@ -135,7 +135,7 @@ pub fn read_arrow(pixels: &[(f64, f64)], x_scale: f64) -> Option<ArrowReading> {
     if pixels.len() < 3 {
         return None;
     }
-    #[allow(clippy::cast_precision_loss)] // pixel counts are far below 2^52
+    // pixel counts are far below 2^52
     let n = pixels.len() as f64;
     // y up, so that angles read as in the Signs interface.
     let points = || pixels.iter().map(|&(x, y)| (x * x_scale, -y));

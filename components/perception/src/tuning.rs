@@ -189,7 +189,7 @@ pub fn draw_regions(image: &mut RgbImage, regions: &[Region], colors: &[ColorCla
                 put(r + 1, y, colour);
             }
         }
-        #[allow(clippy::cast_possible_truncation)] // centroids lie inside the image
+        // centroids lie inside the image
         let (cx, cy) = (
             region.centroid_x_px.round() as i64,
             region.centroid_y_px.round() as i64,
@@ -221,9 +221,8 @@ impl ColorStats {
         if self.frames == 0 {
             return 0.0;
         }
-        #[allow(clippy::cast_precision_loss)] // counts far below 2^52
-        let ratio = self.areas_px.len() as f64 / self.frames as f64;
-        ratio
+        // counts far below 2^52
+        self.areas_px.len() as f64 / self.frames as f64
     }
 
     /// The `q` quantile (0 to 1, nearest rank) of the blob areas, in px.

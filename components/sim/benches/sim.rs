@@ -106,7 +106,6 @@ fn simulate(world: &World, seconds: i64, robot: &mut Robot, rgb: &mut [u8]) {
     let mut now = 0;
     while now < end {
         if now >= next[0] {
-            #[allow(clippy::cast_precision_loss)]
             let t = now as f64 * 1e-9;
             base.set_velocity(0.8, 0.3 * (t * PI / 2.0).sin());
             base.step(world, periods[0]);

@@ -237,7 +237,6 @@ impl BaseConfig {
             }
         }
         if self.integration_step_ns <= 0 {
-            #[allow(clippy::cast_precision_loss)]
             return Err(BaseConfigError {
                 field: "integration_step_ns",
                 value: self.integration_step_ns as f64,
@@ -361,7 +360,7 @@ impl SimBase {
         while self.pending_ns >= step_ns {
             self.pending_ns -= step_ns;
             self.elapsed_ns = self.elapsed_ns.saturating_add(step_ns);
-            #[allow(clippy::cast_precision_loss)] // steps are far below 2^52 ns
+            // steps are far below 2^52 ns
             self.integrate(world, step_ns as f64 * 1e-9);
             stepped = true;
         }
@@ -468,13 +467,12 @@ impl SimBase {
         }
         let pose = self.true_pose;
         let reach = self.config.radius_m + self.config.bumper_margin_m;
-        #[allow(clippy::cast_precision_loss)]
         let width = std::f64::consts::TAU / n as f64;
         let bumpers = &mut self.bumpers;
         world.for_each_obstacle_point_within(pose.position(), reach, self.config.height_m, |p| {
             let bearing = wrap_angle((p - pose.position()).angle() - pose.heading_rad);
             // Sector k is centred on bearing k * width.
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // in 0..=n
+            // in 0..=n
             let k = ((bearing + width / 2.0).rem_euclid(std::f64::consts::TAU) / width) as usize;
             bumpers[k.min(n - 1)] = true;
         });

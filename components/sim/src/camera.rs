@@ -325,7 +325,6 @@ impl SimCamera {
         let mut hits = std::mem::take(&mut self.hits);
         self.paint_floor_and_ceiling(world, &k, rgb);
         for column in 0..width {
-            #[allow(clippy::cast_precision_loss)]
             let x = column as f64;
             let relative = ((k.principal_x_px - x) / k.focal_length_px).atan();
             let dir = Vec2::from_angle(cam.heading_rad + relative);
@@ -359,7 +358,6 @@ impl SimCamera {
         let width = self.config.width_px as usize;
         let look = world.look();
         for (row, line) in rgb.chunks_exact_mut(width * 3).enumerate() {
-            #[allow(clippy::cast_precision_loss)]
             let y = row as f64;
             let elevation = ((k.principal_y_px - y) / k.focal_length_px).atan() + self.tilt_rad;
             // A gentle gradient: surfaces far away (near the horizon) a little darker.
@@ -382,7 +380,7 @@ impl SimCamera {
         // A window of the grain at a random place: the noise differs from frame to frame
         // at the cost of one draw, and the addition vectorises.
         let spare = self.grain.len() - rgb.len();
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // below `spare`
+        // below `spare`
         let start = ((self.rng.uniform() * spare as f64) as usize).min(spare);
         for (value, &offset) in rgb.iter_mut().zip(&self.grain[start..]) {
             *value = value.saturating_add_signed(offset);
@@ -402,9 +400,8 @@ fn grain(std: f64, frame_bytes: usize, rng: &mut SimRng) -> Vec<i8> {
     (0..2 * frame_bytes)
         .map(|_| {
             let sum = rng.uniform() + rng.uniform() - 1.0;
-            #[allow(clippy::cast_possible_truncation)] // clamped to the i8 range
-            let offset = (sum * scale).round().clamp(-127.0, 127.0) as i8;
-            offset
+            // clamped to the i8 range
+            (sum * scale).round().clamp(-127.0, 127.0) as i8
         })
         .collect()
 }
@@ -439,7 +436,6 @@ impl Column<'_> {
         let depth = (hit.range_m * self.cos_relative).max(1e-3);
         let top_row = self.camera.row_of_height(depth, top_m, self.k);
         let bottom_row = self.camera.row_of_height(depth, bottom_m, self.k);
-        #[allow(clippy::cast_precision_loss)]
         let last = (self.height - 1) as f64;
         let first_row = top_row.ceil().max(0.0);
         let last_row = bottom_row.floor().min(last);
@@ -448,7 +444,7 @@ impl Column<'_> {
         }
         let facing = (-self.dir).dot(hit.normal).abs();
         let shade = 0.65 + 0.35 * facing;
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // within the image
+        // within the image
         let (first_row, last_row) = (first_row as usize, last_row as usize);
         match material {
             Material::Solid(colour) => {
@@ -463,7 +459,6 @@ impl Column<'_> {
                 let u = (point - sign.viewer_left_edge()).dot(sign.viewer_right()) / sign.width_m;
                 let bottom = sign.mounting_height_m - sign.height_m / 2.0;
                 for row in first_row..=last_row {
-                    #[allow(clippy::cast_precision_loss)]
                     let z = self.camera.height_of_row(depth, row as f64, self.k);
                     let v = (z - bottom) / sign.height_m;
                     let colour = sign_colour(&sign, printed_side, u, v).scaled(shade);

@@ -104,7 +104,6 @@ impl LaserConfig {
     /// # Errors
     /// The first parameter that cannot.
     pub fn validate(&self) -> Result<(), SensorConfigError> {
-        #[allow(clippy::cast_precision_loss)]
         let beams = self.beam_count as f64;
         if self.beam_count < 2 || i32::try_from(self.beam_count).is_err() {
             return Err(SensorConfigError {
@@ -143,7 +142,6 @@ impl LaserConfig {
     /// Angle between two neighbouring beams, in rad.
     #[must_use]
     pub fn beam_separation_rad(&self) -> f64 {
-        #[allow(clippy::cast_precision_loss)]
         let gaps = (self.beam_count - 1) as f64;
         self.field_of_view_rad / gaps
     }
@@ -190,7 +188,6 @@ impl SimLaser {
         let step = c.beam_separation_rad();
         ranges.clear();
         for i in 0..c.beam_count {
-            #[allow(clippy::cast_precision_loss)]
             let angle = first + step * i as f64;
             let hit = world.cast_ray(
                 origin,
@@ -221,7 +218,6 @@ impl SimLaser {
         let mount = c.mount.to_pose3d();
         let sensor_positions = (0..c.beam_count)
             .map(|i| {
-                #[allow(clippy::cast_precision_loss)]
                 let theta = first + step * i as f64;
                 Pose3D {
                     theta,

@@ -62,7 +62,7 @@ impl SimRng {
 
     /// Uniform in [0, 1), with 53 random bits.
     pub fn uniform(&mut self) -> f64 {
-        #[allow(clippy::cast_precision_loss)] // 53 bits fit an f64 mantissa exactly
+        // 53 bits fit an f64 mantissa exactly
         let mantissa = (self.next_u64() >> 11) as f64;
         mantissa * (1.0 / (1u64 << 53) as f64)
     }

@@ -60,7 +60,6 @@ impl SonarConfig {
     /// # Errors
     /// The first parameter that cannot.
     pub fn validate(&self) -> Result<(), SensorConfigError> {
-        #[allow(clippy::cast_precision_loss)]
         let count = |n: usize| n as f64;
         if self.transducers.is_empty() || i32::try_from(self.transducers.len()).is_err() {
             return Err(SensorConfigError {
@@ -135,7 +134,6 @@ impl SimSonar {
             let offset = if c.rays_per_cone == 1 {
                 0.0
             } else {
-                #[allow(clippy::cast_precision_loss)]
                 let t = k as f64 / (c.rays_per_cone - 1) as f64;
                 -c.cone_half_angle_rad + 2.0 * c.cone_half_angle_rad * t
             };

@@ -58,7 +58,6 @@ fn camera() -> SimCamera {
 }
 
 fn pixel(frame: &ImageSource, (u, v): (f64, f64)) -> [u8; 3] {
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let (col, row) = (u.round() as usize, v.round() as usize);
     let step = usize::try_from(frame.step).unwrap();
     let i = row * step + col * 3;
@@ -172,7 +171,6 @@ fn red_pillar_world() -> World {
 /// Length of the run of red pixels through the image row at `v` around column `u`.
 fn red_run(frame: &ImageSource, (u, v): (f64, f64)) -> usize {
     let width = usize::try_from(frame.width).unwrap();
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let (u, v) = (u.round() as usize, v.round());
     let red = |c: usize| is_red(pixel(frame, (c as f64, v)));
     let left = (0..=u).rev().take_while(|&c| red(c)).count();

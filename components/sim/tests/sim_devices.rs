@@ -242,7 +242,6 @@ fn a_sonar_cone_sees_what_a_thin_beam_misses() {
 fn drive(base: &mut SimBase, world: &World, translation: f64, rotation: f64, seconds: f64) {
     base.set_velocity(translation, rotation);
     // Steps of 20 ms, as a 50 Hz service would.
-    #[allow(clippy::cast_possible_truncation)]
     let steps = (seconds * 50.0).round() as i64;
     for _ in 0..steps {
         base.step(world, NS_PER_S / 50);

@@ -34,9 +34,7 @@ impl Rng {
     /// A number in `[0, 1)`, with 53 random bits.
     pub fn next_f64(&mut self) -> f64 {
         // 53 bits fit a f64 mantissa exactly.
-        #[allow(clippy::cast_precision_loss)]
-        let unit = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        unit
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
 
     /// A number in `[low, high)`.

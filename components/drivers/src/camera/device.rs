@@ -191,9 +191,7 @@ impl DeviceSource {
 fn to_units(value: f64, scale: f64) -> i32 {
     // Saturating float-to-int conversion: out-of-range values become i32::MIN/MAX, which
     // the control's range then clamps.
-    #[allow(clippy::cast_possible_truncation)]
-    let units = (value * scale).round() as i32;
-    units
+    (value * scale).round() as i32
 }
 
 /// The zoom control's value for a magnification: the device's range spread linearly over

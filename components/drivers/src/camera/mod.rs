@@ -166,9 +166,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
 /// The period of a rate in [0.001, 1000] Hz, in ns.
 fn period_ns(rate_hz: f64) -> i64 {
     // At most 1e12 ns: the cast is exact enough and cannot overflow.
-    #[allow(clippy::cast_possible_truncation)]
-    let ns = (1e9 / rate_hz).round() as i64;
-    ns
+    (1e9 / rate_hz).round() as i64
 }
 
 /// The `camera` service.

@@ -339,7 +339,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
             format!("`rate_hz` is {}: give 1 to 1000 Hz", params.rate_hz),
         ));
     }
-    #[allow(clippy::cast_possible_truncation)] // checked above
+    // checked above
     let period_ns = (1e9 / params.rate_hz).round() as i64;
     let driver_config = RflexDriverConfig {
         conversion,

@@ -387,9 +387,8 @@ impl Service for SickService {
                         // One telegram of the layout's values at the line's rate.
                         let bytes = 7 + 2 * layout.value_count() + 3;
                         let ns = baud.transmit_time_ns(bytes, self.config.parity.bits_per_byte());
-                        #[allow(clippy::cast_precision_loss)]
-                        let rate = if ns > 0 { 1e9 / ns as f64 } else { 0.0 };
-                        rate
+
+                        if ns > 0 { 1e9 / ns as f64 } else { 0.0 }
                     });
                     Ok(ctx.reply(RangeFinderGetGeometryReply {
                         range_count: i32::try_from(layout.value_count()).unwrap_or(i32::MAX),

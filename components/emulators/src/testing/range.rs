@@ -214,7 +214,6 @@ impl SyntheticScanner {
             let bearing = self.bearing(i);
             let offset = (bearing - (first - width / 2.0)).rem_euclid(TAU);
             // `offset / width` is in [0, SECTORS): the cast cannot truncate a valid index.
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let sector = ((offset / width) as usize).min(SECTORS - 1);
             sectors[sector] = sectors[sector].min(range);
             if range < min.0 {
@@ -294,7 +293,6 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         return Err(invalid("beams must be at least 1"));
     }
     // 1e9 / rate fits an i64 for any rate in range.
-    #[allow(clippy::cast_possible_truncation)]
     let period_ns = (1e9 / params.rate_hz).round() as i64;
     let provides = |name: &str| config.spec.provides.iter().any(|p| p.interface == name);
     Ok(Box::new(TestRange {

@@ -197,7 +197,6 @@ pub(crate) fn period_ns(config: &ServiceConfig<'_>, rate_hz: f64) -> Result<i64,
         });
     }
     // 1e9 / rate is at most 1e10: it fits an i64.
-    #[allow(clippy::cast_possible_truncation)]
     let period = (1e9 / rate_hz).round() as i64;
     Ok(period)
 }

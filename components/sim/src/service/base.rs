@@ -128,7 +128,7 @@ pub struct BodyParams {
 impl Default for BodyParams {
     fn default() -> Self {
         let c = BaseConfig::default();
-        #[allow(clippy::cast_precision_loss)] // a step of a few ms
+        // a step of a few ms
         let integration_step_ms = c.integration_step_ns as f64 * 1e-6;
         Self {
             radius_m: c.radius_m,
@@ -216,7 +216,6 @@ impl BaseParams {
     pub fn base_config(&self) -> BaseConfig {
         let (l, body, o, b) = (self.limits, self.body, self.odometry, self.battery);
         // A non-finite or huge step is caught by the model's validation (it reads as 0).
-        #[allow(clippy::cast_possible_truncation)]
         let integration_step_ns = if body.integration_step_ms.is_finite() {
             (body.integration_step_ms * 1e6).round() as i64
         } else {

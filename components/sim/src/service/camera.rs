@@ -325,7 +325,6 @@ impl Service for SimCameraService {
                     }
                     let rate = c.rate.min(self.max_rate_hz);
                     // A rate in (0, max] gives a period of at least `period_ns`.
-                    #[allow(clippy::cast_possible_truncation)]
                     let period = (1e9 / rate).round().min(1e12) as i64;
                     self.frame_period_ns = period.max(self.period_ns);
                     Ok(ctx.reply(ImageSourceSetRateReply {

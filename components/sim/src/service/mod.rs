@@ -118,7 +118,6 @@ fn period_ns(config: &ServiceConfig<'_>, field: &str, rate_hz: f64) -> Result<i6
         ));
     }
     // 1e9 / rate is at most 1e11 for a rate in range: it fits an i64.
-    #[allow(clippy::cast_possible_truncation)]
     Ok((1e9 / rate_hz).round() as i64)
 }
 

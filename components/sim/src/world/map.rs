@@ -52,7 +52,7 @@ impl OccupancyGrid {
         let (w, h) = (w as usize, h as usize);
         Self::from_fn(w, h, metres_per_cell, origin, |column, row| {
             // Row 0 of the grid is the image's last row.
-            #[allow(clippy::cast_possible_truncation)] // both below the image's u32 size
+            // both below the image's u32 size
             let pixel = image.get_pixel(column as u32, (h - 1 - row) as u32);
             pixel.0[0] < WALL_LUMA_THRESHOLD
         })
@@ -85,7 +85,7 @@ impl OccupancyGrid {
     /// The world position of the grid's top-right corner.
     #[must_use]
     pub fn far_corner(&self) -> Vec2 {
-        #[allow(clippy::cast_precision_loss)] // grids are far smaller than 2^52 cells
+        // grids are far smaller than 2^52 cells
         let size = Vec2::new(
             self.width_cells as f64 * self.metres_per_cell,
             self.height_cells as f64 * self.metres_per_cell,
@@ -108,7 +108,7 @@ impl OccupancyGrid {
     #[must_use]
     pub fn cell_of(&self, p: Vec2) -> (i64, i64) {
         let g = (p - self.origin) * (1.0 / self.metres_per_cell);
-        #[allow(clippy::cast_possible_truncation)] // saturating casts of finite floors
+        // saturating casts of finite floors
         (g.x.floor() as i64, g.y.floor() as i64)
     }
 
@@ -134,7 +134,7 @@ impl OccupancyGrid {
         let local = origin - self.origin;
         let step_x: i64 = if dir.x > 0.0 { 1 } else { -1 };
         let step_y: i64 = if dir.y > 0.0 { 1 } else { -1 };
-        #[allow(clippy::cast_precision_loss)] // cell indices are small
+        // cell indices are small
         let boundary = |cell: i64, step: i64| (cell + i64::from(step > 0)) as f64 * size;
         // Distance along the ray to the next vertical and horizontal cell boundary, and
         // the distance between two such boundaries.
@@ -159,13 +159,11 @@ impl OccupancyGrid {
                 column += step_x;
                 let t = t_max_x;
                 t_max_x += t_delta_x;
-                #[allow(clippy::cast_precision_loss)]
                 (t, Vec2::new(-step_x as f64, 0.0))
             } else {
                 row += step_y;
                 let t = t_max_y;
                 t_max_y += t_delta_y;
-                #[allow(clippy::cast_precision_loss)]
                 (t, Vec2::new(0.0, -step_y as f64))
             };
             if t > max_range_m {
@@ -190,7 +188,6 @@ impl OccupancyGrid {
                 if !self.is_occupied(column, row) {
                     continue;
                 }
-                #[allow(clippy::cast_precision_loss)]
                 let lo = self.origin + Vec2::new(column as f64 * size, row as f64 * size);
                 let nearest = Vec2::new(p.x.clamp(lo.x, lo.x + size), p.y.clamp(lo.y, lo.y + size));
                 if (nearest - p).norm() <= radius_m {

@@ -59,7 +59,7 @@ impl Rgb {
     /// This colour scaled by `k` (0 to 1), for shading.
     #[must_use]
     pub fn scaled(self, k: f64) -> Self {
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // clamped to 0..=255
+        // clamped to 0..=255
         let f = |c: u8| (f64::from(c) * k).round().clamp(0.0, 255.0) as u8;
         Self::new(f(self.r), f(self.g), f(self.b))
     }

@@ -385,7 +385,6 @@ impl VideoDevice {
     /// (the camera service drops frames to slow down anyway).
     fn set_rate(&self, rate_hz: f64) {
         // Frames per second as a fraction with a millisecond's precision.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let per_thousand_s = (rate_hz * 1000.0).round().clamp(1.0, 1e9) as u32;
         let mut parm = sys::StreamParm {
             kind: sys::BUF_TYPE_VIDEO_CAPTURE,
