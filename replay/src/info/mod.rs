@@ -7,19 +7,16 @@
 
 mod render;
 mod scan;
-pub(crate) mod summary;
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::dynamic::{Decoder, Value};
-use mcap::McapError;
-use mcap::records::{Channel, Metadata, Statistics};
+use lewis_mcap::records::{Channel, Metadata, Statistics};
+use lewis_mcap::{McapError, McapFile, OpenError, ReadError};
 use serde::Serialize;
 
 use scan::{RawMessage, Scan, ScanGoal, SchemaRecord};
-use summary::SummaryFailure;
 
 /// The name of the metadata record where the recorder stores lost-message counts
 /// (keys: topics, values: decimal counts). When a file has several, the last one counts
@@ -200,19 +197,20 @@ pub fn inspect(path: &Path, options: &InfoOptions) -> Result<InfoReport, InfoErr
         path: path.to_owned(),
         source,
     };
-    let mut file = File::open(path).map_err(io_error)?;
-    let size_bytes = file.metadata().map_err(io_error)?.len();
-    let header = summary::read_header(&mut file, size_bytes)
-        .map_err(io_error)?
-        .map_err(|error| InfoError::NotMcap {
+    let mut file = McapFile::open(path).map_err(|error| match error {
+        OpenError::Io(source) => io_error(source),
+        OpenError::NotMcap { error, .. } => InfoError::NotMcap {
             path: path.to_owned(),
             detail: error.to_string(),
-        })?;
+        },
+    })?;
+    let size_bytes = file.size_bytes();
+    let header = file.header().clone();
     let mut warnings = Vec::new();
-    let summary = match summary::read_summary(&mut file, size_bytes) {
+    let summary = match file.summary() {
         Ok(summary) => summary,
-        Err(SummaryFailure::Io(error)) => return Err(io_error(error)),
-        Err(SummaryFailure::Format(error)) => {
+        Err(ReadError::Io(error)) => return Err(io_error(error)),
+        Err(ReadError::Format(error)) => {
             warnings.push(Warning {
                 kind: WarningKind::SummaryUnreadable,
                 message: format!(
@@ -237,12 +235,12 @@ pub fn inspect(path: &Path, options: &InfoOptions) -> Result<InfoReport, InfoErr
     let report = match usable {
         Some(summary) if !options.scan => builder.report_from_summary(&mut file, &summary, options),
         Some(summary) => {
-            let scan = scan::scan(&mut file, size_bytes, full_scan(options)).map_err(io_error)?;
+            let scan = scan::scan(&mut file, full_scan(options)).map_err(io_error)?;
             builder.check_summary_against_scan(&summary, &scan);
             Ok(builder.report_from_scan(scan))
         }
         None => {
-            let scan = scan::scan(&mut file, size_bytes, full_scan(options)).map_err(io_error)?;
+            let scan = scan::scan(&mut file, full_scan(options)).map_err(io_error)?;
             Ok(builder.report_from_scan(scan))
         }
     };
@@ -267,8 +265,8 @@ struct Builder {
 impl Builder {
     fn report_from_summary(
         &mut self,
-        file: &mut File,
-        summary: &mcap::Summary,
+        file: &mut McapFile,
+        summary: &lewis_mcap::Summary,
         options: &InfoOptions,
     ) -> std::io::Result<InfoReport> {
         let stats = summary.stats.clone().unwrap_or_default();
@@ -282,10 +280,10 @@ impl Builder {
         for index in &summary.metadata_indexes {
             metadata_names.push(index.name.clone());
             if index.name == LOSS_METADATA_NAME {
-                match summary::read_metadata(file, index) {
+                match file.metadata_at(index) {
                     Ok(metadata) => loss_records.push(metadata),
-                    Err(SummaryFailure::Io(error)) => return Err(error),
-                    Err(SummaryFailure::Format(error)) => self.warnings.push(Warning {
+                    Err(ReadError::Io(error)) => return Err(error),
+                    Err(ReadError::Format(error)) => self.warnings.push(Warning {
                         kind: WarningKind::BadLossMetadata,
                         message: format!(
                             "the `{LOSS_METADATA_NAME}` metadata record at byte {} cannot be read: {error}",
@@ -326,7 +324,7 @@ impl Builder {
                 keep_messages: options.messages,
                 stop_when_kept: true,
             };
-            let scan = scan::scan(file, self.size_bytes, goal)?;
+            let scan = scan::scan(file, goal)?;
             let damage = scan.failure.as_ref().map(|error| self.damage(error));
             (scan.messages, damage)
         } else {
@@ -426,7 +424,7 @@ impl Builder {
     }
 
     /// Compares the Statistics record with the other summary records.
-    fn check_statistics(&mut self, summary: &mcap::Summary, stats: &Statistics) {
+    fn check_statistics(&mut self, summary: &lewis_mcap::Summary, stats: &Statistics) {
         let channel_count = summary.channels.len();
         if usize::try_from(stats.channel_count).ok() != Some(channel_count) {
             let without: Vec<String> = sorted(summary.channels.iter())
@@ -492,7 +490,7 @@ impl Builder {
     }
 
     /// Compares the summary's counts with what a full scan found.
-    fn check_summary_against_scan(&mut self, summary: &mcap::Summary, scan: &Scan) {
+    fn check_summary_against_scan(&mut self, summary: &lewis_mcap::Summary, scan: &Scan) {
         let Some(stats) = &summary.stats else {
             return;
         };
