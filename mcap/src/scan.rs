@@ -61,7 +61,7 @@ pub trait Visitor {
 #[derive(Debug)]
 pub struct ScanEnd {
     /// Bytes from the start of the file to the end of the last record handed out (the
-    /// magic included).
+    /// start magic included, the end magic not).
     pub read_bytes: u64,
     /// The visitor asked to stop.
     pub stopped: bool,
