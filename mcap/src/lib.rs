@@ -1,9 +1,11 @@
 //! Lewis MCAP reading: the one reader of recordings that every tool uses (`lewis info`,
 //! replay, the mission log, `lewis recover`, the viewer). It owns how a file is opened,
 //! how its summary and metadata are read, how it is scanned from its start when the
-//! summary is missing or not enough, and how damage is found and reported. It does not
-//! write MCAP (the recorder does), know CDR (`lewis-interfaces` does) or decide what a
-//! tool does with the records.
+//! summary is missing or not enough, and how damage is found and reported; and, in
+//! [`format`], what a Lewis recording holds besides messages (its metadata names, the
+//! versions that wrote it), shared by the recorder that writes it and the tools that read
+//! it. It does not write MCAP (the recorder does), know CDR (`lewis-interfaces` does) or
+//! decide what a tool does with the records.
 //!
 //! - [`McapFile::open`]: the magic and the Header record; a file that lacks them is not
 //!   MCAP ([`OpenError::NotMcap`]).
@@ -27,6 +29,7 @@
 //! classification of what stopped a scan ([`DamageKind`]).
 
 mod file;
+pub mod format;
 mod scan;
 mod time_ordered;
 

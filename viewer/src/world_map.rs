@@ -18,8 +18,8 @@ use crate::ViewError;
 use crate::draw::entity;
 use crate::rows::{ChunkSink, Rows};
 
-/// The metadata record that holds the robot description (`lewis_recorder`'s name for it).
-pub(crate) const ROBOT_METADATA: &str = "lewis.robot";
+/// The metadata record that holds the robot description (written by the recorder).
+pub(crate) use lewis_mcap::format::ROBOT_METADATA;
 
 /// Drawn under everything else of the world view.
 const MAP_DRAW_ORDER: f32 = -100.0;

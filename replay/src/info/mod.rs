@@ -12,6 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::dynamic::{Decoder, Value};
+use lewis_mcap::format::{self, RECORDING_METADATA};
 use lewis_mcap::records::{Channel, Metadata, Statistics};
 use lewis_mcap::{McapError, McapFile, OpenError, ReadError};
 use serde::Serialize;
@@ -21,7 +22,7 @@ use scan::{RawMessage, Scan, ScanGoal, SchemaRecord};
 /// The name of the metadata record where the recorder stores lost-message counts
 /// (keys: topics, values: decimal counts). When a file has several, the last one counts
 /// (the recorder's final tally).
-pub const LOSS_METADATA_NAME: &str = "lewis.loss";
+pub const LOSS_METADATA_NAME: &str = format::LOSS_METADATA;
 
 /// What [`inspect`] reads besides the summary.
 #[derive(Debug, Clone, Default)]
@@ -92,6 +93,42 @@ pub enum WarningKind {
     SummaryUnreadable,
     /// A `lewis.loss` metadata record could not be read.
     BadLossMetadata,
+    /// The `lewis.recording` metadata record could not be read.
+    BadRecordingMetadata,
+}
+
+/// Which versions wrote a Lewis recording, from its `lewis.recording` metadata record.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum WrittenBy {
+    /// The recording says which versions wrote it.
+    Versioned {
+        /// The recording format's version (`lewis_mcap::format::FORMAT_VERSION`).
+        format_version: u32,
+        /// The version of Lewis.
+        lewis_version: String,
+        /// The digest of the interfaces its messages were encoded with.
+        interfaces: String,
+    },
+    /// A Lewis recording made before recordings said which versions wrote them.
+    BeforeVersioning,
+}
+
+impl From<format::WrittenBy> for WrittenBy {
+    fn from(written: format::WrittenBy) -> Self {
+        match written {
+            format::WrittenBy::Versioned {
+                format_version,
+                lewis_version,
+                interfaces,
+            } => Self::Versioned {
+                format_version,
+                lewis_version,
+                interfaces,
+            },
+            format::WrittenBy::BeforeVersioning => Self::BeforeVersioning,
+        }
+    }
 }
 
 /// Why the file could not be read to its end.
@@ -140,6 +177,9 @@ pub struct InfoReport {
     pub profile: String,
     /// The Header's library (the writer).
     pub library: String,
+    /// Which versions of the format, of Lewis and of the interfaces wrote it; `None` when
+    /// Lewis did not write it (no `lewis.recording` metadata).
+    pub written_by: Option<WrittenBy>,
     /// Where the counts come from.
     pub source: CountSource,
     /// Messages in the recording.
@@ -277,8 +317,22 @@ impl Builder {
         }
         let mut metadata_names = Vec::new();
         let mut loss_records = Vec::new();
+        let mut recording_records = Vec::new();
         for index in &summary.metadata_indexes {
             metadata_names.push(index.name.clone());
+            if index.name == RECORDING_METADATA && recording_records.is_empty() {
+                match file.metadata_at(index) {
+                    Ok(metadata) => recording_records.push(metadata),
+                    Err(ReadError::Io(error)) => return Err(error),
+                    Err(ReadError::Format(error)) => self.warnings.push(Warning {
+                        kind: WarningKind::BadRecordingMetadata,
+                        message: format!(
+                            "the `{RECORDING_METADATA}` metadata record at byte {} cannot be read: {error}",
+                            index.offset
+                        ),
+                    }),
+                }
+            }
             if index.name == LOSS_METADATA_NAME {
                 match file.metadata_at(index) {
                     Ok(metadata) => loss_records.push(metadata),
@@ -342,6 +396,7 @@ impl Builder {
             attachment_count: u64::from(stats.attachment_count),
             metadata_names,
             loss_records,
+            recording_records,
             messages,
             damage,
         };
@@ -364,6 +419,13 @@ impl Builder {
                 .retain(|warning| warning.kind != WarningKind::SummaryUnreadable);
         }
         let metadata_names = scan.metadata.iter().map(|m| m.name.clone()).collect();
+        let recording_records = scan
+            .metadata
+            .iter()
+            .filter(|metadata| metadata.name == RECORDING_METADATA)
+            .take(1)
+            .cloned()
+            .collect();
         let loss_records = scan
             .metadata
             .into_iter()
@@ -381,6 +443,7 @@ impl Builder {
             attachment_count: scan.attachment_count,
             metadata_names,
             loss_records,
+            recording_records,
             messages: scan.messages,
             damage,
         };
@@ -518,6 +581,7 @@ impl Builder {
 
     fn finish(&mut self, source: CountSource, contents: Contents) -> InfoReport {
         let lost_messages = self.losses(&contents.loss_records);
+        let written_by = self.written_by(&contents.recording_records);
         let duration_ns = contents
             .start_ns
             .zip(contents.end_ns)
@@ -562,6 +626,7 @@ impl Builder {
             size_bytes: self.size_bytes,
             profile: self.profile.clone(),
             library: self.library.clone(),
+            written_by,
             source,
             message_count: contents.message_count,
             start_ns: contents.start_ns,
@@ -576,6 +641,21 @@ impl Builder {
             warnings: std::mem::take(&mut self.warnings),
             damage: contents.damage,
             messages,
+        }
+    }
+
+    /// Who wrote the recording, from its (first) `lewis.recording` record.
+    fn written_by(&mut self, records: &[Metadata]) -> Option<WrittenBy> {
+        let record = records.first()?;
+        match format::WrittenBy::from_entries(&record.metadata) {
+            Ok(written) => Some(written.into()),
+            Err(message) => {
+                self.warnings.push(Warning {
+                    kind: WarningKind::BadRecordingMetadata,
+                    message,
+                });
+                None
+            }
         }
     }
 
@@ -614,6 +694,8 @@ struct Contents {
     attachment_count: u64,
     metadata_names: Vec<String>,
     loss_records: Vec<Metadata>,
+    /// The first `lewis.recording` record, if any.
+    recording_records: Vec<Metadata>,
     messages: Vec<RawMessage>,
     damage: Option<Damage>,
 }

@@ -19,6 +19,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use lewis_mcap::format::{FORMAT_VERSION, RECORDING_METADATA, WrittenBy};
 use lewis_mcap::{McapFile, OpenError, ReadError, Summary};
 use lewis_recorder::index::{IndexError, PartsIndex};
 use lewis_runtime::robot::{self, Robot, RobotError};
@@ -26,7 +27,7 @@ use lewis_runtime::robot::{self, Robot, RobotError};
 pub use stream::{Messages, RecordedMessage};
 
 /// The metadata record holding the robot description (written by the recorder).
-pub const ROBOT_METADATA: &str = "lewis.robot";
+pub use lewis_mcap::format::ROBOT_METADATA;
 
 /// Why a recording cannot be replayed.
 #[derive(Debug, thiserror::Error)]
@@ -96,6 +97,21 @@ pub enum RecordingError {
         path: PathBuf,
         /// What is wrong with it.
         source: RobotError,
+    },
+    /// A file was written in a recording format newer than this build knows (see
+    /// `lewis_mcap::format::FORMAT_VERSION`): it may hold what this build would misread.
+    #[error(
+        "{path} was written by lewis {lewis_version} in recording format {version}, and this build reads formats up to {supported}: replay it with lewis {lewis_version} or later"
+    )]
+    NewerFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its format version.
+        version: u32,
+        /// The version of Lewis that wrote it.
+        lewis_version: String,
+        /// The newest format this build reads.
+        supported: u32,
     },
     /// A channel's message encoding is not CDR.
     #[error(
@@ -195,6 +211,7 @@ impl RecordingFiles {
                 Ok(None) => return Err(RecordingError::NoSummary { path: path.clone() }),
                 Err(error) => return Err(read_error(path, error)),
             };
+            check_format(&mut file, &summary)?;
             for channel in summary.channels.values() {
                 if channel.message_encoding != "cdr" {
                     return Err(RecordingError::NotCdr {
@@ -443,6 +460,37 @@ impl Recording {
 
 fn as_ns(t: u64) -> i64 {
     i64::try_from(t).unwrap_or(i64::MAX)
+}
+
+/// Refuses a file written in a newer recording format than this build's. A file without
+/// `lewis.recording` (a foreign bag) or without a version (made before versioning) is read
+/// as it always was.
+fn check_format(file: &mut McapFile, summary: &Summary) -> Result<(), RecordingError> {
+    let path = file.path().to_path_buf();
+    let records = file
+        .metadata_named(summary, RECORDING_METADATA)
+        .map_err(|error| read_error(&path, error))?;
+    let Some(record) = records.first() else {
+        return Ok(());
+    };
+    let written =
+        WrittenBy::from_entries(&record.metadata).map_err(|reason| RecordingError::Format {
+            path: path.clone(),
+            reason,
+        })?;
+    match written {
+        WrittenBy::Versioned {
+            format_version,
+            lewis_version,
+            ..
+        } if format_version > FORMAT_VERSION => Err(RecordingError::NewerFormat {
+            path,
+            version: format_version,
+            lewis_version,
+            supported: FORMAT_VERSION,
+        }),
+        _ => Ok(()),
+    }
 }
 
 fn read_error(path: &Path, error: ReadError) -> RecordingError {
