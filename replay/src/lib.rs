@@ -1,5 +1,6 @@
-//! Lewis replay: reading MCAP recordings, deterministic re-simulation in lockstep,
-//! fault injection, comparison reports and live playback.
+//! Lewis replay: reading MCAP recordings (through `lewis-mcap`, which owns the reading),
+//! deterministic re-simulation in lockstep, fault injection, comparison reports and live
+//! playback.
 //!
 //! - [`info`]: what a recording holds (`lewis info`); [`json`]: decoded values as JSON.
 //! - [`recording`]: a recording's files, robot and messages in one total order.
