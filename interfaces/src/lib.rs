@@ -50,3 +50,25 @@ pub fn builtin_idl() -> Result<idl::Idl, idl::Diagnostics> {
 pub fn interface_info(name: &str) -> Option<&'static InterfaceInfo> {
     msg::INTERFACES.iter().find(|i| i.name == name)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_reply_has_a_default_that_its_schema_decodes() {
+        for interface in msg::INTERFACES {
+            for command in interface.commands {
+                let bytes = interface.default_reply(command.name).unwrap();
+                let decoder =
+                    dynamic::Decoder::new(command.reply.name, command.reply.text).unwrap();
+                decoder.decode(&bytes).unwrap();
+            }
+            assert_eq!(interface.default_reply("no_such_command"), None);
+        }
+        assert_eq!(
+            msg::default_message("lewis_interfaces/msg/NoSuchType"),
+            None
+        );
+    }
+}

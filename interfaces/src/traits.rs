@@ -231,3 +231,13 @@ pub struct InterfaceInfo {
     /// Its commands.
     pub commands: &'static [CommandInfo],
 }
+
+impl InterfaceInfo {
+    /// The CDR bytes of the reply to `command` with every field at its default (zeros,
+    /// empty strings and sequences), or `None` when the interface has no such command.
+    #[must_use]
+    pub fn default_reply(&self, command: &str) -> Option<Vec<u8>> {
+        let reply = self.commands.iter().find(|c| c.name == command)?.reply;
+        crate::msg::default_message(reply.name)
+    }
+}

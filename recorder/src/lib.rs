@@ -13,8 +13,10 @@
 //!   with message indexes, chunk indexes, statistics and a summary.
 //! - File metadata: `lewis.interfaces` (every interface XML and `types.xml`, keyed by file
 //!   name), `lewis.robot` (the robot description TOML, keyed by its file name),
-//!   `lewis.recording` (recorder version, part number), and at close `lewis.loss` (lost
-//!   messages per topic). Metadata rather than attachments: they are small texts that
+//!   `lewis.recording` (recorder version, part number, and which versions of the recording
+//!   format, of Lewis and of the interfaces wrote it: `lewis_mcap::format::WrittenBy`), and
+//!   at close `lewis.loss` (lost messages per topic). The names are `lewis_mcap::format`'s,
+//!   shared with the tools that read them. Metadata rather than attachments: they are small texts that
 //!   tools list with the summary (`pymcap-cli info`, Foxglove's metadata panel) without
 //!   reading the data section.
 //! - Loss accounting ([`loss`]): sequence gaps per channel, a restart at 1 being a new run;

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{Header, RecorderStats};
 use lewis_interfaces::{Interface, Struct, cdr};
+use lewis_mcap::format::WrittenBy;
 use mcap::records::Metadata;
 
 use crate::channel::{ChannelId, ChannelSpec, Sample};
@@ -19,14 +20,9 @@ use crate::part::{Part, metadata};
 
 /// The topic of the recorder's own accounting ([`RecorderStats`]).
 pub const STATS_TOPIC: &str = "/lewis/recorder/stats";
-/// File metadata: lost messages per topic, at close (`lewis info` reads it).
-pub const LOSS_METADATA: &str = "lewis.loss";
-/// File metadata: the interface XML, keyed by file name (`types.xml`, `RangeFinder.xml`).
-pub const INTERFACES_METADATA: &str = "lewis.interfaces";
-/// File metadata: the robot description, keyed by its file name.
-pub const ROBOT_METADATA: &str = "lewis.robot";
-/// File metadata: about the recording (recorder version, part number, parts index).
-pub const RECORDING_METADATA: &str = "lewis.recording";
+pub use lewis_mcap::format::{
+    INTERFACES_METADATA, LOSS_METADATA, RECORDING_METADATA, ROBOT_METADATA,
+};
 
 /// What a closed recording holds.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -177,7 +173,6 @@ impl Recorder {
         channel.total.add(observation);
         let result = match &mut self.part {
             // The MCAP sequence field is 32 bits: the full number is in the CDR header.
-            #[allow(clippy::cast_possible_truncation)]
             Some(part) => part.write(
                 index + 1,
                 sample.seq as u32,
@@ -486,7 +481,6 @@ impl Recorder {
             restarts: counts.values().map(|c| as_i64(c.restarts)).collect(),
         };
         let bytes = cdr::to_vec(&stats);
-        #[allow(clippy::cast_possible_truncation)]
         let sequence = self.stats_seq as u32;
         let result = match &mut self.part {
             Some(part) => part.write(0, sequence, now_ns, now_ns, &bytes),
@@ -496,7 +490,10 @@ impl Recorder {
     }
 
     fn recording_metadata(&self) -> Metadata {
-        let mut entries = BTreeMap::from([
+        // Every crate of Lewis has the workspace's version: the recorder's is Lewis's.
+        let mut entries =
+            WrittenBy::current(env!("CARGO_PKG_VERSION"), &interface_files()).entries();
+        entries.extend([
             (
                 "recorder".to_owned(),
                 format!("lewis-recorder {}", env!("CARGO_PKG_VERSION")),
@@ -527,8 +524,9 @@ fn by_topic<'a>(
 }
 
 /// The metadata every file carries: the interface XML and the robot description.
-fn file_metadata(options: &RecorderOptions) -> Vec<Metadata> {
-    let interfaces: BTreeMap<String, String> = lewis_interfaces::msg::TYPES_XML
+/// The entries of `lewis.interfaces`: every interface XML and `types.xml`, by file name.
+fn interface_files() -> BTreeMap<String, String> {
+    lewis_interfaces::msg::TYPES_XML
         .iter()
         .map(|(file, xml)| ((*file).to_owned(), (*xml).to_owned()))
         .chain(
@@ -536,8 +534,11 @@ fn file_metadata(options: &RecorderOptions) -> Vec<Metadata> {
                 .iter()
                 .map(|i| (format!("{}.xml", i.name), i.xml.to_owned())),
         )
-        .collect();
-    let mut records = vec![metadata(INTERFACES_METADATA, interfaces)];
+        .collect()
+}
+
+fn file_metadata(options: &RecorderOptions) -> Vec<Metadata> {
+    let mut records = vec![metadata(INTERFACES_METADATA, interface_files())];
     if let Some(robot) = &options.robot_description {
         records.push(robot_metadata(robot));
     }

@@ -1,6 +1,6 @@
 //! Repair of a recording whose writer died (SIGKILL, power cut, full disk): every complete
-//! record up to the first damaged one is copied into a new file, which gets fresh message
-//! and chunk indexes, statistics, a summary and a footer.
+//! record up to the first damaged one (as `lewis_mcap`'s scan finds them) is copied into a
+//! new file, which gets fresh message and chunk indexes, statistics, a summary and a footer.
 //!
 //! Chunks are copied one for one (decompressed, checked against their CRC, written again
 //! with the same compression and the same boundaries); a chunk cut short, or whose CRC
@@ -8,23 +8,15 @@
 
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
-use std::io::{BufWriter, Read};
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use mcap::read::ChunkReader;
-use mcap::records::Record;
-use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use lewis_mcap::records::Record;
+use lewis_mcap::{At, Flow, McapFile, OpenError, ScanError, Visitor};
 use mcap::{Attachment, McapError, Writer};
 use thiserror::Error;
 
 use crate::part::write_options;
-
-/// Bytes read from the broken file at a time.
-const READ_BYTES: usize = 1024 * 1024;
-/// Magic bytes at the start of an MCAP file.
-const MAGIC_BYTES: u64 = 8;
-/// Opcode and length before every record's body.
-const RECORD_PREFIX_BYTES: u64 = 9;
 
 /// What a repair kept and lost.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -108,92 +100,29 @@ pub fn recover(broken: &Path, fixed: &Path) -> Result<RecoverReport, RecoverErro
         path: broken.to_path_buf(),
         source,
     };
-    let mut input = File::open(broken).map_err(read_error)?;
-    let input_size = input.metadata().map_err(read_error)?.len();
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_emit_chunks(true)
-            .with_validate_chunk_crcs(false)
-            .with_validate_data_section_crc(false)
-            .with_validate_summary_section_crc(false)
-            // No record is longer than the file: a chunk whose header still has the
-            // writer's placeholder length (all ones) is then an error, not an overflow.
-            .with_record_length_limit(usize::try_from(input_size).unwrap_or(usize::MAX)),
-    );
-    let mut copier = Copier::new(broken, fixed);
-    let mut offset = 0_u64;
-    let mut started = false;
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(need)) => {
-                let buffer = reader.insert(need.clamp(1, READ_BYTES));
-                let n = input.read(buffer).map_err(read_error)?;
-                reader.notify_read(n);
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => {
-                if !started {
-                    started = true;
-                    offset = MAGIC_BYTES;
-                }
-                let record_bytes = RECORD_PREFIX_BYTES + data.len() as u64;
-                let record = match mcap::parse_record(opcode, data) {
-                    Ok(record) => record,
-                    Err(error) => {
-                        copier.damage(offset, &format!("a record that does not parse ({error})"));
-                        break;
-                    }
-                };
-                match copier.copy(record, offset)? {
-                    Flow::Continue => offset += record_bytes,
-                    Flow::DataEnd => {
-                        offset += record_bytes;
-                        copier.report.input_complete = true;
-                        break;
-                    }
-                    Flow::Damaged => break,
-                }
-            }
-            Err(error) => {
-                if !started {
-                    return Err(RecoverError::NotMcap {
-                        path: broken.to_path_buf(),
-                        reason: error.to_string(),
-                    });
-                }
-                let what = match error {
-                    McapError::UnexpectedEof => {
-                        "a record cut short by the end of the file".to_owned()
-                    }
-                    McapError::RecordTooLarge { .. } => {
-                        "an unfinished record (its length runs past the end of the file)".to_owned()
-                    }
-                    other => format!("an unreadable record ({other})"),
-                };
-                copier.damage(offset, &what);
-                break;
-            }
-        }
-    }
-    if !started {
-        return Err(RecoverError::NotMcap {
+    let mut input = McapFile::open(broken).map_err(|error| match error {
+        OpenError::Io(source) => read_error(source),
+        OpenError::NotMcap { error, .. } => RecoverError::NotMcap {
             path: broken.to_path_buf(),
-            reason: "the file is empty or has no MCAP header".to_owned(),
-        });
+            reason: error.to_string(),
+        },
+    })?;
+    let mut copier = Copier::new(broken, fixed);
+    let end = input.scan(&mut copier).map_err(|error| match error {
+        ScanError::Io(source) => read_error(source),
+        ScanError::Visitor(error) => error,
+    })?;
+    if let Some(damage) = &end.damage {
+        copier.damage(damage.offset, &damage.what());
     }
     let mut report = copier.finish()?;
-    report.valid_bytes = offset.min(input_size);
+    report.valid_bytes = end.read_bytes;
     report.discarded_bytes = if report.input_complete {
         0
     } else {
-        input_size.saturating_sub(report.valid_bytes)
+        input.size_bytes().saturating_sub(report.valid_bytes)
     };
     Ok(report)
-}
-
-enum Flow {
-    Continue,
-    DataEnd,
-    Damaged,
 }
 
 /// The output side: an MCAP writer created at the first record (the Header gives the
@@ -251,36 +180,23 @@ impl<'a> Copier<'a> {
         Ok(self.writer.insert(writer))
     }
 
-    fn copy(&mut self, record: Record<'_>, offset: u64) -> Result<Flow, RecoverError> {
+    fn copy(&mut self, record: Record<'_>) -> Result<Flow, RecoverError> {
         let fixed = self.fixed;
         match record {
             Record::Header(header) => self.profile = header.profile,
-            Record::Chunk { header, data } => {
-                if self.compression.is_none() {
-                    self.compression = Some(match header.compression.as_str() {
+            // Its records follow (the scan checked the whole chunk first), then `chunk_end`.
+            Record::Chunk { header, .. } => {
+                self.compression
+                    .get_or_insert(match header.compression.as_str() {
                         "zstd" => Some(mcap::Compression::Zstd),
                         "lz4" => Some(mcap::Compression::Lz4),
                         _ => None,
                     });
-                }
-                let staged: Result<Vec<Record<'static>>, McapError> =
-                    ChunkReader::new(header, &data)
-                        .and_then(|records| records.map(|r| r.map(Record::into_owned)).collect());
-                let staged = match staged {
-                    Ok(staged) => staged,
-                    Err(error) => {
-                        self.damage(offset, &format!("a chunk that does not decode ({error})"));
-                        return Ok(Flow::Damaged);
-                    }
-                };
-                for record in staged {
-                    self.copy_inner(record)?;
-                }
-                let writer = self.writer()?;
-                writer.flush().map_err(|e| write_error(fixed, e))?;
-                self.report.chunks += 1;
             }
-            Record::DataEnd(_) | Record::Footer(_) => return Ok(Flow::DataEnd),
+            Record::DataEnd(_) | Record::Footer(_) => {
+                self.report.input_complete = true;
+                return Ok(Flow::Stop);
+            }
             Record::Metadata(metadata) => {
                 let writer = self.writer()?;
                 writer
@@ -368,6 +284,28 @@ impl<'a> Copier<'a> {
             })?;
         }
         Ok(self.report)
+    }
+}
+
+impl Visitor for Copier<'_> {
+    type Error = RecoverError;
+
+    fn record(&mut self, at: At, record: Record<'_>) -> Result<Flow, RecoverError> {
+        if at.in_chunk {
+            self.copy_inner(record)?;
+            Ok(Flow::Continue)
+        } else {
+            self.copy(record)
+        }
+    }
+
+    /// A chunk of the input is a chunk of the output: same boundaries.
+    fn chunk_end(&mut self, _offset: u64) -> Result<Flow, RecoverError> {
+        let fixed = self.fixed;
+        let writer = self.writer()?;
+        writer.flush().map_err(|e| write_error(fixed, e))?;
+        self.report.chunks += 1;
+        Ok(Flow::Continue)
     }
 }
 

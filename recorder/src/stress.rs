@@ -43,7 +43,6 @@ fn header(provider: String, seq: u64, publish_time_ns: i64) -> Header {
 /// A small message of channel `channel`: a Distance with 8 sectors.
 #[must_use]
 pub fn small_message(channel: usize, seq: u64, publish_time_ns: i64) -> Distance {
-    #[allow(clippy::cast_precision_loss)]
     let base = seq as f64 * 0.001 + channel as f64;
     Distance {
         header: header(small_provider(channel), seq, publish_time_ns),
@@ -63,7 +62,6 @@ pub fn small_message(channel: usize, seq: u64, publish_time_ns: i64) -> Distance
 pub fn image_pixels(seq: u64) -> Vec<u8> {
     let mut data = vec![0_u8; IMAGE_WIDTH * IMAGE_HEIGHT * 3];
     let mut noise = seq.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    #[allow(clippy::cast_possible_truncation)]
     let shift = seq as usize;
     for (i, px) in data.iter_mut().enumerate() {
         noise ^= noise << 13;
@@ -71,7 +69,6 @@ pub fn image_pixels(seq: u64) -> Vec<u8> {
         noise ^= noise << 17;
         let x = (i / 3) % IMAGE_WIDTH;
         let y = i / 3 / IMAGE_WIDTH;
-        #[allow(clippy::cast_possible_truncation)]
         let value = ((x + y + shift) as u8) ^ ((noise & 0x7) as u8);
         *px = value;
     }
@@ -81,7 +78,6 @@ pub fn image_pixels(seq: u64) -> Vec<u8> {
 /// Frame `seq` with the given pixels.
 #[must_use]
 pub fn image_message(seq: u64, publish_time_ns: i64, pixels: Vec<u8>) -> ImageSource {
-    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
     ImageSource {
         header: header(IMAGE_PROVIDER.to_owned(), seq, publish_time_ns),
         width: IMAGE_WIDTH as i32,

@@ -455,7 +455,6 @@ fn same_value(
 }
 
 /// A value as a number, when it is one.
-#[allow(clippy::cast_precision_loss)]
 fn number(value: &Value) -> Option<f64> {
     match value {
         Value::Int(i) => Some(*i as f64),

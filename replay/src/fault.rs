@@ -239,7 +239,6 @@ impl FaultSpec {
 #[must_use]
 pub fn format_seconds(ns: i64) -> String {
     // For display only: the rounding of large values does not matter.
-    #[allow(clippy::cast_precision_loss)]
     let seconds = ns as f64 / 1e9;
     let text = format!("{seconds:.3}");
     let text = text.trim_end_matches('0').trim_end_matches('.');

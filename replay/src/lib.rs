@@ -1,5 +1,6 @@
-//! Lewis replay: reading MCAP recordings, deterministic re-simulation in lockstep,
-//! fault injection, comparison reports and live playback.
+//! Lewis replay: reading MCAP recordings (through `lewis-mcap`, which owns the reading),
+//! deterministic re-simulation in lockstep, fault injection, comparison reports and live
+//! playback.
 //!
 //! - [`info`]: what a recording holds (`lewis info`); [`json`]: decoded values as JSON.
 //! - [`recording`]: a recording's files, robot and messages in one total order.
@@ -9,7 +10,7 @@
 //!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
 //! - [`play`]: `lewis play`, a recording published into live IPC at its recorded pace.
 //! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
-//! - [`bench`]: measures of replay's speed and memory (`lewis bench`).
+//! - [`bench`](mod@bench): measures of replay's speed and memory (`lewis bench`).
 
 pub mod bench;
 pub mod compare;

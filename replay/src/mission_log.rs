@@ -1,27 +1,26 @@
 //! Reading the sequencer's records back from an MCAP recording: the messages of the
 //! `/lewis/sequencer` channel, CDR of the `Sequencer` interface, in file order.
 //!
-//! The file is read once from its start, chunk by chunk, so a recording of any size needs
-//! little memory. A file cut short (its writer died) gives the records before the cut,
+//! The file is read once from its start, chunk by chunk (`lewis_mcap`'s scan), so a
+//! recording of any size needs little memory. A file cut short (its writer died) gives the records before the cut,
 //! with the cut said ([`McapRecords::cut`]): a mission recorded until a crash can still be
 //! replayed up to it.
 
 use std::collections::BTreeSet;
-use std::fs::File;
-use std::io::{self, Read};
+use std::io;
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::Sequencer as SequencerMessage;
+use lewis_mcap::records::Record as McapRecord;
+use lewis_mcap::{At, Flow, McapFile, OpenError, ScanError, Visitor};
 use lewis_runtime::names::SEQUENCER_CHANNEL;
-use mcap::records::Record as McapRecord;
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use lewis_sequencer::message::{MessageError, from_message};
 use lewis_sequencer::record::Record;
 
 /// The first bytes of every MCAP file.
-pub const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+pub const MCAP_MAGIC: &[u8] = lewis_mcap::MAGIC;
 
 /// The sequencer's records could not be read from a recording.
 #[derive(Debug, thiserror::Error)]
@@ -40,7 +39,7 @@ pub enum McapReadError {
         /// The file.
         path: PathBuf,
         /// What the MCAP reader said.
-        error: mcap::McapError,
+        error: lewis_mcap::McapError,
     },
     /// A message on the channel is not a `Sequencer` publication.
     #[error("{path}: message {index} of {channel} (log time {log_time_ns} ns): {error}")]
@@ -94,18 +93,7 @@ pub struct McapRecords {
 /// # Errors
 /// When it cannot be opened or read.
 pub fn is_mcap(path: &Path) -> io::Result<bool> {
-    let mut start = [0u8; MCAP_MAGIC.len()];
-    let mut file = File::open(path)?;
-    let mut filled = 0;
-    while filled < start.len() {
-        match file.read(&mut start[filled..]) {
-            Ok(0) => return Ok(false),
-            Ok(n) => filled += n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(start == MCAP_MAGIC)
+    lewis_mcap::starts_like_mcap(path)
 }
 
 /// Reads every record published on `/lewis/sequencer` from the MCAP file at `path`.
@@ -114,53 +102,39 @@ pub fn is_mcap(path: &Path) -> io::Result<bool> {
 /// When the file cannot be read, is not MCAP, has no such channel, or holds a message that
 /// is not a record.
 pub fn read_mcap(path: &Path) -> Result<McapRecords, McapReadError> {
-    let io_error = |error| McapReadError::Io {
-        path: path.to_owned(),
-        error,
-    };
-    let mut file = File::open(path).map_err(io_error)?;
-    let size = file.metadata().map_err(io_error)?.len();
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_record_length_limit(usize::try_from(size).unwrap_or(usize::MAX)),
-    );
-    let mut channels = BTreeSet::new();
+    let mut file = McapFile::open(path).map_err(|error| match error {
+        OpenError::Io(error) => McapReadError::Io {
+            path: path.to_owned(),
+            error,
+        },
+        OpenError::NotMcap { error, .. } => McapReadError::Format {
+            path: path.to_owned(),
+            error,
+        },
+    })?;
     let mut found = Found {
         path,
+        channels: BTreeSet::new(),
         records: Vec::new(),
     };
-    let mut cut = None;
-    while let Some(event) = reader.next_event() {
-        let record = match event {
-            Ok(LinearReadEvent::ReadRequest(wanted)) => {
-                let read = read_some(&mut file, reader.insert(wanted)).map_err(io_error)?;
-                reader.notify_read(read);
-                continue;
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => mcap::parse_record(opcode, data),
-            Err(error) => Err(error),
-        };
-        match record {
-            Ok(McapRecord::Channel(channel)) if channel.topic == SEQUENCER_CHANNEL => {
-                channels.insert(channel.id);
-            }
-            Ok(McapRecord::Message { header, data }) if channels.contains(&header.channel_id) => {
-                found.add(header.log_time, &data)?;
-            }
-            Ok(_) => {}
-            Err(error) if channels.is_empty() => {
-                return Err(McapReadError::Format {
-                    path: path.to_owned(),
-                    error,
-                });
-            }
-            Err(error) => {
-                cut = Some(error.to_string());
-                break;
-            }
+    let end = file.scan(&mut found).map_err(|error| match error {
+        ScanError::Io(error) => McapReadError::Io {
+            path: path.to_owned(),
+            error,
+        },
+        ScanError::Visitor(error) => error,
+    })?;
+    let cut = match end.damage {
+        Some(damage) if found.channels.is_empty() => {
+            return Err(McapReadError::Format {
+                path: path.to_owned(),
+                error: damage.error,
+            });
         }
-    }
-    if channels.is_empty() {
+        Some(damage) => Some(damage.to_string()),
+        None => None,
+    };
+    if found.channels.is_empty() {
         return Err(McapReadError::NoChannel {
             path: path.to_owned(),
             channel: SEQUENCER_CHANNEL,
@@ -172,9 +146,28 @@ pub fn read_mcap(path: &Path) -> Result<McapRecords, McapReadError> {
     })
 }
 
+/// The scan's visitor: the channels on `/lewis/sequencer` and their records.
 struct Found<'p> {
     path: &'p Path,
+    channels: BTreeSet<u16>,
     records: Vec<Record>,
+}
+
+impl Visitor for Found<'_> {
+    type Error = McapReadError;
+
+    fn record(&mut self, _at: At, record: McapRecord<'_>) -> Result<Flow, McapReadError> {
+        match record {
+            McapRecord::Channel(channel) if channel.topic == SEQUENCER_CHANNEL => {
+                self.channels.insert(channel.id);
+            }
+            McapRecord::Message { header, data } if self.channels.contains(&header.channel_id) => {
+                self.add(header.log_time, &data)?;
+            }
+            _ => {}
+        }
+        Ok(Flow::Continue)
+    }
 }
 
 impl Found<'_> {
@@ -196,14 +189,5 @@ impl Found<'_> {
         })?;
         self.records.push(record);
         Ok(())
-    }
-}
-
-fn read_some(file: &mut File, buffer: &mut [u8]) -> io::Result<usize> {
-    loop {
-        match file.read(buffer) {
-            Err(error) if error.kind() == io::ErrorKind::Interrupted => {}
-            other => return other,
-        }
     }
 }

@@ -291,7 +291,6 @@ impl FaultWatch {
 
 fn ms(ns: i64) -> String {
     // For display only.
-    #[allow(clippy::cast_precision_loss)]
     let ms = ns as f64 / 1e6;
     format!("{ms:.1} ms")
 }

@@ -11,6 +11,8 @@
 //! - with the laser stalled half-way (`--inject-fault laser`), the broker moves the avoider
 //!   to the sonar within the heartbeat deadline of virtual time, the avoider goes on with
 //!   sonar readings, and its commands to the VectorMover change, the same way every time.
+//! - it was made before recordings said which versions wrote them: `lewis info` says so,
+//!   it replays all the same, and the file its replay writes says which versions wrote it.
 //!
 //! The replays run from the repository's root: the recorded robot names its world
 //! relative to it, and the sonar that a fault starts renders from that world.
@@ -21,7 +23,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::Duration;
 
-use lewis_tests::{lewis_exe, repo_root, wait_child_within};
+use lewis_tests::{lewis_exe, repo_root, run_ok, wait_child_within};
 use serde_json::Value;
 
 /// The reference recording, from the repository's root.
@@ -141,6 +143,43 @@ fn the_reference_replays_exactly_and_twice_to_the_same_bytes() {
     let second = replay(&dir.path().join("b"), "out", &["--check"]);
     assert!(second.status.success(), "{}", second.text);
     same_bytes(&first.output, &second.output);
+}
+
+/// `lewis info --json FILE`.
+fn info(file: &Path) -> Value {
+    let out = run_ok(
+        Command::new(lewis_exe())
+            .arg("info")
+            .arg("--json")
+            .arg(file),
+    );
+    serde_json::from_str(&out).unwrap()
+}
+
+#[test]
+fn the_reference_predates_versioning_and_its_replay_says_which_versions_wrote_it() {
+    // Made by the code as it was before recordings said which versions wrote them: still
+    // read, and said to be so.
+    let reference = info(&repo_root().join(REFERENCE));
+    assert_eq!(reference["written_by"]["kind"], "before_versioning");
+    let dir = tempfile::tempdir().unwrap();
+    let replayed = replay(dir.path(), "out", &["--check"]);
+    assert!(replayed.status.success(), "{}", replayed.text);
+    assert_eq!(replayed.report["check"]["passed"], true);
+    let written = info(&replayed.output)["written_by"].clone();
+    assert_eq!(written["kind"], "versioned", "{written}");
+    assert_eq!(written["format_version"], 1, "{written}");
+    assert_eq!(
+        written["lewis_version"],
+        env!("CARGO_PKG_VERSION"),
+        "{written}"
+    );
+    assert!(
+        written["interfaces"]
+            .as_str()
+            .is_some_and(|d| d.starts_with("crc32:")),
+        "{written}"
+    );
 }
 
 #[test]

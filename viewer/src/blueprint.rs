@@ -162,7 +162,6 @@ fn uuid(n: u64) -> Uuid {
     let hex: Vec<u8> = text.bytes().filter(u8::is_ascii_hexdigit).collect();
     for (byte, pair) in bytes.iter_mut().zip(hex.chunks(2)) {
         let digit = |c: u8| char::from(c).to_digit(16).unwrap_or(0);
-        #[allow(clippy::cast_possible_truncation)]
         {
             *byte = (digit(pair[0]) * 16 + digit(pair[1])) as u8;
         }

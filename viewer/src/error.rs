@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-/// Why [`crate::convert`] stopped. A recording that is damaged part-way is not an error: what
+/// Why [`crate::view`] stopped. A recording that is damaged part-way is not an error: what
 /// could be read is shown and the damage is reported in [`crate::ViewReport::damage`].
 #[derive(Debug, thiserror::Error)]
 pub enum ViewError {

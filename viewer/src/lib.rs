@@ -1,6 +1,7 @@
 //! Lewis viewer: turns Lewis recordings (MCAP) into a Rerun recording that shows a run at a
 //! glance, written to an .rrd file or sent to a Rerun viewer. The only crate that depends on
-//! `rerun`; it reads MCAP and decodes with `lewis-interfaces`, and runs nothing.
+//! `rerun`; it reads MCAP through `lewis-mcap`, decodes with `lewis-interfaces`, and runs
+//! nothing.
 //!
 //! Rerun opens MCAP files itself, but draws no laser scan, knows none of our interfaces
 //! and nothing of a failover. Here every message is drawn on the recording's own time

@@ -1,16 +1,14 @@
-//! Reading MCAP files record by record from the start, as far as they can be read, without
-//! holding more than one chunk in memory. A file cut short (a writer that died) is read up
-//! to the damage, which is reported rather than fatal.
+//! What the viewer takes from an MCAP file: its channels with their schemas, its messages
+//! in file order, its metadata. The reading is `lewis_mcap`'s scan (from the start, one
+//! chunk in memory at a time); a file cut short (a writer that died) is read up to the
+//! damage, which is reported rather than fatal.
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{self, Read};
 use std::path::Path;
 use std::sync::Arc;
 
-use mcap::read::ChunkReader;
-use mcap::records::Record;
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use lewis_mcap::records::Record;
+use lewis_mcap::{At, Flow, MAGIC, McapFile, OpenError, ScanError, Visitor};
 
 use crate::ViewError;
 
@@ -66,81 +64,48 @@ pub(crate) fn read_file(
         path: path.to_owned(),
         source,
     };
-    let mut file = File::open(path).map_err(read_error)?;
-    let size = file.metadata().map_err(read_error)?.len();
-    let mut magic = [0_u8; 8];
-    let got = read_some(&mut file, &mut magic).map_err(read_error)?;
-    if got < magic.len() || &magic[..] != mcap::MAGIC {
-        return Err(ViewError::NotMcap {
+    let mut file = McapFile::open(path).map_err(|error| match error {
+        OpenError::Io(source) => read_error(source),
+        OpenError::NotMcap { start, error } => ViewError::NotMcap {
             path: path.to_owned(),
-            detail: format!("it starts with {:02x?}", &magic[..got]),
-        });
+            detail: if start == MAGIC {
+                error.to_string()
+            } else {
+                format!("it starts with {start:02x?}")
+            },
+        },
+    })?;
+    let mut state = State {
+        schemas: BTreeMap::new(),
+        channels: BTreeMap::new(),
+        outcome: ReadOutcome::default(),
+        on_message,
+        on_progress,
+    };
+    let end = file.scan(&mut state).map_err(|error| match error {
+        ScanError::Io(source) => read_error(source),
+        ScanError::Visitor(error) => error,
+    })?;
+    let mut outcome = state.outcome;
+    if outcome.damage.is_none() {
+        outcome.damage = end.damage.map(|damage| damage.to_string());
     }
-    let mut file = File::open(path).map_err(read_error)?;
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_emit_chunks(true)
-            .with_record_length_limit(usize::try_from(size).unwrap_or(usize::MAX)),
-    );
-    let mut state = State::default();
-    let mut bytes_read = 0_u64;
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(wanted)) => {
-                let read = read_some(&mut file, reader.insert(wanted)).map_err(read_error)?;
-                bytes_read += read as u64;
-                on_progress(bytes_read);
-                reader.notify_read(read);
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => {
-                let record = match mcap::parse_record(opcode, data) {
-                    Ok(record) => record,
-                    Err(error) => {
-                        state.outcome.damage = Some(error.to_string());
-                        break;
-                    }
-                };
-                if let Err(damage) = state.record(record, on_message)? {
-                    state.outcome.damage = Some(damage);
-                    break;
-                }
-            }
-            Err(error) => {
-                state.outcome.damage = Some(error.to_string());
-                break;
-            }
-        }
-    }
-    Ok(state.outcome)
+    Ok(outcome)
 }
 
-fn read_some(file: &mut File, buffer: &mut [u8]) -> io::Result<usize> {
-    let mut filled = 0;
-    while filled < buffer.len() {
-        match file.read(&mut buffer[filled..]) {
-            Ok(0) => break,
-            Ok(read) => filled += read,
-            Err(error) if error.kind() == io::ErrorKind::Interrupted => {}
-            Err(error) => return Err(error),
-        }
-    }
-    Ok(filled)
-}
-
-#[derive(Default)]
-struct State {
+/// The scan's visitor: channels with their schemas, each message handed on.
+struct State<'a> {
     schemas: BTreeMap<u16, (String, String, Vec<u8>)>,
     channels: BTreeMap<u16, Arc<ChannelInfo>>,
     outcome: ReadOutcome,
+    on_message: &'a mut dyn FnMut(MessageRef<'_>) -> Result<(), ViewError>,
+    on_progress: &'a mut dyn FnMut(u64),
 }
 
-impl State {
-    /// `Ok(Err(damage))` when the file's content is broken; `Err` when the callback failed.
-    fn record(
-        &mut self,
-        record: Record<'_>,
-        on_message: &mut dyn FnMut(MessageRef<'_>) -> Result<(), ViewError>,
-    ) -> Result<Result<(), String>, ViewError> {
+impl Visitor for State<'_> {
+    type Error = ViewError;
+
+    fn record(&mut self, _at: At, record: Record<'_>) -> Result<Flow, ViewError> {
         match record {
             Record::Schema { header, data } => {
                 self.schemas
@@ -167,32 +132,18 @@ impl State {
                 // A message on an undeclared channel cannot be interpreted; MCAP requires the
                 // channel first, so this is damage.
                 let Some(channel) = self.channels.get(&header.channel_id) else {
-                    return Ok(Err(format!(
+                    self.outcome.damage = Some(format!(
                         "a message on channel {} comes before that channel's record",
                         header.channel_id
-                    )));
+                    ));
+                    return Ok(Flow::Stop);
                 };
-                on_message(MessageRef {
+                (self.on_message)(MessageRef {
                     channel,
                     log_time_ns: header.log_time,
                     publish_time_ns: header.publish_time,
                     data: &data,
                 })?;
-            }
-            Record::Chunk { header, data } => {
-                let records = match ChunkReader::new(header, &data) {
-                    Ok(records) => records,
-                    Err(error) => return Ok(Err(error.to_string())),
-                };
-                for inner in records {
-                    let inner = match inner {
-                        Ok(inner) => inner,
-                        Err(error) => return Ok(Err(error.to_string())),
-                    };
-                    if let Err(damage) = self.record(inner, on_message)? {
-                        return Ok(Err(damage));
-                    }
-                }
             }
             Record::Metadata(metadata) => {
                 self.outcome
@@ -201,6 +152,10 @@ impl State {
             }
             _ => {}
         }
-        Ok(Ok(()))
+        Ok(Flow::Continue)
+    }
+
+    fn progress(&mut self, bytes_read: u64) {
+        (self.on_progress)(bytes_read);
     }
 }

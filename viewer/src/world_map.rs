@@ -18,8 +18,8 @@ use crate::ViewError;
 use crate::draw::entity;
 use crate::rows::{ChunkSink, Rows};
 
-/// The metadata record that holds the robot description (`lewis_recorder`'s name for it).
-pub(crate) const ROBOT_METADATA: &str = "lewis.robot";
+/// The metadata record that holds the robot description (written by the recorder).
+pub(crate) use lewis_mcap::format::ROBOT_METADATA;
 
 /// Drawn under everything else of the world view.
 const MAP_DRAW_ORDER: f32 = -100.0;
@@ -217,7 +217,6 @@ pub(crate) fn log(
     map: &WorldMap,
 ) -> Result<(), ViewError> {
     let path = entity(["world", "map"]);
-    #[allow(clippy::cast_possible_truncation)]
     let (mpp, x0, top) = (
         map.metres_per_pixel as f32,
         map.origin_m[0] as f32,

@@ -10,11 +10,13 @@
 
 mod decode;
 mod encode;
+mod header;
 mod in_place;
 mod view;
 
 pub use decode::{Decode, DecodeError, DecodeErrorKind, Reader, decode_le_vec};
 pub use encode::{Encode, EncodeError, Sink, SizeSink, SliceSink, VecSink, encode_le_slice};
+pub use header::{ReplaceHeaderError, peek_header, replace_header};
 pub use in_place::{BulkParts, LeSliceMut, bulk_len, reserve_bulk};
 pub use view::{DecodeView, LeItem, LeSlice, SeqIter, SeqView, ViewToOwned};
 

@@ -727,6 +727,35 @@ fn emit_interface(out: &mut String, interface: &Interface) {
     }
 }
 
+/// `default_message`: the encoding of a struct's default, found by its schema name, for
+/// callers that know a schema but no Rust type (replay answering for a service that is not
+/// there).
+fn emit_default_message(out: &mut String, idl: &Idl) {
+    let _ = writeln!(
+        out,
+        "/// The CDR bytes of the struct whose schema is `schema_name` (`{PACKAGE}/msg/Name`) with"
+    );
+    let _ = writeln!(
+        out,
+        "/// every field at its default (zeros, empty strings and sequences), or `None` when no"
+    );
+    let _ = writeln!(out, "/// struct of this crate has that schema.");
+    let _ = writeln!(out, "#[must_use]");
+    let _ = writeln!(
+        out,
+        "pub fn default_message(schema_name: &str) -> Option<Vec<u8>> {{"
+    );
+    let _ = writeln!(out, "    match schema_name {{");
+    for ty in idl.all_structs() {
+        let _ = writeln!(
+            out,
+            "        \"{PACKAGE}/msg/{0}\" => Some(crate::cdr::to_vec(&{0}::default())),",
+            ty.name
+        );
+    }
+    let _ = writeln!(out, "        _ => None,\n    }}\n}}\n");
+}
+
 /// The body of a method that matches on the command enum: one arm per command, or an
 /// empty match (after `empty_prefix`) for an interface without commands.
 fn emit_variant_match(
@@ -779,6 +808,7 @@ fn emit_catalogue(out: &mut String, idl: &Idl) {
         let _ = writeln!(out, "        ],\n    }},");
     }
     let _ = writeln!(out, "];\n");
+    emit_default_message(out, idl);
     let _ = writeln!(
         out,
         "/// The type libraries the interfaces use: file name and XML text."

@@ -59,7 +59,7 @@ impl Discovery {
         })
     }
 
-    /// Asks once and waits for the answer (at most [`ANSWER_TIMEOUT`]); `None` when no
+    /// Asks once and waits for the answer (at most `ANSWER_TIMEOUT`); `None` when no
     /// broker answers (then [`Discovery::poll`] asks again later).
     pub fn ask_and_wait(&mut self) -> Option<Discovered> {
         let frame = request_frame();

@@ -163,12 +163,10 @@ fn due(start: Instant, index: u64, period_ns: i64) -> Instant {
     start + Duration::from_nanos(offset)
 }
 
-#[allow(clippy::cast_precision_loss)]
 fn secs(ns: i64) -> f64 {
     ns as f64 / 1e9
 }
 
-#[allow(clippy::cast_precision_loss)]
 fn load(topic: String, published: u64, period_ns: i64, span_ns: i64) -> ChannelLoad {
     let span = secs(span_ns);
     ChannelLoad {

@@ -4,7 +4,7 @@
 use std::os::fd::AsFd;
 use std::time::{Duration, Instant};
 
-use lewis_interfaces::cdr::{self, Decode, Reader};
+use lewis_interfaces::cdr;
 use lewis_interfaces::msg::Header;
 use lewis_runtime::clock::LiveClock;
 use lewis_runtime::ipc::{
@@ -280,8 +280,7 @@ impl LiveTap {
 /// The header at the start of a CDR message (the first field of every message), without
 /// decoding the rest.
 fn header_of(bytes: &[u8]) -> Option<Header> {
-    let payload = bytes.strip_prefix(&cdr::ENCAPSULATION_LE[..])?;
-    Header::decode(&mut Reader::new(payload)).ok()
+    cdr::peek_header(bytes).ok()
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use lewis_interfaces::cdr::{ENCAPSULATION_LE, Reader};
+use lewis_interfaces::cdr;
 use lewis_recorder::{
     ChannelId, ChannelSpec, RecordError, Recorder, RecorderOptions, RobotDescription, STATS_TOPIC,
     Sample,
@@ -157,34 +157,19 @@ pub fn write_long(
 /// Moves the publish time in the header at the start of a CDR message by `shift_ns`
 /// (a message without a valid header, or with no time, is left as it is).
 fn shift_header_time(data: &mut [u8], shift_ns: i64) {
-    let Some(payload) = data.strip_prefix(&ENCAPSULATION_LE) else {
+    let Ok(mut header) = cdr::peek_header(data) else {
         return;
     };
-    let mut reader = Reader::new(payload);
-    let at = (|| {
-        let _provider: String = reader.field("provider").ok()?;
-        let _seq: u64 = reader.field("seq").ok()?;
-        reader.align(8).ok()?;
-        Some(reader.position())
-    })();
-    let Some(at) = at.map(|p| p + ENCAPSULATION_LE.len()) else {
-        return;
-    };
-    let Some(bytes) = data.get_mut(at..at + 8) else {
-        return;
-    };
-    let Ok(raw) = <[u8; 8]>::try_from(&*bytes) else {
-        return;
-    };
-    let time = i64::from_le_bytes(raw);
-    if time > 0 {
-        bytes.copy_from_slice(&time.saturating_add(shift_ns).to_le_bytes());
+    if header.publish_time_ns > 0 {
+        header.publish_time_ns = header.publish_time_ns.saturating_add(shift_ns);
+        // Only the time changed, so the header keeps its length and cannot be refused; a
+        // refusal would leave the message as it is, as for a message without a header.
+        let _ = cdr::replace_header(data, &header);
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use lewis_interfaces::cdr;
     use lewis_interfaces::msg::{Distance, Header, InputRef};
 
     use super::*;

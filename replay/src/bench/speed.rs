@@ -192,7 +192,6 @@ impl fmt::Display for SpeedReport {
             &self.direct_loop,
         )?;
         let extra = self.harness.best_secs - self.direct_loop.best_secs;
-        #[allow(clippy::cast_precision_loss)]
         let per_message = extra / self.messages.max(1) as f64;
         write!(
             f,
@@ -205,7 +204,6 @@ impl fmt::Display for SpeedReport {
     }
 }
 
-#[allow(clippy::cast_precision_loss)]
 fn nanos_to_secs(ns: i64) -> f64 {
     ns as f64 / 1e9
 }

@@ -7,24 +7,22 @@
 
 mod render;
 mod scan;
-pub(crate) mod summary;
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::dynamic::{Decoder, Value};
-use mcap::McapError;
-use mcap::records::{Channel, Metadata, Statistics};
+use lewis_mcap::format::{self, RECORDING_METADATA};
+use lewis_mcap::records::{Channel, Metadata, Statistics};
+use lewis_mcap::{McapError, McapFile, OpenError, ReadError};
 use serde::Serialize;
 
 use scan::{RawMessage, Scan, ScanGoal, SchemaRecord};
-use summary::SummaryFailure;
 
 /// The name of the metadata record where the recorder stores lost-message counts
 /// (keys: topics, values: decimal counts). When a file has several, the last one counts
 /// (the recorder's final tally).
-pub const LOSS_METADATA_NAME: &str = "lewis.loss";
+pub const LOSS_METADATA_NAME: &str = format::LOSS_METADATA;
 
 /// What [`inspect`] reads besides the summary.
 #[derive(Debug, Clone, Default)]
@@ -95,6 +93,42 @@ pub enum WarningKind {
     SummaryUnreadable,
     /// A `lewis.loss` metadata record could not be read.
     BadLossMetadata,
+    /// The `lewis.recording` metadata record could not be read.
+    BadRecordingMetadata,
+}
+
+/// Which versions wrote a Lewis recording, from its `lewis.recording` metadata record.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum WrittenBy {
+    /// The recording says which versions wrote it.
+    Versioned {
+        /// The recording format's version (`lewis_mcap::format::FORMAT_VERSION`).
+        format_version: u32,
+        /// The version of Lewis.
+        lewis_version: String,
+        /// The digest of the interfaces its messages were encoded with.
+        interfaces: String,
+    },
+    /// A Lewis recording made before recordings said which versions wrote them.
+    BeforeVersioning,
+}
+
+impl From<format::WrittenBy> for WrittenBy {
+    fn from(written: format::WrittenBy) -> Self {
+        match written {
+            format::WrittenBy::Versioned {
+                format_version,
+                lewis_version,
+                interfaces,
+            } => Self::Versioned {
+                format_version,
+                lewis_version,
+                interfaces,
+            },
+            format::WrittenBy::BeforeVersioning => Self::BeforeVersioning,
+        }
+    }
 }
 
 /// Why the file could not be read to its end.
@@ -143,6 +177,9 @@ pub struct InfoReport {
     pub profile: String,
     /// The Header's library (the writer).
     pub library: String,
+    /// Which versions of the format, of Lewis and of the interfaces wrote it; `None` when
+    /// Lewis did not write it (no `lewis.recording` metadata).
+    pub written_by: Option<WrittenBy>,
     /// Where the counts come from.
     pub source: CountSource,
     /// Messages in the recording.
@@ -200,19 +237,20 @@ pub fn inspect(path: &Path, options: &InfoOptions) -> Result<InfoReport, InfoErr
         path: path.to_owned(),
         source,
     };
-    let mut file = File::open(path).map_err(io_error)?;
-    let size_bytes = file.metadata().map_err(io_error)?.len();
-    let header = summary::read_header(&mut file, size_bytes)
-        .map_err(io_error)?
-        .map_err(|error| InfoError::NotMcap {
+    let mut file = McapFile::open(path).map_err(|error| match error {
+        OpenError::Io(source) => io_error(source),
+        OpenError::NotMcap { error, .. } => InfoError::NotMcap {
             path: path.to_owned(),
             detail: error.to_string(),
-        })?;
+        },
+    })?;
+    let size_bytes = file.size_bytes();
+    let header = file.header().clone();
     let mut warnings = Vec::new();
-    let summary = match summary::read_summary(&mut file, size_bytes) {
+    let summary = match file.summary() {
         Ok(summary) => summary,
-        Err(SummaryFailure::Io(error)) => return Err(io_error(error)),
-        Err(SummaryFailure::Format(error)) => {
+        Err(ReadError::Io(error)) => return Err(io_error(error)),
+        Err(ReadError::Format(error)) => {
             warnings.push(Warning {
                 kind: WarningKind::SummaryUnreadable,
                 message: format!(
@@ -237,12 +275,12 @@ pub fn inspect(path: &Path, options: &InfoOptions) -> Result<InfoReport, InfoErr
     let report = match usable {
         Some(summary) if !options.scan => builder.report_from_summary(&mut file, &summary, options),
         Some(summary) => {
-            let scan = scan::scan(&mut file, size_bytes, full_scan(options)).map_err(io_error)?;
+            let scan = scan::scan(&mut file, full_scan(options)).map_err(io_error)?;
             builder.check_summary_against_scan(&summary, &scan);
             Ok(builder.report_from_scan(scan))
         }
         None => {
-            let scan = scan::scan(&mut file, size_bytes, full_scan(options)).map_err(io_error)?;
+            let scan = scan::scan(&mut file, full_scan(options)).map_err(io_error)?;
             Ok(builder.report_from_scan(scan))
         }
     };
@@ -267,8 +305,8 @@ struct Builder {
 impl Builder {
     fn report_from_summary(
         &mut self,
-        file: &mut File,
-        summary: &mcap::Summary,
+        file: &mut McapFile,
+        summary: &lewis_mcap::Summary,
         options: &InfoOptions,
     ) -> std::io::Result<InfoReport> {
         let stats = summary.stats.clone().unwrap_or_default();
@@ -279,13 +317,27 @@ impl Builder {
         }
         let mut metadata_names = Vec::new();
         let mut loss_records = Vec::new();
+        let mut recording_records = Vec::new();
         for index in &summary.metadata_indexes {
             metadata_names.push(index.name.clone());
+            if index.name == RECORDING_METADATA && recording_records.is_empty() {
+                match file.metadata_at(index) {
+                    Ok(metadata) => recording_records.push(metadata),
+                    Err(ReadError::Io(error)) => return Err(error),
+                    Err(ReadError::Format(error)) => self.warnings.push(Warning {
+                        kind: WarningKind::BadRecordingMetadata,
+                        message: format!(
+                            "the `{RECORDING_METADATA}` metadata record at byte {} cannot be read: {error}",
+                            index.offset
+                        ),
+                    }),
+                }
+            }
             if index.name == LOSS_METADATA_NAME {
-                match summary::read_metadata(file, index) {
+                match file.metadata_at(index) {
                     Ok(metadata) => loss_records.push(metadata),
-                    Err(SummaryFailure::Io(error)) => return Err(error),
-                    Err(SummaryFailure::Format(error)) => self.warnings.push(Warning {
+                    Err(ReadError::Io(error)) => return Err(error),
+                    Err(ReadError::Format(error)) => self.warnings.push(Warning {
                         kind: WarningKind::BadLossMetadata,
                         message: format!(
                             "the `{LOSS_METADATA_NAME}` metadata record at byte {} cannot be read: {error}",
@@ -326,7 +378,7 @@ impl Builder {
                 keep_messages: options.messages,
                 stop_when_kept: true,
             };
-            let scan = scan::scan(file, self.size_bytes, goal)?;
+            let scan = scan::scan(file, goal)?;
             let damage = scan.failure.as_ref().map(|error| self.damage(error));
             (scan.messages, damage)
         } else {
@@ -344,6 +396,7 @@ impl Builder {
             attachment_count: u64::from(stats.attachment_count),
             metadata_names,
             loss_records,
+            recording_records,
             messages,
             damage,
         };
@@ -366,6 +419,13 @@ impl Builder {
                 .retain(|warning| warning.kind != WarningKind::SummaryUnreadable);
         }
         let metadata_names = scan.metadata.iter().map(|m| m.name.clone()).collect();
+        let recording_records = scan
+            .metadata
+            .iter()
+            .filter(|metadata| metadata.name == RECORDING_METADATA)
+            .take(1)
+            .cloned()
+            .collect();
         let loss_records = scan
             .metadata
             .into_iter()
@@ -383,6 +443,7 @@ impl Builder {
             attachment_count: scan.attachment_count,
             metadata_names,
             loss_records,
+            recording_records,
             messages: scan.messages,
             damage,
         };
@@ -426,7 +487,7 @@ impl Builder {
     }
 
     /// Compares the Statistics record with the other summary records.
-    fn check_statistics(&mut self, summary: &mcap::Summary, stats: &Statistics) {
+    fn check_statistics(&mut self, summary: &lewis_mcap::Summary, stats: &Statistics) {
         let channel_count = summary.channels.len();
         if usize::try_from(stats.channel_count).ok() != Some(channel_count) {
             let without: Vec<String> = sorted(summary.channels.iter())
@@ -492,7 +553,7 @@ impl Builder {
     }
 
     /// Compares the summary's counts with what a full scan found.
-    fn check_summary_against_scan(&mut self, summary: &mcap::Summary, scan: &Scan) {
+    fn check_summary_against_scan(&mut self, summary: &lewis_mcap::Summary, scan: &Scan) {
         let Some(stats) = &summary.stats else {
             return;
         };
@@ -520,6 +581,7 @@ impl Builder {
 
     fn finish(&mut self, source: CountSource, contents: Contents) -> InfoReport {
         let lost_messages = self.losses(&contents.loss_records);
+        let written_by = self.written_by(&contents.recording_records);
         let duration_ns = contents
             .start_ns
             .zip(contents.end_ns)
@@ -564,6 +626,7 @@ impl Builder {
             size_bytes: self.size_bytes,
             profile: self.profile.clone(),
             library: self.library.clone(),
+            written_by,
             source,
             message_count: contents.message_count,
             start_ns: contents.start_ns,
@@ -578,6 +641,21 @@ impl Builder {
             warnings: std::mem::take(&mut self.warnings),
             damage: contents.damage,
             messages,
+        }
+    }
+
+    /// Who wrote the recording, from its (first) `lewis.recording` record.
+    fn written_by(&mut self, records: &[Metadata]) -> Option<WrittenBy> {
+        let record = records.first()?;
+        match format::WrittenBy::from_entries(&record.metadata) {
+            Ok(written) => Some(written.into()),
+            Err(message) => {
+                self.warnings.push(Warning {
+                    kind: WarningKind::BadRecordingMetadata,
+                    message,
+                });
+                None
+            }
         }
     }
 
@@ -616,6 +694,8 @@ struct Contents {
     attachment_count: u64,
     metadata_names: Vec<String>,
     loss_records: Vec<Metadata>,
+    /// The first `lewis.recording` record, if any.
+    recording_records: Vec<Metadata>,
     messages: Vec<RawMessage>,
     damage: Option<Damage>,
 }

@@ -21,6 +21,20 @@ impl fmt::Display for InfoReport {
         )?;
         writeln!(f, "library:     {}", self.library)?;
         writeln!(f, "profile:     {}", self.profile)?;
+        match &self.written_by {
+            Some(super::WrittenBy::Versioned {
+                format_version,
+                lewis_version,
+                interfaces,
+            }) => writeln!(
+                f,
+                "lewis:       {lewis_version} (recording format {format_version}, interfaces {interfaces})"
+            )?,
+            Some(super::WrittenBy::BeforeVersioning) => {
+                writeln!(f, "lewis:       written before versioning")?;
+            }
+            None => {}
+        }
         writeln!(f, "messages:    {} ({source})", self.message_count)?;
         if let (Some(start), Some(end), Some(duration)) =
             (self.start_ns, self.end_ns, self.duration_ns)

@@ -1,13 +1,12 @@
-//! Reading an MCAP file record by record, from the start, as far as it can be read.
+//! What a scan of a file from its start counts, as far as it can be read (the reading
+//! is `lewis_mcap`'s).
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{self, Read, Seek, SeekFrom};
+use std::convert::Infallible;
+use std::io;
 
-use mcap::McapError;
-use mcap::read::ChunkReader;
-use mcap::records::{Channel, Header, Metadata, Record, Statistics};
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use lewis_mcap::records::{Channel, Header, Metadata, Record, Statistics};
+use lewis_mcap::{At, Flow, McapError, McapFile, ScanError, Visitor};
 
 /// A schema record's contents.
 #[derive(Debug, Clone)]
@@ -59,60 +58,39 @@ pub(super) struct ScanGoal {
     pub stop_when_kept: bool,
 }
 
-/// Reads `file` from its start. I/O errors are returned; format errors end the scan and are
-/// kept in [`Scan::failure`] with everything read before them.
-pub(super) fn scan(file: &mut File, file_size: u64, goal: ScanGoal) -> io::Result<Scan> {
-    file.seek(SeekFrom::Start(0))?;
-    let limit = usize::try_from(file_size).unwrap_or(usize::MAX);
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_emit_chunks(true)
-            .with_record_length_limit(limit),
-    );
-    let mut found = Scan::default();
-    while let Some(event) = reader.next_event() {
-        match event {
-            Ok(LinearReadEvent::ReadRequest(wanted)) => {
-                let read = read_some(file, reader.insert(wanted))?;
-                reader.notify_read(read);
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => {
-                let outcome =
-                    mcap::parse_record(opcode, data).and_then(|record| found.record(record, goal));
-                match outcome {
-                    Ok(Flow::Continue) => {}
-                    Ok(Flow::Stop) => return Ok(found),
-                    Err(error) => {
-                        found.failure = Some(error);
-                        return Ok(found);
-                    }
-                }
-            }
-            Err(error) => {
-                found.failure = Some(error);
-                return Ok(found);
-            }
-        }
-    }
+/// Reads `file` from its start. I/O errors are returned; damage ends the scan and is kept
+/// in [`Scan::failure`] with everything read before it.
+pub(super) fn scan(file: &mut McapFile, goal: ScanGoal) -> io::Result<Scan> {
+    let mut counter = Counter {
+        found: Scan::default(),
+        goal,
+    };
+    let end = match file.scan(&mut counter) {
+        Ok(end) => end,
+        Err(ScanError::Io(error)) => return Err(error),
+        Err(ScanError::Visitor(never)) => match never {},
+    };
+    let mut found = counter.found;
+    found.failure = end.damage.map(|damage| damage.error);
     Ok(found)
 }
 
-fn read_some(file: &mut File, buffer: &mut [u8]) -> io::Result<usize> {
-    loop {
-        match file.read(buffer) {
-            Err(error) if error.kind() == io::ErrorKind::Interrupted => {}
-            other => return other,
-        }
+/// The scan's visitor: counts, and keeps the first messages.
+struct Counter {
+    found: Scan,
+    goal: ScanGoal,
+}
+
+impl Visitor for Counter {
+    type Error = Infallible;
+
+    fn record(&mut self, _at: At, record: Record<'_>) -> Result<Flow, Infallible> {
+        Ok(self.found.record(record, self.goal))
     }
 }
 
-enum Flow {
-    Continue,
-    Stop,
-}
-
 impl Scan {
-    fn record(&mut self, record: Record<'_>, goal: ScanGoal) -> Result<Flow, McapError> {
+    fn record(&mut self, record: Record<'_>, goal: ScanGoal) -> Flow {
         match record {
             Record::Header(header) => self.header = Some(header),
             Record::Footer(_) => self.complete = true,
@@ -142,21 +120,14 @@ impl Scan {
                         data: data.into_owned(),
                     });
                     if goal.stop_when_kept && self.messages.len() == goal.keep_messages {
-                        return Ok(Flow::Stop);
+                        return Flow::Stop;
                     }
                 }
             }
-            Record::Chunk { header, data } => {
+            // Its records follow, one by one.
+            Record::Chunk { header, .. } => {
                 self.chunk_count += 1;
-                *self
-                    .compressions
-                    .entry(header.compression.clone())
-                    .or_default() += 1;
-                for inner in ChunkReader::new(header, &data)? {
-                    if let Flow::Stop = self.record(inner?, goal)? {
-                        return Ok(Flow::Stop);
-                    }
-                }
+                *self.compressions.entry(header.compression).or_default() += 1;
             }
             Record::Attachment { .. } => self.attachment_count += 1,
             Record::Metadata(metadata) => self.metadata.push(metadata),
@@ -169,6 +140,6 @@ impl Scan {
             | Record::DataEnd(_)
             | Record::Unknown { .. } => {}
         }
-        Ok(Flow::Continue)
+        Flow::Continue
     }
 }

@@ -7,8 +7,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use lewis_interfaces::cdr::ENCAPSULATION_LE;
-use lewis_interfaces::dynamic::{ArrayKind, BaseType, MessageSchema, Primitive, TypeName};
+use lewis_interfaces::cdr::peek_header;
 use lewis_interfaces::msg::CommandLog;
 
 /// A recorded answer is used for a call made up to this long before or after it was given
@@ -129,21 +128,8 @@ impl CommandBook {
 /// The provider named in the header of a CDR message (empty when it has none).
 #[must_use]
 pub fn header_provider(bytes: &[u8]) -> String {
-    let Some(payload) = bytes.strip_prefix(&ENCAPSULATION_LE) else {
-        return String::new();
-    };
-    // The header starts with the provider string: a u32 length (with its NUL), the bytes.
-    let Some(len) = payload
-        .get(..4)
-        .and_then(|b| <[u8; 4]>::try_from(b).ok())
-        .map(u32::from_le_bytes)
-        .and_then(|n| usize::try_from(n).ok())
-    else {
-        return String::new();
-    };
-    payload
-        .get(4..4 + len.saturating_sub(1))
-        .map(|b| String::from_utf8_lossy(b).into_owned())
+    peek_header(bytes)
+        .map(|header| header.provider)
         .unwrap_or_default()
 }
 
@@ -152,65 +138,7 @@ pub fn header_provider(bytes: &[u8]) -> String {
 /// unknown.
 #[must_use]
 pub fn default_reply(interface: &str, command: &str) -> Option<Vec<u8>> {
-    let info = lewis_interfaces::interface_info(interface)?;
-    let schema = info.commands.iter().find(|c| c.name == command)?.reply;
-    let schema = MessageSchema::parse(schema.name, schema.text).ok()?;
-    let mut out = ENCAPSULATION_LE.to_vec();
-    encode_default(&schema, schema.root(), &mut out, 0)?;
-    Some(out)
-}
-
-fn align(out: &mut Vec<u8>, to: usize) {
-    let payload = out.len() - ENCAPSULATION_LE.len();
-    let pad = (to - payload % to) % to;
-    out.resize(out.len() + pad, 0);
-}
-
-fn encode_default(
-    schema: &MessageSchema,
-    name: &TypeName,
-    out: &mut Vec<u8>,
-    depth: usize,
-) -> Option<()> {
-    if depth > 32 {
-        return None;
-    }
-    let definition = schema.definition(name)?;
-    for field in &definition.fields {
-        let count = match field.ty.array {
-            ArrayKind::Single => 1,
-            ArrayKind::Fixed(n) => n,
-            ArrayKind::Unbounded | ArrayKind::Bounded(_) => {
-                align(out, 4);
-                out.extend_from_slice(&0u32.to_le_bytes());
-                0
-            }
-        };
-        for _ in 0..count {
-            match &field.ty.base {
-                BaseType::Primitive(p) => {
-                    let size = primitive_size(*p);
-                    align(out, size);
-                    out.resize(out.len() + size, 0);
-                }
-                BaseType::String { .. } => {
-                    align(out, 4);
-                    out.extend_from_slice(&1u32.to_le_bytes());
-                    out.push(0);
-                }
-                BaseType::WString { .. } => {
-                    align(out, 4);
-                    out.extend_from_slice(&0u32.to_le_bytes());
-                }
-                BaseType::Message(inner) => encode_default(schema, inner, out, depth + 1)?,
-            }
-        }
-    }
-    Some(())
-}
-
-fn primitive_size(p: Primitive) -> usize {
-    p.size_bytes().max(1)
+    lewis_interfaces::interface_info(interface)?.default_reply(command)
 }
 
 #[cfg(test)]

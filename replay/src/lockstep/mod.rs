@@ -3,7 +3,7 @@
 //!
 //! Services are the same code as live: the harness implements the runtime's
 //! [`Backend`](lewis_runtime::service::Backend) (a virtual clock and an outbox) and drives
-//! the [`Service`] trait. Nothing in a service knows it is replayed.
+//! the [`Service`](lewis_runtime::service::Service) trait. Nothing in a service knows it is replayed.
 //!
 //! # Time and order
 //!

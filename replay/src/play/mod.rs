@@ -205,7 +205,7 @@ pub fn play(
     let files = RecordingFiles::open(&options.inputs)?;
     let (start_ns, end_ns) = (files.start_ns(), files.end_ns());
     let total_ns = end_ns - start_ns;
-    #[allow(clippy::cast_precision_loss)] // for the message only
+    // for the message only
     let total_s = total_ns as f64 / 1e9;
     if !(options.start_s.is_finite() && (0.0..=total_s).contains(&options.start_s)) {
         return Err(PlayError::Option(format!(
@@ -231,7 +231,6 @@ pub fn play(
         )));
     }
     // Bounded by the check above: within the recording.
-    #[allow(clippy::cast_possible_truncation)]
     let from_ns = start_ns.saturating_add((options.start_s * 1e9) as i64);
     let source = files
         .paths()

@@ -48,7 +48,6 @@ impl Pacer {
             .saturating_duration_since(self.wall_anchor)
             .as_secs_f64();
         // Seconds of a playback times a sane rate fit an i64 of nanoseconds.
-        #[allow(clippy::cast_possible_truncation)]
         let played_ns = (elapsed * self.rate * 1e9) as i64;
         self.log_anchor_ns.saturating_add(played_ns)
     }
@@ -59,7 +58,7 @@ impl Pacer {
         if self.is_paused() {
             return None;
         }
-        #[allow(clippy::cast_precision_loss)] // nanoseconds of a recording: exact to 2^53
+        // nanoseconds of a recording: exact to 2^53
         let ahead_s = log_ns.saturating_sub(self.log_anchor_ns).max(0) as f64 / 1e9 / self.rate;
         Some(self.wall_anchor + Duration::from_secs_f64(ahead_s.min(1e9)))
     }

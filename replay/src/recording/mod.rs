@@ -9,27 +9,25 @@
 //! `lewis play` needs: it plays foreign ROS 2 bags too); [`Recording`] requires the robot.
 //!
 //! Messages are streamed chunk by chunk through each file's indexes
-//! ([`mcap::sans_io::IndexedReader`]), so memory does not grow with the recording: only the
+//! ([`lewis_mcap::TimeOrdered`]), so memory does not grow with the recording: only the
 //! messages that share one log time are held at once. A file without a summary (a recorder
 //! that was killed) is refused with the command that repairs it.
 
 mod stream;
 
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use lewis_mcap::format::{FORMAT_VERSION, RECORDING_METADATA, WrittenBy};
+use lewis_mcap::{McapFile, OpenError, ReadError, Summary};
 use lewis_recorder::index::{IndexError, PartsIndex};
 use lewis_runtime::robot::{self, Robot, RobotError};
-use mcap::Summary;
-
-use crate::info::summary::{SummaryFailure, read_header, read_metadata, read_summary};
 
 pub use stream::{Messages, RecordedMessage};
 
 /// The metadata record holding the robot description (written by the recorder).
-pub const ROBOT_METADATA: &str = "lewis.robot";
+pub use lewis_mcap::format::ROBOT_METADATA;
 
 /// Why a recording cannot be replayed.
 #[derive(Debug, thiserror::Error)]
@@ -100,6 +98,21 @@ pub enum RecordingError {
         /// What is wrong with it.
         source: RobotError,
     },
+    /// A file was written in a recording format newer than this build knows (see
+    /// `lewis_mcap::format::FORMAT_VERSION`): it may hold what this build would misread.
+    #[error(
+        "{path} was written by lewis {lewis_version} in recording format {version}, and this build reads formats up to {supported}: replay it with lewis {lewis_version} or later"
+    )]
+    NewerFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its format version.
+        version: u32,
+        /// The version of Lewis that wrote it.
+        lewis_version: String,
+        /// The newest format this build reads.
+        supported: u32,
+    },
     /// A channel's message encoding is not CDR.
     #[error(
         "{path}: topic {topic} is encoded as `{encoding}`; replay feeds only CDR messages of Lewis interfaces"
@@ -168,7 +181,7 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, RecordingError> 
 /// robot description if one is stored. No robot is required (see [`Recording`]).
 #[derive(Debug)]
 pub struct RecordingFiles {
-    files: Vec<(PathBuf, Summary)>,
+    files: Vec<(McapFile, Summary)>,
     topics: BTreeMap<Arc<str>, Topic>,
     robot_text: Option<(PathBuf, String, String)>,
     start_ns: i64,
@@ -192,17 +205,13 @@ impl RecordingFiles {
         let mut robot_text: Option<(PathBuf, String, String)> = None;
         let (mut start_ns, mut end_ns, mut message_count) = (i64::MAX, i64::MIN, 0u64);
         for path in &paths {
-            let io = |error| RecordingError::Io {
-                path: path.clone(),
-                error,
-            };
-            let mut file = File::open(path).map_err(io)?;
-            let size = file.metadata().map_err(io)?.len();
-            let summary = match read_summary(&mut file, size) {
+            let mut file = McapFile::open(path).map_err(|error| open_error(path, error))?;
+            let summary = match file.summary() {
                 Ok(Some(summary)) => summary,
                 Ok(None) => return Err(RecordingError::NoSummary { path: path.clone() }),
-                Err(failure) => return Err(failure_error(path, failure)),
+                Err(error) => return Err(read_error(path, error)),
             };
+            check_format(&mut file, &summary)?;
             for channel in summary.channels.values() {
                 if channel.message_encoding != "cdr" {
                     return Err(RecordingError::NotCdr {
@@ -249,15 +258,16 @@ impl RecordingFiles {
                     .iter()
                     .filter(|i| i.name == ROBOT_METADATA)
                 {
-                    let metadata =
-                        read_metadata(&mut file, index).map_err(|f| failure_error(path, f))?;
+                    let metadata = file
+                        .metadata_at(index)
+                        .map_err(|error| read_error(path, error))?;
                     if let Some((name, text)) = metadata.metadata.into_iter().next() {
                         robot_text = Some((path.clone(), name, text));
                         break;
                     }
                 }
             }
-            files.push((path.clone(), summary));
+            files.push((file, summary));
         }
         if start_ns > end_ns {
             (start_ns, end_ns) = (0, 0);
@@ -298,7 +308,7 @@ impl RecordingFiles {
 
     /// The files, in the order given (parts indexes expanded).
     pub fn paths(&self) -> impl Iterator<Item = &Path> {
-        self.files.iter().map(|(p, _)| p.as_path())
+        self.files.iter().map(|(file, _)| file.path())
     }
 
     /// The robot description's file name and TOML text, as stored, if any.
@@ -332,11 +342,7 @@ impl RecordingFiles {
         let origin = self
             .files
             .first()
-            .and_then(|(path, _)| {
-                let mut file = File::open(path).ok()?;
-                let size = file.metadata().ok()?.len();
-                read_header(&mut file, size).ok()?.ok()
-            })
+            .map(|(file, _)| file.header())
             .map(|h| {
                 let library = if h.library.is_empty() {
                     "an unnamed library"
@@ -456,15 +462,59 @@ fn as_ns(t: u64) -> i64 {
     i64::try_from(t).unwrap_or(i64::MAX)
 }
 
-fn failure_error(path: &Path, failure: SummaryFailure) -> RecordingError {
-    match failure {
-        SummaryFailure::Io(error) => RecordingError::Io {
+/// Refuses a file written in a newer recording format than this build's. A file without
+/// `lewis.recording` (a foreign bag) or without a version (made before versioning) is read
+/// as it always was.
+fn check_format(file: &mut McapFile, summary: &Summary) -> Result<(), RecordingError> {
+    let path = file.path().to_path_buf();
+    let records = file
+        .metadata_named(summary, RECORDING_METADATA)
+        .map_err(|error| read_error(&path, error))?;
+    let Some(record) = records.first() else {
+        return Ok(());
+    };
+    let written =
+        WrittenBy::from_entries(&record.metadata).map_err(|reason| RecordingError::Format {
+            path: path.clone(),
+            reason,
+        })?;
+    match written {
+        WrittenBy::Versioned {
+            format_version,
+            lewis_version,
+            ..
+        } if format_version > FORMAT_VERSION => Err(RecordingError::NewerFormat {
+            path,
+            version: format_version,
+            lewis_version,
+            supported: FORMAT_VERSION,
+        }),
+        _ => Ok(()),
+    }
+}
+
+fn read_error(path: &Path, error: ReadError) -> RecordingError {
+    match error {
+        ReadError::Io(error) => RecordingError::Io {
             path: path.to_path_buf(),
             error,
         },
-        SummaryFailure::Format(e) => RecordingError::Format {
+        ReadError::Format(e) => RecordingError::Format {
             path: path.to_path_buf(),
             reason: e.to_string(),
+        },
+    }
+}
+
+fn open_error(path: &Path, error: OpenError) -> RecordingError {
+    match error {
+        OpenError::Io(error) => RecordingError::Io {
+            path: path.to_path_buf(),
+            error,
+        },
+        OpenError::NotMcap { error, .. } => RecordingError::Format {
+            path: path.to_path_buf(),
+            reason: error.to_string(),
         },
     }
 }

@@ -1,14 +1,11 @@
 //! The merged message stream of a recording's files, in total order.
 
 use std::collections::{BTreeMap, VecDeque};
-use std::fs::File;
-use std::io::{Read, Seek, SeekFrom};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use lewis_runtime::service::decode_header_seq;
-use mcap::Summary;
-use mcap::sans_io::indexed_reader::{IndexedReadEvent, IndexedReader, IndexedReaderOptions};
+use lewis_interfaces::cdr::peek_header;
+use lewis_mcap::{McapFile, Summary, TimeOrdered};
 
 use super::RecordingError;
 
@@ -32,53 +29,28 @@ type Key = (i64, Arc<str>, u64, usize, u64);
 
 struct FileStream {
     path: PathBuf,
-    file: File,
-    reader: IndexedReader,
+    messages: TimeOrdered,
     topics: BTreeMap<u16, Arc<str>>,
-    chunk: Vec<u8>,
     head: Option<RecordedMessage>,
     position: u64,
 }
 
 impl FileStream {
     fn pull(&mut self) -> Result<Option<RecordedMessage>, RecordingError> {
-        loop {
-            let request = match self.reader.next_event() {
-                None => return Ok(None),
-                Some(Err(e)) => return Err(self.format(&e)),
-                Some(Ok(IndexedReadEvent::ReadChunkRequest { offset, length })) => (offset, length),
-                Some(Ok(IndexedReadEvent::Message { header, data })) => {
-                    let Some(topic) = self.topics.get(&header.channel_id) else {
-                        continue;
-                    };
-                    return Ok(Some(RecordedMessage {
-                        topic: topic.clone(),
-                        log_time_ns: i64::try_from(header.log_time).unwrap_or(i64::MAX),
-                        publish_time_ns: i64::try_from(header.publish_time).unwrap_or(i64::MAX),
-                        seq: decode_header_seq(data),
-                        data: data.to_vec(),
-                    }));
-                }
+        for message in self.messages.by_ref() {
+            let message = message.map_err(|error| super::read_error(&self.path, error))?;
+            let Some(topic) = self.topics.get(&message.header.channel_id) else {
+                continue;
             };
-            let (offset, length) = request;
-            self.chunk.resize(length, 0);
-            let io = |error| RecordingError::Io {
-                path: self.path.clone(),
-                error,
-            };
-            self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
-            self.file.read_exact(&mut self.chunk).map_err(io)?;
-            if let Err(e) = self.reader.insert_chunk_record_data(offset, &self.chunk) {
-                return Err(self.format(&e));
-            }
+            return Ok(Some(RecordedMessage {
+                topic: topic.clone(),
+                log_time_ns: i64::try_from(message.header.log_time).unwrap_or(i64::MAX),
+                publish_time_ns: i64::try_from(message.header.publish_time).unwrap_or(i64::MAX),
+                seq: peek_header(&message.data).map_or(0, |header| header.seq),
+                data: message.data,
+            }));
         }
-    }
-
-    fn format(&self, e: &mcap::McapError) -> RecordingError {
-        RecordingError::Format {
-            path: self.path.clone(),
-            reason: e.to_string(),
-        }
+        Ok(None)
     }
 
     fn fill(&mut self) -> Result<(), RecordingError> {
@@ -107,36 +79,23 @@ impl std::fmt::Debug for Messages {
 
 impl Messages {
     pub(super) fn open(
-        files: &[(PathBuf, Summary)],
+        files: &[(McapFile, Summary)],
         topics: Option<&[&str]>,
     ) -> Result<Self, RecordingError> {
         let mut streams = Vec::new();
-        for (path, summary) in files {
-            let mut options = IndexedReaderOptions::new();
-            if let Some(topics) = topics {
-                options = options.include_topics(topics.iter().map(|t| (*t).to_owned()));
-            }
-            let reader = IndexedReader::new_with_options(summary, options).map_err(|e| {
-                RecordingError::Format {
-                    path: path.clone(),
-                    reason: e.to_string(),
-                }
-            })?;
-            let file = File::open(path).map_err(|error| RecordingError::Io {
-                path: path.clone(),
-                error,
-            })?;
+        for (file, summary) in files {
+            let path = file.path();
+            let messages = TimeOrdered::open(path, summary, topics)
+                .map_err(|error| super::read_error(path, error))?;
             let topics = summary
                 .channels
                 .iter()
                 .map(|(id, c)| (*id, Arc::from(c.topic.as_str())))
                 .collect();
             streams.push(FileStream {
-                path: path.clone(),
-                file,
-                reader,
+                path: path.to_path_buf(),
+                messages,
                 topics,
-                chunk: Vec::new(),
                 head: None,
                 position: 0,
             });

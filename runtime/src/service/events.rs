@@ -1,6 +1,6 @@
 //! What a service is handed with each event: an input sample, a command, a reply.
 
-use lewis_interfaces::cdr::{self, Decode, DecodeError, Reader};
+use lewis_interfaces::cdr::{self, DecodeError};
 use lewis_interfaces::msg::Header;
 use lewis_interfaces::{Command, CommandDecodeError, CommandSet, Interface};
 
@@ -74,15 +74,9 @@ impl Input<'_> {
 }
 
 /// Decodes the header at the start of a CDR message without decoding the rest (the header
-/// is the first field of every message).
+/// is the first field of every message): interfaces' one header peek.
 pub(crate) fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
-    match bytes.split_at_checked(cdr::ENCAPSULATION_LE.len()) {
-        Some((encapsulation, payload)) if encapsulation == cdr::ENCAPSULATION_LE => {
-            Header::decode(&mut Reader::new(payload))
-        }
-        // Not a CDR message: the full decoder says why.
-        _ => cdr::from_bytes::<Header>(bytes),
-    }
+    cdr::peek_header(bytes)
 }
 
 /// The header's sequence number of a CDR message, 0 when it has no valid header.

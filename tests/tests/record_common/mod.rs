@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{Receiver, channel};
 
-use lewis_interfaces::cdr::{self, Decode, Reader};
+use lewis_interfaces::cdr;
 use lewis_interfaces::msg::Header;
 use lewis_runtime::ipc::Namespace;
 use lewis_tests::{WATCHDOG, lewis_exe, python_tool, repo_root, run_ok, signal, wait_child};
@@ -119,10 +119,7 @@ pub fn runs(seqs: impl Iterator<Item = u64>) -> Vec<[u64; 2]> {
 
 /// The header at the start of CDR bytes.
 pub fn header_of(bytes: &[u8]) -> Header {
-    let payload = bytes
-        .strip_prefix(&cdr::ENCAPSULATION_LE[..])
-        .expect("CDR little-endian bytes");
-    Header::decode(&mut Reader::new(payload)).expect("a header")
+    cdr::peek_header(bytes).expect("a header")
 }
 
 /// Decodes a recorded message.

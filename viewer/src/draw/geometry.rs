@@ -40,7 +40,6 @@ impl Point {
     }
 
     /// Rerun stores single-precision positions.
-    #[allow(clippy::cast_possible_truncation)]
     pub(crate) fn to_f32(self) -> [f32; 2] {
         [self.x as f32, self.y as f32]
     }
@@ -90,7 +89,6 @@ impl Placement {
 
     /// As a Rerun transform of the entity that holds B's data.
     pub(crate) fn to_transform(self) -> rerun::Transform3D {
-        #[allow(clippy::cast_possible_truncation)]
         rerun::Transform3D::from_translation_rotation(
             [self.translation.x as f32, self.translation.y as f32, 0.0],
             rerun::RotationAxisAngle::new(

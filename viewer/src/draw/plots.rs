@@ -36,7 +36,6 @@ pub(super) fn log_numeric_fields(
     Ok(any)
 }
 
-#[allow(clippy::cast_precision_loss)]
 fn collect(value: &Value, path: &mut Vec<String>, out: &mut Vec<(Vec<String>, f64)>) {
     let number = match value {
         Value::Bool(b) => Some(f64::from(u8::from(*b))),

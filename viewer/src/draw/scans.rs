@@ -78,7 +78,6 @@ fn beams(scan: &RangeFinder) -> Vec<Beam> {
         .filter(|(_, range)| usable(**range))
         .filter_map(|(i, &range)| {
             let (origin, bearing) = if scan.uniform {
-                #[allow(clippy::cast_precision_loss)]
                 let k = i as f64;
                 (
                     Point::new(

@@ -421,7 +421,6 @@ fn rate_hz(times_ns: impl Iterator<Item = i64>) -> Option<f64> {
         count += 1;
     }
     let span_s = (last - first?) as f64 / 1e9;
-    #[allow(clippy::cast_precision_loss)]
     (count >= 2 && span_s > 0.0).then(|| (count - 1) as f64 / span_s)
 }
 

@@ -111,7 +111,7 @@ impl BeamGeometry {
             180 | 181 => PI / 180.0,
             360 | 361 => PI / 360.0,
             0 | 1 => 0.0,
-            #[allow(clippy::cast_precision_loss)] // beam counts are small
+            // beam counts are small
             n => PI / (n - 1) as f64,
         };
         Self {
@@ -165,7 +165,6 @@ pub fn range_finder(
     let theta_offset = setup.mount.heading_rad + geometry.first_beam_rad;
     let sensor_positions = (0..ranges.len())
         .map(|i| {
-            #[allow(clippy::cast_precision_loss)]
             let theta = theta_offset + geometry.separation_rad * i as f64;
             Pose3D {
                 x: setup.mount.x_m,
@@ -204,7 +203,6 @@ pub struct SectorSpan {
 #[must_use]
 pub fn field_of_view(scan: &RangeFinder) -> SectorSpan {
     let last = scan.ranges.len().saturating_sub(1);
-    #[allow(clippy::cast_precision_loss)]
     let last_beam = scan.theta_offset + scan.theta_separation * last as f64;
     let half = scan.theta_separation.abs() / 2.0;
     SectorSpan {
@@ -249,16 +247,13 @@ pub fn derived_sonar(laser: &RangeFinder, options: &SonarOptions) -> RangeFinder
     let span = field_of_view(laser);
     let max = options.max_range_m.min(laser.max_range);
     let n = options.transducers;
-    #[allow(clippy::cast_precision_loss)]
     let step = (span.to_rad - span.from_rad) / n.max(1) as f64;
     let mut ranges = Vec::with_capacity(n);
     let mut sensor_positions = Vec::with_capacity(n);
     for j in 0..n {
-        #[allow(clippy::cast_precision_loss)]
         let axis = span.from_rad + step * (j as f64 + 0.5);
         let mut nearest = max;
         for (i, &r) in laser.ranges.iter().enumerate() {
-            #[allow(clippy::cast_precision_loss)]
             let bearing = laser.theta_offset + laser.theta_separation * i as f64;
             if (bearing - axis).abs() <= options.cone_half_angle_rad && r < laser.max_range {
                 nearest = nearest.min(r);

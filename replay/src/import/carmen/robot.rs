@@ -119,7 +119,7 @@ fn header(t: &mut String, report: &ImportReport) {
 fn sources(t: &mut String, report: &ImportReport) {
     let laser = &report.laser;
     let beams = laser.beams();
-    #[allow(clippy::cast_precision_loss)] // beam counts are small
+    // beam counts are small
     let fov_deg = (laser.geometry.separation_rad * beams.saturating_sub(1) as f64).to_degrees();
     let scans: u64 = laser.beam_counts.values().sum();
     let _ = writeln!(

@@ -88,7 +88,7 @@ impl PrintedTime {
         let decimals = i32::try_from(decimals).unwrap_or(i32::MAX);
         let last_digit = 10f64.powi(exponent.saturating_sub(decimals));
         let resolution_s = if seconds.is_finite() && seconds != 0.0 {
-            #[allow(clippy::cast_possible_truncation)] // log10 of a finite f64 is within ±330
+            // log10 of a finite f64 is within ±330
             let magnitude = seconds.abs().log10().floor() as i32;
             last_digit.min(10f64.powi(magnitude - 5))
         } else {
@@ -391,7 +391,7 @@ fn classify(time: Option<PrintedTime>, coarsest_resolution_s: f64) -> Class {
     } else if t.resolution_s > coarsest_resolution_s {
         Class::Bad(StampProblem::Coarse)
     } else {
-        #[allow(clippy::cast_possible_truncation)] // bounded by MAX_STAMP_S above
+        // bounded by MAX_STAMP_S above
         Class::Usable((s * 1e9).round() as i64)
     }
 }
