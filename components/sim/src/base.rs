@@ -4,9 +4,9 @@
 
 use lewis_interfaces::msg::{Egomotion, Power, Synchrodrive};
 
-use super::rng::SimRng;
 use super::world::World;
 use lewis_geometry::{Pose2, Vec2, wrap_angle};
+use lewis_runtime::service::Rng;
 
 /// Odometry noise: variances grow with the motion, so that the drift after a path does not
 /// depend on the integration step.
@@ -251,7 +251,7 @@ impl BaseConfig {
 #[derive(Debug, Clone)]
 pub struct SimBase {
     config: BaseConfig,
-    rng: SimRng,
+    rng: Rng,
     true_pose: Pose2,
     odometry_pose: Pose2,
     distance_travelled_m: f64,
@@ -281,7 +281,7 @@ impl SimBase {
         config.validate()?;
         Ok(Self {
             config,
-            rng: SimRng::for_device(seed, "base"),
+            rng: Rng::for_device(seed, "base"),
             true_pose,
             odometry_pose: Pose2::default(),
             distance_travelled_m: 0.0,
@@ -440,7 +440,7 @@ impl SimBase {
         let (d_noise, t_noise) = if distance == 0.0 && d_theta == 0.0 {
             (0.0, 0.0)
         } else {
-            (self.rng.normal(d_std), self.rng.normal(t_std))
+            (self.rng.normal(0.0, d_std), self.rng.normal(0.0, t_std))
         };
         let d = distance * noise.translation_scale + d_noise;
         let t = d_theta * noise.rotation_scale + t_noise;
@@ -559,7 +559,7 @@ impl SimBase {
         let b = self.config.battery;
         let voltage = b.empty_voltage_v
             + (b.full_voltage_v - b.empty_voltage_v) * self.charge_fraction
-            + self.rng.normal(b.voltage_noise_v);
+            + self.rng.normal(0.0, b.voltage_noise_v);
         Power {
             voltage,
             charge_fraction: self.charge_fraction,

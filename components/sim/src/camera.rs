@@ -16,8 +16,8 @@ use lewis_interfaces::msg::{CameraControl, ImageSource};
 use lewis_geometry::{Pose2, SensorMount, Vec2, wrap_angle};
 
 use super::laser::{SensorConfigError, check_non_negative, check_positive};
-use super::rng::SimRng;
 use super::world::{ArrowDirection, Hit, Material, Rgb, SIGN_BACK, Sign, Surface, World};
+use lewis_runtime::service::Rng;
 
 /// The camera's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -145,7 +145,7 @@ pub struct SimCamera {
     zoom: f64,
     pan_rad: f64,
     tilt_rad: f64,
-    rng: SimRng,
+    rng: Rng,
     hits: Vec<Hit>,
     grain: Vec<i8>,
 }
@@ -158,7 +158,7 @@ impl SimCamera {
     /// When a parameter cannot work.
     pub fn new(config: CameraConfig, seed: u64) -> Result<Self, SensorConfigError> {
         config.validate()?;
-        let mut rng = SimRng::for_device(seed, "camera");
+        let mut rng = Rng::for_device(seed, "camera");
         let frame_bytes = config.width_px as usize * config.height_px as usize * 3;
         let grain = grain(config.pixel_noise_std, frame_bytes, &mut rng);
         Ok(Self {
@@ -381,7 +381,7 @@ impl SimCamera {
         // at the cost of one draw, and the addition vectorises.
         let spare = self.grain.len() - rgb.len();
         // below `spare`
-        let start = ((self.rng.uniform() * spare as f64) as usize).min(spare);
+        let start = ((self.rng.next_f64() * spare as f64) as usize).min(spare);
         for (value, &offset) in rgb.iter_mut().zip(&self.grain[start..]) {
             *value = value.saturating_add_signed(offset);
         }
@@ -391,7 +391,7 @@ impl SimCamera {
 /// Twice a frame's worth of pixel noise, each channel's value the sum of two uniforms
 /// (triangular: close enough to a normal for a sensor's grain) with standard deviation `std`
 /// levels, drawn once from `rng`. Empty for no noise.
-fn grain(std: f64, frame_bytes: usize, rng: &mut SimRng) -> Vec<i8> {
+fn grain(std: f64, frame_bytes: usize, rng: &mut Rng) -> Vec<i8> {
     if std <= 0.0 {
         return Vec::new();
     }
@@ -399,7 +399,7 @@ fn grain(std: f64, frame_bytes: usize, rng: &mut SimRng) -> Vec<i8> {
     let scale = std * 6f64.sqrt();
     (0..2 * frame_bytes)
         .map(|_| {
-            let sum = rng.uniform() + rng.uniform() - 1.0;
+            let sum = rng.next_f64() + rng.next_f64() - 1.0;
             // clamped to the i8 range
             (sum * scale).round().clamp(-127.0, 127.0) as i8
         })

@@ -6,8 +6,8 @@ use std::f64::consts::PI;
 use lewis_geometry::{Pose2, SectorLayout, SensorMount, Vec2, distance_from_range_finder};
 use lewis_interfaces::msg::{Pose3D, RangeFinder, RangeFinderGetGeometryReply};
 
-use super::rng::SimRng;
 use super::world::World;
+use lewis_runtime::service::Rng;
 
 /// The laser's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -157,7 +157,7 @@ impl LaserConfig {
 #[derive(Debug, Clone)]
 pub struct SimLaser {
     config: LaserConfig,
-    rng: SimRng,
+    rng: Rng,
 }
 
 impl SimLaser {
@@ -169,7 +169,7 @@ impl SimLaser {
         config.validate()?;
         Ok(Self {
             config,
-            rng: SimRng::for_device(seed, "laser"),
+            rng: Rng::for_device(seed, "laser"),
         })
     }
 
@@ -210,7 +210,7 @@ impl SimLaser {
             if self.rng.chance(c.dropout_probability) {
                 *r = c.max_range_m;
             } else if *r < c.max_range_m {
-                *r = (*r + self.rng.normal(c.range_noise_std_m)).clamp(0.0, c.max_range_m);
+                *r = (*r + self.rng.normal(0.0, c.range_noise_std_m)).clamp(0.0, c.max_range_m);
             }
         }
         let first = c.first_beam_rad();

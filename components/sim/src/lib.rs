@@ -17,7 +17,6 @@ pub mod base;
 pub mod camera;
 pub mod geometry;
 pub mod laser;
-pub mod rng;
 pub mod service;
 pub mod sonar;
 pub mod world;
@@ -26,6 +25,5 @@ pub use base::{BaseConfig, BaseConfigError, BatteryConfig, OdometryNoise, SimBas
 pub use camera::{CameraConfig, Intrinsics, SimCamera};
 pub use geometry::{RayHit, Shape};
 pub use laser::{LaserConfig, SensorConfigError, SimLaser};
-pub use rng::SimRng;
 pub use sonar::{SimSonar, SonarConfig};
 pub use world::{Hit, Surface, World, WorldError, WorldLook};

@@ -10,8 +10,8 @@ use lewis_geometry::{
 };
 
 use super::laser::{SensorConfigError, check_non_negative, check_positive};
-use super::rng::SimRng;
 use super::world::World;
+use lewis_runtime::service::Rng;
 
 /// The sonar's parameters.
 #[derive(Debug, Clone, PartialEq)]
@@ -98,7 +98,7 @@ impl SonarConfig {
 #[derive(Debug, Clone)]
 pub struct SimSonar {
     config: SonarConfig,
-    rng: SimRng,
+    rng: Rng,
 }
 
 impl SimSonar {
@@ -110,7 +110,7 @@ impl SimSonar {
         config.validate()?;
         Ok(Self {
             config,
-            rng: SimRng::for_device(seed, "sonar"),
+            rng: Rng::for_device(seed, "sonar"),
         })
     }
 
@@ -156,7 +156,7 @@ impl SimSonar {
             let r = self.true_range(world, robot_pose, mount);
             let r = if r < c.max_range_m {
                 let std = c.range_noise_std_m + c.range_noise_fraction * r;
-                (r + self.rng.normal(std)).clamp(c.min_range_m, c.max_range_m)
+                (r + self.rng.normal(0.0, std)).clamp(c.min_range_m, c.max_range_m)
             } else {
                 r
             };

@@ -1,40 +1,79 @@
-//! The seeded random source of a service: SplitMix64, small, fast and the same on every
-//! machine, so a service fed the same inputs draws the same numbers live and in replay.
+//! The one seeded random source of Lewis: xoshiro256++ seeded through SplitMix64, small,
+//! fast and the same on every machine, so that a service fed the same inputs draws the same
+//! numbers live and in replay, and the simulator renders the same world from the same seed.
+//!
+//! Owned here rather than taken from a crate so that the sequence for a seed can never
+//! change under a dependency upgrade: recordings made from a seed stay reproducible.
 
-/// A deterministic random number generator (SplitMix64).
+/// A deterministic random number generator (xoshiro256++).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Rng {
-    state: u64,
+    state: [u64; 4],
+}
+
+/// One step of SplitMix64: spreads a seed over the generator's state.
+fn splitmix64(x: &mut u64) -> u64 {
+    *x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *x;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// FNV-1a of a name: stable across runs and machines.
+fn fnv1a(name: &str) -> u64 {
+    name.bytes().fold(0xcbf2_9ce4_8422_2325, |hash, byte| {
+        (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 impl Rng {
-    /// A generator started from `seed`.
+    /// A generator whose whole sequence is fixed by `seed`.
     #[must_use]
     pub fn new(seed: u64) -> Self {
-        Self { state: seed }
+        let mut x = seed;
+        Self {
+            state: [
+                splitmix64(&mut x),
+                splitmix64(&mut x),
+                splitmix64(&mut x),
+                splitmix64(&mut x),
+            ],
+        }
     }
 
     /// A seed derived from a name (FNV-1a), for services whose robot file gives none.
     #[must_use]
     pub fn seed_from_name(name: &str) -> u64 {
-        name.bytes().fold(0xcbf2_9ce4_8422_2325, |hash, byte| {
-            (hash ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3)
-        })
+        fnv1a(name)
+    }
+
+    /// A generator for one device of a simulated robot, independent of the other devices
+    /// seeded with the same `seed`: killing one device does not change what the others draw.
+    #[must_use]
+    pub fn for_device(seed: u64, device: &str) -> Self {
+        Self::new(seed ^ fnv1a(device).rotate_left(17))
     }
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        let s = &mut self.state;
+        let result = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
+        let t = s[1] << 17;
+        s[2] ^= s[0];
+        s[3] ^= s[1];
+        s[1] ^= s[2];
+        s[0] ^= s[3];
+        s[2] ^= t;
+        s[3] = s[3].rotate_left(45);
+        result
     }
 
     /// A number in `[0, 1)`, with 53 random bits.
     pub fn next_f64(&mut self) -> f64 {
-        // 53 bits fit a f64 mantissa exactly.
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        // 53 bits fit an f64 mantissa exactly.
+        let mantissa = (self.next_u64() >> 11) as f64;
+        mantissa * (1.0 / (1u64 << 53) as f64)
     }
 
     /// A number in `[low, high)`.
@@ -42,11 +81,28 @@ impl Rng {
         low + (high - low) * self.next_f64()
     }
 
-    /// A normally distributed number (Box-Muller).
+    /// A standard normal sample (Box-Muller; one sample per call, so the sequence does not
+    /// depend on how calls interleave with other draws).
+    pub fn standard_normal(&mut self) -> f64 {
+        // 1 - next_f64() is in (0, 1]: its logarithm is finite.
+        let radius = (-2.0 * (1.0 - self.next_f64()).ln()).sqrt();
+        let angle = std::f64::consts::TAU * self.next_f64();
+        radius * angle.cos()
+    }
+
+    /// A normal sample; a standard deviation of 0 (or less) draws nothing, so a noiseless
+    /// model leaves the sequence untouched.
     pub fn normal(&mut self, mean: f64, std_dev: f64) -> f64 {
-        let u1 = 1.0 - self.next_f64();
-        let u2 = self.next_f64();
-        mean + std_dev * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        if std_dev > 0.0 {
+            mean + std_dev * self.standard_normal()
+        } else {
+            mean
+        }
+    }
+
+    /// True with probability `p` (0 draws nothing).
+    pub fn chance(&mut self, p: f64) -> bool {
+        p > 0.0 && self.next_f64() < p
     }
 }
 
@@ -58,12 +114,29 @@ mod tests {
     fn the_same_seed_gives_the_same_numbers_and_another_seed_others() {
         let draw = |seed| {
             let mut rng = Rng::new(seed);
-            (0..4).map(|_| rng.next_u64()).collect::<Vec<_>>()
+            (0..16).map(|_| rng.next_u64()).collect::<Vec<_>>()
         };
         assert_eq!(draw(7), draw(7));
         assert_ne!(draw(7), draw(8));
-        // SplitMix64's published first output for seed 0.
-        assert_eq!(Rng::new(0).next_u64(), 0xe220_a839_7b1d_cdaf);
+    }
+
+    #[test]
+    fn the_sequence_of_a_seed_never_changes() {
+        // Pinned from the simulator's generator before the two were made one: a change here
+        // changes every simulated recording.
+        let mut laser = Rng::for_device(2, "laser");
+        let bits: Vec<u64> = (0..3).map(|_| laser.next_u64()).collect();
+        assert_eq!(
+            bits,
+            [
+                0x8601_27b8_2dab_36fa,
+                0x8635_b0b7_7701_000f,
+                0xd742_fcb6_005c_1569
+            ]
+        );
+        assert_eq!(laser.normal(0.0, 0.01).to_bits(), 0xbf7e_b7a7_5bd8_f2d8);
+        assert_eq!(laser.next_f64().to_bits(), 0x3fc5_793d_1543_3e7c);
+        assert_eq!(Rng::new(0).next_u64(), 0x5317_5d61_490b_23df);
     }
 
     #[test]
@@ -76,5 +149,32 @@ mod tests {
             assert!((-2.0..3.0).contains(&x));
             assert!(rng.normal(0.0, 1.0).is_finite());
         }
+    }
+
+    #[test]
+    fn normal_samples_have_the_requested_spread() {
+        let mut rng = Rng::new(1);
+        let n = 20_000;
+        let samples: Vec<f64> = (0..n).map(|_| rng.normal(0.0, 2.0)).collect();
+        let mean = samples.iter().sum::<f64>() / f64::from(n);
+        let var = samples.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / f64::from(n);
+        assert!(mean.abs() < 0.05, "mean {mean}");
+        assert!((var.sqrt() - 2.0).abs() < 0.05, "std {}", var.sqrt());
+    }
+
+    #[test]
+    fn devices_seeded_alike_draw_different_sequences() {
+        let mut laser = Rng::for_device(3, "laser");
+        let mut sonar = Rng::for_device(3, "sonar");
+        assert_ne!(laser.next_u64(), sonar.next_u64());
+    }
+
+    #[test]
+    fn no_spread_draws_nothing() {
+        let mut a = Rng::new(5);
+        let mut b = Rng::new(5);
+        assert_eq!(a.normal(1.5, 0.0), 1.5);
+        assert!(!a.chance(0.0));
+        assert_eq!(a.next_u64(), b.next_u64());
     }
 }
