@@ -203,10 +203,15 @@ impl Up {
             .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "300"])
             .args(args)
             .current_dir(dir.path())
-            // `LEWIS_TEST_LOG=lewis_runtime=debug` to see more of a run under study.
-            .env(
-                "RUST_LOG",
-                std::env::var("LEWIS_TEST_LOG").unwrap_or_else(|_| "info".to_owned()),
+            // `-v`: the tests read the broker's every decision (`start ghost`), which a
+            // person sees only when asking for it.
+            .arg("-v")
+            .env_remove("RUST_LOG")
+            // `LEWIS_TEST_LOG=lewis_runtime=trace` to see more of a run under study.
+            .envs(
+                std::env::var("LEWIS_TEST_LOG")
+                    .ok()
+                    .map(|f| ("RUST_LOG", f)),
             )
             .stdin(Stdio::null())
             .stdout(Stdio::null())

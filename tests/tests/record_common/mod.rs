@@ -203,7 +203,8 @@ impl RecordProcess {
         command
             .args(["record", "--namespace", namespace.as_str()])
             .args(args)
-            .env("RUST_LOG", "info")
+            .arg("-v")
+            .env_remove("RUST_LOG")
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped());
