@@ -14,7 +14,7 @@ use lewis_recorder::{Compression, QueueOptions, RecorderOptions, RobotDescriptio
 use lewis_runtime::ipc::{NAMESPACE_ENV, Namespace};
 use lewis_runtime::supervise::{ChildSpec, Stream, Supervisor, SupervisorEvent};
 
-use crate::up::{load_robot, namespace};
+use crate::up::namespace;
 
 /// The line `lewis record` writes on stdout once every channel is subscribed: nothing
 /// published after it is missed. `lewis up` waits for it before starting the services.
@@ -62,7 +62,19 @@ pub struct RecordArgs {
 /// Runs `lewis record`.
 pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
     let namespace = namespace(args.namespace.as_deref())?;
-    let robot = args.robot.as_deref().map(load_robot).transpose()?;
+    // The recorder runs no service: it needs the file's channels, not kinds it could build
+    // (an imported robot's sources have `kind = "recorded"`, which no harness starts).
+    let robot = args
+        .robot
+        .as_deref()
+        .map(|path| {
+            let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+                .iter()
+                .map(|i| i.name)
+                .collect();
+            lewis_runtime::robot::load(path, &known)
+        })
+        .transpose()?;
     // Without --robot the robot is not known yet: the default name says `recording`.
     let robot_name = robot.as_ref().map_or("recording", |r| r.name.as_str());
     let path = match &args.output {
