@@ -67,13 +67,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
     let robot = args
         .robot
         .as_deref()
-        .map(|path| {
-            let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
-                .iter()
-                .map(|i| i.name)
-                .collect();
-            lewis_runtime::robot::load(path, &known)
-        })
+        .map(|path| lewis_runtime::robot::load(path, &lewis_interfaces::interface_names()))
         .transpose()?;
     // Without --robot the robot is not known yet: the default name says `recording`.
     let robot_name = robot.as_ref().map_or("recording", |r| r.name.as_str());

@@ -45,6 +45,13 @@ pub fn builtin_idl() -> Result<idl::Idl, idl::Diagnostics> {
     idl::load_sources(&sources)
 }
 
+/// The names of the interfaces compiled into this crate: what a robot file may provide or
+/// require.
+#[must_use]
+pub fn interface_names() -> Vec<&'static str> {
+    msg::INTERFACES.iter().map(|i| i.name).collect()
+}
+
 /// The interface compiled into this crate with this name.
 #[must_use]
 pub fn interface_info(name: &str) -> Option<&'static InterfaceInfo> {

@@ -43,6 +43,9 @@ pub enum Verbosity {
 }
 
 impl Verbosity {
+    /// Every verbosity, from the quietest.
+    pub const ALL: [Self; 4] = [Self::Quiet, Self::Normal, Self::Verbose, Self::Trace];
+
     /// The verbosity of `-v` given `verbose` times, or of `-q`.
     #[must_use]
     pub fn from_flags(verbose: u8, quiet: bool) -> Self {
@@ -58,9 +61,7 @@ impl Verbosity {
     #[must_use]
     pub fn inherited() -> Option<Self> {
         let value = std::env::var(VERBOSITY_ENV).ok()?;
-        [Self::Quiet, Self::Normal, Self::Verbose, Self::Trace]
-            .into_iter()
-            .find(|v| v.as_env() == value)
+        Self::ALL.into_iter().find(|v| v.as_env() == value)
     }
 
     /// This verbosity as the value of [`VERBOSITY_ENV`].
@@ -91,12 +92,8 @@ static CURRENT: AtomicU8 = AtomicU8::new(1);
 /// The verbosity [`init`] was given, for a supervisor to pass on to its children.
 #[must_use]
 pub fn current() -> Verbosity {
-    match CURRENT.load(Ordering::Relaxed) {
-        0 => Verbosity::Quiet,
-        1 => Verbosity::Normal,
-        2 => Verbosity::Verbose,
-        _ => Verbosity::Trace,
-    }
+    let index = usize::from(CURRENT.load(Ordering::Relaxed));
+    Verbosity::ALL[index.min(Verbosity::ALL.len() - 1)]
 }
 
 /// Sends this process's `tracing` events to standard error for people. `RUST_LOG`, when
@@ -231,20 +228,10 @@ mod tests {
         assert_eq!(Verbosity::from_flags(1, false), Verbosity::Verbose);
         assert_eq!(Verbosity::from_flags(3, false), Verbosity::Trace);
         assert_eq!(Verbosity::from_flags(2, true), Verbosity::Quiet);
-        for v in [
-            Verbosity::Quiet,
-            Verbosity::Normal,
-            Verbosity::Verbose,
-            Verbosity::Trace,
-        ] {
-            let found = [
-                Verbosity::Quiet,
-                Verbosity::Normal,
-                Verbosity::Verbose,
-                Verbosity::Trace,
-            ]
-            .into_iter()
-            .find(|w| w.as_env() == v.as_env());
+        for v in Verbosity::ALL {
+            let found = Verbosity::ALL
+                .into_iter()
+                .find(|w| w.as_env() == v.as_env());
             assert_eq!(found, Some(v));
         }
     }

@@ -33,10 +33,7 @@ pub fn registry() -> ServiceRegistry {
 /// [`RobotError::Read`] when the file cannot be read; [`RobotError::Invalid`] with every
 /// problem at its `file:line:column` otherwise.
 pub fn load_robot(path: &Path) -> Result<Robot, RobotError> {
-    let interfaces: Vec<&str> = lewis_interfaces::msg::INTERFACES
-        .iter()
-        .map(|i| i.name)
-        .collect();
+    let interfaces = lewis_interfaces::interface_names();
     let registry = registry();
     let known = Known {
         interfaces: &interfaces,

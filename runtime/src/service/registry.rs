@@ -130,12 +130,7 @@ impl ServiceRegistry {
         + Sync
         + 'static,
     ) -> &mut Self {
-        let kind_entry = Kind {
-            constructor: Box::new(constructor),
-            check: None,
-        };
-        self.kinds.insert(kind.to_owned(), kind_entry);
-        self
+        self.insert(kind, Box::new(constructor), None)
     }
 
     /// Registers `kind` whose parameters table is a `P` (with `deny_unknown_fields`, so that
@@ -155,11 +150,17 @@ impl ServiceRegistry {
                 .map(drop)
                 .map_err(|e| with_suggestion(e.message().trim_end().trim_end_matches('.')))
         });
-        let kind_entry = Kind {
-            constructor: Box::new(constructor),
-            check: Some(check),
-        };
-        self.kinds.insert(kind.to_owned(), kind_entry);
+        self.insert(kind, Box::new(constructor), Some(check))
+    }
+
+    fn insert(
+        &mut self,
+        kind: &str,
+        constructor: Constructor,
+        check: Option<ParameterCheck>,
+    ) -> &mut Self {
+        self.kinds
+            .insert(kind.to_owned(), Kind { constructor, check });
         self
     }
 
