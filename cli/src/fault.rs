@@ -1,7 +1,7 @@
 //! `lewis fault SERVICE --kill|--stall|--out-of-service|--clear`: take a service of a
 //! running `lewis up` down, for demonstrations and tests.
 //!
-//! `--kill` sends SIGKILL to the service's process, found in the broker's status report
+//! `--kill` sends SIGKILL to the service's process, found in the broker's status reply
 //! (the broker sees a crash and restarts it within its policy; kill it often enough and it
 //! fails for good, and its clients move to the next provider). The others ask the
 //! service's live harness, on `/lewis/fault/<service>` (see
@@ -12,15 +12,11 @@
 use std::process::ExitCode;
 use std::time::Duration;
 
-use anyhow::Context as _;
 use clap::{ArgGroup, Args};
-use lewis_interfaces::msg::BrokerStatus;
-use lewis_runtime::client::{ClientError, call_blocking};
-use lewis_runtime::ipc::{CallError, Ipc};
-use lewis_runtime::live::fault::{InjectError, InjectedFault, inject};
-use lewis_runtime::names;
+use lewis_runtime::ipc::Ipc;
+use lewis_runtime::live::fault::{InjectError, InjectedFault, KillError, inject, kill};
 
-use crate::up::namespace;
+use lewis_runtime::ipc::Namespace;
 
 /// Arguments of `lewis fault`.
 #[derive(Debug, Args)]
@@ -56,7 +52,7 @@ pub struct FaultArgs {
 /// Runs `lewis fault`: 0 when the fault is in effect, 1 when the service (or the broker)
 /// does not run.
 pub fn run(args: &FaultArgs) -> anyhow::Result<ExitCode> {
-    let namespace = namespace(args.namespace.as_deref())?;
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let timeout = Duration::try_from_secs_f64(args.timeout)
         .map_err(|_| anyhow::anyhow!("--timeout {}: give a number of seconds", args.timeout))?;
     let ipc = Ipc::open(&namespace, &format!("lewis-fault-{}", std::process::id()))?;
@@ -67,7 +63,17 @@ pub fn run(args: &FaultArgs) -> anyhow::Result<ExitCode> {
     } else if args.clear {
         InjectedFault::Clear
     } else {
-        return kill(&ipc, &args.service, &namespace.to_string(), timeout);
+        return match kill(&ipc, &args.service, timeout) {
+            Ok(pid) => {
+                say(&format!("{}: killed (pid {pid})", args.service));
+                Ok(ExitCode::SUCCESS)
+            }
+            Err(e @ (KillError::NoBroker { .. } | KillError::NotRunning { .. })) => {
+                complain(&e.to_string());
+                Ok(ExitCode::from(1))
+            }
+            Err(e) => Err(e.into()),
+        };
     };
     match inject(&ipc, &args.service, fault, timeout) {
         Ok(()) => {
@@ -82,53 +88,6 @@ pub fn run(args: &FaultArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
-fn kill(ipc: &Ipc, service: &str, namespace: &str, timeout: Duration) -> anyhow::Result<ExitCode> {
-    let mut broker = ipc.command_client(names::BROKER_COMMAND, &names::broker_command_config())?;
-    let report = match call_blocking(&mut broker, &BrokerStatus::default(), timeout) {
-        Ok(reply) => reply.report,
-        Err(ClientError::Call(CallError::NoServer { .. })) => {
-            complain(&format!(
-                "no broker runs in namespace `{namespace}`: start one with `lewis up`"
-            ));
-            return Ok(ExitCode::from(1));
-        }
-        Err(e) => return Err(e).context("the broker did not give its status"),
-    };
-    let Some(pid) = pid_of(&report, service) else {
-        let running = processes(&report)
-            .map(|(name, _)| name)
-            .collect::<Vec<_>>()
-            .join(", ");
-        complain(&format!(
-            "service `{service}` has no running process in namespace `{namespace}` (running: {})",
-            if running.is_empty() { "none" } else { &running }
-        ));
-        return Ok(ExitCode::from(1));
-    };
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(pid),
-        nix::sys::signal::Signal::SIGKILL,
-    )
-    .with_context(|| format!("cannot send SIGKILL to {service} (pid {pid})"))?;
-    say(&format!("{service}: killed (pid {pid})"));
-    Ok(ExitCode::SUCCESS)
-}
-
-/// The `process NAME: pid PID` lines of the broker's status report.
-fn processes(report: &str) -> impl Iterator<Item = (&str, i32)> {
-    report.lines().filter_map(|line| {
-        let (name, pid) = line.strip_prefix("process ")?.split_once(": pid ")?;
-        Some((name, pid.trim().parse().ok().filter(|p: &i32| *p > 0)?))
-    })
-}
-
-/// The pid of `service`'s process, as the broker reports it.
-fn pid_of(report: &str, service: &str) -> Option<i32> {
-    processes(report)
-        .find(|(name, _)| *name == service)
-        .map(|(_, pid)| pid)
-}
-
 fn say(text: &str) {
     #[allow(clippy::print_stdout)]
     {
@@ -140,26 +99,5 @@ fn complain(text: &str) {
     #[allow(clippy::print_stderr)]
     {
         eprintln!("{text}");
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_pid_of_a_service_is_read_from_the_status_report() {
-        fn check(service: &str, expected: Option<i32>) {
-            let report = "robot sim in namespace t\n\
-                          service laser: running, ok\n\
-                          process laser: pid 4242\n\
-                          process laser_backup: pid 17\n\
-                          process sonar: pid zero\n";
-            assert_eq!(pid_of(report, service), expected, "{service}");
-        }
-        check("laser", Some(4242));
-        check("laser_backup", Some(17));
-        check("sonar", None);
-        check("camera", None);
     }
 }

@@ -16,7 +16,6 @@ mod goal;
 mod idl;
 mod import;
 mod info;
-mod mission;
 mod play;
 mod record;
 mod recover;

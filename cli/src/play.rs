@@ -18,7 +18,7 @@ use lewis_runtime::ipc::Ipc;
 use lewis_runtime::live::StopSignals;
 use nix::sys::termios::{self, LocalFlags, SetArg, SpecialCharacterIndices, Termios};
 
-use crate::up::namespace;
+use lewis_runtime::ipc::Namespace;
 
 /// Arguments of `lewis play`.
 #[derive(Debug, Args)]
@@ -63,7 +63,7 @@ pub fn run(args: &PlayArgs) -> anyhow::Result<ExitCode> {
         !args.paused || terminal,
         "--paused needs a terminal on stdin to resume (space) or step (s); stdin is not one"
     );
-    let namespace = namespace(args.namespace.as_deref())?;
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let ipc = Ipc::open(&namespace, "lewis-play")?;
     let stop = StopSignals::install().context("cannot catch SIGTERM and SIGINT")?;
     let options = PlayOptions {

@@ -1,27 +1,18 @@
 //! `lewis seq ...`: mission scripts.
 
-use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufReader, IsTerminal, Write};
+use std::io::{BufReader, Write};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::mpsc;
 
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
-use lewis_runtime::ipc::{NAMESPACE_ENV, Namespace};
-use lewis_sequencer::gui::GuiServer;
-use lewis_sequencer::live::{
-    ControlReceiver, Controller, LogLine, RunOptions, SignalForwarder, Stream, control_channel,
-    run_mission,
-};
-use lewis_sequencer::record::{Entry, JsonLinesSink, Record, RecordSink, Tee};
+use lewis_runtime::ipc::Namespace;
 use lewis_sequencer::replay::{Recording, compare, read_json_lines, split_missions};
 use lewis_sequencer::resolve::{ProgramResolver, SystemResolver, TrustingResolver};
-use lewis_sequencer::{
-    FileSystem, Mission, Outcome, Publisher, Supervision, TerminalChooser, check_with,
-};
+use lewis_sequencer::session::{SessionOptions, load_mission, run_session};
+use lewis_sequencer::{FileSystem, Outcome, check_with};
 
 /// `lewis seq ...`
 #[derive(Debug, Subcommand)]
@@ -114,197 +105,31 @@ fn check(script: &Path) -> anyhow::Result<ExitCode> {
 
 fn run_script(args: &RunArgs) -> anyhow::Result<ExitCode> {
     let mission = load_mission(&args.script)?;
-    let namespace = crate::up::namespace(args.namespace.as_deref())?;
-    let (controller, control) = control_channel().context("cannot set up the sequencer")?;
-    let signals = SignalForwarder::start(controller.clone())
-        .context("cannot catch Ctrl-C to stop the mission cleanly")?;
-    let outcome = execute(
-        &args.script,
-        mission,
-        &args.how,
-        true,
-        &namespace,
-        &controller,
-        &control,
-    );
-    drop(signals);
-    report(&outcome?)
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
+    let outcome = run_session(&args.script, mission, &args.how.options(true), &namespace)?;
+    Ok(report(&outcome))
 }
 
-/// Checks the script at `path` (its warnings go to stderr) and returns its mission.
-pub(crate) fn load_mission(path: &Path) -> anyhow::Result<Mission> {
-    match lewis_sequencer::check_file(path) {
-        Ok(checked) => {
-            if !checked.warnings.is_empty() {
-                writeln!(std::io::stderr(), "{}", checked.warnings)?;
-            }
-            Ok(checked.mission)
+impl MissionArgs {
+    /// The session options these arguments ask for; `echo` prints the decisions and the
+    /// programs' lines.
+    pub(crate) fn options(&self, echo: bool) -> SessionOptions {
+        SessionOptions {
+            no_gui: self.no_gui,
+            gui_addr: SocketAddr::new(self.gui_bind, self.gui_port),
+            events: self.events.clone(),
+            echo,
         }
-        Err(diagnostics) => bail!("{diagnostics}\n{}: the script has errors", path.display()),
     }
 }
 
-/// Runs `mission` (from `script`) to its end: the programs in `namespace` (their
-/// `LEWIS_NAMESPACE`), every record published on /lewis/sequencer there and written to
-/// `--events`; the supervisor asked on the page, on the terminal, or nobody
-/// ([`Supervision::decide`]). With `echo`, the decisions
-/// and the programs' lines (`[state] text`) are printed too; without, they go to the logs
-/// only (`lewis up`, whose logs already show them). Commands come from `control` (the
-/// caller catches the signals).
-pub(crate) fn execute(
-    script: &Path,
-    mission: Mission,
-    how: &MissionArgs,
-    echo: bool,
-    namespace: &Namespace,
-    controller: &Controller,
-    control: &ControlReceiver,
-) -> anyhow::Result<Outcome> {
-    let mut events = match &how.events {
-        Some(path) => Some(JsonLinesSink::create(path)?),
-        None => None,
-    };
-    let publisher = match Publisher::start(namespace) {
-        Ok(started) => Some(started),
-        Err(e) => {
-            tracing::warn!("the mission is not published, so not recorded: {e}");
-            None
-        }
-    };
-    let supervision = Supervision::decide(
-        mission.use_gui(),
-        how.no_gui,
-        std::io::stdin().is_terminal(),
-    );
-    if echo {
-        // `lewis up` has the driver's log line; `lewis seq run` logs nothing else.
-        let line = match supervision {
-            Supervision::Unattended => {
-                "seq: nobody can answer (no supervisor's page, and the standard input is not a \
-                 terminal): after recovery the recovery state's actions apply"
-            }
-            Supervision::Terminal => "seq: the supervisor is asked on this terminal after recovery",
-            Supervision::Page => "",
-        };
-        if !line.is_empty() {
-            writeln!(std::io::stderr(), "{line}")?;
-        }
-    }
-    let gui = if supervision == Supervision::Page {
-        let gui = GuiServer::start(
-            SocketAddr::new(how.gui_bind, how.gui_port),
-            &mission,
-            controller.clone(),
-        )?;
-        writeln!(std::io::stdout(), "supervisor's page: {}", gui.url())?;
-        Some(gui)
+/// Says how the mission ended; the exit code: 0 when it reached `stop`, 1 otherwise.
+pub(crate) fn report(outcome: &Outcome) -> ExitCode {
+    let _ = writeln!(std::io::stdout(), "{outcome}");
+    if outcome.is_finished() {
+        ExitCode::SUCCESS
     } else {
-        None
-    };
-    let terminal = if supervision == Supervision::Terminal {
-        let stdin = BufReader::new(std::io::stdin());
-        Some(TerminalChooser::start(
-            stdin,
-            std::io::stderr(),
-            controller.clone(),
-        )?)
-    } else {
-        None
-    };
-
-    let (lines, incoming) = mpsc::sync_channel(4096);
-    let lines = echo.then_some(lines);
-    let printer = std::thread::Builder::new()
-        .name("lewis-seq-output".into())
-        .spawn(move || {
-            for line in incoming {
-                let line: LogLine = line;
-                let text = format!("[{}] {}\n", line.name, line.text);
-                let _ = match line.stream {
-                    Stream::Stdout => std::io::stdout().write_all(text.as_bytes()),
-                    Stream::Stderr => std::io::stderr().write_all(text.as_bytes()),
-                };
-            }
-        })?;
-
-    let (publisher, published) = publisher.unzip();
-    let mut tee = Tee::new();
-    if echo {
-        tee = tee.with(Console);
-    }
-    if let Some(published) = published {
-        tee = tee.with(published);
-    }
-    if let Some(events) = events.as_mut() {
-        tee = tee.with(events);
-    }
-    if let Some(gui) = &gui {
-        tee = tee.with(gui.sink());
-    }
-    if let Some(terminal) = terminal {
-        tee = tee.with(terminal);
-    }
-    let options = RunOptions {
-        log_lines: lines,
-        env: BTreeMap::from([(NAMESPACE_ENV.to_owned(), namespace.as_str().to_owned())]),
-        supervision,
-        ..RunOptions::new(std::path::absolute(script)?)
-    };
-    let outcome = run_mission(mission, options, control, &mut tee);
-    drop(tee);
-    // The supervisor is gone with its output threads: every line has been sent.
-    let _ = printer.join();
-    if let Some(publisher) = publisher {
-        let report = publisher.finish();
-        if report.failed > 0 || report.discarded > 0 {
-            tracing::warn!(
-                "{} of the mission's records were not published and {} deliveries were dropped on /lewis/sequencer",
-                report.failed,
-                report.discarded
-            );
-        }
-    }
-    if let Some(gui) = gui {
-        gui.shutdown();
-    }
-    if let (Some(events), Some(path)) = (events, &how.events) {
-        events
-            .finish()
-            .with_context(|| format!("cannot write the events file {}", path.display()))?;
-    }
-    Ok(outcome?)
-}
-
-/// Says how the mission ended; the exit code: 0 when it reached `stop`, 1 otherwise.
-pub(crate) fn report(outcome: &Outcome) -> anyhow::Result<ExitCode> {
-    let mut out = std::io::stdout().lock();
-    match outcome {
-        Outcome::Finished { reason } => {
-            writeln!(out, "mission finished: {reason}")?;
-            Ok(ExitCode::SUCCESS)
-        }
-        Outcome::Aborted { reason } => {
-            writeln!(out, "mission aborted: {reason}")?;
-            Ok(ExitCode::FAILURE)
-        }
-    }
-}
-
-/// Prints the mission's decisions as they are taken.
-struct Console;
-
-impl RecordSink for Console {
-    fn record(&mut self, record: &Record) {
-        let line = match &record.entry {
-            Entry::Decided { decision } => format!("seq: {decision}\n"),
-            Entry::Refused { event, error } => format!("seq: refused {event}: {error}\n"),
-            Entry::MissionStarted { .. }
-            | Entry::Observed { .. }
-            | Entry::ProgramStarted { .. } => {
-                return;
-            }
-        };
-        let _ = std::io::stdout().write_all(line.as_bytes());
+        ExitCode::FAILURE
     }
 }
 

@@ -6,10 +6,9 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::Args;
+use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::{CLOCK_ENV, ClockSource, run_service};
 use lewis_runtime::service::ServiceRegistry;
-
-use crate::up::{load_robot, namespace};
 
 /// Arguments of `lewis service`.
 #[derive(Debug, Args)]
@@ -36,8 +35,8 @@ pub fn registry() -> ServiceRegistry {
 
 /// Runs `lewis service`.
 pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
-    let robot = load_robot(&args.robot)?;
-    let namespace = namespace(args.namespace.as_deref())?;
+    let robot = lewis_services::load_robot(&args.robot)?;
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let clock = match args.clock {
         Some(clock) => clock,
         None => match std::env::var(CLOCK_ENV) {

@@ -6,11 +6,12 @@ use std::time::Duration;
 
 use clap::Args;
 use lewis_interfaces::msg::BrokerStatus;
+use lewis_runtime::broker::status::StatusText;
 use lewis_runtime::client::{ClientError, call_blocking};
 use lewis_runtime::ipc::{CallError, Ipc};
 use lewis_runtime::names;
 
-use crate::up::namespace;
+use lewis_runtime::ipc::Namespace;
 
 /// Arguments of `lewis status`.
 #[derive(Debug, Args)]
@@ -25,7 +26,7 @@ pub struct StatusArgs {
 
 /// Runs `lewis status`: prints the report and exits 0, or exits 1 when no broker answers.
 pub fn run(args: &StatusArgs) -> anyhow::Result<ExitCode> {
-    let namespace = namespace(args.namespace.as_deref())?;
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let ipc = Ipc::open(&namespace, &format!("lewis-status-{}", std::process::id()))?;
     let mut broker = ipc.command_client(names::BROKER_COMMAND, &names::broker_command_config())?;
     let timeout = Duration::try_from_secs_f64(args.timeout)
@@ -34,7 +35,7 @@ pub fn run(args: &StatusArgs) -> anyhow::Result<ExitCode> {
         Ok(reply) => {
             #[allow(clippy::print_stdout)]
             {
-                print!("{}", reply.report);
+                print!("{}", StatusText(&reply));
             }
             Ok(ExitCode::SUCCESS)
         }

@@ -14,7 +14,7 @@ use clap::Args;
 use lewis_recorder::live::load::publish_stress;
 use lewis_recorder::stress::robot_toml;
 
-use crate::up::namespace;
+use lewis_runtime::ipc::Namespace;
 
 /// Arguments of `lewis stress-publish`.
 #[derive(Debug, Args)]
@@ -40,7 +40,7 @@ pub fn run(args: &StressArgs) -> anyhow::Result<ExitCode> {
         out.write_all(robot_toml().as_bytes())?;
         return Ok(ExitCode::SUCCESS);
     }
-    let namespace = namespace(args.namespace.as_deref())?;
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let duration = args.duration;
     anyhow::ensure!(
         !duration.is_zero(),

@@ -1,16 +1,20 @@
-//! `lewis up ROBOT.toml`: the broker and the robot's services, until Ctrl-C or `--duration`.
+//! `lewis up ROBOT.toml`: the broker and the robot's services, until Ctrl-C or `--duration`
+//! (or until the goal or the mission given ends): `lewis_launch`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::Context as _;
 use clap::Args;
-use lewis_runtime::broker::live::{UpOptions, run_up};
+use lewis_launch::{Launch, LaunchOptions, MissionPlan};
+use lewis_runtime::broker::live::UpOptions;
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
-use lewis_runtime::robot::Robot;
 use lewis_runtime::supervise::DEFAULT_STOP_GRACE;
+use lewis_sequencer::session::load_mission;
+
+use crate::seq::MissionArgs;
 
 /// Arguments of `lewis up`.
 #[derive(Debug, Args)]
@@ -44,78 +48,51 @@ pub struct UpArgs {
     /// Drive to a goal, then stop (`--goal X,Y`).
     #[command(flatten)]
     pub goal: crate::goal::GoalArgs,
-    /// Run a mission script with the robot, then stop (`--script MISSION.seq`).
+    /// Run this mission script once the broker is up; `lewis up` ends with the mission: exit
+    /// 0 when it reaches `stop`, 1 when it fails.
+    #[arg(long, value_name = "MISSION.seq")]
+    pub script: Option<PathBuf>,
+    /// How the supervisor is asked and where the records go.
     #[command(flatten)]
-    pub mission: crate::mission::ScriptArgs,
+    pub how: MissionArgs,
 }
 
-/// Runs `lewis up`.
+/// Runs `lewis up`: exit 0 when the goal or the mission succeeded (or, without either,
+/// when the robot ran until it was stopped), 1 when it did not.
 pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
-    let robot = load_robot(&args.robot)?;
-    let namespace = namespace(args.namespace.as_deref())?;
-    let duration = args.duration;
-    let options = UpOptions {
-        // Services get an absolute path: they may run in another directory.
-        robot_path: std::path::absolute(&args.robot)
-            .with_context(|| format!("cannot resolve {}", args.robot.display()))?,
-        namespace,
-        lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
-        duration,
-        stop_grace: args
-            .stop_grace_ms
-            .map_or(DEFAULT_STOP_GRACE, Duration::from_millis),
-        clock: args.clock,
+    let robot = lewis_services::load_robot(&args.robot)?;
+    let mission = match &args.script {
+        Some(script) => Some(MissionPlan {
+            script: script.clone(),
+            mission: load_mission(script)?,
+            options: args.how.options(false),
+        }),
+        None => None,
     };
-    let recorder = if args.no_record {
-        None
-    } else {
-        crate::record::RecorderChild::start(
-            &options.lewis_exe,
-            &options.robot_path,
-            &robot.name,
-            &options.namespace,
-            args.output.as_deref(),
-        )?
+    let options = LaunchOptions {
+        up: UpOptions {
+            // Services get an absolute path: they may run in another directory.
+            robot_path: std::path::absolute(&args.robot)
+                .with_context(|| format!("cannot resolve {}", args.robot.display()))?,
+            namespace: Namespace::from_arg(args.namespace.as_deref())?,
+            lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
+            duration: args.duration,
+            stop_grace: args
+                .stop_grace_ms
+                .map_or(DEFAULT_STOP_GRACE, Duration::from_millis),
+            clock: args.clock,
+        },
+        record: (!args.no_record).then(|| args.output.clone()),
+        goal: args.goal.plan(&robot)?,
+        mission,
     };
-    let goal = crate::goal::start(&args.goal, &robot, &options.namespace)?;
-    let mission = crate::mission::start(&args.mission, &options.namespace)?;
-    let (mut mission, mut recorder) = (mission, recorder);
-    let mut mission_code = None;
-    let mut finish = || {
-        // The mission ends before the recorder stops, which records its last decisions.
-        if let Some(run) = mission.take() {
-            mission_code = Some(run.finish());
-        }
-        // Stopped after the services (it records their last words and the broker's stop
-        // decisions) and before the broker's channels close.
-        if let Some(recorder) = recorder.take() {
-            recorder.stop();
-        }
-    };
-    let summary = run_up(&robot, &options, &mut finish);
-    // When the broker could not run, `finish` has not run yet.
-    finish();
-    let summary = summary?;
-    tracing::info!(
-        "broker down ({}), {} decisions",
-        summary.ended_by,
-        summary.decisions
-    );
-    if let Some(code) = mission_code {
-        return code;
+    let report = Launch::new(robot, options)?.run()?;
+    if let Some(outcome) = &report.mission {
+        crate::seq::report(outcome);
     }
-    goal.map_or(Ok(ExitCode::SUCCESS), crate::goal::GoalRun::finish)
-}
-
-/// The namespace from `--namespace`, else `LEWIS_NAMESPACE`, else `default`.
-pub(crate) fn namespace(given: Option<&str>) -> anyhow::Result<Namespace> {
-    Ok(match given {
-        Some(name) => Namespace::new(name)?,
-        None => Namespace::from_env()?,
+    Ok(if report.succeeded() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
     })
-}
-
-/// Loads a robot description, checked whole: interfaces, kinds and their parameters.
-pub(crate) fn load_robot(path: &Path) -> anyhow::Result<Robot> {
-    Ok(lewis_services::load_robot(path)?)
 }

@@ -10,7 +10,8 @@
 //! runtime's process supervision and feeds the core; every event and decision goes as a
 //! [`Record`] to a [`RecordSink`] (`/lewis/sequencer` through the runtime's IPC, as the
 //! `Sequencer` interface: `publish`, `message`; a JSON-lines file);
-//! the supervisor answers on a page (`gui`) or the terminal (`terminal`); and `replay`
+//! the supervisor answers on a page (`gui`) or the terminal (`terminal`); `session` puts
+//! these together as `lewis seq run` and `lewis up --script` run a mission; and `replay`
 //! feeds recorded events (JSON lines here; from an MCAP recording, `lewis_replay::mission_log`) to a script's
 //! FSM to show where it decides differently.
 //!
@@ -79,6 +80,7 @@ pub mod record;
 pub mod replay;
 pub mod resolve;
 pub mod script;
+pub mod session;
 pub mod source;
 pub mod terminal;
 

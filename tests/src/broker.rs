@@ -113,9 +113,10 @@ pub fn status(ipc: &Ipc) -> String {
     let mut broker = ipc
         .command_client(names::BROKER_COMMAND, &names::broker_command_config())
         .expect("the broker's command channel opens");
-    lewis_runtime::client::call_blocking(&mut broker, &BrokerStatus::default(), WATCHDOG)
-        .expect("the broker answers")
-        .report
+    let reply =
+        lewis_runtime::client::call_blocking(&mut broker, &BrokerStatus::default(), WATCHDOG)
+            .expect("the broker answers");
+    lewis_runtime::broker::status::StatusText(&reply).to_string()
 }
 
 /// Asks the broker of `namespace` for its status report until `accept` accepts it, and

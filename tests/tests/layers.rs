@@ -112,6 +112,17 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "lewis-viewer",
         &["lewis-stdx", "lewis-interfaces", "lewis-mcap"],
     ),
+    // A robot run whole: it puts the broker, the recorder, a goal and a mission together
+    // and owns none of their decisions; only the binary is above it.
+    (
+        "lewis-launch",
+        &[
+            "lewis-runtime",
+            "lewis-recorder",
+            "lewis-sequencer",
+            "lewis-motion",
+        ],
+    ),
 ];
 
 /// Outside crates that only some of ours may use: the mechanism lives in one place.

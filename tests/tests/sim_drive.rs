@@ -209,13 +209,13 @@ fn status(ipc: &Ipc) -> String {
     let mut broker = ipc
         .command_client(names::BROKER_COMMAND, &names::broker_command_config())
         .expect("the broker's command channel opens");
-    lewis_runtime::client::call_blocking(
+    let reply = lewis_runtime::client::call_blocking(
         &mut broker,
         &BrokerStatus::default(),
         Duration::from_secs(10),
     )
-    .expect("the broker answers")
-    .report
+    .expect("the broker answers");
+    lewis_runtime::broker::status::StatusText(&reply).to_string()
 }
 /// The pid of `service`'s process in a broker status report.
 fn pid_in(report: &str, service: &str) -> Option<u32> {

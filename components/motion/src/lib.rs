@@ -8,6 +8,10 @@
 //!   [`MoverRequest`]s for a VectorMover, either one in another service or the one
 //!   [`AvoiderDrive`] owns.
 //!
+//! [`goal`] drives a robot to one point through whichever Mover the broker binds (`lewis up
+//! --goal`): a pure policy that decides when to send the goal again after a failover, and
+//! the thread that runs it over IPC.
+//!
 //! The service kinds in [`service`] (`vector_mover`, `obstacle_avoider`) feed them
 //! Egomotion, readings and commands, and publish their Mover status.
 //!
@@ -17,6 +21,7 @@
 mod avoider_drive;
 pub mod cost_map;
 pub mod free_space;
+pub mod goal;
 mod mover;
 mod obstacle_avoider;
 pub mod scan;

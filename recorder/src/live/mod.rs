@@ -27,6 +27,7 @@
 //! [`WaitSet`]: lewis_runtime::ipc::WaitSet
 //! [`Tap`]: crate::Tap
 
+pub mod child;
 pub mod discover;
 pub mod load;
 mod plan;

@@ -241,7 +241,8 @@ pub fn up_role() -> Res<()> {
         stop_grace: Duration::from_millis(300),
         clock: lewis_runtime::live::ClockSource::Wall,
     };
-    run_up(&robot, &options, &mut || {})?;
+    let signals = lewis_runtime::live::StopSignals::install()?;
+    run_up(&robot, &options, &signals, &mut || {})?;
     Ok(())
 }
 

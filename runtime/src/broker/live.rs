@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
     Broker as BrokerMessage, BrokerCommand, BrokerReleaseReply, BrokerRequestReply,
-    BrokerRobotReply, BrokerStatusReply, Health as HealthMessage, LogLine as LogLineMessage,
+    BrokerRobotReply, Health as HealthMessage, LogLine as LogLineMessage,
 };
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
@@ -96,9 +96,6 @@ pub enum UpError {
     /// Waiting failed.
     #[error(transparent)]
     Wait(#[from] WaitError),
-    /// The stop signals could not be caught.
-    #[error("cannot catch SIGTERM and SIGINT: {0}")]
-    Signals(std::io::Error),
     /// The log forwarding thread could not start.
     #[error("cannot start the log forwarding thread: {0}")]
     Thread(std::io::Error),
@@ -117,7 +114,10 @@ pub enum UpError {
 pub struct UpSummary {
     /// Decisions taken.
     pub decisions: usize,
-    /// Why it ended (`signal` or `duration`).
+    /// Why it ended: `signal` (Ctrl-C, SIGTERM), `request` (a [`StopHandle`]: the goal or
+    /// the mission is over) or `duration`.
+    ///
+    /// [`StopHandle`]: crate::live::StopHandle
     pub ended_by: &'static str,
 }
 
@@ -196,8 +196,9 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
     m
 }
 
-/// Runs the broker and the robot's services until a stop signal or the duration, then stops
-/// every service in reverse start order.
+/// Runs the broker and the robot's services until a stop signal, a stop asked through
+/// `stop`'s [`StopHandle`](crate::live::StopHandle), or the duration, then stops every
+/// service in reverse start order.
 ///
 /// `before_close` runs once every service has stopped and its last lines are published, but
 /// before the broker's own channels (`/lewis/broker`, `/lewis/log`) close: the place to stop
@@ -206,18 +207,18 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
 /// broker could miss the last lines. It does not run when the broker cannot start.
 ///
 /// # Errors
-/// When IPC, supervision or the signal handlers cannot be set up.
+/// When IPC or supervision cannot be set up.
 pub fn run_up(
     robot: &Robot,
     options: &UpOptions,
+    stop: &StopSignals,
     before_close: &mut dyn FnMut(),
 ) -> Result<UpSummary, UpError> {
-    let signals = StopSignals::install().map_err(UpError::Signals)?;
     let (log_tx, log_rx) = sync_channel(LOG_QUEUE);
     let forwarder = spawn_log_forwarder(options.namespace.clone(), log_rx)?;
     let mut driver = Driver::new(robot, options, Supervisor::with_log_sink(log_tx)?)?;
     let end = options.duration.map(|d| Instant::now() + d);
-    let ended_by = driver.run(&signals, end)?;
+    let ended_by = driver.run(stop, end)?;
     let summary = UpSummary {
         decisions: driver.decisions,
         ended_by,
@@ -328,6 +329,9 @@ impl<'r> Driver<'r> {
         );
         self.feed(Event::BrokerStarted);
         loop {
+            if signals.take_requested() {
+                return Ok("request");
+            }
             if signals.take() {
                 return Ok("signal");
             }
@@ -688,10 +692,16 @@ impl<'r> Driver<'r> {
                 cdr::to_vec(&reply)
             }
             BrokerCommand::Status(_) => {
-                let mut reply = BrokerStatusReply {
-                    report: self.report(),
-                    ..BrokerStatusReply::default()
-                };
+                let mut reply = super::status::status_reply(
+                    &self.robot.name,
+                    self.options.namespace.as_str(),
+                    &self.core.snapshot(),
+                    |name| {
+                        self.supervisor
+                            .pid(name)
+                            .and_then(|p| i32::try_from(p).ok())
+                    },
+                );
                 self.stamp(reply.header_mut());
                 cdr::to_vec(&reply)
             }
@@ -701,21 +711,6 @@ impl<'r> Driver<'r> {
     fn stamp(&self, header: &mut lewis_interfaces::msg::Header) {
         header.provider = names::BROKER_NODE.to_owned();
         header.publish_time_ns = self.clock.now_ns();
-    }
-
-    /// The status report: the core's snapshot and every running process.
-    fn report(&self) -> String {
-        let mut report = format!(
-            "robot {} in namespace {}\n",
-            self.robot.name, self.options.namespace
-        );
-        report.push_str(&self.core.snapshot().to_string());
-        for name in self.supervisor.running() {
-            if let Some(pid) = self.supervisor.pid(name) {
-                report.push_str(&format!("process {name}: pid {pid}\n"));
-            }
-        }
-        report
     }
 
     fn shutdown(&mut self) {

@@ -9,6 +9,7 @@
 
 mod core;
 pub mod live;
+pub mod status;
 
 pub use self::core::{
     Action, AfterStop, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need,

@@ -85,6 +85,11 @@ impl Namespace {
         }
     }
 
+    /// The namespace given on a command line (`--namespace`), else [`Namespace::from_env`].
+    pub fn from_arg(given: Option<&str>) -> Result<Self, NamespaceError> {
+        given.map_or_else(Self::from_env, Self::new)
+    }
+
     /// A namespace no other process on this machine uses: `tag`, the process id, a counter
     /// and the start time. For tests and throw-away runs that must not see each other.
     ///

@@ -156,6 +156,89 @@ pub fn inject(
     }
 }
 
+/// Why a service's process could not be killed.
+#[derive(Debug, thiserror::Error)]
+pub enum KillError {
+    /// The broker's command channel could not be opened.
+    #[error(transparent)]
+    Ipc(#[from] IpcError),
+    /// No broker answers in the namespace.
+    #[error("no broker runs in namespace `{namespace}`: start one with `lewis up`")]
+    NoBroker {
+        /// The namespace.
+        namespace: String,
+    },
+    /// The broker did not give its status.
+    #[error("the broker did not give its status: {0}")]
+    Status(#[source] crate::client::ClientError),
+    /// The broker knows no process of the service.
+    #[error(
+        "service `{service}` has no running process in namespace `{namespace}` (running: {})",
+        if running.is_empty() { "none".to_owned() } else { running.join(", ") }
+    )]
+    NotRunning {
+        /// The service.
+        service: String,
+        /// The namespace.
+        namespace: String,
+        /// The services that run a process.
+        running: Vec<String>,
+    },
+    /// The signal could not be sent.
+    #[error("cannot send SIGKILL to {service} (pid {pid}): {errno}")]
+    Signal {
+        /// The service.
+        service: String,
+        /// Its process.
+        pid: i32,
+        /// What the system said.
+        errno: nix::errno::Errno,
+    },
+}
+
+/// Kills `service`'s process (SIGKILL: a crash, which the broker handles within its
+/// policy), found in the status of the broker of `ipc`'s namespace. Returns the pid.
+///
+/// # Errors
+/// When no broker answers, the service runs no process, or the signal cannot be sent.
+pub fn kill(ipc: &Ipc, service: &str, timeout: Duration) -> Result<i32, KillError> {
+    let namespace = ipc.namespace().to_string();
+    let mut broker = ipc.command_client(names::BROKER_COMMAND, &names::broker_command_config())?;
+    let status = match crate::client::call_blocking(
+        &mut broker,
+        &lewis_interfaces::msg::BrokerStatus::default(),
+        timeout,
+    ) {
+        Ok(reply) => reply,
+        Err(crate::client::ClientError::Call(CallError::NoServer { .. })) => {
+            return Err(KillError::NoBroker { namespace });
+        }
+        Err(e) => return Err(KillError::Status(e)),
+    };
+    let Some(pid) = crate::broker::status::pid_of(&status, service) else {
+        return Err(KillError::NotRunning {
+            service: service.to_owned(),
+            namespace,
+            running: status
+                .services
+                .iter()
+                .filter(|s| s.pid > 0)
+                .map(|s| s.name.clone())
+                .collect(),
+        });
+    };
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(pid),
+        nix::sys::signal::Signal::SIGKILL,
+    )
+    .map_err(|errno| KillError::Signal {
+        service: service.to_owned(),
+        pid,
+        errno,
+    })?;
+    Ok(pid)
+}
+
 /// What the harness holds the service in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub(crate) enum FaultState {

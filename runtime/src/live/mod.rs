@@ -31,7 +31,7 @@ pub mod service_clock;
 mod signals;
 
 pub use service_clock::{CLOCK_ENV, ClockSource, UnknownClock};
-pub use signals::StopSignals;
+pub use signals::{StopHandle, StopSignals};
 
 use std::collections::BTreeMap;
 use std::os::fd::AsFd;
@@ -576,14 +576,18 @@ pub fn health_fields(health: &Health) -> (&'static str, &str) {
 /// The health a Health message declares (an unknown state counts as degraded).
 #[must_use]
 pub fn health_from_message(message: &HealthMessage) -> Health {
-    match message.state.as_str() {
+    health_from_fields(&message.state, &message.reason)
+}
+
+/// The health that a `state` and `reason` pair declares, as [`health_fields`] wrote them
+/// (an unknown state counts as degraded).
+#[must_use]
+pub fn health_from_fields(state: &str, reason: &str) -> Health {
+    match state {
         "ok" => Health::Ok,
-        "out-of-service" => Health::OutOfService(message.reason.clone()),
-        "degraded" => Health::Degraded(message.reason.clone()),
-        other => Health::Degraded(format!(
-            "unknown health state `{other}`: {}",
-            message.reason
-        )),
+        "out-of-service" => Health::OutOfService(reason.to_owned()),
+        "degraded" => Health::Degraded(reason.to_owned()),
+        other => Health::Degraded(format!("unknown health state `{other}`: {reason}")),
     }
 }
 

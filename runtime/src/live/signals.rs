@@ -2,8 +2,11 @@
 //! SIGINT, and SIGHUP where a caller wants it) as a file descriptor to wait on (the
 //! self-pipe trick). The handler only writes a byte and sets a flag; the event loop sees the
 //! socket readable and stops cleanly, knowing which signal asked.
+//!
+//! A [`StopHandle`] asks the same from inside the process (a goal reached, a mission
+//! over): the loop wakes as it would for Ctrl-C, and no thread signals its own process.
 
-use std::io::{self, Read};
+use std::io::{self, Read, Write};
 use std::os::fd::{AsFd, BorrowedFd};
 use std::os::unix::net::UnixStream;
 use std::sync::Arc;
@@ -18,6 +21,31 @@ pub struct StopSignals {
     read: UnixStream,
     caught: Vec<(Signal, Arc<AtomicBool>)>,
     ids: Vec<SigId>,
+    handle: StopHandle,
+}
+
+/// Asks a [`StopSignals`] holder to stop, from any thread, as a stop signal would.
+#[derive(Debug, Clone)]
+pub struct StopHandle {
+    write: Arc<UnixStream>,
+    requested: Arc<AtomicBool>,
+}
+
+impl StopHandle {
+    /// Asks to stop: the holder's descriptor becomes readable and its next
+    /// [`StopSignals::take`] says so.
+    pub fn stop(&self) {
+        // The flag first: once the byte wakes the reader, the flag is already set.
+        self.requested.store(true, Ordering::Release);
+        // A full socket already holds a wake-up; nothing else can go wrong that matters.
+        let _ = (&*self.write).write(&[1]);
+    }
+
+    /// Whether a stop was asked for (and not yet taken).
+    #[must_use]
+    pub fn is_requested(&self) -> bool {
+        self.requested.load(Ordering::Acquire)
+    }
 }
 
 impl StopSignals {
@@ -52,12 +80,35 @@ impl StopSignals {
             )?);
             caught.push((signal, flag));
         }
-        Ok(Self { read, caught, ids })
+        let handle = StopHandle {
+            write: Arc::new(write),
+            requested: Arc::new(AtomicBool::new(false)),
+        };
+        Ok(Self {
+            read,
+            caught,
+            ids,
+            handle,
+        })
     }
 
-    /// Whether a stop signal arrived since the last call (consumes it).
+    /// A handle that stops this holder as a signal would, for other threads.
+    #[must_use]
+    pub fn handle(&self) -> StopHandle {
+        self.handle.clone()
+    }
+
+    /// Whether a stop signal arrived or a [`StopHandle`] asked to stop since the last call
+    /// (consumes both).
     pub fn take(&self) -> bool {
-        !self.take_signals().is_empty()
+        let signalled = !self.take_signals().is_empty();
+        self.take_requested() || signalled
+    }
+
+    /// Whether a [`StopHandle`] asked to stop since the last call (consumes it; signals
+    /// stay to be taken).
+    pub fn take_requested(&self) -> bool {
+        self.handle.requested.swap(false, Ordering::AcqRel)
     }
 
     /// The signals that arrived since the last call, in the order they were installed
@@ -109,5 +160,23 @@ mod tests {
         assert_eq!(ready, 1);
         assert_eq!(signals.take_signals(), vec![Signal::SIGHUP]);
         assert!(!signals.take());
+    }
+
+    #[test]
+    fn a_stop_handle_wakes_the_descriptor_without_a_signal() {
+        let signals = StopSignals::install_for(&[Signal::SIGHUP]).unwrap_or_else(|e| panic!("{e}"));
+        let handle = signals.handle();
+        std::thread::spawn(move || handle.stop())
+            .join()
+            .unwrap_or_else(|_| panic!("the stopping thread panicked"));
+        let mut fds = [rustix::event::PollFd::new(
+            &signals,
+            rustix::event::PollFlags::IN,
+        )];
+        let ready = rustix::event::poll(&mut fds, None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(ready, 1);
+        assert!(signals.take_signals().is_empty(), "no signal was raised");
+        assert!(signals.take());
+        assert!(!signals.take(), "a request is taken once");
     }
 }

@@ -1,0 +1,228 @@
+//! Lewis launch: a robot run whole, as `lewis up` runs it. The broker and the robot's
+//! services (`lewis_runtime::broker::live`), a recorder subscribed before they start and
+//! stopped after them (`lewis_recorder::live::child`), and beside them, when asked, a goal
+//! to drive to (`lewis_motion::goal`) or a mission script (`lewis_sequencer::session`).
+//!
+//! It owns the order in which they start and stop, and how a run ends: Ctrl-C, SIGTERM,
+//! the duration, a [`StopHandle`] from another thread, or the goal or mission being over
+//! (they ask through a stop handle too; nothing signals its own process). It owns no
+//! decision of theirs.
+
+use std::path::PathBuf;
+
+use lewis_motion::goal::{GoalPlan, GoalRun, GoalRunError, Outcome as GoalOutcome};
+use lewis_recorder::live::child::{ChildError, ChildOptions, RecorderChild};
+use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up};
+use lewis_runtime::live::{StopHandle, StopSignals};
+use lewis_runtime::robot::Robot;
+use lewis_sequencer::Mission;
+use lewis_sequencer::live::Outcome as MissionOutcome;
+use lewis_sequencer::session::{BesideBroker, SessionError, SessionOptions};
+
+/// A mission script to run beside the robot.
+#[derive(Debug, Clone)]
+pub struct MissionPlan {
+    /// The script, for the records.
+    pub script: PathBuf,
+    /// Its mission, checked.
+    pub mission: Mission,
+    /// How the supervisor is asked and where the records go.
+    pub options: SessionOptions,
+}
+
+/// What a launch runs.
+#[derive(Debug, Clone)]
+pub struct LaunchOptions {
+    /// The broker's and the services' options.
+    pub up: UpOptions,
+    /// Record into this file (`Some(None)`: the default name under `logs/`); `None`: no
+    /// recording.
+    pub record: Option<Option<PathBuf>>,
+    /// A goal to drive to; the run ends with it.
+    pub goal: Option<GoalPlan>,
+    /// A mission to run; the run ends with it.
+    pub mission: Option<MissionPlan>,
+}
+
+/// Why a launch could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum LaunchError {
+    /// The stop signals could not be caught.
+    #[error("cannot catch SIGTERM and SIGINT: {0}")]
+    Signals(#[source] std::io::Error),
+    /// The broker could not run.
+    #[error(transparent)]
+    Up(#[from] UpError),
+    /// The recorder child could not be set up.
+    #[error(transparent)]
+    Recorder(#[from] ChildError),
+    /// The goal could not be driven.
+    #[error(transparent)]
+    Goal(#[from] GoalRunError),
+    /// The mission could not run.
+    #[error(transparent)]
+    Mission(#[from] SessionError),
+}
+
+/// How a launch ended.
+#[derive(Debug, Clone)]
+pub struct LaunchReport {
+    /// The broker's run.
+    pub up: UpSummary,
+    /// How the goal ended, when there was one.
+    pub goal: Option<GoalOutcome>,
+    /// How the mission ended, when there was one.
+    pub mission: Option<MissionOutcome>,
+}
+
+impl LaunchReport {
+    /// Whether the run did what it was asked: the mission reached `stop`, or else the
+    /// goal was reached, or else (nothing asked) the robot ran until it was stopped.
+    #[must_use]
+    pub fn succeeded(&self) -> bool {
+        match (&self.mission, &self.goal) {
+            (Some(mission), _) => mission.is_finished(),
+            (None, Some(goal)) => *goal == GoalOutcome::Arrived,
+            (None, None) => true,
+        }
+    }
+}
+
+/// A robot ready to run: the stop signals are caught from here on.
+#[derive(Debug)]
+pub struct Launch {
+    robot: Robot,
+    options: LaunchOptions,
+    signals: StopSignals,
+}
+
+impl Launch {
+    /// Prepares `robot` to run with `options`.
+    ///
+    /// # Errors
+    /// When the stop signals cannot be caught.
+    pub fn new(robot: Robot, options: LaunchOptions) -> Result<Self, LaunchError> {
+        let signals = StopSignals::install().map_err(LaunchError::Signals)?;
+        Ok(Self {
+            robot,
+            options,
+            signals,
+        })
+    }
+
+    /// A handle that stops the run from another thread, as Ctrl-C would.
+    #[must_use]
+    pub fn stop_handle(&self) -> StopHandle {
+        self.signals.handle()
+    }
+
+    /// Runs the robot until it is stopped: the recorder first (subscribed before anything
+    /// is published), the goal and the mission, then the broker and the services; at the
+    /// end the mission stops, then the services, then the recorder (which keeps their last
+    /// words), then the broker's channels close.
+    ///
+    /// # Errors
+    /// When the broker, the recorder, the goal or the mission could not run.
+    pub fn run(self) -> Result<LaunchReport, LaunchError> {
+        let Self {
+            robot,
+            options,
+            signals,
+        } = self;
+        let namespace = &options.up.namespace;
+        let mut recorder = match &options.record {
+            Some(output) => RecorderChild::start(&ChildOptions {
+                lewis_exe: options.up.lewis_exe.clone(),
+                robot_path: options.up.robot_path.clone(),
+                robot_name: robot.name.clone(),
+                namespace: namespace.clone(),
+                output: output.clone(),
+            })?,
+            None => None,
+        };
+        let goal = match options.goal {
+            Some(plan) => {
+                let stop = signals.handle();
+                Some(GoalRun::start(plan, namespace, move || stop.stop())?)
+            }
+            None => None,
+        };
+        let mut mission = match &options.mission {
+            Some(plan) => {
+                let stop = signals.handle();
+                Some(BesideBroker::start(
+                    &plan.script,
+                    plan.mission.clone(),
+                    &plan.options,
+                    namespace,
+                    move || stop.stop(),
+                )?)
+            }
+            None => None,
+        };
+        let mut mission_outcome = None;
+        let mut finish = || {
+            // The mission ends before the recorder stops, which records its last decisions.
+            if let Some(run) = mission.take() {
+                mission_outcome = Some(run.finish("lewis up ended"));
+            }
+            // Stopped after the services (it records their last words and the broker's stop
+            // decisions) and before the broker's channels close.
+            if let Some(recorder) = recorder.take() {
+                recorder.stop();
+            }
+        };
+        let up = run_up(&robot, &options.up, &signals, &mut finish);
+        // When the broker could not run, `finish` has not run yet.
+        finish();
+        let goal = goal.map(GoalRun::finish).transpose();
+        let up = up?;
+        tracing::info!("broker down ({}), {} decisions", up.ended_by, up.decisions);
+        Ok(LaunchReport {
+            up,
+            goal: goal?,
+            mission: mission_outcome.transpose()?,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+    use std::time::Duration;
+
+    use lewis_runtime::ipc::Namespace;
+    use lewis_runtime::live::ClockSource;
+
+    use super::*;
+
+    #[test]
+    fn a_stop_handle_ends_the_run_as_a_request() {
+        // Every service of the test bench starts on demand: nobody asks, nothing starts.
+        let robot_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
+        let robot = lewis_runtime::robot::load(&robot_path, &lewis_interfaces::interface_names())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let options = LaunchOptions {
+            up: UpOptions {
+                robot_path,
+                namespace: Namespace::unique("launch-stop"),
+                lewis_exe: PathBuf::from("/nonexistent/lewis"),
+                duration: None,
+                stop_grace: Duration::from_millis(100),
+                clock: ClockSource::Wall,
+            },
+            record: None,
+            goal: None,
+            mission: None,
+        };
+        let launch = Launch::new(robot, options).unwrap_or_else(|e| panic!("{e}"));
+        let stop = launch.stop_handle();
+        let stopper = std::thread::spawn(move || stop.stop());
+        let report = launch.run().unwrap_or_else(|e| panic!("{e}"));
+        stopper
+            .join()
+            .unwrap_or_else(|_| panic!("the stopping thread panicked"));
+        assert_eq!(report.up.ended_by, "request");
+        assert!(report.succeeded(), "nothing was asked, so nothing failed");
+    }
+}
