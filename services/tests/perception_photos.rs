@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use lewis_interfaces::msg::{
     Blobs, BlobsSetMinArea, ImageSource, ImageSourceSetRate, ImageSourceSetRateReply, InputRef,
