@@ -9,10 +9,11 @@
 //! ([`repository_path`], [`shared_data`]).
 //!
 //! It does not own any service kind, world or device model: the tests bring their own
-//! registry and use the real simulator (`lewis-sim`) for a world. It is a test-support crate:
-//! only dev-dependencies name it (the layers test in `tests/` checks that), and it depends
-//! only on the interfaces and the runtime, so a component's own unit tests can use it
-//! without a second copy of the component.
+//! registry and use the real simulator (`lewis-sim`) for a world. It is a test-support
+//! crate: only dev-dependencies and `lewis-tests` (the end-to-end tests' helpers) name it
+//! (the layers test in `tests/` checks that), and it depends only on the interfaces and the
+//! runtime, so a component's own unit tests can use it without a second copy of the
+//! component.
 
 // Helpers of tests: a message that does not decode or a robot text that does not parse is
 // the test's failure, said with its reason.

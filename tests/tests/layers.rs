@@ -131,8 +131,8 @@ const ONLY_IN: &[(&str, &[&str], &str)] = &[
     ),
     (
         "lewis-testkit",
-        &[],
-        "lewis-testkit is a test-support crate: a dev-dependency only",
+        &["lewis-tests"],
+        "lewis-testkit is a test-support crate: for dev-dependencies and the tests' helpers only",
     ),
     (
         "mcap",
@@ -263,7 +263,7 @@ fn a_crate_that_uses_the_test_kit_outside_its_tests_is_named() {
         violations(&metadata),
         [
             "lewis-testkit -> lewis-sim: lewis-testkit may use only [\"lewis-interfaces\", \"lewis-runtime\"]",
-            "lewis -> lewis-testkit: lewis-testkit is a test-support crate: a dev-dependency only",
+            "lewis -> lewis-testkit: lewis-testkit is a test-support crate: for dev-dependencies and the tests' helpers only",
         ]
     );
 }
