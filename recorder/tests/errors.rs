@@ -6,7 +6,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
+use crate::common;
 
 use std::os::unix::fs::PermissionsExt as _;
 use std::os::unix::process::CommandExt as _;
@@ -101,7 +101,10 @@ fn a_read_only_folder_is_named_in_the_error() {
     std::fs::set_permissions(dir.path(), std::fs::Permissions::from_mode(0o755)).unwrap();
     let output = Command::new(std::env::current_exe().unwrap())
         .args([
-            "a_read_only_folder_is_named_in_the_error",
+            // Its name in the test binary, whose modules are the files of `tests/`.
+            concat!(module_path!(), "::a_read_only_folder_is_named_in_the_error")
+                .split_once("::")
+                .map_or("", |(_, name)| name),
             "--exact",
             "--nocapture",
         ])

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 //! stops, the terminal's answers.
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 use std::sync::mpsc;

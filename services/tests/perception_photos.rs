@@ -3,13 +3,14 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use lewis_interfaces::msg::{
-    Blobs, BlobsSetMinArea, ImageSource, ImageSourceSetRate, ImageSourceSetRateReply,
+    Blobs, BlobsSetMinArea, ImageSource, ImageSourceSetRate, ImageSourceSetRateReply, InputRef,
 };
 use lewis_runtime::broker::Health;
-use support::{Harness, build, repository, robot, shared_data};
+use lewis_testkit::{Harness, repository_path as repository, shared_data};
+use support::{build, robot};
 
 const MS: i64 = 1_000_000;
 
@@ -31,7 +32,7 @@ fn camera(parameters: &str) -> Harness {
         "under-test",
     )
     .expect("camera builds");
-    camera.start().unwrap();
+    camera.start(0).unwrap();
     camera
 }
 
@@ -74,13 +75,15 @@ fn the_camera_plays_a_folder_in_name_order_at_its_rate_and_loops() {
         ]
     );
     // Faster: every tick; beyond the highest rate, clamped to it.
-    let reply = camera
-        .command::<ImageSource, _>(&ImageSourceSetRate {
-            rate: 50.0,
-            ..Default::default()
-        })
+    let reply: ImageSourceSetRateReply = camera
+        .command(
+            7 * 50 * MS,
+            &ImageSourceSetRate {
+                rate: 50.0,
+                ..Default::default()
+            },
+        )
         .unwrap();
-    let reply: ImageSourceSetRateReply = lewis_interfaces::cdr::from_bytes(reply.bytes()).unwrap();
     assert_eq!(reply.rate, 20.0);
     let mut count = 0;
     for tick in 8..12 {
@@ -88,11 +91,14 @@ fn the_camera_plays_a_folder_in_name_order_at_its_rate_and_loops() {
         count += camera.take::<ImageSource>().len();
     }
     assert_eq!(count, 4);
-    let refused = camera.command::<ImageSource, _>(&ImageSourceSetRate {
-        rate: -1.0,
-        ..Default::default()
-    });
-    assert!(refused.unwrap_err().contains("positive"));
+    let refused = camera.command(
+        11 * 50 * MS,
+        &ImageSourceSetRate {
+            rate: -1.0,
+            ..Default::default()
+        },
+    );
+    assert!(refused.unwrap_err().0.contains("positive"));
 }
 
 #[test]
@@ -226,7 +232,7 @@ fn blobfinder(parameters: &str) -> Harness {
         "under-test",
     )
     .expect("blobfinder builds");
-    finder.start().unwrap();
+    finder.start(0).unwrap();
     finder
 }
 
@@ -239,7 +245,7 @@ fn the_blob_finder_finds_every_candy_of_the_camera_frames() {
     let mut finder = blobfinder(&format!("colors = {colors:?}"));
     camera.tick(0);
     let frame = camera.take::<ImageSource>().remove(0);
-    finder.input("camera", &frame);
+    finder.send(0, "camera", &frame);
     let blobs = finder.take::<Blobs>();
     let blobs = &blobs[0];
     assert_eq!(
@@ -265,22 +271,36 @@ fn the_blob_finder_finds_every_candy_of_the_camera_frames() {
         .collect();
     assert!(red.windows(2).all(|w| w[0].area >= w[1].area));
     assert_eq!(red[0].colour_rgb, 0xFF0000);
-    assert_eq!(blobs.header.inputs, frame.header.inputs);
+    // The blobs name the frame they were found in, as the live harness hands it over (the
+    // old harness gave no provenance, and this compared two empty lists).
+    assert_eq!(
+        blobs.header.inputs,
+        [InputRef {
+            channel: "/camera/ImageSource".into(),
+            seq: frame.header.seq,
+        }]
+    );
 
     // A lower minimum area lets the specks through: more blobs.
     finder
-        .command::<Blobs, _>(&BlobsSetMinArea {
-            min_area: 5,
-            ..Default::default()
-        })
+        .command(
+            0,
+            &BlobsSetMinArea {
+                min_area: 5,
+                ..Default::default()
+            },
+        )
         .unwrap();
-    finder.input("camera", &frame);
+    finder.send(0, "camera", &frame);
     assert!(finder.take::<Blobs>()[0].blobs.len() > CANDIES.len());
-    let refused = finder.command::<Blobs, _>(&BlobsSetMinArea {
-        min_area: -1,
-        ..Default::default()
-    });
-    assert!(refused.unwrap_err().contains("negative"));
+    let refused = finder.command(
+        0,
+        &BlobsSetMinArea {
+            min_area: -1,
+            ..Default::default()
+        },
+    );
+    assert!(refused.unwrap_err().0.contains("negative"));
 }
 
 #[test]
@@ -295,7 +315,7 @@ fn an_image_that_cannot_be_read_degrades_the_blob_finder_and_publishes_nothing()
         data: vec![0; 32],
         ..ImageSource::default()
     };
-    finder.input("camera", &broken);
+    finder.send(0, "camera", &broken);
     assert!(finder.take::<Blobs>().is_empty());
     match finder.backend.health.as_slice() {
         [Health::Degraded(why)] => assert!(why.contains("yuv422"), "{why}"),

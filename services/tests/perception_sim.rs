@@ -7,7 +7,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod support;
+use crate::support;
 
 use std::f64::consts::PI;
 use std::path::Path;
@@ -16,7 +16,8 @@ use lewis_geometry::{Pose2, Vec2};
 use lewis_interfaces::msg::{Blobs, Blobs3D, ImageSource, Signs};
 use lewis_sim::world::{ArrowDirection, ObjectKind, OccupancyGrid, Rgb, Sign, WorldObject};
 use lewis_sim::{CameraConfig, LaserConfig, SimCamera, SimLaser, World, WorldLook};
-use support::{Harness, build, repository, robot};
+use lewis_testkit::{Harness, repository_path as repository};
+use support::{build, robot};
 
 fn save(frame: &ImageSource, name: &str) {
     let Some(dir) = std::env::var_os("LEWIS_PERCEPTION_FRAMES_DIR") else {
@@ -64,12 +65,12 @@ fn sign_detector() -> Harness {
         "under-test",
     )
     .expect("sign_detector builds");
-    detector.start().unwrap();
+    detector.start(0).unwrap();
     detector
 }
 
 fn detect(detector: &mut Harness, frame: &ImageSource) -> Signs {
-    detector.input("camera", frame);
+    detector.send(0, "camera", frame);
     let mut published = detector.take::<Signs>();
     assert_eq!(published.len(), 1);
     published.remove(0)
@@ -202,7 +203,7 @@ fn red_blobs(frame: &ImageSource) -> Blobs {
         "under-test",
     )
     .unwrap();
-    finder.input("camera", frame);
+    finder.send(0, "camera", frame);
     finder.take::<Blobs>().remove(0)
 }
 
@@ -240,9 +241,9 @@ fn blobfinder3d_places_the_red_cap_where_the_simulator_has_it() {
         "under-test",
     )
     .unwrap();
-    locator.start().unwrap();
-    locator.input("laser", &scan);
-    locator.input("blobfinder", &blobs);
+    locator.start(0).unwrap();
+    locator.send(0, "laser", &scan);
+    locator.send(0, "blobfinder", &blobs);
     let placed = locator.take::<Blobs3D>().remove(0);
     let cap = placed
         .blobs
@@ -272,7 +273,7 @@ fn blobfinder3d_places_the_red_cap_where_the_simulator_has_it() {
         "under-test",
     )
     .unwrap();
-    alone.input("blobfinder", &blobs);
+    alone.send(0, "blobfinder", &blobs);
     let unplaced = alone.take::<Blobs3D>().remove(0);
     assert!(unplaced.blobs.iter().all(|b| !b.range_valid));
     assert!(matches!(

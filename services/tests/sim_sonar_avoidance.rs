@@ -4,13 +4,11 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod support;
-
 use lewis_geometry::Pose2;
 use lewis_motion::{AvoiderDrive, MoverStatus, ObstacleAvoiderConfig, VectorMoverConfig};
 use lewis_sim::service::SonarParams;
 use lewis_sim::{BaseConfig, SimBase, SimSonar, World};
-use support::repository;
+use lewis_testkit::repository_path as repository;
 
 const STEP_NS: i64 = 20_000_000;
 

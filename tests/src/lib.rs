@@ -16,21 +16,7 @@ pub fn repo_root() -> PathBuf {
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
-/// A file or folder of `../shared/data/`, real data recorded by others.
-///
-/// # Panics
-/// When the shared data folder is not beside the repository: the message says where it
-/// was looked for.
-#[must_use]
-pub fn shared_data(relative: &str) -> PathBuf {
-    let path = repo_root().join("../shared/data").join(relative);
-    assert!(
-        path.exists(),
-        "{} is missing: the tests read real data from ../shared/data beside the repository",
-        path.display()
-    );
-    path
-}
+pub use lewis_testkit::shared_data;
 
 /// A command running a program of the Python environment made by
 /// `scripts/setup-python.sh` (`python`, `pymcap-cli`, ...).

@@ -8,7 +8,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod record_common;
+use crate::record_common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -123,6 +123,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-motion",
         ],
     ),
+    // The service test kit: on the runtime only, so a component's own tests can use it.
+    ("lewis-testkit", &["lewis-interfaces", "lewis-runtime"]),
 ];
 
 /// Outside crates that only some of ours may use: the mechanism lives in one place.
@@ -137,6 +139,11 @@ const ONLY_IN: &[(&str, &[&str], &str)] = &[
         "lewis-emulators",
         &["lewis-services", "lewis"],
         "the emulators and test services are for the lewis binary and tests, not for components",
+    ),
+    (
+        "lewis-testkit",
+        &["lewis-tests"],
+        "lewis-testkit is a test-support crate: for dev-dependencies and the tests' helpers only",
     ),
     (
         "mcap",
@@ -245,6 +252,29 @@ fn a_component_that_borrows_from_the_simulator_or_the_emulators_is_named() {
             "lewis-drivers -> lewis-sim: lewis-drivers may use only [\"lewis-stdx\", \"lewis-geometry\", \"lewis-images\", \"lewis-interfaces\", \"lewis-runtime\"]",
             "lewis-perception -> lewis-emulators: lewis-perception may use only [\"lewis-stdx\", \"lewis-geometry\", \"lewis-images\", \"lewis-interfaces\", \"lewis-runtime\"]",
             "lewis-perception -> lewis-emulators: the emulators and test services are for the lewis binary and tests, not for components",
+        ]
+    );
+}
+
+#[test]
+fn a_crate_that_uses_the_test_kit_outside_its_tests_is_named() {
+    let metadata = serde_json::json!({"packages": [
+        {"name": "lewis-sim", "dependencies": [
+            {"name": "lewis-runtime", "kind": null},
+            {"name": "lewis-testkit", "kind": "dev"},
+        ]},
+        {"name": "lewis", "dependencies": [
+            {"name": "lewis-testkit", "kind": null},
+        ]},
+        {"name": "lewis-testkit", "dependencies": [
+            {"name": "lewis-sim", "kind": null},
+        ]},
+    ]});
+    assert_eq!(
+        violations(&metadata),
+        [
+            "lewis-testkit -> lewis-sim: lewis-testkit may use only [\"lewis-interfaces\", \"lewis-runtime\"]",
+            "lewis -> lewis-testkit: lewis-testkit is a test-support crate: for dev-dependencies and the tests' helpers only",
         ]
     );
 }

@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod record_common;
+use crate::record_common;
 
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -6,7 +6,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod record_common;
+use crate::record_common;
 
 use std::ffi::OsStr;
 use std::process::Command;

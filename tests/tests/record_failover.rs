@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod record_common;
+use crate::record_common;
 
 use std::ffi::OsStr;
 

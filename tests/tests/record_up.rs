@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod record_common;
+use crate::record_common;
 
 use std::ffi::OsStr;
 use std::path::PathBuf;

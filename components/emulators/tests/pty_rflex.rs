@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod pty_common;
+use crate::pty_common;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

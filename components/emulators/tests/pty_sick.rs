@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod pty_common;
+use crate::pty_common;
 
 use std::f64::consts::FRAC_PI_2;
 use std::path::Path;

@@ -1,19 +1,17 @@
-//! ObstacleAvoider driving a unicycle around obstacles in a small test world, on a laser, a
-//! sonar ring and Distance readings.
+//! ObstacleAvoider driving the simulated B21r around walls in a small world, on the
+//! simulated laser, sonar ring and Distance readings.
 
 // The helpers shared by the tests unwrap values the tests themselves built.
 #![allow(clippy::unwrap_used)]
 
-mod motion_support;
+use crate::motion_support;
 
 use lewis_interfaces::msg::{MoverReply, Pose2D};
 use lewis_motion::{
     AvoiderDrive, HoldReason, MoverStatus, ObstacleAvoider, ObstacleAvoiderConfig, VectorMover,
     VectorMoverConfig, VelocityCommand,
 };
-use motion_support::{
-    B21R_RADIUS_M, Laser, Rng, Robot, STEP_NS, Sonar, World, distance_from_laser, p,
-};
+use motion_support::{B21R_RADIUS_M, Robot, STEP_NS, Sensors, World, p};
 
 /// What the robot reads at a step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,28 +34,21 @@ struct Outcome {
 /// Anything that turns readings and poses into velocities: the drive that owns its
 /// VectorMover, or an avoider talking to a separate VectorMover through Mover commands.
 trait Driver {
-    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng);
+    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, sensors: &mut Sensors);
     fn step(&mut self, pose: &Pose2D, now_ns: i64) -> VelocityCommand;
     fn status(&self) -> MoverStatus;
     fn hold(&self) -> Option<HoldReason>;
 }
 
-fn read(sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng) -> Option<Reading> {
+fn read(sensor: Sensor, world: &World, robot: &Robot, sensors: &mut Sensors) -> Option<Reading> {
     match sensor {
-        Sensor::Laser => Some(Reading::Range(Laser::default().read(
+        Sensor::Laser => Some(Reading::Range(sensors.laser(world, &robot.world_pose))),
+        Sensor::Sonar => Some(Reading::Range(sensors.sonar(world, &robot.world_pose))),
+        Sensor::Distance => Some(Reading::Distance(sensors.distance(
             world,
             &robot.world_pose,
-            rng,
+            36,
         ))),
-        Sensor::Sonar => Some(Reading::Range(Sonar::default().read(
-            world,
-            &robot.world_pose,
-            rng,
-        ))),
-        Sensor::Distance => {
-            let laser = Laser::default().read(world, &robot.world_pose, rng);
-            Some(Reading::Distance(distance_from_laser(&laser, 36)))
-        }
         Sensor::Silent => None,
     }
 }
@@ -68,9 +59,9 @@ enum Reading {
 }
 
 impl Driver for AvoiderDrive {
-    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng) {
+    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, sensors: &mut Sensors) {
         let pose = robot.odom_pose();
-        match read(sensor, world, robot, rng) {
+        match read(sensor, world, robot, sensors) {
             Some(Reading::Range(r)) => self.observe_range_finder(&r, &pose, robot.now_ns).unwrap(),
             Some(Reading::Distance(d)) => self.observe_distance(&d, &pose, robot.now_ns).unwrap(),
             None => {}
@@ -95,9 +86,9 @@ struct Split {
 }
 
 impl Driver for Split {
-    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, rng: &mut Rng) {
+    fn observe(&mut self, sensor: Sensor, world: &World, robot: &Robot, sensors: &mut Sensors) {
         let pose = robot.odom_pose();
-        match read(sensor, world, robot, rng) {
+        match read(sensor, world, robot, sensors) {
             Some(Reading::Range(r)) => self
                 .avoider
                 .observe_range_finder(&r, &pose, robot.now_ns)
@@ -141,7 +132,7 @@ fn run(
     max_steps: usize,
     seed: u64,
 ) -> Outcome {
-    let mut rng = Rng::new(seed);
+    let mut sensors = Sensors::new(seed);
     let mut holds = Vec::new();
     let mut steps = 0;
     for step in 0..max_steps {
@@ -149,7 +140,7 @@ fn run(
         let sensor = schedule(step);
         // The sonar ring is slower than the laser: every other step.
         if sensor != Sensor::Sonar || step % 2 == 0 {
-            driver.observe(sensor, world, &robot, &mut rng);
+            driver.observe(sensor, world, &robot, &mut sensors);
         }
         let command = driver.step(&robot.odom_pose(), robot.now_ns);
         if let Some(hold) = driver.hold()
@@ -374,10 +365,10 @@ fn a_goal_that_cannot_be_reached_is_reported_blocked_without_touching_anything()
     let mut d = drive();
     d.goto(4.0, 0.0).unwrap();
     let mut robot = Robot::at(Pose2D::default());
-    let mut rng = Rng::new(8);
+    let mut sensors = Sensors::new(8);
     let mut blocked_at = None;
     for step in 0..500 {
-        d.observe(Sensor::Laser, &world, &robot, &mut rng);
+        d.observe(Sensor::Laser, &world, &robot, &mut sensors);
         let command = d.step(&robot.odom_pose(), robot.now_ns);
         robot.drive(&world, command);
         if d.status() == MoverStatus::Blocked && blocked_at.is_none() {
@@ -469,9 +460,9 @@ fn the_publication_carries_the_avoider_goal_waypoint_and_the_mover_velocities() 
     let id = d.goto(4.0, 0.0).unwrap();
     let world = wall_world();
     let mut robot = Robot::at(Pose2D::default());
-    let mut rng = Rng::new(12);
+    let mut sensors = Sensors::new(12);
     for _ in 0..15 {
-        d.observe(Sensor::Laser, &world, &robot, &mut rng);
+        d.observe(Sensor::Laser, &world, &robot, &mut sensors);
         let command = d.step(&robot.odom_pose(), robot.now_ns);
         robot.drive(&world, command);
     }

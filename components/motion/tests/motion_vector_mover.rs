@@ -1,9 +1,9 @@
-//! VectorMover driving a unicycle in an empty test world.
+//! VectorMover driving the simulated B21r in an empty world.
 
 // The helpers shared by the tests unwrap values the tests themselves built.
 #![allow(clippy::unwrap_used)]
 
-mod motion_support;
+use crate::motion_support;
 
 use lewis_interfaces::msg::{MoverCommand, MoverGoto, MoverReply, MoverRotate, MoverStop, Pose2D};
 use lewis_motion::{GoalId, MoverStatus, VectorMover, VectorMoverConfig, VelocityCommand};

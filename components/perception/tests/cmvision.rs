@@ -11,19 +11,8 @@ use lewis_perception::cmvision::{
     ChannelRange, CmVision, ColorClass, ColorConfig, ColorFileError, FrameError, MAX_SIDE_PX,
     Region, RgbFrame, rgb_to_yuv,
 };
+use lewis_testkit::shared_data;
 use proptest::prelude::*;
-
-fn shared_data(relative: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data")
-        .join(relative);
-    assert!(
-        path.exists(),
-        "{} is missing: the tests read the project's shared data (../shared/data beside the repository)",
-        path.display()
-    );
-    path
-}
 
 fn robots_file(relative: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

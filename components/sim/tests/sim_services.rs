@@ -5,8 +5,6 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod support;
-
 use lewis_interfaces::msg::{
     CameraControl, CameraControlSetZoom, Distance, DistanceSetSectorCount, Egomotion,
     EgomotionResetOdometry, GroundTruth, ImageSource, ImageSourceSetRate, InputRef, Pose2D, Power,
@@ -16,7 +14,7 @@ use lewis_interfaces::msg::{
 use lewis_runtime::names::data_channel;
 use lewis_runtime::service::{Level, ServiceRegistry};
 use lewis_sim::World;
-use support::{Harness, Publication, decoded, repository_path, robot};
+use lewis_testkit::{Harness, Publication, decoded, repository_path, robot};
 
 const MS: i64 = 1_000_000;
 const S: i64 = 1_000_000_000;

@@ -63,7 +63,7 @@ fn the_committed_conference_map_is_what_its_generator_draws() {
     let committed = image::open(&path)
         .unwrap_or_else(|e| {
             panic!(
-                "{}: {e} (regenerate it: LEWIS_REGENERATE_WORLD_MAPS=1 cargo test -p lewis-services --test sim_world)",
+                "{}: {e} (regenerate it: LEWIS_REGENERATE_WORLD_MAPS=1 cargo test -p lewis-sim --test it sim_world::)",
                 path.display()
             )
         })

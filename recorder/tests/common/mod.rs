@@ -1,7 +1,8 @@
 //! What the recorder's tests share: traffic, the independent Python readers, and the
 //! digests to compare with what they read.
 
-#![allow(dead_code)]
+// Helpers of tests, as the files that use them: a failed unwrap is the test failing.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 pub mod traffic;
 

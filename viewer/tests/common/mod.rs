@@ -8,7 +8,8 @@
 //!   recorded channels, and on `/replay/...` the re-simulated broker decisions, health,
 //!   mover and the injected fault.
 
-#![allow(dead_code)]
+// Helpers of tests, as the files that use them: a failed unwrap is the test failing.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

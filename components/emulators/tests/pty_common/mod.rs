@@ -1,6 +1,7 @@
 //! Shared by the pseudo-terminal tests: waiting with a watchdog deadline instead of sleeping.
 
-#![allow(dead_code)]
+// Helpers of tests, as the files that use them: a failed unwrap is the test failing.
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use std::os::fd::BorrowedFd;
 use std::path::PathBuf;

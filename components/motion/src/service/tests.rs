@@ -12,20 +12,21 @@ use lewis_interfaces::msg::{
 };
 use lewis_interfaces::{Command, Interface, cdr};
 use lewis_runtime::broker::Health;
-use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::service::{
-    Backend, BuildError, CallFailure, CallId, CommandError, ContextError, ContextState,
-    IncomingCommand, Input, Level, ReplyEvent, Service, ServiceConfig, ServiceRegistry,
-};
-use lewis_runtime::wire;
+use lewis_runtime::robot::Robot;
+use lewis_runtime::service::{BuildError, CallFailure, CallId, CommandError, ServiceRegistry};
+use lewis_testkit::{Harness, robot};
 
 use crate::MoverStatus;
 use lewis_geometry::Pose2;
 use lewis_sim::{BaseConfig, LaserConfig, SimBase, SimLaser, SimSonar, SonarConfig, World};
 
+// The heartbeat period is the one these tests were written with.
 const ROBOT: &str = r#"
 [robot]
 name = "motion-test"
+
+[broker]
+heartbeat_period_ms = 100
 
 [[services]]
 name = "base"
@@ -56,128 +57,48 @@ provides = [{ interface = "Mover", quality = 10, cost = 2 }]
 requires = ["RangeFinder", "Egomotion", "Mover"]
 "#;
 
-fn robot(text: &str) -> Robot {
-    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
-        .iter()
-        .map(|i| i.name)
-        .collect();
-    robot::parse(text, Path::new("motion-test.toml"), &known).unwrap()
-}
-
-fn build(robot: &Robot, name: &str) -> Result<Box<dyn Service>, BuildError> {
+fn build(robot: &Robot, name: &str) -> Result<Harness, BuildError> {
     let mut registry = ServiceRegistry::new();
     super::register(&mut registry);
-    registry.build(&ServiceConfig {
-        spec: robot.service(name).unwrap(),
-        heartbeat_period_ms: 100,
-    })
+    Harness::build(robot, name, &registry)
 }
 
-/// What a service did through its context.
-#[derive(Default)]
-struct TestBackend {
-    now_ns: i64,
-    published: Vec<(String, Vec<u8>)>,
-    /// `(call, interface, command, message)`.
-    calls: Vec<(CallId, String, &'static str, Vec<u8>)>,
-    health: Vec<Health>,
-    logs: Vec<(Level, String)>,
-    /// When set, every call fails to be sent with this.
-    refuse_calls: Option<CallFailure>,
-}
+/// One service on `lewis-testkit`'s harness, driven by hand: inputs stamped as their
+/// provider would, calls as tuples.
+struct Rig(Harness);
 
-impl Backend for TestBackend {
-    fn now_ns(&self) -> i64 {
-        self.now_ns
-    }
-    fn publish(
-        &mut self,
-        interface: &str,
-        len_bytes: usize,
-        encode: &mut dyn FnMut(&mut [u8]),
-    ) -> Result<(), ContextError> {
-        let mut buf = vec![0; len_bytes];
-        encode(&mut buf);
-        self.published.push((interface.to_owned(), buf));
-        Ok(())
-    }
-    fn call(
-        &mut self,
-        call: CallId,
-        interface: &str,
-        command: &'static str,
-        frame: &[u8],
-        _timeout_ns: i64,
-    ) -> Result<(), CallFailure> {
-        if let Some(failure) = &self.refuse_calls {
-            return Err(failure.clone());
-        }
-        let (name, message) = wire::read_request(frame).unwrap();
-        assert_eq!(name, command);
-        self.calls
-            .push((call, interface.to_owned(), command, message.to_vec()));
-        Ok(())
-    }
-    fn health_changed(&mut self, health: &Health) {
-        self.health.push(health.clone());
-    }
-    fn log(&mut self, _service: &str, level: Level, text: &str) {
-        self.logs.push((level, text.to_owned()));
+impl std::ops::Deref for Rig {
+    type Target = Harness;
+    fn deref(&self) -> &Harness {
+        &self.0
     }
 }
 
-/// One service on a test backend, driven by hand.
-struct Rig {
-    service: Box<dyn Service>,
-    state: ContextState,
-    backend: TestBackend,
+impl std::ops::DerefMut for Rig {
+    fn deref_mut(&mut self) -> &mut Harness {
+        &mut self.0
+    }
 }
 
 impl Rig {
     fn new(robot: &Robot, name: &str) -> Self {
-        Self {
-            service: build(robot, name).unwrap(),
-            state: ContextState::new(name, 1),
-            backend: TestBackend::default(),
-        }
-    }
-
-    fn tick(&mut self, now_ns: i64) {
-        self.backend.now_ns = now_ns;
-        self.service
-            .on_tick(&mut self.state.context(&mut self.backend));
+        Self(build(robot, name).unwrap())
     }
 
     fn input<T: Interface>(&mut self, provider: &str, message: &mut T, now_ns: i64) {
-        self.backend.now_ns = now_ns;
         let header = message.header_mut();
         header.provider = provider.to_owned();
         header.publish_time_ns = now_ns;
-        let bytes = cdr::to_vec(&*message);
-        let channel = format!("/{provider}/{}", T::NAME);
-        let input = Input {
-            interface: T::NAME,
-            provider,
-            channel: &channel,
-            bytes: &bytes,
-        };
-        self.service
-            .on_input(&mut self.state.context(&mut self.backend), &input);
+        self.0.send(now_ns, provider, &*message);
     }
 
+    /// Sends `command` at the time of the last event.
     fn command<C: Command>(&mut self, command: &C) -> Result<C::Reply, CommandError> {
-        let bytes = cdr::to_vec(command);
-        let incoming = IncomingCommand {
-            interface: <C::Interface as Interface>::NAME,
-            command: C::NAME,
-            bytes: &bytes,
-        };
-        let reply = self
-            .service
-            .on_command(&mut self.state.context(&mut self.backend), &incoming)?;
-        Ok(cdr::from_bytes(reply.bytes()).unwrap())
+        let now = self.0.backend.now_ns;
+        self.0.command(now, command)
     }
 
+    /// Answers `call` at the time of the last event.
     fn reply(
         &mut self,
         call: CallId,
@@ -185,29 +106,21 @@ impl Rig {
         command: &str,
         result: Result<&[u8], CallFailure>,
     ) {
-        let event = ReplyEvent {
-            call,
-            interface,
-            command,
-            result,
-        };
-        self.service
-            .on_reply(&mut self.state.context(&mut self.backend), &event);
+        let now = self.0.backend.now_ns;
+        self.0.reply(now, call, interface, command, result);
     }
 
+    /// `(call, interface, command, message)`.
     fn take_calls(&mut self) -> Vec<(CallId, String, &'static str, Vec<u8>)> {
-        std::mem::take(&mut self.backend.calls)
+        self.0
+            .take_calls()
+            .into_iter()
+            .map(|c| (c.id, c.interface, c.command, c.message))
+            .collect()
     }
 
     fn last_status(&self) -> Mover {
-        let (_, bytes) = self
-            .backend
-            .published
-            .iter()
-            .rev()
-            .find(|(i, _)| i == "Mover")
-            .expect("a Mover publication");
-        cdr::from_bytes(bytes).unwrap()
+        self.0.last::<Mover>().expect("a Mover publication")
     }
 }
 
@@ -421,9 +334,7 @@ fn an_avoider_with_a_goal_parameter_heads_for_it_from_its_start() {
     );
     let with_goal = robot(&text);
     let mut rig = Rig::new(&with_goal, "obstacle_avoider");
-    rig.service
-        .on_start(&mut rig.state.context(&mut rig.backend))
-        .unwrap();
+    rig.start(0).unwrap();
     let scan = RangeFinder {
         range_count: 3,
         ranges: vec![5.0; 3],
@@ -566,13 +477,10 @@ impl Drive {
                 self.route_avoider_calls();
                 self.mover.tick(now);
                 self.route_mover_calls();
-                let published = std::mem::take(&mut self.mover.backend.published);
-                for (interface, bytes) in published {
-                    if interface == "Mover" {
-                        let mut status: Mover = cdr::from_bytes(&bytes).unwrap();
-                        self.avoider.input("vector_mover", &mut status, now);
-                    }
+                for mut status in self.mover.take::<Mover>() {
+                    self.avoider.input("vector_mover", &mut status, now);
                 }
+                self.mover.backend.published.clear();
                 status = self.avoider.last_status().status.parse().unwrap();
                 self.avoider.backend.published.clear();
                 if status.is_final() {
@@ -586,23 +494,13 @@ impl Drive {
     fn route_avoider_calls(&mut self) {
         for (call, interface, command, message) in self.avoider.take_calls() {
             assert_eq!(interface, "Mover");
-            let incoming = IncomingCommand {
-                interface: "Mover",
-                command,
-                bytes: &message,
-            };
+            let now = self.mover.backend.now_ns;
             let answer = self
                 .mover
-                .service
-                .on_command(
-                    &mut self.mover.state.context(&mut self.mover.backend),
-                    &incoming,
-                )
+                .command_bytes(now, "Mover", command, &message)
                 .map_err(|e| CallFailure::Refused(e.0));
             match answer {
-                Ok(reply) => self
-                    .avoider
-                    .reply(call, "Mover", command, Ok(reply.bytes())),
+                Ok(reply) => self.avoider.reply(call, "Mover", command, Ok(&reply)),
                 Err(e) => self.avoider.reply(call, "Mover", command, Err(e)),
             }
         }

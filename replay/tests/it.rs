@@ -1,0 +1,11 @@
+//! The integration tests of this crate, one module per file of `tests/`, linked into
+//! one test binary: one link instead of one per file.
+
+mod carmen;
+mod carmen_never_panics;
+mod dynamic_never_panics;
+mod info;
+mod lockstep;
+mod play;
+mod ros2_recordings;
+mod versions;
