@@ -32,12 +32,19 @@ use lewis_runtime::service::{
 };
 use lewis_runtime::wire;
 
+/// The repository's root folder.
+#[must_use]
+pub fn repository_root() -> PathBuf {
+    // The kit is one folder below the root.
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from(".."), Path::to_path_buf)
+}
+
 /// A path from the repository's root.
 #[must_use]
 pub fn repository_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("..")
-        .join(relative)
+    repository_root().join(relative)
 }
 
 /// A file or folder of the shared data folder beside the repository (`../shared/data/`),

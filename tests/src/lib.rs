@@ -11,9 +11,7 @@ use std::process::Command;
 /// The repository's root folder.
 #[must_use]
 pub fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+    lewis_testkit::repository_root()
 }
 
 pub use lewis_testkit::shared_data;

@@ -9,7 +9,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stderr)]
 
-use crate::record_common;
+mod record_common;
 
 use std::ffi::OsStr;
 use std::process::{Command, Stdio};
