@@ -25,7 +25,7 @@ mod vector_mover;
 
 pub use avoider_drive::AvoiderDrive;
 pub use mover::{
-    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, UnknownStatus, VelocityCommand,
+    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand,
 };
 pub use obstacle_avoider::{
     AvoiderStep, HoldReason, ObserveError, ObstacleAvoider, ObstacleAvoiderConfig,
