@@ -13,14 +13,17 @@ pub mod cdr;
 pub mod dynamic;
 pub mod idl;
 mod traits;
+mod vocabulary;
 
 pub use traits::{
     Command, CommandDecodeError, CommandInfo, CommandSet, InPlace, Interface, InterfaceInfo,
-    Message, SchemaInfo, SizeMismatch, Struct,
+    Message, SchemaInfo, SizeMismatch, Struct, UnknownValue,
 };
 
 /// The types generated from `idl/*.xml`: one struct per compound type, publication,
-/// command and reply, and per interface an enum of its commands and one of their replies.
+/// command and reply, per String field with declared values an enum of its words
+/// (`MoverStatus`, `HealthState`, ...), and per interface an enum of its commands and one
+/// of their replies.
 #[allow(missing_docs, clippy::all, clippy::pedantic)]
 pub mod msg {
     include!(concat!(env!("OUT_DIR"), "/generated.rs"));

@@ -197,6 +197,31 @@ impl SizeMismatch {
     }
 }
 
+/// A word that is none of the values a String field declares (`"arived"` for
+/// `Mover.status`): the error of a generated vocabulary's `FromStr`.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("`{word}` is not a value of `{field}`; it holds one of: {}", .expected.join(", "))]
+pub struct UnknownValue {
+    /// The field, as `Struct.field`.
+    pub field: &'static str,
+    /// The word read.
+    pub word: String,
+    /// The words the field may hold.
+    pub expected: &'static [&'static str],
+}
+
+impl UnknownValue {
+    /// The error for `word` read from `field` (used by generated code).
+    #[must_use]
+    pub fn new(field: &'static str, word: &str, expected: &'static [&'static str]) -> Self {
+        Self {
+            field,
+            word: word.to_owned(),
+            expected,
+        }
+    }
+}
+
 /// A schema as MCAP stores it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SchemaInfo {

@@ -16,7 +16,10 @@ use std::rc::Rc;
 use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker, BrokerRelease, BrokerRequest, BrokerRequestReply};
+use lewis_interfaces::msg::{
+    Broker, BrokerAction, BrokerRelease, BrokerRequest, BrokerRequestReply,
+    BrokerRequestReplyStatus,
+};
 use lewis_interfaces::{Command, Interface};
 
 use crate::ipc::{
@@ -237,11 +240,13 @@ impl RawClient {
             if decision.client != self.client || decision.interface != self.interface {
                 continue;
             }
-            match decision.action.as_str() {
-                "bind" => self.switch_to(Some(&decision.service), &mut before)?,
-                "rebind" => self.switch_to(Some(&decision.to_service), &mut before)?,
-                "unbind" => self.switch_to(None, &mut before)?,
-                "reject" => {
+            match BrokerAction::parse(&decision.action) {
+                Some(BrokerAction::Bind) => self.switch_to(Some(&decision.service), &mut before)?,
+                Some(BrokerAction::Rebind) => {
+                    self.switch_to(Some(&decision.to_service), &mut before)?;
+                }
+                Some(BrokerAction::Unbind) => self.switch_to(None, &mut before)?,
+                Some(BrokerAction::Reject) => {
                     return Err(ClientError::Rejected {
                         interface: self.interface.clone(),
                     });
@@ -407,12 +412,12 @@ impl RawClient {
                 });
             }
         };
-        match answer.status.as_str() {
-            "bound" => {
+        match BrokerRequestReplyStatus::parse(&answer.status) {
+            Some(BrokerRequestReplyStatus::Bound) => {
                 self.switch_to(Some(&answer.service), before)?;
                 Ok(Some("the broker's answer".to_owned()))
             }
-            "rejected" => Err(ClientError::Rejected {
+            Some(BrokerRequestReplyStatus::Rejected) => Err(ClientError::Rejected {
                 interface: self.interface.clone(),
             }),
             _ => Ok(None),

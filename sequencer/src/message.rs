@@ -9,7 +9,9 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use lewis_interfaces::msg::{Header, Sequencer as SequencerMessage};
+use lewis_interfaces::msg::{
+    Header, Sequencer as SequencerMessage, SequencerEntry, SequencerKind, SequencerSupervision,
+};
 
 use crate::fsm::{Decision, Event, Supervision};
 use crate::record::{Entry, Record};
@@ -78,23 +80,23 @@ pub fn to_message(record: &Record) -> SequencerMessage {
             set_states(&mut m, states);
             m.use_gui = *use_gui;
             m.supervision = supervision
-                .map(supervision_name)
+                .map(|s| supervision_word(s).as_str())
                 .unwrap_or_default()
                 .to_owned();
-            "mission_started"
+            SequencerEntry::MissionStarted
         }
         Entry::Observed { event } => {
             put_event(&mut m, event);
-            "observed"
+            SequencerEntry::Observed
         }
         Entry::Refused { event, error } => {
             put_event(&mut m, event);
             m.error.clone_from(error);
-            "refused"
+            SequencerEntry::Refused
         }
         Entry::Decided { decision } => {
             put_decision(&mut m, decision);
-            "decided"
+            SequencerEntry::Decided
         }
         Entry::ProgramStarted {
             state,
@@ -104,10 +106,10 @@ pub fn to_message(record: &Record) -> SequencerMessage {
             m.state.clone_from(state);
             m.attempt = *attempt;
             m.pid = *pid;
-            "program_started"
+            SequencerEntry::ProgramStarted
         }
     };
-    m.entry = entry.to_owned();
+    m.entry = entry.into();
     m
 }
 
@@ -124,28 +126,28 @@ fn put_event(m: &mut SequencerMessage, event: &Event) {
     let kind = match event {
         Event::Exited { code } => {
             m.code = *code;
-            "exited"
+            SequencerKind::Exited
         }
         Event::Signalled { signal } => {
             m.code = *signal;
-            "signalled"
+            SequencerKind::Signalled
         }
-        Event::TimedOut => "timed_out",
+        Event::TimedOut => SequencerKind::TimedOut,
         Event::SpawnFailed { error } => {
             m.reason.clone_from(error);
-            "spawn_failed"
+            SequencerKind::SpawnFailed
         }
         Event::SupervisorChose { state } => {
             m.state.clone_from(state);
-            "supervisor_chose"
+            SequencerKind::SupervisorChose
         }
-        Event::SupervisorStopped => "supervisor_stopped",
+        Event::SupervisorStopped => SequencerKind::SupervisorStopped,
         Event::Interrupted { reason } => {
             m.reason.clone_from(reason);
-            "interrupted"
+            SequencerKind::Interrupted
         }
     };
-    m.kind = kind.to_owned();
+    m.kind = kind.into();
 }
 
 fn put_decision(m: &mut SequencerMessage, decision: &Decision) {
@@ -170,38 +172,38 @@ fn put_decision(m: &mut SequencerMessage, decision: &Decision) {
             m.has_timeout = timeout_ns.is_some();
             m.timeout_ns = timeout_ns.unwrap_or(0);
             m.attempt = *attempt;
-            "run"
+            SequencerKind::Run
         }
         Decision::Restart { state, attempt, .. } => {
             m.state.clone_from(state);
             m.attempt = *attempt;
-            "restart"
+            SequencerKind::Restart
         }
         Decision::EnterRecovery { from, .. } => {
             m.state.clone_from(from);
-            "enter_recovery"
+            SequencerKind::EnterRecovery
         }
         Decision::AskSupervisor {
             choices, suggested, ..
         } => {
             set_states(m, choices);
             m.suggested = suggested.clone().unwrap_or_default();
-            "ask_supervisor"
+            SequencerKind::AskSupervisor
         }
         Decision::Resume { state, .. } => {
             m.state.clone_from(state);
-            "resume"
+            SequencerKind::Resume
         }
         Decision::Transition { from, to, code, .. } => {
             m.state.clone_from(from);
             m.to.clone_from(to);
             m.code = *code;
-            "transition"
+            SequencerKind::Transition
         }
-        Decision::Finished { .. } => "finished",
-        Decision::Aborted { .. } => "aborted",
+        Decision::Finished { .. } => SequencerKind::Finished,
+        Decision::Aborted { .. } => SequencerKind::Aborted,
     };
-    m.kind = kind.to_owned();
+    m.kind = kind.into();
 }
 
 /// The record a publication carries.
@@ -210,34 +212,34 @@ fn put_decision(m: &mut SequencerMessage, decision: &Decision) {
 /// When the header's number is 0, or the entry or kind is unknown.
 pub fn from_message(m: &SequencerMessage) -> Result<Record, MessageError> {
     let seq = m.header.seq.checked_sub(1).ok_or(MessageError::NoSeq)?;
-    let entry = match m.entry.as_str() {
-        "mission_started" => Entry::MissionStarted {
+    let Some(entry) = SequencerEntry::parse(&m.entry) else {
+        return Err(MessageError::UnknownEntry {
+            seq,
+            entry: m.entry.clone(),
+        });
+    };
+    let entry = match entry {
+        SequencerEntry::MissionStarted => Entry::MissionStarted {
             script: PathBuf::from(&m.program),
             states: m.states.clone(),
             use_gui: m.use_gui,
             supervision: supervision_of(seq, &m.supervision)?,
         },
-        "observed" => Entry::Observed {
+        SequencerEntry::Observed => Entry::Observed {
             event: event_of(seq, m)?,
         },
-        "refused" => Entry::Refused {
+        SequencerEntry::Refused => Entry::Refused {
             event: event_of(seq, m)?,
             error: m.error.clone(),
         },
-        "decided" => Entry::Decided {
+        SequencerEntry::Decided => Entry::Decided {
             decision: decision_of(seq, m)?,
         },
-        "program_started" => Entry::ProgramStarted {
+        SequencerEntry::ProgramStarted => Entry::ProgramStarted {
             state: m.state.clone(),
             attempt: m.attempt,
             pid: m.pid,
         },
-        other => {
-            return Err(MessageError::UnknownEntry {
-                seq,
-                entry: other.to_owned(),
-            });
-        }
     };
     Ok(Record {
         seq,
@@ -246,59 +248,58 @@ pub fn from_message(m: &SequencerMessage) -> Result<Record, MessageError> {
     })
 }
 
-fn supervision_name(supervision: Supervision) -> &'static str {
+fn supervision_word(supervision: Supervision) -> SequencerSupervision {
     match supervision {
-        Supervision::Page => "page",
-        Supervision::Terminal => "terminal",
-        Supervision::Unattended => "unattended",
+        Supervision::Page => SequencerSupervision::Page,
+        Supervision::Terminal => SequencerSupervision::Terminal,
+        Supervision::Unattended => SequencerSupervision::Unattended,
     }
 }
 
 fn supervision_of(seq: u64, name: &str) -> Result<Option<Supervision>, MessageError> {
-    Ok(Some(match name {
-        "" => return Ok(None),
-        "page" => Supervision::Page,
-        "terminal" => Supervision::Terminal,
-        "unattended" => Supervision::Unattended,
-        other => {
-            return Err(MessageError::UnknownKind {
-                seq,
-                what: "supervision",
-                kind: other.to_owned(),
-            });
-        }
+    if name.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(match SequencerSupervision::parse(name) {
+        Some(SequencerSupervision::Page) => Supervision::Page,
+        Some(SequencerSupervision::Terminal) => Supervision::Terminal,
+        Some(SequencerSupervision::Unattended) => Supervision::Unattended,
+        None => return Err(unknown_kind(seq, "supervision", name)),
     }))
 }
 
+/// The error for a kind that names no `what` (`event`, `decision`).
+fn unknown_kind(seq: u64, what: &'static str, kind: &str) -> MessageError {
+    MessageError::UnknownKind {
+        seq,
+        what,
+        kind: kind.to_owned(),
+    }
+}
+
 fn event_of(seq: u64, m: &SequencerMessage) -> Result<Event, MessageError> {
-    Ok(match m.kind.as_str() {
-        "exited" => Event::Exited { code: m.code },
-        "signalled" => Event::Signalled { signal: m.code },
-        "timed_out" => Event::TimedOut,
-        "spawn_failed" => Event::SpawnFailed {
+    Ok(match SequencerKind::parse(&m.kind) {
+        Some(SequencerKind::Exited) => Event::Exited { code: m.code },
+        Some(SequencerKind::Signalled) => Event::Signalled { signal: m.code },
+        Some(SequencerKind::TimedOut) => Event::TimedOut,
+        Some(SequencerKind::SpawnFailed) => Event::SpawnFailed {
             error: m.reason.clone(),
         },
-        "supervisor_chose" => Event::SupervisorChose {
+        Some(SequencerKind::SupervisorChose) => Event::SupervisorChose {
             state: m.state.clone(),
         },
-        "supervisor_stopped" => Event::SupervisorStopped,
-        "interrupted" => Event::Interrupted {
+        Some(SequencerKind::SupervisorStopped) => Event::SupervisorStopped,
+        Some(SequencerKind::Interrupted) => Event::Interrupted {
             reason: m.reason.clone(),
         },
-        other => {
-            return Err(MessageError::UnknownKind {
-                seq,
-                what: "event",
-                kind: other.to_owned(),
-            });
-        }
+        _ => return Err(unknown_kind(seq, "event", &m.kind)),
     })
 }
 
 fn decision_of(seq: u64, m: &SequencerMessage) -> Result<Decision, MessageError> {
     let reason = m.reason.clone();
-    Ok(match m.kind.as_str() {
-        "run" => {
+    Ok(match SequencerKind::parse(&m.kind) {
+        Some(SequencerKind::Run) => {
             if m.env_names.len() != m.env_values.len() {
                 return Err(MessageError::Environment {
                     seq,
@@ -322,38 +323,32 @@ fn decision_of(seq: u64, m: &SequencerMessage) -> Result<Decision, MessageError>
                 reason,
             }
         }
-        "restart" => Decision::Restart {
+        Some(SequencerKind::Restart) => Decision::Restart {
             state: m.state.clone(),
             attempt: m.attempt,
             reason,
         },
-        "enter_recovery" => Decision::EnterRecovery {
+        Some(SequencerKind::EnterRecovery) => Decision::EnterRecovery {
             from: m.state.clone(),
             reason,
         },
-        "ask_supervisor" => Decision::AskSupervisor {
+        Some(SequencerKind::AskSupervisor) => Decision::AskSupervisor {
             choices: m.states.clone(),
             suggested: (!m.suggested.is_empty()).then(|| m.suggested.clone()),
             reason,
         },
-        "resume" => Decision::Resume {
+        Some(SequencerKind::Resume) => Decision::Resume {
             state: m.state.clone(),
             reason,
         },
-        "transition" => Decision::Transition {
+        Some(SequencerKind::Transition) => Decision::Transition {
             from: m.state.clone(),
             to: m.to.clone(),
             code: m.code,
             reason,
         },
-        "finished" => Decision::Finished { reason },
-        "aborted" => Decision::Aborted { reason },
-        other => {
-            return Err(MessageError::UnknownKind {
-                seq,
-                what: "decision",
-                kind: other.to_owned(),
-            });
-        }
+        Some(SequencerKind::Finished) => Decision::Finished { reason },
+        Some(SequencerKind::Aborted) => Decision::Aborted { reason },
+        _ => return Err(unknown_kind(seq, "decision", &m.kind)),
     })
 }

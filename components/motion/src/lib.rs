@@ -29,9 +29,7 @@ pub mod service;
 mod vector_mover;
 
 pub use avoider_drive::AvoiderDrive;
-pub use mover::{
-    ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, UnknownStatus, VelocityCommand,
-};
+pub use mover::{ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand};
 pub use obstacle_avoider::{
     AvoiderStep, HoldReason, ObserveError, ObstacleAvoider, ObstacleAvoiderConfig,
 };

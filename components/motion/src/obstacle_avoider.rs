@@ -925,7 +925,7 @@ impl ObstacleAvoider {
             } else {
                 Pose2D::default()
             },
-            status: self.status.as_str().to_owned(),
+            status: self.status.into(),
             distance_to_goal: self.distance_to_goal_m,
             translation_velocity: velocities.translation_m_s,
             rotation_velocity: velocities.rotation_rad_s,

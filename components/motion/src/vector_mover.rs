@@ -522,7 +522,7 @@ impl VectorMover {
         let goal = self.goal().unwrap_or_default();
         Mover {
             goal_id: self.goal_id.map_or(0, GoalId::get),
-            status: self.status.as_str().to_owned(),
+            status: self.status.into(),
             distance_to_goal: self.distance_to_goal_m,
             translation_velocity: self.command.translation_m_s,
             rotation_velocity: self.command.rotation_rad_s,

@@ -12,13 +12,15 @@ mod model;
 mod parse;
 mod ros2msg;
 mod rust;
+#[cfg(test)]
+mod tests;
 mod validate;
 
 pub use diagnostic::{Diagnostic, Diagnostics, Position};
 pub use load::{load_dir, load_files, load_sources};
 pub use model::{
-    Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface, PACKAGE, Primitive,
-    StructKind, StructType,
+    AllowedValue, Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface, PACKAGE,
+    Primitive, StructKind, StructType,
 };
 pub use ros2msg::schema_text;
 pub use rust::generate_rust;

@@ -151,6 +151,59 @@ pub struct Field {
     pub unit: Option<String>,
     /// What it means, for documentation.
     pub description: Option<String>,
+    /// For a String field with a vocabulary: the words it may hold, in definition order.
+    /// (The field may also be empty where its description says so: "none".) Empty for any
+    /// other field.
+    pub values: Vec<AllowedValue>,
+}
+
+impl Field {
+    /// The name of the enum generated for this field's values in struct `owner`: the
+    /// struct's name then the field's in CamelCase (`Mover.status` gives `MoverStatus`).
+    #[must_use]
+    pub fn vocabulary_name(&self, owner: &str) -> String {
+        format!("{owner}{}", camel_case(&self.name))
+    }
+}
+
+/// One word a String field may hold: `<value name="arrived" description="..."/>`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AllowedValue {
+    /// The word as it is on the wire: lower-case words joined by `-` or `_`.
+    pub name: String,
+    /// What it means, for documentation.
+    pub description: Option<String>,
+}
+
+impl AllowedValue {
+    /// Its Rust variant: the words in CamelCase (`out-of-service` gives `OutOfService`).
+    #[must_use]
+    pub fn variant(&self) -> String {
+        camel_case(&self.name)
+    }
+
+    /// Its ros2msg constant in a message: the field's name and the word, upper case, `_`
+    /// between words (`status` and `out-of-service` give `STATUS_OUT_OF_SERVICE`).
+    #[must_use]
+    pub fn constant(&self, field: &str) -> String {
+        format!("{field}_{}", self.name)
+            .replace('-', "_")
+            .to_ascii_uppercase()
+    }
+}
+
+/// `snake_case` or `kebab-case` words in `CamelCase`.
+#[must_use]
+pub(super) fn camel_case(words: &str) -> String {
+    words
+        .split(['_', '-'])
+        .map(|part| {
+            let mut chars = part.chars();
+            chars.next().map_or_else(String::new, |c| {
+                c.to_ascii_uppercase().to_string() + chars.as_str()
+            })
+        })
+        .collect()
 }
 
 /// What a generated struct is for.
@@ -280,6 +333,7 @@ impl Idl {
             array_size: None,
             unit: None,
             description: Some(description.to_owned()),
+            values: Vec::new(),
         };
         let prim = |idl_name: &str, primitive| FieldType::Primitive {
             idl_name: idl_name.to_owned(),

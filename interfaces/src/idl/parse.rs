@@ -27,6 +27,14 @@ pub(super) struct RawField {
     pub array_size: Option<Spanned>,
     pub unit: Option<String>,
     pub description: Option<String>,
+    pub values: Vec<RawValue>,
+}
+
+/// One `<value>` of a String field: a word the field may hold.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(super) struct RawValue {
+    pub name: Spanned,
+    pub description: Option<String>,
 }
 
 /// One `<primitive>` of a type library.
@@ -461,13 +469,31 @@ impl Cx<'_> {
             &["name", "type", "array_size", "unit", "description"],
             &["name", "type"],
         )?;
-        self.leaf(element)?;
+        self.no_text(element)?;
+        let mut values = Vec::new();
+        for child in &element.children {
+            match child.name.as_str() {
+                "value" => {
+                    self.attributes(child, &["name", "description"], &["name"])?;
+                    self.leaf(child)?;
+                    values.push(RawValue {
+                        name: attr(child, "name"),
+                        description: opt_attr(child, "description").map(|s| s.value),
+                    });
+                }
+                "comment" => {
+                    self.prose(child)?;
+                }
+                _ => return Err(self.unknown_child(element, child, &["value", "comment"])),
+            }
+        }
         Ok(RawField {
             name: attr(element, "name"),
             ty: attr(element, "type"),
             array_size: opt_attr(element, "array_size"),
             unit: opt_attr(element, "unit").map(|s| s.value),
             description: opt_attr(element, "description").map(|s| s.value),
+            values,
         })
     }
 

@@ -1,6 +1,7 @@
 //! ros2msg schema text, as ROS 2 writes it into MCAP files: the message's own `.msg`
 //! text, then each type it uses (transitively, in order of first use) after a line of 80
-//! `=` and a `MSG: package/Type` line.
+//! `=` and a `MSG: package/Type` line. The words a String field may hold are string
+//! constants above it.
 
 use std::collections::BTreeSet;
 
@@ -56,6 +57,16 @@ fn msg_text(ty: &StructType) -> String {
             FieldType::Struct(name) => format!("{PACKAGE}/{name}"),
         };
         let suffix = if field.is_array { "[]" } else { "" };
+        // A vocabulary's words are constants just above their field, as ROS 2 messages
+        // write them (`string STATUS_ARRIVED="arrived"`): readers know them; the wire
+        // does not change.
+        for value in &field.values {
+            text.push_str(&format!(
+                "string {}=\"{}\"\n",
+                value.constant(&field.name),
+                value.name
+            ));
+        }
         text.push_str(&format!("{base}{suffix} {}\n", field.name));
     }
     text

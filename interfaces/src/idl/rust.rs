@@ -1,6 +1,7 @@
 //! Rust source for a set of interfaces: one struct per compound type, publication,
-//! command and reply, with their CDR codec, schema and trait impls; one enum per
-//! interface for its commands and one for their replies; and a catalogue of everything.
+//! command and reply, with their CDR codec, schema and trait impls; one enum per String
+//! field with `<value>`s (its words); one enum per interface for its commands and one
+//! for their replies; and a catalogue of everything.
 //!
 //! The output is included into `lewis_interfaces::msg`, so it names the crate's traits
 //! with `crate::` paths.
@@ -102,6 +103,129 @@ fn field_doc(field: &Field) -> String {
     doc
 }
 
+/// The enum of a String field's values: the words as variants, with `as_str`, `parse`,
+/// `Display`, `FromStr` and comparison with the field's `String`.
+fn emit_vocabulary(out: &mut String, owner: &str, field: &Field) {
+    let name = field.vocabulary_name(owner);
+    let words: Vec<String> = field
+        .values
+        .iter()
+        .map(|v| format!("{:?}", v.name))
+        .collect();
+    let _ = writeln!(
+        out,
+        "/// The values of [`{owner}::{}`]: {}.",
+        field.name,
+        words
+            .iter()
+            .map(|w| format!("`{}`", w.trim_matches('"')))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let _ = writeln!(out, "///");
+    let _ = writeln!(
+        out,
+        "/// The field stays a `String` on the wire; this enum names its words once."
+    );
+    let _ = writeln!(
+        out,
+        "#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]"
+    );
+    let _ = writeln!(out, "pub enum {name} {{");
+    for value in &field.values {
+        let doc = value.description.as_ref().map_or_else(
+            || format!("`{}`.", value.name),
+            |d| {
+                let mut d = format!("`{}`: {d}", value.name);
+                if !d.ends_with('.') {
+                    d.push('.');
+                }
+                d
+            },
+        );
+        doc_lines(out, "    ", &doc);
+        let _ = writeln!(out, "    {},", value.variant());
+    }
+    let _ = writeln!(out, "}}\n");
+    let variants: Vec<String> = field
+        .values
+        .iter()
+        .map(|v| format!("Self::{}", v.variant()))
+        .collect();
+    let count = field.values.len();
+    let _ = writeln!(out, "impl {name} {{");
+    let _ = writeln!(out, "    /// Every value, in the order of the definition.");
+    let _ = writeln!(
+        out,
+        "    pub const ALL: [Self; {count}] = [{}];",
+        variants.join(", ")
+    );
+    let _ = writeln!(out, "    /// Every word, in the order of the definition.");
+    let _ = writeln!(
+        out,
+        "    pub const WORDS: [&'static str; {count}] = [{}];",
+        words.join(", ")
+    );
+    let _ = writeln!(out, "    /// The field whose values these are.");
+    let _ = writeln!(
+        out,
+        "    pub const FIELD: &'static str = \"{owner}.{}\";",
+        field.name
+    );
+    let _ = writeln!(out, "    /// The word on the wire.");
+    let _ = writeln!(out, "    #[must_use]");
+    let _ = writeln!(out, "    pub const fn as_str(self) -> &'static str {{");
+    let _ = writeln!(out, "        match self {{");
+    for value in &field.values {
+        let _ = writeln!(
+            out,
+            "            Self::{} => {:?},",
+            value.variant(),
+            value.name
+        );
+    }
+    let _ = writeln!(out, "        }}\n    }}");
+    let _ = writeln!(
+        out,
+        "    /// The value a word names, or `None` for any other word (the empty one too)."
+    );
+    let _ = writeln!(out, "    #[must_use]");
+    let _ = writeln!(out, "    pub fn parse(word: &str) -> Option<Self> {{");
+    let _ = writeln!(out, "        match word {{");
+    for value in &field.values {
+        let _ = writeln!(
+            out,
+            "            {:?} => Some(Self::{}),",
+            value.name,
+            value.variant()
+        );
+    }
+    let _ = writeln!(out, "            _ => None,\n        }}\n    }}\n}}\n");
+    let _ = writeln!(out, "impl std::fmt::Display for {name} {{");
+    let _ = writeln!(
+        out,
+        "    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {{\n        f.write_str(self.as_str())\n    }}\n}}\n"
+    );
+    let _ = writeln!(out, "impl std::str::FromStr for {name} {{");
+    let _ = writeln!(out, "    type Err = crate::UnknownValue;");
+    let _ = writeln!(
+        out,
+        "    fn from_str(word: &str) -> Result<Self, Self::Err> {{\n        Self::parse(word).ok_or_else(|| crate::UnknownValue::new(Self::FIELD, word, &Self::WORDS))\n    }}\n}}\n"
+    );
+    let _ = writeln!(out, "impl From<{name}> for String {{");
+    let _ = writeln!(
+        out,
+        "    fn from(value: {name}) -> Self {{\n        value.as_str().to_owned()\n    }}\n}}\n"
+    );
+    for lhs in ["str", "String", "&str"] {
+        let _ = writeln!(out, "impl PartialEq<{name}> for {lhs} {{");
+        let _ = writeln!(
+            out,
+            "    fn eq(&self, other: &{name}) -> bool {{\n        AsRef::<str>::as_ref(self) == other.as_str()\n    }}\n}}\n"
+        );
+    }
+}
+
 fn capitalise(s: &str) -> String {
     let mut chars = s.chars();
     chars.next().map_or_else(String::new, |c| {
@@ -147,9 +271,19 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
     }
     for field in &ty.fields {
         doc_lines(out, "    ", &field_doc(field));
+        if !field.values.is_empty() {
+            let _ = writeln!(
+                out,
+                "    ///\n    /// Its words are [`{}`].",
+                field.vocabulary_name(name)
+            );
+        }
         let _ = writeln!(out, "    pub {}: {},", field.name, rust_type(field));
     }
     let _ = writeln!(out, "}}\n");
+    for field in ty.fields.iter().filter(|f| !f.values.is_empty()) {
+        emit_vocabulary(out, name, field);
+    }
 
     let all_fields: Vec<&str> = ty
         .has_header()

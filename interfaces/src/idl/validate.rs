@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 
 use super::diagnostic::{Diagnostic, Diagnostics, closest};
 use super::model::{
-    Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface, Primitive, StructKind,
-    StructType,
+    AllowedValue, Command, Field, FieldType, HEADER_TYPE, INPUT_REF_TYPE, Idl, Interface,
+    Primitive, StructKind, StructType, camel_case,
 };
-use super::parse::{RawDocument, RawField, RawInterface, RawTypes, Spanned};
+use super::parse::{RawDocument, RawField, RawInterface, RawTypes, RawValue, Spanned};
 
 /// A parsed file, ready for validation.
 pub(super) struct Parsed {
@@ -99,6 +99,7 @@ pub(super) fn validate(files: &[Parsed]) -> Result<Idl, Diagnostics> {
             interfaces.push(interface);
         }
     }
+    check_vocabulary_names(files, &mut errors);
     if !errors.is_empty() {
         let mut diagnostics = Diagnostics(errors);
         diagnostics.sort();
@@ -110,6 +111,58 @@ pub(super) fn validate(files: &[Parsed]) -> Result<Idl, Diagnostics> {
         types_xml,
         interfaces,
     })
+}
+
+/// The enum of a field's values takes a type name (`MoverStatus`): one that no struct, no
+/// command enum and no other field's values take.
+fn check_vocabulary_names(files: &[Parsed], errors: &mut Vec<Diagnostic>) {
+    let mut taken: BTreeSet<String> = Idl::builtin_types().into_iter().map(|t| t.name).collect();
+    let mut owners: Vec<(&Path, String, &[RawField])> = Vec::new();
+    for parsed in files {
+        let file = parsed.file.as_path();
+        match &parsed.document {
+            RawDocument::Types(types) => {
+                for s in &types.structs {
+                    taken.insert(s.name.value.clone());
+                    owners.push((file, s.name.value.clone(), &s.fields));
+                }
+            }
+            RawDocument::Interface(raw) => {
+                let name = &raw.name.value;
+                taken.extend([
+                    name.clone(),
+                    format!("{name}Command"),
+                    format!("{name}Reply"),
+                ]);
+                owners.push((file, name.clone(), &raw.publish));
+                for c in &raw.commands {
+                    let request = format!("{name}{}", camel_case(&c.name.value));
+                    let reply = format!("{request}Reply");
+                    taken.extend([request.clone(), reply.clone()]);
+                    owners.push((file, request, &c.args));
+                    owners.push((file, reply, &c.reply));
+                }
+            }
+        }
+    }
+    for (file, owner, fields) in owners {
+        for field in fields.iter().filter(|f| !f.values.is_empty()) {
+            let generated = format!("{owner}{}", camel_case(&field.name.value));
+            if !taken.insert(generated.clone()) {
+                errors.push(
+                    Diagnostic::new(
+                        file,
+                        field.name.position,
+                        format!(
+                            "the values of `{}` need the type name `{generated}`, which is taken",
+                            field.name.value
+                        ),
+                    )
+                    .with_hint("rename the field or the type"),
+                );
+            }
+        }
+    }
 }
 
 fn file_name(file: &Path) -> String {
@@ -310,6 +363,7 @@ fn resolve_fields(
                 );
             }
         }
+        let values = resolve_values(file, f, ty.as_ref(), errors);
         if let Some(ty) = ty {
             fields.push(Field {
                 name: name.clone(),
@@ -318,10 +372,143 @@ fn resolve_fields(
                 array_size: f.array_size.as_ref().map(|s| s.value.clone()),
                 unit: f.unit.clone(),
                 description: f.description.clone(),
+                values,
             });
         }
     }
+    check_constants(file, raw, errors);
     fields
+}
+
+/// A value is lower-case words of letters and digits, each word starting with a letter,
+/// joined by single `-` or `_`: so that it makes both a Rust variant and a ros2msg
+/// constant name.
+fn is_value_name(name: &str) -> bool {
+    name.split(['-', '_']).all(|word| {
+        word.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+            && word
+                .chars()
+                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit())
+    })
+}
+
+/// The `<value>`s of a field: only on String fields, each a good word, none twice, no two
+/// giving one Rust variant.
+fn resolve_values(
+    file: &Path,
+    field: &RawField,
+    ty: Option<&FieldType>,
+    errors: &mut Vec<Diagnostic>,
+) -> Vec<AllowedValue> {
+    let Some(first) = field.values.first() else {
+        return Vec::new();
+    };
+    let name = &field.name.value;
+    let is_string = matches!(
+        ty,
+        Some(FieldType::Primitive {
+            primitive: Primitive::String,
+            ..
+        })
+    );
+    if !is_string {
+        if ty.is_some() {
+            errors.push(
+                Diagnostic::new(
+                    file,
+                    first.name.position,
+                    format!(
+                        "`<value>` on `{name}`, a field of type `{}`",
+                        field.ty.value
+                    ),
+                )
+                .with_hint("only String fields take values"),
+            );
+        }
+        return Vec::new();
+    }
+    let mut values: Vec<AllowedValue> = Vec::new();
+    let mut variants: BTreeMap<String, &RawValue> = BTreeMap::new();
+    for raw in &field.values {
+        let word = &raw.name.value;
+        if !is_value_name(word) || word == "self" {
+            errors.push(
+                Diagnostic::new(
+                    file,
+                    raw.name.position,
+                    format!("bad value `{word}` of `{name}`"),
+                )
+                .with_hint(if word == "self" {
+                    "`self` makes the variant `Self`, a Rust keyword: choose another word"
+                } else {
+                    "values are lower-case words of letters and digits, each starting with a letter, joined by `-` or `_`"
+                }),
+            );
+            continue;
+        }
+        let value = AllowedValue {
+            name: word.clone(),
+            description: raw.description.clone(),
+        };
+        match variants.get(&value.variant()) {
+            Some(earlier) if earlier.name.value == *word => errors.push(Diagnostic::new(
+                file,
+                raw.name.position,
+                format!("duplicate value `{word}` of `{name}`"),
+            )),
+            Some(earlier) => errors.push(
+                Diagnostic::new(
+                    file,
+                    raw.name.position,
+                    format!(
+                        "values `{}` and `{word}` of `{name}` both make the variant `{}`",
+                        earlier.name.value,
+                        value.variant()
+                    ),
+                )
+                .with_hint("`-` and `_` join words alike: choose another word"),
+            ),
+            None => {
+                variants.insert(value.variant(), raw);
+                values.push(value);
+            }
+        }
+    }
+    values
+}
+
+/// The ros2msg constants of one struct's fields are unique: `a_b` with `c` and `a` with
+/// `b_c` would both make `A_B_C`.
+fn check_constants(file: &Path, raw: &[RawField], errors: &mut Vec<Diagnostic>) {
+    let mut constants: BTreeMap<String, &str> = BTreeMap::new();
+    for field in raw {
+        for value in &field.values {
+            if !is_value_name(&value.name.value) {
+                continue;
+            }
+            let constant = AllowedValue {
+                name: value.name.value.clone(),
+                description: None,
+            }
+            .constant(&field.name.value);
+            match constants.get(constant.as_str()) {
+                Some(other) if *other != field.name.value => errors.push(
+                    Diagnostic::new(
+                        file,
+                        value.name.position,
+                        format!(
+                            "value `{}` of `{}` makes the constant `{constant}`, as a value of `{other}` does",
+                            value.name.value, field.name.value
+                        ),
+                    )
+                    .with_hint("rename the field or the value"),
+                ),
+                _ => {
+                    constants.insert(constant, &field.name.value);
+                }
+            }
+        }
+    }
 }
 
 fn check_array_size(
@@ -432,18 +619,6 @@ fn check_cycles(
     }
 }
 
-fn camel(snake: &str) -> String {
-    snake
-        .split('_')
-        .map(|part| {
-            let mut chars = part.chars();
-            chars.next().map_or_else(String::new, |c| {
-                c.to_ascii_uppercase().to_string() + chars.as_str()
-            })
-        })
-        .collect()
-}
-
 #[allow(clippy::too_many_arguments)]
 fn resolve_interface(
     file: &Path,
@@ -543,7 +718,7 @@ fn resolve_interface(
                 format!("duplicate command `{cname}` in interface `{name}`"),
             ));
         }
-        let request_name = format!("{name}{}", camel(cname));
+        let request_name = format!("{name}{}", camel_case(cname));
         let reply_name = format!("{request_name}Reply");
         for generated in [&request_name, &reply_name] {
             if known.contains_key(generated) {

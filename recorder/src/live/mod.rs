@@ -39,7 +39,7 @@ pub use tap::{Ended, Growth, TapCounts};
 use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::Broker;
+use lewis_interfaces::msg::{Broker, BrokerAction};
 use lewis_runtime::clock::LiveClock;
 use lewis_runtime::ipc::{Ipc, IpcError, Namespace, WaitError};
 use lewis_runtime::live::StopSignals;
@@ -59,7 +59,7 @@ pub const RECORDER_NODE: &str = "lewis-recorder";
 
 /// The `action` of the [`Broker`] message the recorder publishes on `/lewis/broker` when it
 /// stops on an error.
-pub const RECORDER_FAILED: &str = "recorder-failed";
+pub const RECORDER_FAILED: &str = BrokerAction::RecorderFailed.as_str();
 
 /// Why a live recording could not run, or stopped.
 #[derive(Debug, Error)]

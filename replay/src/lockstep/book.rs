@@ -8,7 +8,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use lewis_interfaces::cdr::peek_header;
-use lewis_interfaces::msg::CommandLog;
+use lewis_interfaces::msg::{CommandLog, CommandLogStatus};
 
 /// A recorded answer is used for a call made up to this long before or after it was given
 /// live (the default call timeout: a later answer would have timed out).
@@ -42,7 +42,7 @@ impl CommandBook {
     /// Adds the answer `server` gave, as recorded at `log_time_ns` (its replay time).
     pub fn add(&mut self, server: &str, log_time_ns: i64, log: &CommandLog) {
         let caller = header_provider(&log.request);
-        let result = if log.status == "ok" {
+        let result = if log.status == CommandLogStatus::Ok {
             Ok(log.reply.clone())
         } else {
             Err(log.error.clone())

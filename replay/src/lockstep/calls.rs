@@ -2,7 +2,7 @@
 //! once, or when its recorded command log says), to a fed service (answered from the
 //! recording), and the command log of every command a re-simulated service answered.
 
-use lewis_interfaces::msg::{CommandLog, Header};
+use lewis_interfaces::msg::{CommandLog, CommandLogStatus, Header};
 use lewis_runtime::service::{CallFailure, CallId, IncomingCommand};
 use lewis_runtime::wire;
 
@@ -181,11 +181,11 @@ impl Lockstep<'_> {
         };
         match &result {
             Ok(reply) => {
-                "ok".clone_into(&mut log.status);
+                log.status = CommandLogStatus::Ok.into();
                 log.reply.clone_from(reply);
             }
             Err(error) => {
-                "refused".clone_into(&mut log.status);
+                log.status = CommandLogStatus::Refused.into();
                 log.error.clone_from(error);
             }
         }

@@ -85,7 +85,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker as BrokerMessage, CommandLog};
+use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, CommandLog};
 use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
 use lewis_runtime::live::health_from_message;
 use lewis_runtime::robot::Robot;
@@ -496,7 +496,10 @@ impl<'a> Lockstep<'a> {
                     self.stats.undecodable += 1;
                     return;
                 };
-                let is_request = matches!(decision.action.as_str(), "bind" | "reject");
+                let is_request = matches!(
+                    BrokerAction::parse(&decision.action),
+                    Some(BrokerAction::Bind | BrokerAction::Reject)
+                );
                 if is_request
                     && !decision.client.is_empty()
                     && !self.sims.contains_key(&decision.client)

@@ -5,7 +5,9 @@
 
 use std::collections::BTreeMap;
 
-use lewis_interfaces::msg::{Broker as BrokerMessage, Health as HealthMessage, LogLine};
+use lewis_interfaces::msg::{
+    Broker as BrokerMessage, Health as HealthMessage, LogLine, LogLineLevel, LogLineStream,
+};
 use lewis_interfaces::{Interface, cdr};
 use lewis_recorder::{ChannelId, ChannelSpec, RecordError, Recorder, STATS_TOPIC, Sample};
 use lewis_runtime::broker::live::decision_message;
@@ -209,7 +211,7 @@ impl Sink for OutputSink {
                 let (state, reason) = health_fields(health);
                 let topic = format!("{REPLAY_PREFIX}{}", names::health_channel(service));
                 let message = HealthMessage {
-                    state: state.to_owned(),
+                    state: state.into(),
                     reason: reason.to_owned(),
                     ..HealthMessage::default()
                 };
@@ -236,8 +238,8 @@ impl Sink for OutputSink {
                 let topic = format!("{REPLAY_PREFIX}{}", names::LOG_CHANNEL);
                 let message = LogLine {
                     service: service.to_owned(),
-                    stream: "replay".to_owned(),
-                    level: level.to_string(),
+                    stream: LogLineStream::Replay.into(),
+                    level: LogLineLevel::from(level).into(),
                     text: text.to_owned(),
                     ..LogLine::default()
                 };
@@ -258,8 +260,8 @@ impl Sink for OutputSink {
                 };
                 let message = LogLine {
                     service: fault.provider.clone(),
-                    stream: "fault".to_owned(),
-                    level: "warn".to_owned(),
+                    stream: LogLineStream::Fault.into(),
+                    level: LogLineLevel::Warn.into(),
                     text,
                     ..LogLine::default()
                 };

@@ -26,8 +26,9 @@ use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
-    Broker as BrokerMessage, BrokerCommand, BrokerReleaseReply, BrokerRequestReply,
-    BrokerRobotReply, Health as HealthMessage, LogLine as LogLineMessage,
+    Broker as BrokerMessage, BrokerAction, BrokerCommand, BrokerReleaseReply, BrokerRequestReply,
+    BrokerRequestReplyStatus, BrokerRobotReply, Health as HealthMessage, LogLine as LogLineMessage,
+    LogLineLevel, LogLineStream,
 };
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
@@ -132,11 +133,11 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
     let action = match &decision.action {
         Action::Start { service } => {
             m.service.clone_from(service);
-            "start"
+            BrokerAction::Start
         }
         Action::Stop { service } => {
             m.service.clone_from(service);
-            "stop"
+            BrokerAction::Stop
         }
         Action::Bind {
             client,
@@ -146,7 +147,7 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
             m.client.clone_from(client);
             m.interface.clone_from(interface);
             m.service.clone_from(service);
-            "bind"
+            BrokerAction::Bind
         }
         Action::Rebind {
             client,
@@ -159,7 +160,7 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
             m.service.clone_from(to);
             m.from_service.clone_from(from);
             m.to_service.clone_from(to);
-            "rebind"
+            BrokerAction::Rebind
         }
         Action::Unbind {
             client,
@@ -169,30 +170,30 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
             m.client.clone_from(client);
             m.interface.clone_from(interface);
             m.service.clone_from(service);
-            "unbind"
+            BrokerAction::Unbind
         }
         Action::Reject { client, interface } => {
             m.client.clone_from(client);
             m.interface.clone_from(interface);
-            "reject"
+            BrokerAction::Reject
         }
         Action::AskForHelp { need } => {
             match need {
                 Need::Interface(interface) => m.interface.clone_from(interface),
                 Need::Service(service) => m.service.clone_from(service),
             }
-            "ask-for-help"
+            BrokerAction::AskForHelp
         }
         Action::RestartScheduled { service, .. } => {
             m.service.clone_from(service);
-            "restart-scheduled"
+            BrokerAction::RestartScheduled
         }
         Action::ServiceFailed { service } => {
             m.service.clone_from(service);
-            "service-failed"
+            BrokerAction::ServiceFailed
         }
     };
-    m.action = action.to_owned();
+    m.action = action.into();
     m
 }
 
@@ -656,12 +657,12 @@ impl<'r> Driver<'r> {
                     .find(|b| b.client == request.client && b.interface == request.interface)
                     .and_then(|b| b.service);
                 let (status, service) = match (rejected, bound) {
-                    (true, _) => ("rejected", String::new()),
-                    (false, Some(service)) => ("bound", service),
-                    (false, None) => ("waiting", String::new()),
+                    (true, _) => (BrokerRequestReplyStatus::Rejected, String::new()),
+                    (false, Some(service)) => (BrokerRequestReplyStatus::Bound, service),
+                    (false, None) => (BrokerRequestReplyStatus::Waiting, String::new()),
                 };
                 let mut reply = BrokerRequestReply {
-                    status: status.to_owned(),
+                    status: status.into(),
                     service,
                     ..BrokerRequestReply::default()
                 };
@@ -744,14 +745,14 @@ fn heartbeats_in_order(mut beats: Vec<(i64, String, Health)>, until_ns: i64) -> 
 /// The log level a line of a service says it has (tracing's format writes it as a word).
 fn level_of(text: &str) -> &'static str {
     for (word, level) in [
-        ("ERROR", "error"),
-        ("WARN", "warn"),
-        ("INFO", "info"),
-        ("DEBUG", "debug"),
-        ("TRACE", "trace"),
+        ("ERROR", LogLineLevel::Error),
+        ("WARN", LogLineLevel::Warn),
+        ("INFO", LogLineLevel::Info),
+        ("DEBUG", LogLineLevel::Debug),
+        ("TRACE", LogLineLevel::Trace),
     ] {
         if text.split_whitespace().take(3).any(|w| w == word) {
-            return level;
+            return level.as_str();
         }
     }
     ""
@@ -799,7 +800,7 @@ fn spawn_log_forwarder(
                 seq += 1;
                 let mut message = LogLineMessage {
                     service: line.name.to_string(),
-                    stream: line.stream.as_str().to_owned(),
+                    stream: LogLineStream::from(line.stream).into(),
                     level: level_of(&line.text).to_owned(),
                     text: line.text,
                     ..LogLineMessage::default()

@@ -4,7 +4,10 @@
 
 use std::fmt;
 
-use lewis_interfaces::msg::{BindingReport, BrokerStatusReply, ServiceReport};
+use lewis_interfaces::msg::{
+    BindingReport, BrokerStatusReply, HealthState, ServiceReport, ServiceReportHealth,
+    ServiceReportState,
+};
 
 use super::{ServiceState, Snapshot};
 use crate::live::{health_fields, health_from_fields};
@@ -25,9 +28,9 @@ pub fn status_reply(
             let (health, health_reason) = health_fields(&s.health);
             ServiceReport {
                 name: s.name.clone(),
-                state: state_word(&s.state).to_owned(),
+                state: state_word(&s.state).to_string(),
                 state_detail: s.state.to_string(),
-                health: health.to_owned(),
+                health: report_health(health).to_string(),
                 health_reason: health_reason.to_owned(),
                 restarts: s.restarts,
                 clients: u32::try_from(s.clients).unwrap_or(u32::MAX),
@@ -61,15 +64,24 @@ pub fn status_reply(
 
 /// The word of a service state in [`ServiceReport::state`].
 #[must_use]
-pub fn state_word(state: &ServiceState) -> &'static str {
+pub fn state_word(state: &ServiceState) -> ServiceReportState {
     match state {
-        ServiceState::Idle => "idle",
-        ServiceState::Starting { .. } => "starting",
-        ServiceState::Ready { .. } => "ready",
-        ServiceState::Restarting { .. } => "restarting",
-        ServiceState::Stopping { .. } => "stopping",
-        ServiceState::Stopped => "stopped",
-        ServiceState::Failed { .. } => "failed",
+        ServiceState::Idle => ServiceReportState::Idle,
+        ServiceState::Starting { .. } => ServiceReportState::Starting,
+        ServiceState::Ready { .. } => ServiceReportState::Ready,
+        ServiceState::Restarting { .. } => ServiceReportState::Restarting,
+        ServiceState::Stopping { .. } => ServiceReportState::Stopping,
+        ServiceState::Stopped => ServiceReportState::Stopped,
+        ServiceState::Failed { .. } => ServiceReportState::Failed,
+    }
+}
+
+/// A service's declared health in the words of the status reply.
+fn report_health(health: HealthState) -> ServiceReportHealth {
+    match health {
+        HealthState::Ok => ServiceReportHealth::Ok,
+        HealthState::Degraded => ServiceReportHealth::Degraded,
+        HealthState::OutOfService => ServiceReportHealth::OutOfService,
     }
 }
 
@@ -171,8 +183,8 @@ mod tests {
         assert_eq!(pid_of(&reply, "sonar"), Some(4242));
         assert_eq!(pid_of(&reply, "laser"), None);
         assert_eq!(pid_of(&reply, "camera"), None);
-        assert_eq!(reply.services[0].state, "failed");
-        assert_eq!(reply.services[0].health, "out-of-service");
+        assert_eq!(reply.services[0].state, ServiceReportState::Failed);
+        assert_eq!(reply.services[0].health, ServiceReportHealth::OutOfService);
         assert_eq!(reply.service_count, 2);
         assert_eq!(reply.binding_count, 2);
     }

@@ -38,7 +38,9 @@ use std::os::fd::AsFd;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
-use lewis_interfaces::msg::{CommandLog, Health as HealthMessage, InputRef};
+use lewis_interfaces::msg::{
+    CommandLog, CommandLogStatus, Health as HealthMessage, HealthState, InputRef,
+};
 use lewis_interfaces::{Message, cdr};
 
 use crate::broker::Health;
@@ -512,14 +514,14 @@ impl LiveBackend {
     ) {
         self.command_log_seq += 1;
         let (status, reply, error) = match answer {
-            Ok(reply) => ("ok", reply, String::new()),
-            Err(error) => ("refused", Vec::new(), error),
+            Ok(reply) => (CommandLogStatus::Ok, reply, String::new()),
+            Err(error) => (CommandLogStatus::Refused, Vec::new(), error),
         };
         let mut message = CommandLog {
             interface: interface.to_owned(),
             command,
             request,
-            status: status.to_owned(),
+            status: status.into(),
             reply,
             error,
             received_ns,
@@ -541,12 +543,14 @@ impl LiveBackend {
     fn heartbeat(&mut self) {
         let (state, reason) = match self.fault {
             fault::FaultState::Stalled => return,
-            fault::FaultState::OutOfService => ("out-of-service", fault::OUT_OF_SERVICE_REASON),
+            fault::FaultState::OutOfService => {
+                (HealthState::OutOfService, fault::OUT_OF_SERVICE_REASON)
+            }
             fault::FaultState::Normal => health_fields(&self.declared),
         };
         self.health_seq += 1;
         let mut message = HealthMessage {
-            state: state.to_owned(),
+            state: state.into(),
             reason: reason.to_owned(),
             ..HealthMessage::default()
         };
@@ -565,11 +569,11 @@ impl LiveBackend {
 
 /// The `state` and `reason` fields of a Health message.
 #[must_use]
-pub fn health_fields(health: &Health) -> (&'static str, &str) {
+pub fn health_fields(health: &Health) -> (HealthState, &str) {
     match health {
-        Health::Ok => ("ok", ""),
-        Health::Degraded(why) => ("degraded", why),
-        Health::OutOfService(why) => ("out-of-service", why),
+        Health::Ok => (HealthState::Ok, ""),
+        Health::Degraded(why) => (HealthState::Degraded, why),
+        Health::OutOfService(why) => (HealthState::OutOfService, why),
     }
 }
 
@@ -583,11 +587,11 @@ pub fn health_from_message(message: &HealthMessage) -> Health {
 /// (an unknown state counts as degraded).
 #[must_use]
 pub fn health_from_fields(state: &str, reason: &str) -> Health {
-    match state {
-        "ok" => Health::Ok,
-        "out-of-service" => Health::OutOfService(reason.to_owned()),
-        "degraded" => Health::Degraded(reason.to_owned()),
-        other => Health::Degraded(format!("unknown health state `{other}`: {reason}")),
+    match HealthState::parse(state) {
+        Some(HealthState::Ok) => Health::Ok,
+        Some(HealthState::OutOfService) => Health::OutOfService(reason.to_owned()),
+        Some(HealthState::Degraded) => Health::Degraded(reason.to_owned()),
+        None => Health::Degraded(format!("unknown health state `{state}`: {reason}")),
     }
 }
 

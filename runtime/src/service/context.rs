@@ -6,7 +6,7 @@ use std::fmt;
 use std::time::Duration;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Header, InputRef};
+use lewis_interfaces::msg::{Header, InputRef, LogLineLevel};
 use lewis_interfaces::{Command, Interface, Message, SizeMismatch};
 
 use super::events::{CallFailure, CallId, Reply};
@@ -29,12 +29,19 @@ pub enum Level {
 
 impl fmt::Display for Level {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::Error => "error",
-            Self::Warn => "warn",
-            Self::Info => "info",
-            Self::Debug => "debug",
-        })
+        f.write_str(LogLineLevel::from(*self).as_str())
+    }
+}
+
+/// Its word in a `LogLine`.
+impl From<Level> for LogLineLevel {
+    fn from(level: Level) -> Self {
+        match level {
+            Level::Error => Self::Error,
+            Level::Warn => Self::Warn,
+            Level::Info => Self::Info,
+            Level::Debug => Self::Debug,
+        }
     }
 }
 

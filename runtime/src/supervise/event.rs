@@ -4,6 +4,8 @@ use std::fmt;
 use std::os::unix::process::ExitStatusExt;
 use std::sync::Arc;
 
+use lewis_interfaces::msg::LogLineStream;
+
 use super::error::StartError;
 
 /// How a child process ended.
@@ -139,12 +141,18 @@ pub enum Stream {
 }
 
 impl Stream {
-    /// `"stdout"` or `"stderr"`.
+    /// `"stdout"` or `"stderr"`: its word in a `LogLine`.
     #[must_use]
     pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Stdout => "stdout",
-            Self::Stderr => "stderr",
+        LogLineStream::from(self).as_str()
+    }
+}
+
+impl From<Stream> for LogLineStream {
+    fn from(stream: Stream) -> Self {
+        match stream {
+            Stream::Stdout => Self::Stdout,
+            Stream::Stderr => Self::Stderr,
         }
     }
 }

@@ -4,9 +4,13 @@
 use std::collections::BTreeMap;
 
 use lewis_interfaces::dynamic::Value;
-use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Mover};
+use lewis_interfaces::msg::{
+    Broker, BrokerAction, CommandLog, CommandLogStatus, Health, HealthState, LogLine, LogLineLevel,
+    Mover, MoverStatus,
+};
 use rerun::TextLog;
 
+use super::lanes::{FAILED, RESTARTING, STARTED, STOPPED, UNBOUND};
 use super::{Side, topic_entity};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
@@ -44,10 +48,10 @@ impl EventState {
             stamp,
             &health.state,
         )?;
-        let level = match health.state.as_str() {
-            "ok" => "INFO",
-            "degraded" => "WARN",
-            _ => "ERROR",
+        let level = match HealthState::parse(&health.state) {
+            Some(HealthState::Ok) => "INFO",
+            Some(HealthState::Degraded) => "WARN",
+            Some(HealthState::OutOfService) | None => "ERROR",
         };
         let reason = if health.reason.is_empty() {
             String::new()
@@ -85,9 +89,9 @@ impl EventState {
             stamp,
             &mover.status,
         )?;
-        let level = match mover.status.as_str() {
-            "blocked" => "WARN",
-            "failed" => "ERROR",
+        let level = match MoverStatus::parse(&mover.status) {
+            Some(MoverStatus::Blocked) => "WARN",
+            Some(MoverStatus::Failed) => "ERROR",
             _ => "INFO",
         };
         rows.log(
@@ -120,10 +124,11 @@ pub(super) fn broker(
         &TextLog::new(text).with_level(level),
         128,
     )?;
-    let binding = match d.action.as_str() {
-        "bind" => Some(d.service.clone()),
-        "rebind" => Some(d.to_service.clone()),
-        "unbind" => Some("unbound".to_owned()),
+    let action = BrokerAction::parse(&d.action);
+    let binding = match action {
+        Some(BrokerAction::Bind) => Some(d.service.clone()),
+        Some(BrokerAction::Rebind) => Some(d.to_service.clone()),
+        Some(BrokerAction::Unbind) => Some(UNBOUND.to_owned()),
         _ => None,
     };
     if let Some(service) = binding
@@ -137,11 +142,13 @@ pub(super) fn broker(
             &service,
         )?;
     }
-    let service_state = match d.action.as_str() {
-        "start" => Some("started"),
-        "stop" => Some("stopped"),
-        "service-failed" => Some("failed"),
-        "restart-scheduled" => Some("restarting"),
+    // The viewer's own words for a service's state: the IDL has none (the broker's
+    // status reply is text for people).
+    let service_state = match action {
+        Some(BrokerAction::Start) => Some(STARTED),
+        Some(BrokerAction::Stop) => Some(STOPPED),
+        Some(BrokerAction::ServiceFailed) => Some(FAILED),
+        Some(BrokerAction::RestartScheduled) => Some(RESTARTING),
         _ => None,
     };
     if let Some(state) = service_state
@@ -164,12 +171,13 @@ fn broker_line(d: &Broker) -> (String, &'static str) {
     } else {
         format!(": {}", d.reason)
     };
-    let text = match d.action.as_str() {
-        "rebind" => format!(
+    let action = BrokerAction::parse(&d.action);
+    let text = match action {
+        Some(BrokerAction::Rebind) => format!(
             "rebind {} {}: {} -> {}{why}",
             d.client, d.interface, d.from_service, d.to_service
         ),
-        "bind" | "unbind" => format!(
+        Some(BrokerAction::Bind | BrokerAction::Unbind) => format!(
             "{} {} {}: {}{why}",
             d.action, d.client, d.interface, d.service
         ),
@@ -181,9 +189,11 @@ fn broker_line(d: &Broker) -> (String, &'static str) {
             format!("{} {}{why}", d.action, about.join(" "))
         }
     };
-    let level = match d.action.as_str() {
-        "service-failed" | "ask-for-help" => "ERROR",
-        "rebind" | "reject" | "restart-scheduled" => "WARN",
+    let level = match action {
+        Some(BrokerAction::ServiceFailed | BrokerAction::AskForHelp) => "ERROR",
+        Some(BrokerAction::Rebind | BrokerAction::Reject | BrokerAction::RestartScheduled) => {
+            "WARN"
+        }
         _ => "INFO",
     };
     (text, level)
@@ -198,14 +208,13 @@ pub(super) fn log_line(
     line: &LogLine,
 ) -> Result<(), ViewError> {
     let mut log = TextLog::new(line.text.clone());
-    let level = match line.level.as_str() {
-        "error" => Some("ERROR"),
-        "warn" => Some("WARN"),
-        "info" => Some("INFO"),
-        "debug" => Some("DEBUG"),
-        "trace" => Some("TRACE"),
-        _ => None,
-    };
+    let level = LogLineLevel::parse(&line.level).map(|level| match level {
+        LogLineLevel::Error => "ERROR",
+        LogLineLevel::Warn => "WARN",
+        LogLineLevel::Info => "INFO",
+        LogLineLevel::Debug => "DEBUG",
+        LogLineLevel::Trace => "TRACE",
+    });
     if let Some(level) = level {
         log = log.with_level(level);
     }
@@ -232,7 +241,7 @@ pub(super) fn command(
     command: &CommandLog,
 ) -> Result<(), ViewError> {
     let service = command.header.provider.as_str();
-    let (text, level) = if command.status == "ok" {
+    let (text, level) = if command.status == CommandLogStatus::Ok {
         (
             format!("{}.{} ok", command.interface, command.command),
             "INFO",

@@ -7,6 +7,7 @@
 use lewis_interfaces::msg::{LogLine, Pose2D};
 use rerun::{Color, Points2D, TextLog};
 
+use super::lanes::NO_FAULT;
 use super::{Point, Side};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
@@ -50,7 +51,7 @@ impl FaultMarks {
         let lane = if starts {
             format!("fault: {}", kind(&line.text, service))
         } else {
-            "no fault".to_owned()
+            NO_FAULT.to_owned()
         };
         rows.lane(
             sink,

@@ -8,6 +8,7 @@
 //! `laser`, and a service's name as red as a failure. A [`StateConfiguration`] per lane, for
 //! all times, fixes them once every value is known.
 
+use lewis_interfaces::msg::{HealthState, MoverStatus, SequencerKind};
 use rerun::{EntityPath, StateConfiguration};
 
 use crate::ViewError;
@@ -27,24 +28,45 @@ const PALETTE: [u32; 6] = [
     0xD813_60FF,
 ];
 
-/// The values with a fixed meaning, per kind of lane (the path part that names it).
+/// The values with a fixed meaning, per kind of lane (the path part that names it). Health,
+/// the Mover's status and the end of a mission are words of the interfaces; the binding
+/// and service states, `stop`, `asking the supervisor` and `no fault` are the viewer's own
+/// words for what it reads from broker decisions, sequencer records and faults
+/// (`events.rs`, `sequencer.rs`).
 const MEANINGS: &[(&str, &str, u32)] = &[
-    ("bindings", "unbound", BAD),
-    ("health", "ok", GOOD),
-    ("health", "degraded", WARN),
-    ("services", "started", GOOD),
-    ("services", "restarting", WARN),
-    ("services", "failed", BAD),
-    ("services", "stopped", IDLE),
-    ("sequencer", "stop", GOOD),
-    ("sequencer", "asking the supervisor", WARN),
-    ("sequencer", "aborted", BAD),
-    ("faults", "no fault", IDLE),
-    ("mover", "arrived", GOOD),
-    ("mover", "blocked", WARN),
-    ("mover", "failed", BAD),
-    ("mover", "idle", IDLE),
+    ("bindings", UNBOUND, BAD),
+    ("health", HealthState::Ok.as_str(), GOOD),
+    ("health", HealthState::Degraded.as_str(), WARN),
+    ("services", STARTED, GOOD),
+    ("services", RESTARTING, WARN),
+    ("services", FAILED, BAD),
+    ("services", STOPPED, IDLE),
+    ("sequencer", STOP, GOOD),
+    ("sequencer", ASKING, WARN),
+    ("sequencer", SequencerKind::Aborted.as_str(), BAD),
+    ("faults", NO_FAULT, IDLE),
+    ("mover", MoverStatus::Arrived.as_str(), GOOD),
+    ("mover", MoverStatus::Blocked.as_str(), WARN),
+    ("mover", MoverStatus::Failed.as_str(), BAD),
+    ("mover", MoverStatus::Idle.as_str(), IDLE),
 ];
+
+/// A binding's lane when the client has no provider.
+pub(super) const UNBOUND: &str = "unbound";
+/// A fault lane when the fault has ended.
+pub(super) const NO_FAULT: &str = "no fault";
+/// A service's lane after a `start` decision.
+pub(super) const STARTED: &str = "started";
+/// A service's lane after a `restart-scheduled` record.
+pub(super) const RESTARTING: &str = "restarting";
+/// A service's lane after a `service-failed` record.
+pub(super) const FAILED: &str = "failed";
+/// A service's lane after a `stop` decision.
+pub(super) const STOPPED: &str = "stopped";
+/// The sequencer's lane when the mission has finished: the script's `stop` state.
+pub(super) const STOP: &str = "stop";
+/// The sequencer's lane while the supervisor is asked where to resume.
+pub(super) const ASKING: &str = "asking the supervisor";
 
 /// Kinds of lane whose other values are all bad news (any health but ok or degraded,
 /// any fault).

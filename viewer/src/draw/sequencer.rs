@@ -8,10 +8,11 @@
 
 use std::collections::BTreeMap;
 
-use lewis_interfaces::msg::Sequencer;
+use lewis_interfaces::msg::{Sequencer, SequencerEntry, SequencerKind};
 use rerun::TextLog;
 
 use super::Side;
+use super::lanes::{ASKING, STOP};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
 
@@ -34,7 +35,7 @@ impl SequencerState {
         stamp: Stamp,
         m: &Sequencer,
     ) -> Result<(), ViewError> {
-        if m.entry == "decided" && m.kind == "run" {
+        if m.entry == SequencerEntry::Decided && m.kind == SequencerKind::Run {
             self.running.insert(side, m.state.clone());
         }
         let running = self.running.get(&side).map_or("", String::as_str);
@@ -59,14 +60,14 @@ impl SequencerState {
 
 /// The lane's value after a record, when the record changes where the mission is.
 fn lane(m: &Sequencer) -> Option<String> {
-    if m.entry != "decided" {
+    if m.entry != SequencerEntry::Decided {
         return None;
     }
-    match m.kind.as_str() {
-        "run" => Some(m.state.clone()),
-        "ask_supervisor" => Some("asking the supervisor".to_owned()),
-        "finished" => Some("stop".to_owned()),
-        "aborted" => Some("aborted".to_owned()),
+    match SequencerKind::parse(&m.kind)? {
+        SequencerKind::Run => Some(m.state.clone()),
+        SequencerKind::AskSupervisor => Some(ASKING.to_owned()),
+        SequencerKind::Finished => Some(STOP.to_owned()),
+        SequencerKind::Aborted => Some(SequencerKind::Aborted.as_str().to_owned()),
         _ => None,
     }
 }
@@ -78,8 +79,11 @@ fn line(m: &Sequencer, running: &str) -> (String, &'static str) {
     } else {
         format!(": {}", m.reason)
     };
-    match m.entry.as_str() {
-        "mission_started" => {
+    let Some(entry) = SequencerEntry::parse(&m.entry) else {
+        return (format!("{} {} {}{why}", m.entry, m.kind, m.state), "INFO");
+    };
+    match entry {
+        SequencerEntry::MissionStarted => {
             let supervision = if m.supervision.is_empty() {
                 String::new()
             } else {
@@ -94,55 +98,62 @@ fn line(m: &Sequencer, running: &str) -> (String, &'static str) {
                 "INFO",
             )
         }
-        "observed" => event(m, running),
-        "refused" => (
+        SequencerEntry::Observed => event(m, running),
+        SequencerEntry::Refused => (
             format!("refused {}: {}", event(m, running).0, m.error),
             "WARN",
         ),
-        "decided" => decision(m, &why),
-        "program_started" => (
+        SequencerEntry::Decided => decision(m, &why),
+        SequencerEntry::ProgramStarted => (
             format!("started {} attempt {} (pid {})", m.state, m.attempt, m.pid),
             "DEBUG",
         ),
-        other => (format!("{other} {} {}{why}", m.kind, m.state), "INFO"),
     }
 }
 
 fn event(m: &Sequencer, running: &str) -> (String, &'static str) {
-    match m.kind.as_str() {
-        "exited" => (format!("{running} exited with code {}", m.code), "INFO"),
-        "signalled" => (format!("{running} was killed by signal {}", m.code), "WARN"),
-        "timed_out" => (format!("{running} ran past its timeout"), "WARN"),
-        "spawn_failed" => (format!("{running} could not start: {}", m.reason), "WARN"),
-        "supervisor_chose" => (format!("the supervisor chose {}", m.state), "INFO"),
-        "supervisor_stopped" => ("the supervisor stopped the mission".to_owned(), "WARN"),
-        "interrupted" => (format!("interrupted: {}", m.reason), "WARN"),
-        other => (format!("event {other}"), "INFO"),
+    match SequencerKind::parse(&m.kind) {
+        Some(SequencerKind::Exited) => (format!("{running} exited with code {}", m.code), "INFO"),
+        Some(SequencerKind::Signalled) => {
+            (format!("{running} was killed by signal {}", m.code), "WARN")
+        }
+        Some(SequencerKind::TimedOut) => (format!("{running} ran past its timeout"), "WARN"),
+        Some(SequencerKind::SpawnFailed) => {
+            (format!("{running} could not start: {}", m.reason), "WARN")
+        }
+        Some(SequencerKind::SupervisorChose) => {
+            (format!("the supervisor chose {}", m.state), "INFO")
+        }
+        Some(SequencerKind::SupervisorStopped) => {
+            ("the supervisor stopped the mission".to_owned(), "WARN")
+        }
+        Some(SequencerKind::Interrupted) => (format!("interrupted: {}", m.reason), "WARN"),
+        _ => (format!("event {}", m.kind), "INFO"),
     }
 }
 
 fn decision(m: &Sequencer, why: &str) -> (String, &'static str) {
-    match m.kind.as_str() {
-        "run" => {
+    match SequencerKind::parse(&m.kind) {
+        Some(SequencerKind::Run) => {
             let mut text = format!("run {} attempt {}: {}", m.state, m.attempt, m.program);
             for arg in &m.args {
                 text.push_str(&format!(" {arg:?}"));
             }
             (text, "DEBUG")
         }
-        "transition" => (
+        Some(SequencerKind::Transition) => (
             format!(
                 "transition {} -> {} on exit code {}{why}",
                 m.state, m.to, m.code
             ),
             "INFO",
         ),
-        "restart" => (
+        Some(SequencerKind::Restart) => (
             format!("restart {} attempt {}{why}", m.state, m.attempt),
             "WARN",
         ),
-        "enter_recovery" => (format!("recovery from {}{why}", m.state), "ERROR"),
-        "ask_supervisor" => {
+        Some(SequencerKind::EnterRecovery) => (format!("recovery from {}{why}", m.state), "ERROR"),
+        Some(SequencerKind::AskSupervisor) => {
             let suggested = if m.suggested.is_empty() {
                 String::new()
             } else {
@@ -156,9 +167,9 @@ fn decision(m: &Sequencer, why: &str) -> (String, &'static str) {
                 "WARN",
             )
         }
-        "resume" => (format!("resume at {}{why}", m.state), "INFO"),
-        "finished" => (format!("mission finished{why}"), "INFO"),
-        "aborted" => (format!("mission aborted{why}"), "ERROR"),
-        other => (format!("decision {other} {}{why}", m.state), "INFO"),
+        Some(SequencerKind::Resume) => (format!("resume at {}{why}", m.state), "INFO"),
+        Some(SequencerKind::Finished) => (format!("mission finished{why}"), "INFO"),
+        Some(SequencerKind::Aborted) => (format!("mission aborted{why}"), "ERROR"),
+        _ => (format!("decision {} {}{why}", m.kind, m.state), "INFO"),
     }
 }

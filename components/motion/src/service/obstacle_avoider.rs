@@ -354,10 +354,10 @@ impl ObstacleAvoiderService {
             return;
         }
         let ours = self.mover_goal == Some(status.goal_id);
-        let stopped = status.status != MoverStatus::Moving.as_str();
+        let stopped = status.status != MoverStatus::Moving;
         // An idle mover was restarted or stopped by someone else; a final status of an
         // older goal is a publication that crossed our request.
-        if stopped && (ours || status.status == MoverStatus::Idle.as_str()) {
+        if stopped && (ours || status.status == MoverStatus::Idle) {
             self.avoider.resend();
         }
     }

@@ -6,7 +6,9 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
-use lewis_interfaces::msg::{Distance, Egomotion, Header, Health, InputRef, Pose2D, RangeFinder};
+use lewis_interfaces::msg::{
+    Distance, Egomotion, Header, Health, HealthState, InputRef, Pose2D, RangeFinder,
+};
 use lewis_interfaces::{Interface, Struct};
 use lewis_perception::range_distance::{self, RangeToDistance};
 use lewis_runtime::names::{data_channel, health_channel};
@@ -801,7 +803,7 @@ impl Messages<'_> {
             for provider in self.sources.clone() {
                 let message = Health {
                     header: self.header(provider, Health::NAME, next),
-                    state: "ok".to_owned(),
+                    state: HealthState::Ok.into(),
                     reason: String::new(),
                 };
                 self.pending.push_back(ImportedMessage {
