@@ -1,18 +1,15 @@
 //! `lewis seq ...`: mission scripts.
 
-use std::fs::File;
-use std::io::{BufReader, Write};
+use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use lewis_replay::mission_replay::replay_mission;
 use lewis_runtime::ipc::Namespace;
-use lewis_sequencer::replay::{Recording, compare, read_json_lines, split_missions};
-use lewis_sequencer::resolve::{ProgramResolver, SystemResolver, TrustingResolver};
+use lewis_sequencer::Outcome;
 use lewis_sequencer::session::{SessionOptions, load_mission, run_session};
-use lewis_sequencer::{FileSystem, Outcome, check_with};
 
 /// `lewis seq ...`
 #[derive(Debug, Subcommand)]
@@ -134,78 +131,19 @@ pub(crate) fn report(outcome: &Outcome) -> ExitCode {
 }
 
 fn replay(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
-    let path = &args.recording;
-    let mcap = lewis_replay::mission_log::is_mcap(path)
-        .with_context(|| format!("cannot read the recording {}", path.display()))?;
-    let records = if mcap {
-        let found = lewis_replay::mission_log::read_mcap(path)?;
-        if let Some(cut) = &found.cut {
-            writeln!(
-                std::io::stderr(),
-                "warning: {} is cut short ({cut}); replaying the {} records before the cut",
-                path.display(),
-                found.records.len()
-            )?;
-        }
-        found.records
-    } else {
-        let file = File::open(path)
-            .with_context(|| format!("cannot open the events file {}", path.display()))?;
-        read_json_lines(BufReader::new(file)).with_context(|| format!("{}", path.display()))?
-    };
-    let missions = split_missions(&records);
-    let chosen = match (args.mission, missions.len()) {
-        (None, 0 | 1) => missions.first().copied().unwrap_or(&[]),
-        (None, count) => bail!(
-            "{} holds {count} missions; choose one with --mission 1..{count}",
-            path.display()
-        ),
-        (Some(n), count) => match n.checked_sub(1).and_then(|i| missions.get(i)) {
-            Some(mission) => mission,
-            None => bail!(
-                "--mission {n}: {} holds {count} missions, numbered from 1",
-                path.display()
-            ),
-        },
-    };
-    let recording =
-        Recording::from_records(chosen).with_context(|| format!("{}", path.display()))?;
-    let script = args.script.as_deref().unwrap_or(&recording.script);
-    // The programs need not be installed where a recording is replayed: those that are
-    // resolve as on the robot, the others are taken as written.
-    let system = SystemResolver::from_env();
-    let resolver = |program: &str, folder: &Path| {
-        system
-            .resolve(program, folder)
-            .or_else(|_| TrustingResolver.resolve(program, folder))
-    };
-    let checked = match check_with(script, &FileSystem, &resolver) {
-        Ok(checked) => checked,
-        Err(diagnostics) => bail!("{diagnostics}\n{}: the script has errors", script.display()),
-    };
-    let comparison = compare(checked.mission, &recording);
-    let mut out = std::io::stdout().lock();
-    match comparison.difference {
-        None => {
-            writeln!(
-                out,
-                "{}: {} events and {} decisions replayed on {}: identical",
-                path.display(),
-                recording.steps.len() - 1,
-                recording.decision_count(),
-                script.display()
-            )?;
-            Ok(ExitCode::SUCCESS)
-        }
-        Some(difference) => {
-            writeln!(
-                out,
-                "{}: {} decisions identical, then {} decides differently {difference}",
-                path.display(),
-                comparison.identical_decisions,
-                script.display()
-            )?;
-            Ok(ExitCode::FAILURE)
-        }
+    let replayed = replay_mission(&args.recording, args.script.as_deref(), args.mission)?;
+    if let Some(cut) = &replayed.cut {
+        writeln!(
+            std::io::stderr(),
+            "warning: {} is cut short ({cut}); replaying the {} records before the cut",
+            replayed.recording.display(),
+            replayed.records
+        )?;
     }
+    writeln!(std::io::stdout(), "{replayed}")?;
+    Ok(if replayed.identical() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

@@ -9,6 +9,8 @@
 //! - [`resim`]: `lewis replay`, the re-simulation of a recording into a new one with a
 //!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
 //! - [`play`]: `lewis play`, a recording published into live IPC at its recorded pace.
+//! - [`mission_log`]: the sequencer's records read back from a recording;
+//!   [`mission_replay`]: `lewis seq replay`, a recorded mission replayed on a script.
 //! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
 //! - [`bench`](mod@bench): measures of replay's speed and memory (`lewis bench`).
 
@@ -20,6 +22,7 @@ pub mod info;
 pub mod json;
 pub mod lockstep;
 pub mod mission_log;
+pub mod mission_replay;
 pub mod play;
 pub mod recording;
 pub mod report;
