@@ -399,6 +399,14 @@ mod tests {
         );
     }
 
+    /// A goal to 2,1 in the odometry frame, a minute from now, and now.
+    fn odometry_goal() -> (Instant, GoalPolicy) {
+        let start = Instant::now();
+        let goal = Goal { x_m: 2.0, y_m: 1.0 };
+        let deadline = start + Duration::from_secs(60);
+        (start, GoalPolicy::new(goal, GoalFrame::Odom, deadline))
+    }
+
     fn status(provider: &str, goal_id: i32, word: &str, at_ns: i64) -> Mover {
         let mut status = Mover {
             goal_id,
@@ -412,12 +420,7 @@ mod tests {
 
     #[test]
     fn the_goal_goes_again_to_a_new_provider_and_ends_when_it_arrives() {
-        let start = Instant::now();
-        let mut policy = GoalPolicy::new(
-            Goal { x_m: 2.0, y_m: 1.0 },
-            GoalFrame::Odom,
-            start + Duration::from_secs(60),
-        );
+        let (start, mut policy) = odometry_goal();
         assert_eq!(
             policy.step(start, None, None),
             GoalStep::Wait,
@@ -450,12 +453,7 @@ mod tests {
 
     #[test]
     fn a_restarted_provider_that_forgot_the_goal_gets_it_again() {
-        let start = Instant::now();
-        let mut policy = GoalPolicy::new(
-            Goal { x_m: 2.0, y_m: 1.0 },
-            GoalFrame::Odom,
-            start + Duration::from_secs(60),
-        );
+        let (start, mut policy) = odometry_goal();
         let _ = policy.step(start, Some("avoider"), None);
         policy.sent("avoider".into(), 3, 100);
         // Its status from before the reply says nothing of the new goal.
@@ -473,12 +471,7 @@ mod tests {
 
     #[test]
     fn a_provider_not_serving_yet_is_asked_again_after_a_pause() {
-        let start = Instant::now();
-        let mut policy = GoalPolicy::new(
-            Goal { x_m: 2.0, y_m: 1.0 },
-            GoalFrame::Odom,
-            start + Duration::from_secs(60),
-        );
+        let (start, mut policy) = odometry_goal();
         let _ = policy.step(start, Some("avoider"), None);
         policy.not_serving(start);
         assert_eq!(policy.wake_at(), start + NOT_SERVING_RETRY);
