@@ -33,7 +33,7 @@ use lewis_interfaces::msg::{
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
 
-use super::{Action, BrokerCore, Decision, Event, ExitStatus, Health, Need};
+use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need};
 use crate::clock::LiveClock;
 use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeCleaner, NodeLiveness, Publisher,
@@ -199,7 +199,7 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
 
 /// Runs the broker and the robot's services until a stop signal, a stop asked through
 /// `stop`'s [`StopHandle`](crate::live::StopHandle), or the duration, then stops every
-/// service in reverse start order.
+/// service, clients before their providers.
 ///
 /// `before_close` runs once every service has stopped and its last lines are published, but
 /// before the broker's own channels (`/lewis/broker`, `/lewis/log`) close: the place to stop
@@ -417,8 +417,10 @@ impl<'r> Driver<'r> {
             // loaded machine, and judging the deadlines at its end, before the heartbeats
             // that arrived meanwhile are read, failed healthy services (a hot standby was
             // given up while the crashed provider was being restarted).
+            // A client that went away takes its bindings with it: routine, as its binding was.
+            let client_left = matches!(event, Event::ClientGone { .. });
             for decision in self.core.handle(at_ns, &event) {
-                self.publish(&decision);
+                self.publish(&decision, client_left);
                 if let Some(next) = self.carry_out(&decision.action) {
                     queue.push_back(next);
                 }
@@ -428,11 +430,15 @@ impl<'r> Driver<'r> {
         all
     }
 
-    fn publish(&mut self, decision: &Decision) {
+    fn publish(&mut self, decision: &Decision, client_left: bool) {
         self.decisions += 1;
         // Failures and failovers are what a person watching the robot needs; starting and
-        // binding what is needed is routine, shown with `-v`.
+        // binding what is needed, and unbinding a client that left, is routine, shown with
+        // `-v`.
         match &decision.action {
+            Action::Unbind { .. } if client_left => {
+                tracing::debug!(subject = "broker", "{decision}");
+            }
             Action::AskForHelp { .. } | Action::ServiceFailed { .. } => {
                 tracing::warn!(subject = "broker", "{decision}");
             }
@@ -715,7 +721,23 @@ impl<'r> Driver<'r> {
     }
 
     fn shutdown(&mut self) {
-        for (name, result) in self.supervisor.stop_all() {
+        let running: Vec<String> = self
+            .supervisor
+            .running()
+            .into_iter()
+            .map(str::to_owned)
+            .collect();
+        let order = stop_order(&running, &self.core.snapshot().bindings);
+        let mut results = order
+            .into_iter()
+            .map(|name| {
+                let result = self.supervisor.stop(&name);
+                (name, result)
+            })
+            .collect::<Vec<_>>();
+        // Whatever is left (nothing, unless a process is not running): reverse start order.
+        results.extend(self.supervisor.stop_all());
+        for (name, result) in results {
             match result {
                 Ok(Some(status)) => tracing::debug!(service = name, "stopped: {status}"),
                 Ok(None) => {}
@@ -723,6 +745,30 @@ impl<'r> Driver<'r> {
             }
         }
     }
+}
+
+/// The order to stop the `running` services (given in start order): a service before the
+/// services it is a client of (the ObstacleAvoider before the VectorMover it commands, so
+/// that it never sees its provider go), otherwise the latest started first. A cycle of
+/// bindings falls back to reverse start order.
+fn stop_order(running: &[String], bindings: &[Binding]) -> Vec<String> {
+    let mut left: Vec<&String> = running.iter().rev().collect();
+    let mut order = Vec::with_capacity(left.len());
+    while !left.is_empty() {
+        let serves_one_left = |provider: &String| {
+            bindings.iter().any(|b| {
+                b.service.as_ref() == Some(provider)
+                    && b.client != *provider
+                    && left.iter().any(|l| **l == b.client)
+            })
+        };
+        let next = left
+            .iter()
+            .position(|name| !serves_one_left(name))
+            .unwrap_or(0);
+        order.push(left.remove(next).clone());
+    }
+    order
 }
 
 /// Heartbeats drained from the health channels (publish time, service, health), one
@@ -828,6 +874,40 @@ fn spawn_log_forwarder(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn clients_are_stopped_before_their_providers() {
+        let binding = |client: &str, service: &str| Binding {
+            client: client.to_owned(),
+            interface: "Mover".to_owned(),
+            service: Some(service.to_owned()),
+        };
+        let names = |list: &[&str]| list.iter().map(|n| (*n).to_owned()).collect::<Vec<_>>();
+        // Started as the goal asked: the avoider, then the mover it commands, then the
+        // base the mover drives; an unrelated laser last.
+        let running = names(&["avoider", "mover", "base", "laser"]);
+        let bindings = [
+            binding("lewis-goal", "avoider"),
+            binding("avoider", "mover"),
+            binding("mover", "base"),
+            binding("avoider", "laser"),
+        ];
+        assert_eq!(
+            stop_order(&running, &bindings),
+            names(&["avoider", "laser", "mover", "base"])
+        );
+        // Without bindings: the latest started first, as before.
+        assert_eq!(
+            stop_order(&running, &[]),
+            names(&["laser", "base", "mover", "avoider"])
+        );
+        // A cycle stops in reverse start order rather than never.
+        let cycle = [binding("avoider", "mover"), binding("mover", "avoider")];
+        assert_eq!(
+            stop_order(&names(&["avoider", "mover"]), &cycle),
+            names(&["mover", "avoider"])
+        );
+    }
+
     use super::*;
     use crate::broker::ServiceState;
 
