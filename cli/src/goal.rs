@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use clap::{Args, ValueEnum};
+use clap::Args;
 use lewis_motion::goal::{Goal, GoalFrame, GoalPlan, GoalRunError};
 use lewis_runtime::robot::Robot;
 
@@ -15,20 +15,11 @@ pub struct GoalArgs {
     pub goal: Option<Goal>,
     /// The frame of --goal: `world` (the simulator's map; needs a GroundTruth provider) or
     /// `odom` (odometry: the robot starts at 0,0 facing +x).
-    #[arg(long, value_enum, default_value_t = FrameArg::World, value_name = "FRAME")]
-    pub goal_frame: FrameArg,
+    #[arg(long, value_parser = str::parse::<GoalFrame>, default_value = "world", value_name = "FRAME")]
+    pub goal_frame: GoalFrame,
     /// How long the robot has to arrive (`120s`, `5m`), counted from the start of `lewis up`.
     #[arg(long, value_name = "DURATION", default_value = "5m", value_parser = lewis_stdx::parse_duration)]
     pub goal_timeout: Duration,
-}
-
-/// The frames `--goal-frame` offers (clap lists them in `--help`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum FrameArg {
-    /// The world (map) frame of the simulator.
-    World,
-    /// The odometry frame.
-    Odom,
 }
 
 impl GoalArgs {
@@ -37,12 +28,8 @@ impl GoalArgs {
     /// # Errors
     /// When the robot cannot drive it.
     pub fn plan(&self, robot: &Robot) -> Result<Option<GoalPlan>, GoalRunError> {
-        let frame = match self.goal_frame {
-            FrameArg::World => GoalFrame::World,
-            FrameArg::Odom => GoalFrame::Odom,
-        };
         self.goal
-            .map(|goal| GoalPlan::for_robot(goal, frame, self.goal_timeout, robot))
+            .map(|goal| GoalPlan::for_robot(goal, self.goal_frame, self.goal_timeout, robot))
             .transpose()
     }
 }

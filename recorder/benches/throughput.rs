@@ -32,9 +32,7 @@ use mcap::records::MessageHeader;
 use traffic::Msg;
 
 fn peak_rss_kib() -> u64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap();
-    let line = status.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
-    line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    lewis_stdx::peak_resident_kib().unwrap()
 }
 
 fn current_rss_kib() -> u64 {

@@ -7,7 +7,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker, BrokerStatus};
+use lewis_interfaces::msg::{Broker, BrokerStatus, BrokerStatusReply};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, Waitable, WakeMode, Woken};
 use lewis_runtime::names;
 
@@ -104,19 +104,26 @@ impl Decisions {
     }
 }
 
+/// The status reply of the broker of `ipc`'s namespace.
+///
+/// # Panics
+/// When the broker does not answer.
+#[must_use]
+pub fn status_reply(ipc: &Ipc) -> BrokerStatusReply {
+    let mut broker = ipc
+        .command_client(names::BROKER_COMMAND, &names::broker_command_config())
+        .expect("the broker's command channel opens");
+    lewis_runtime::client::call_blocking(&mut broker, &BrokerStatus::default(), WATCHDOG)
+        .expect("the broker answers")
+}
+
 /// The status report of the broker of `ipc`'s namespace (what `lewis status` prints).
 ///
 /// # Panics
 /// When the broker does not answer.
 #[must_use]
 pub fn status(ipc: &Ipc) -> String {
-    let mut broker = ipc
-        .command_client(names::BROKER_COMMAND, &names::broker_command_config())
-        .expect("the broker's command channel opens");
-    let reply =
-        lewis_runtime::client::call_blocking(&mut broker, &BrokerStatus::default(), WATCHDOG)
-            .expect("the broker answers");
-    lewis_runtime::broker::status::StatusText(&reply).to_string()
+    lewis_runtime::broker::status::StatusText(&status_reply(ipc)).to_string()
 }
 
 /// Asks the broker of `namespace` for its status report until `accept` accepts it, and

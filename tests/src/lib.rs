@@ -8,11 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The repository's root folder.
-#[must_use]
-pub fn repo_root() -> PathBuf {
-    lewis_testkit::repository_root()
-}
+pub use lewis_testkit::repository_root as repo_root;
 
 pub use lewis_testkit::shared_data;
 

@@ -17,7 +17,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker, BrokerStatus, GroundTruth, Mover};
+use lewis_interfaces::msg::{Broker, GroundTruth, Mover};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
 use lewis_runtime::names;
 use lewis_tests::{RangeApp, Up, lewis_exe, open_ipc, repo_root, wait_child_within};
@@ -204,25 +204,10 @@ fn fault(namespace: &Namespace, service: &str, fault: &str) -> std::process::Out
         .expect("lewis fault runs")
 }
 
-/// The broker's status report.
-fn status(ipc: &Ipc) -> String {
-    let mut broker = ipc
-        .command_client(names::BROKER_COMMAND, &names::broker_command_config())
-        .expect("the broker's command channel opens");
-    let reply = lewis_runtime::client::call_blocking(
-        &mut broker,
-        &BrokerStatus::default(),
-        Duration::from_secs(10),
-    )
-    .expect("the broker answers");
-    lewis_runtime::broker::status::StatusText(&reply).to_string()
-}
-/// The pid of `service`'s process in a broker status report.
-fn pid_in(report: &str, service: &str) -> Option<u32> {
-    report.lines().find_map(|line| {
-        let (name, pid) = line.strip_prefix("process ")?.split_once(": pid ")?;
-        (name == service).then(|| pid.trim().parse().ok())?
-    })
+/// The pid of `service`'s process, as the broker's status reply gives it.
+fn pid_of(ipc: &Ipc, service: &str) -> Option<u32> {
+    let reply = lewis_tests::broker::status_reply(ipc);
+    lewis_runtime::broker::status::pid_of(&reply, service).and_then(|pid| u32::try_from(pid).ok())
 }
 
 /// Every decision published on `/lewis/broker` since the last call.
@@ -325,7 +310,7 @@ fn laser_killed_beyond_its_restart_limit_the_robot_arrives_on_sonar() {
             Instant::now() < deadline,
             "the broker never moved the obstacle_avoider to the sonar; killed {killed:?}; decisions: {seen:#?}"
         );
-        if let Some(pid) = pid_in(&status(&ipc), "laser")
+        if let Some(pid) = pid_of(&ipc, "laser")
             && !killed.contains(&pid)
             && drive.kill("laser")
         {

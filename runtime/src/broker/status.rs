@@ -4,10 +4,7 @@
 
 use std::fmt;
 
-use lewis_interfaces::msg::{
-    BindingReport, BrokerStatusReply, HealthState, ServiceReport, ServiceReportHealth,
-    ServiceReportState,
-};
+use lewis_interfaces::msg::{BindingReport, BrokerStatusReply, ServiceReport, ServiceReportState};
 
 use super::{ServiceState, Snapshot};
 use crate::live::{health_fields, health_from_fields};
@@ -30,7 +27,7 @@ pub fn status_reply(
                 name: s.name.clone(),
                 state: state_word(&s.state).to_string(),
                 state_detail: s.state.to_string(),
-                health: report_health(health).to_string(),
+                health: health.to_string(),
                 health_reason: health_reason.to_owned(),
                 restarts: s.restarts,
                 clients: u32::try_from(s.clients).unwrap_or(u32::MAX),
@@ -73,15 +70,6 @@ pub fn state_word(state: &ServiceState) -> ServiceReportState {
         ServiceState::Stopping { .. } => ServiceReportState::Stopping,
         ServiceState::Stopped => ServiceReportState::Stopped,
         ServiceState::Failed { .. } => ServiceReportState::Failed,
-    }
-}
-
-/// A service's declared health in the words of the status reply.
-fn report_health(health: HealthState) -> ServiceReportHealth {
-    match health {
-        HealthState::Ok => ServiceReportHealth::Ok,
-        HealthState::Degraded => ServiceReportHealth::Degraded,
-        HealthState::OutOfService => ServiceReportHealth::OutOfService,
     }
 }
 
@@ -184,7 +172,10 @@ mod tests {
         assert_eq!(pid_of(&reply, "laser"), None);
         assert_eq!(pid_of(&reply, "camera"), None);
         assert_eq!(reply.services[0].state, ServiceReportState::Failed);
-        assert_eq!(reply.services[0].health, ServiceReportHealth::OutOfService);
+        assert_eq!(
+            reply.services[0].health,
+            lewis_interfaces::msg::HealthState::OutOfService
+        );
         assert_eq!(reply.service_count, 2);
         assert_eq!(reply.binding_count, 2);
     }
