@@ -3,4 +3,5 @@
 
 mod ipc_cross_process;
 mod ipc_in_process;
+mod program;
 mod supervise;

@@ -232,7 +232,7 @@ fn execute(
     }
     let run_options = RunOptions {
         log_lines: lines,
-        env: BTreeMap::from([(NAMESPACE_ENV.to_owned(), namespace.as_str().to_owned())]),
+        env: program_env(namespace),
         supervision,
         ..RunOptions::new(std::path::absolute(script).map_err(SessionError::Setup)?)
     };
@@ -387,4 +387,22 @@ fn wait_for_broker(namespace: &Namespace, control: &ControlReceiver) -> Result<(
             });
         }
     }
+}
+
+/// The variable that names the `lewis` binary to a mission's programs: the challenge's
+/// programs are `#!/bin/sh` wrappers that run `"${LEWIS_EXE:-lewis}" app NAME`, so they run
+/// the very `lewis` that runs the mission, installed or not.
+pub const LEWIS_EXE_ENV: &str = "LEWIS_EXE";
+
+/// What the sequencer adds to its programs' environment: the namespace, and the `lewis`
+/// binary when the mission runs inside one (and the environment does not already name one).
+fn program_env(namespace: &Namespace) -> BTreeMap<String, String> {
+    let mut env = BTreeMap::from([(NAMESPACE_ENV.to_owned(), namespace.as_str().to_owned())]);
+    if std::env::var_os(LEWIS_EXE_ENV).is_none()
+        && let Ok(exe) = std::env::current_exe()
+        && exe.file_stem().is_some_and(|stem| stem == "lewis")
+    {
+        env.insert(LEWIS_EXE_ENV.to_owned(), exe.to_string_lossy().into_owned());
+    }
+    env
 }

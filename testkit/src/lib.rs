@@ -244,6 +244,27 @@ impl Harness {
         })
     }
 
+    /// A harness around a service made by the test itself (a sub-task program, which no
+    /// registry builds): it provides nothing, and draws random numbers from `seed`.
+    #[must_use]
+    pub fn from_service(name: &str, service: Box<dyn Service>, seed: u64) -> Self {
+        Self {
+            service,
+            state: ContextState::new(name, seed),
+            backend: RecordingBackend {
+                provides: Some(Vec::new()),
+                ..RecordingBackend::default()
+            },
+            name: name.to_owned(),
+        }
+    }
+
+    /// Whether the service finished, and with which code ([`Service::exit_code`]).
+    #[must_use]
+    pub fn exit_code(&self) -> Option<i32> {
+        self.service.exit_code()
+    }
+
     /// The service's name.
     #[must_use]
     pub fn name(&self) -> &str {
@@ -273,6 +294,15 @@ impl Harness {
         self.state.set_inputs(Vec::new());
         self.service
             .on_tick(&mut self.state.context(&mut self.backend));
+    }
+
+    /// Runs `on_stop` at `now_ns`: the last handler, as when the live harness is stopped or
+    /// the service finished.
+    pub fn stop(&mut self, now_ns: i64) {
+        self.backend.now_ns = now_ns;
+        self.state.set_inputs(Vec::new());
+        self.service
+            .on_stop(&mut self.state.context(&mut self.backend));
     }
 
     /// Hands the service a sample that arrived on `channel` from `provider` at `now_ns`, with

@@ -123,6 +123,31 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-motion",
         ],
     ),
+    // The sub-task programs: clients of interfaces only, never of a component's code.
+    (
+        "lewis-apps",
+        &[
+            "lewis-stdx",
+            "lewis-geometry",
+            "lewis-interfaces",
+            "lewis-runtime",
+        ],
+    ),
+    // The README's main job: a launch, a verdict and a replay put together.
+    (
+        "lewis-demo",
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-runtime",
+            "lewis-mcap",
+            "lewis-recorder",
+            "lewis-replay",
+            "lewis-sequencer",
+            "lewis-launch",
+            "lewis-viewer",
+        ],
+    ),
     // The service test kit: on the runtime only, so a component's own tests can use it.
     ("lewis-testkit", &["lewis-interfaces", "lewis-runtime"]),
 ];

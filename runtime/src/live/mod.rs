@@ -120,44 +120,131 @@ pub fn run_service(
         heartbeat_period_ms: robot.broker.heartbeat_period_ms,
     };
     let mut instance = registry.build(&config)?;
+    let run = Run {
+        name: &spec.name,
+        provides: &spec.provides,
+        requires: &spec.requires,
+        startup_deadline_ms: spec.startup_deadline_ms,
+        handler_deadline_ms: spec.heartbeat_deadline_ms,
+        seed: config.seed(),
+        heartbeat_period_ms: Some(robot.broker.heartbeat_period_ms),
+    };
+    run_one(&run, instance.as_mut(), namespace, clock_source)?;
+    Ok(())
+}
+
+/// What a sub-task program is to the live harness: its node's name, the interfaces it asks
+/// the broker for, and the seed of its random source.
+#[derive(Debug, Clone)]
+pub struct ProgramSpec {
+    /// The node's name, and the client's name in the broker's bindings.
+    pub name: String,
+    /// The interfaces it asks the broker for.
+    pub requires: Vec<String>,
+    /// The seed of [`Context::rng`].
+    pub seed: u64,
+}
+
+/// The exit code of a program stopped by SIGTERM or SIGINT before it finished: a shell's
+/// 128 + SIGTERM, so the sequencer never takes a stopped program for one that succeeded.
+pub const STOPPED_EXIT_CODE: i32 = 143;
+
+/// Runs a sub-task program (the sequencer's child, not a service of the robot file) until
+/// it finishes ([`Service::exit_code`]) or SIGTERM or SIGINT stop it, and returns the code
+/// its process should exit with ([`STOPPED_EXIT_CODE`] when stopped).
+///
+/// It is the service harness without what only a provider needs: no publications, no
+/// command servers, no heartbeats (the broker does not supervise it: the sequencer does).
+/// Its clients follow the broker's rebinding like any service's.
+///
+/// # Errors
+/// When `on_start` refuses or IPC fails.
+pub fn run_program(
+    program: &ProgramSpec,
+    instance: &mut dyn Service,
+    namespace: &Namespace,
+    clock_source: ClockSource,
+) -> Result<i32, LiveError> {
+    let run = Run {
+        name: &program.name,
+        provides: &[],
+        requires: &program.requires,
+        startup_deadline_ms: PROGRAM_HANDLER_DEADLINE_MS,
+        handler_deadline_ms: PROGRAM_HANDLER_DEADLINE_MS,
+        seed: program.seed,
+        heartbeat_period_ms: None,
+    };
+    Ok(run_one(&run, instance, namespace, clock_source)?.unwrap_or(STOPPED_EXIT_CODE))
+}
+
+/// A program has no heartbeat deadline; a handler slower than this is still worth a
+/// warning, as a service's would be.
+const PROGRAM_HANDLER_DEADLINE_MS: u64 = 1000;
+
+/// One service or program to run.
+struct Run<'a> {
+    name: &'a str,
+    provides: &'a [crate::robot::Provision],
+    requires: &'a [String],
+    startup_deadline_ms: u64,
+    /// The heartbeat deadline: what a handler may take.
+    handler_deadline_ms: u64,
+    seed: u64,
+    /// `None` for a program: no heartbeats.
+    heartbeat_period_ms: Option<u64>,
+}
+
+/// Runs `instance` until a stop signal (`None`) or until it finishes (its exit code).
+fn run_one(
+    run: &Run<'_>,
+    instance: &mut dyn Service,
+    namespace: &Namespace,
+    clock_source: ClockSource,
+) -> Result<Option<i32>, LiveError> {
     let signals = StopSignals::install().map_err(LiveError::Signals)?;
-    let ipc = Rc::new(Ipc::open(namespace, &spec.name)?);
+    let ipc = Rc::new(Ipc::open(namespace, run.name)?);
     let clock = LiveClock::new();
     let time = ServiceClock::open(clock_source, &ipc)?;
 
     let mut publishers = BTreeMap::new();
     let mut servers = Vec::new();
-    for provision in &spec.provides {
+    for provision in run.provides {
         let interface = &provision.interface;
         publishers.insert(
             interface.clone(),
             ipc.publisher(
-                &names::data_channel(&spec.name, interface),
+                &names::data_channel(run.name, interface),
                 &names::data_config(interface),
             )?,
         );
         servers.push((
             interface.clone(),
             ipc.command_server(
-                &names::command_channel(&spec.name, interface),
+                &names::command_channel(run.name, interface),
                 &names::command_config(),
             )?,
         ));
     }
     let mut clients = BTreeMap::new();
-    for interface in &spec.requires {
+    for interface in run.requires {
         clients.insert(
             interface.clone(),
-            RawClient::new(&ipc, &spec.name, interface)?,
+            RawClient::new(&ipc, run.name, interface)?,
         );
     }
-    let health = ipc.publisher(&names::health_channel(&spec.name), &names::health_config())?;
-    let command_log = ipc.publisher(
-        &names::command_log_channel(&spec.name),
-        &names::command_log_config(),
-    )?;
+    // A provider's heartbeats and answered commands; a program has neither.
+    let (health, command_log) = match run.heartbeat_period_ms {
+        Some(_) => (
+            Some(ipc.publisher(&names::health_channel(run.name), &names::health_config())?),
+            Some(ipc.publisher(
+                &names::command_log_channel(run.name),
+                &names::command_log_config(),
+            )?),
+        ),
+        None => (None, None),
+    };
     let mut backend = LiveBackend {
-        service: spec.name.clone(),
+        service: run.name.to_owned(),
         clock,
         time,
         publishers,
@@ -171,30 +258,32 @@ pub fn run_service(
         command_log_seq: 0,
         event_ns: 0,
     };
-    let mut state = ContextState::new(&spec.name, config.seed());
-    let heartbeat_period = Duration::from_millis(robot.broker.heartbeat_period_ms.max(1));
+    let mut state = ContextState::new(run.name, run.seed);
+    let heartbeat_period = run
+        .heartbeat_period_ms
+        .map(|ms| Duration::from_millis(ms.max(1)));
 
     let mut overruns = overrun::OverrunWatch::new(
-        &spec.name,
-        Duration::from_millis(spec.startup_deadline_ms),
-        Duration::from_millis(spec.heartbeat_deadline_ms),
+        run.name,
+        Duration::from_millis(run.startup_deadline_ms),
+        Duration::from_millis(run.handler_deadline_ms),
     );
     // Made before the first heartbeat, like every other endpoint: from that heartbeat on,
     // the heartbeat deadline applies, and opening an iceoryx2 service can take tens of
     // milliseconds on a loaded machine.
-    let faults = ipc.command_server(&fault::fault_channel(&spec.name), &fault::fault_config())?;
+    let faults = ipc.command_server(&fault::fault_channel(run.name), &fault::fault_config())?;
     let started = Instant::now();
     instance
         .on_start(&mut event_context(&mut state, &mut backend))
         .map_err(|reason| LiveError::Start {
-            service: spec.name.clone(),
+            service: run.name.to_owned(),
             reason,
         })?;
     overruns.ran("on_start", started);
     // The first heartbeat says "ready": after on_start, which the startup deadline covers.
     backend.heartbeat();
     let mut harness = Harness {
-        service: instance.as_mut(),
+        service: instance,
         state,
         backend,
         servers,
@@ -204,8 +293,7 @@ pub fn run_service(
         overruns,
     };
     harness.tick_period_ns = harness.service.tick_period_ns().filter(|ns| *ns > 0);
-    harness.run(&signals, heartbeat_period)?;
-    Ok(())
+    harness.run(&signals, heartbeat_period)
 }
 
 struct Harness<'s> {
@@ -222,15 +310,23 @@ struct Harness<'s> {
 }
 
 impl Harness<'_> {
-    fn run(&mut self, signals: &StopSignals, heartbeat_period: Duration) -> Result<(), LiveError> {
+    /// Runs until a stop signal (`None`) or until the service finishes (its exit code).
+    fn run(
+        &mut self,
+        signals: &StopSignals,
+        heartbeat_period: Option<Duration>,
+    ) -> Result<Option<i32>, LiveError> {
         let start = Instant::now();
-        let mut next_heartbeat = start + heartbeat_period;
+        let mut next_heartbeat = heartbeat_period.map(|period| start + period);
         // On the service's clock: a played clock's ticks follow the recording's time.
         let mut next_tick: Option<i64> = None;
         let mut device_ready = false;
-        loop {
+        let finished = loop {
             if signals.take() {
-                break;
+                break None;
+            }
+            if let Some(code) = self.service.exit_code() {
+                break Some(code);
             }
             if self.serve_faults() {
                 // Stalled: only a stop signal or another fault wakes it.
@@ -238,9 +334,11 @@ impl Harness<'_> {
                 continue;
             }
             let now = Instant::now();
-            if now >= next_heartbeat {
+            if let (Some(at), Some(period)) = (next_heartbeat, heartbeat_period)
+                && now >= at
+            {
                 self.backend.heartbeat();
-                next_heartbeat = advance(next_heartbeat, heartbeat_period, now);
+                next_heartbeat = Some(advance(at, period, now));
             }
             if let Some(period_ns) = self.tick_period_ns {
                 let now_ns = self.backend.time.now_ns();
@@ -273,7 +371,7 @@ impl Harness<'_> {
                 self.overruns.ran("on_device", started);
             }
             let tick_due = next_tick.and_then(|at| self.backend.time.instant_at(at));
-            let deadline = [Some(next_heartbeat), tick_due]
+            let deadline = [next_heartbeat, tick_due]
                 .into_iter()
                 .flatten()
                 .chain(
@@ -283,11 +381,16 @@ impl Harness<'_> {
                         .filter_map(RawClient::deadline),
                 )
                 .min();
+            if self.service.exit_code().is_some() {
+                // Finished in this round's handlers: stop now, without waiting.
+                device_ready = false;
+                continue;
+            }
             device_ready = self.wait(signals, deadline)?;
-        }
+        };
         self.service
             .on_stop(&mut event_context(&mut self.state, &mut self.backend));
-        Ok(())
+        Ok(finished)
     }
 
     /// Waits for anything to do; returns whether the device is readable.
@@ -489,13 +592,15 @@ struct LiveBackend {
     publishers: BTreeMap<String, Publisher>,
     clients: BTreeMap<String, RawClient>,
     calls: BTreeMap<(String, IpcCallId), (CallId, &'static str)>,
-    health: Publisher,
+    /// `None` for a program: the broker does not supervise it.
+    health: Option<Publisher>,
     health_seq: u64,
     declared: Health,
     /// The fault injected from outside, if any ([`fault`]).
     fault: fault::FaultState,
-    /// `/lewis/commands/<service>`: every answered command, for the recorder.
-    command_log: Publisher,
+    /// `/lewis/commands/<service>`: every answered command, for the recorder (`None` for a
+    /// program, which answers none).
+    command_log: Option<Publisher>,
     command_log_seq: u64,
     /// The time the event being handled was taken up: the service's clock.
     event_ns: i64,
@@ -512,6 +617,9 @@ impl LiveBackend {
         answer: Result<Vec<u8>, String>,
         received_ns: i64,
     ) {
+        let Some(publisher) = self.command_log.as_mut() else {
+            return;
+        };
         self.command_log_seq += 1;
         let (status, reply, error) = match answer {
             Ok(reply) => (CommandLogStatus::Ok, reply, String::new()),
@@ -533,7 +641,7 @@ impl LiveBackend {
         // The time of the event, like every publication of the handler that answered it.
         header.publish_time_ns = received_ns;
         let len = cdr::encoded_len(&message);
-        if let Err(e) = self.command_log.publish_with(len, |buf| {
+        if let Err(e) = publisher.publish_with(len, |buf| {
             let _ = cdr::encode_into(&message, buf);
         }) {
             tracing::warn!(service = self.service, "cannot publish a command log: {e}");
@@ -541,6 +649,9 @@ impl LiveBackend {
     }
 
     fn heartbeat(&mut self) {
+        let Some(publisher) = self.health.as_mut() else {
+            return;
+        };
         let (state, reason) = match self.fault {
             fault::FaultState::Stalled => return,
             fault::FaultState::OutOfService => {
@@ -559,7 +670,7 @@ impl LiveBackend {
         header.seq = self.health_seq;
         header.publish_time_ns = self.clock.now_ns();
         let len = cdr::encoded_len(&message);
-        if let Err(e) = self.health.publish_with(len, |buf| {
+        if let Err(e) = publisher.publish_with(len, |buf| {
             let _ = cdr::encode_into(&message, buf);
         }) {
             tracing::warn!(service = self.service, "cannot publish heartbeat: {e}");

@@ -107,6 +107,18 @@ pub trait Service {
         let _ = ctx;
     }
 
+    /// Whether this service has finished, and with which process exit code.
+    ///
+    /// Services never finish: they run until they are stopped, so the default is `None`.
+    /// A sub-task program (a sequencer state's program, written against interfaces like a
+    /// service) finishes itself: once it returns `Some(code)` after a handler, the harness
+    /// runs [`Service::on_stop`] (which may still send a last command, a stop to the Mover)
+    /// and ends, and the live process exits with `code`, the contract of the sequencer's
+    /// script.
+    fn exit_code(&self) -> Option<i32> {
+        None
+    }
+
     /// The file descriptor of the device this service reads, if any: the live harness waits
     /// on it and calls [`Service::on_device`] when it is readable. Never used in replay. It
     /// may be the device itself (read without blocking) or the wake-up descriptor of a device
