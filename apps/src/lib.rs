@@ -10,3 +10,6 @@
 //! any device, simulator, world or another component's code, and it never reads the
 //! simulator's truth (GroundTruth, WorldState) or the world file: a program sees what the
 //! robot's sensors see.
+
+pub mod common;
+pub mod door;

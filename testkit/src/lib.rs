@@ -19,6 +19,8 @@
 // the test's failure, said with its reason.
 #![allow(clippy::expect_used)]
 
+pub mod scene;
+
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{INTERFACES, InputRef};

@@ -1,0 +1,442 @@
+//! DoorNavigator: through the open door ahead.
+//!
+//! A doorway is a gap in the scan: beams much longer than the two beams beside them (the
+//! jambs), the jambs at least `--door-width` apart. The program picks the doorway nearest
+//! ahead, goes to a point 0.8 m before its centre on its normal, then 1.5 m past it, and
+//! finishes (0) once the odometry is 1 m past the door line. With no doorway in sight it
+//! turns in 45 degree steps; after a full turn, or a minute, it gives up (4).
+
+use lewis_geometry::Vec2;
+use lewis_interfaces::msg::{Egomotion, Mover, RangeFinder};
+use lewis_runtime::service::{Context, Input, ReplyEvent, Service};
+
+use crate::common::exit;
+use crate::common::frames::Odometry;
+use crate::common::mover::MoverClient;
+use crate::common::watch::{DEFAULT_STALE_NS, Watch};
+
+/// What DoorNavigator asks the broker for.
+pub const REQUIRES: &[&str] = &["RangeFinder", "Egomotion", "Mover"];
+
+/// A beam is "much longer" than a jamb by this much, in m.
+const DEPTH_M: f64 = 0.8;
+/// The widest gap taken for a door, in m: anything wider is open space.
+const MAX_DOOR_WIDTH_M: f64 = 2.5;
+/// The approach point, before the door's centre on its normal, in m.
+const APPROACH_M: f64 = 0.8;
+/// The goal past the door, in m.
+const PAST_M: f64 = 1.5;
+/// Done once this far past the door line, in m.
+const DONE_PAST_M: f64 = 1.0;
+/// A sighting within this of the door followed refines it, in m.
+const SAME_DOOR_M: f64 = 0.6;
+/// Doorways further off the heading than this are not "ahead", in rad.
+const AHEAD_RAD: f64 = 1.2;
+/// The approach point counts as reached within this, in m.
+const REACHED_M: f64 = 0.25;
+/// Turns of 45 degrees before giving up: a full turn.
+const SEARCH_TURNS: u32 = 8;
+/// Scans without a doorway before turning.
+const SCANS_BEFORE_TURN: u32 = 10;
+
+/// DoorNavigator's settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DoorConfig {
+    /// The narrowest gap taken for a door, in m.
+    pub min_width_m: f64,
+    /// How long an input may be silent, in ns.
+    pub stale_ns: i64,
+    /// When it gives up, in ns from its start.
+    pub timeout_ns: i64,
+}
+
+impl Default for DoorConfig {
+    fn default() -> Self {
+        Self {
+            min_width_m: 0.9,
+            stale_ns: DEFAULT_STALE_NS,
+            timeout_ns: 60_000_000_000,
+        }
+    }
+}
+
+/// A doorway seen in a scan, in the frame of the scan's points (the robot's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Doorway {
+    /// The jamb at the lower bearing.
+    pub a: Vec2,
+    /// The jamb at the higher bearing.
+    pub b: Vec2,
+}
+
+impl Doorway {
+    /// Its centre.
+    #[must_use]
+    pub fn centre(&self) -> Vec2 {
+        (self.a + self.b) * 0.5
+    }
+
+    /// Its width, in m.
+    #[must_use]
+    pub fn width(&self) -> f64 {
+        self.a.distance(self.b)
+    }
+
+    /// The unit normal of the door line pointing away from `from` (through the door).
+    #[must_use]
+    pub fn normal_from(&self, from: Vec2) -> Vec2 {
+        let along = self.b - self.a;
+        let n = along.perpendicular() * (1.0 / along.norm().max(1e-9));
+        if n.dot(self.centre() - from) >= 0.0 {
+            n
+        } else {
+            -n
+        }
+    }
+}
+
+/// Each beam of a scan: its end point in the robot frame, its range, and whether it saw
+/// nothing (max range).
+fn beams(scan: &RangeFinder) -> Vec<(Vec2, f64, bool)> {
+    let n = scan.ranges.len();
+    (0..n)
+        .filter_map(|i| {
+            let (x, y, theta) = if scan.uniform {
+                let k = i as f64;
+                (
+                    scan.x_offset + k * scan.x_separation,
+                    scan.y_offset + k * scan.y_separation,
+                    scan.theta_offset + k * scan.theta_separation,
+                )
+            } else {
+                let p = scan.sensor_positions.get(i)?;
+                (p.x, p.y, p.theta)
+            };
+            let raw = scan.ranges[i];
+            let far = !raw.is_finite() || raw >= scan.max_range * 0.995;
+            let range = if far { scan.max_range } else { raw.max(0.0) };
+            let point = Vec2::new(x, y) + Vec2::from_angle(theta) * range;
+            Some((point, range, far))
+        })
+        .collect()
+}
+
+/// The doorways of a scan at least `min_width_m` wide (see the module documentation), in
+/// the order of their bearings.
+#[must_use]
+pub fn find_doorways(scan: &RangeFinder, min_width_m: f64) -> Vec<Doorway> {
+    let beams = beams(scan);
+    let mut found = Vec::new();
+    let mut i = 0;
+    while i + 2 < beams.len() {
+        let (a, ra, a_far) = beams[i];
+        if a_far || beams[i + 1].1 <= ra + DEPTH_M {
+            i += 1;
+            continue;
+        }
+        // A rising edge at i: the gap ends where a beam comes back near.
+        let Some(j) =
+            (i + 2..beams.len()).find(|&j| !beams[j].2 && beams[j - 1].1 > beams[j].1 + DEPTH_M)
+        else {
+            break;
+        };
+        let (b, rb, _) = beams[j];
+        let floor = ra.max(rb) + DEPTH_M * 0.5;
+        let deep = beams[i + 1..j].iter().all(|(_, r, _)| *r > floor);
+        let door = Doorway { a, b };
+        if deep && (min_width_m..=MAX_DOOR_WIDTH_M).contains(&door.width()) {
+            found.push(door);
+        }
+        i = j;
+    }
+    found
+}
+
+/// The doorway nearest ahead of the robot (at the origin, facing +x), if any is ahead.
+#[must_use]
+pub fn nearest_ahead(doorways: &[Doorway]) -> Option<Doorway> {
+    doorways
+        .iter()
+        .filter(|d| d.centre().angle().abs() < AHEAD_RAD)
+        .min_by(|x, y| {
+            let score = |d: &Doorway| d.centre().angle().abs() + 0.05 * d.centre().norm();
+            score(x).total_cmp(&score(y))
+        })
+        .copied()
+}
+
+/// Where the program is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// No door yet: looking, and turning after a while.
+    Search { scans_without: u32, turns: u32 },
+    /// To the point before the door (odometry frame).
+    Approach { centre: Vec2, normal: Vec2 },
+    /// Through it.
+    Through { centre: Vec2, normal: Vec2 },
+}
+
+/// The DoorNavigator program.
+#[derive(Debug)]
+pub struct DoorNavigator {
+    config: DoorConfig,
+    watch: Watch,
+    odometry: Odometry,
+    mover: MoverClient,
+    phase: Phase,
+    started_ns: Option<i64>,
+    exit: Option<i32>,
+}
+
+impl DoorNavigator {
+    /// The program with its settings.
+    #[must_use]
+    pub fn new(config: DoorConfig) -> Self {
+        Self {
+            watch: Watch::new(&["RangeFinder", "Egomotion"], config.stale_ns),
+            config,
+            odometry: Odometry::default(),
+            mover: MoverClient::default(),
+            phase: Phase::Search {
+                scans_without: 0,
+                turns: 0,
+            },
+            started_ns: None,
+            exit: None,
+        }
+    }
+
+    fn finish(&mut self, ctx: &mut Context<'_>, code: i32, why: &str) {
+        if self.exit.is_none() {
+            ctx.info(&format!("exit {code}: {why}"));
+            self.exit = Some(code);
+        }
+    }
+
+    fn on_scan(&mut self, ctx: &mut Context<'_>, scan: &RangeFinder) {
+        let Some(pose) = self.odometry.pose() else {
+            return;
+        };
+        let seen = nearest_ahead(&find_doorways(scan, self.config.min_width_m)).map(|d| {
+            let centre = pose.transform_point(d.centre());
+            let normal = d.normal_from(Vec2::default()).rotated(pose.heading_rad);
+            (centre, normal)
+        });
+        match self.phase {
+            Phase::Search {
+                scans_without,
+                turns,
+            } => {
+                if let Some((centre, normal)) = seen {
+                    ctx.info(&format!(
+                        "a doorway at {:.2},{:.2} (odometry): going to it",
+                        centre.x, centre.y
+                    ));
+                    self.phase = Phase::Approach { centre, normal };
+                    self.mover.goto(ctx, centre - normal * APPROACH_M);
+                } else {
+                    self.phase = Phase::Search {
+                        scans_without: scans_without + 1,
+                        turns,
+                    };
+                }
+            }
+            Phase::Approach { centre, normal } => {
+                if let Some((c, n)) = seen
+                    && c.distance(centre) < SAME_DOOR_M
+                {
+                    // Nearer sightings are better ones: follow them, smoothly.
+                    let centre = centre * 0.7 + c * 0.3;
+                    let mixed = normal * 0.7 + n * 0.3;
+                    let normal = mixed * (1.0 / mixed.norm().max(1e-9));
+                    self.phase = Phase::Approach { centre, normal };
+                    self.mover.goto(ctx, centre - normal * APPROACH_M);
+                }
+            }
+            Phase::Through { .. } => {}
+        }
+    }
+
+    fn step(&mut self, ctx: &mut Context<'_>) {
+        let now = ctx.now();
+        let started = *self.started_ns.get_or_insert(now);
+        if let Some(lost) = self.watch.lost(now) {
+            self.finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
+            return;
+        }
+        if now - started > self.config.timeout_ns {
+            self.finish(ctx, exit::GAVE_UP, "not through a door in time");
+            return;
+        }
+        self.mover.tick(ctx);
+        let Some(pose) = self.odometry.pose() else {
+            return;
+        };
+        match self.phase {
+            Phase::Search {
+                scans_without,
+                turns,
+            } => {
+                if scans_without >= SCANS_BEFORE_TURN
+                    && (self.mover.wanted().is_none() || self.mover.arrived())
+                {
+                    if turns >= SEARCH_TURNS {
+                        self.finish(ctx, exit::GAVE_UP, "no doorway all around");
+                        return;
+                    }
+                    self.mover.rotate(ctx, std::f64::consts::FRAC_PI_4);
+                    self.phase = Phase::Search {
+                        scans_without: 0,
+                        turns: turns + 1,
+                    };
+                }
+            }
+            Phase::Approach { centre, normal } => {
+                let target = centre - normal * APPROACH_M;
+                if pose.position().distance(target) < REACHED_M || self.mover.arrived() {
+                    ctx.info("before the door: going through");
+                    self.phase = Phase::Through { centre, normal };
+                    self.mover.goto(ctx, centre + normal * PAST_M);
+                }
+            }
+            Phase::Through { .. } => {}
+        }
+        if let Phase::Approach { centre, normal } | Phase::Through { centre, normal } = self.phase
+            && (pose.position() - centre).dot(normal) >= DONE_PAST_M
+        {
+            self.finish(ctx, exit::SUCCESS, "through the door");
+        }
+    }
+}
+
+impl Service for DoorNavigator {
+    fn tick_period_ns(&self) -> Option<i64> {
+        Some(100_000_000)
+    }
+
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        self.watch.start(ctx.now());
+        self.started_ns = Some(ctx.now());
+        Ok(())
+    }
+
+    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        if self.exit.is_some() {
+            return;
+        }
+        self.watch.saw(input.interface, ctx.now());
+        match input.interface {
+            "Egomotion" => {
+                if let Ok(m) = input.decode::<Egomotion>() {
+                    self.odometry.update(&m.pose);
+                }
+            }
+            "Mover" => {
+                if let Ok(m) = input.decode::<Mover>() {
+                    self.mover.on_status(ctx, input.provider, m);
+                }
+            }
+            "RangeFinder" => {
+                if let Ok(scan) = input.decode::<RangeFinder>() {
+                    self.on_scan(ctx, &scan);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
+        self.mover.on_reply(ctx, reply);
+    }
+
+    fn on_tick(&mut self, ctx: &mut Context<'_>) {
+        if self.exit.is_none() {
+            self.step(ctx);
+        }
+    }
+
+    fn on_stop(&mut self, ctx: &mut Context<'_>) {
+        self.mover.stop_now(ctx);
+    }
+
+    fn exit_code(&self) -> Option<i32> {
+        self.exit
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 181-beam scan over 180 degrees from `ranges(bearing)`.
+    fn scan(ranges: impl Fn(f64) -> f64) -> RangeFinder {
+        let n = 181;
+        let step = std::f64::consts::PI / 180.0;
+        RangeFinder {
+            range_count: n,
+            ranges: (0..n)
+                .map(|i| ranges(-std::f64::consts::FRAC_PI_2 + f64::from(i) * step))
+                .collect(),
+            max_range: 8.0,
+            uniform: true,
+            theta_offset: -std::f64::consts::FRAC_PI_2,
+            theta_separation: step,
+            ..RangeFinder::default()
+        }
+    }
+
+    /// A wall across at x = `wall_x` with a gap from y0 to y1, and nothing beyond it.
+    fn wall_with_gap(wall_x: f64, y0: f64, y1: f64) -> RangeFinder {
+        scan(|bearing| {
+            let y = wall_x * bearing.tan();
+            if bearing.abs() < 1.5 && (y0..=y1).contains(&y) {
+                8.0
+            } else if bearing.abs() < 1.5 {
+                (wall_x / bearing.cos()).min(8.0)
+            } else {
+                8.0
+            }
+        })
+    }
+
+    #[test]
+    fn a_gap_in_a_wall_is_a_doorway_with_its_jambs_and_normal() {
+        let doors = find_doorways(&wall_with_gap(4.0, -0.5, 1.0), 0.9);
+        assert_eq!(doors.len(), 1, "{doors:?}");
+        let door = doors[0];
+        assert!((door.width() - 1.5).abs() < 0.15, "{door:?}");
+        assert!(
+            door.centre().distance(Vec2::new(4.0, 0.25)) < 0.1,
+            "{door:?}"
+        );
+        let n = door.normal_from(Vec2::default());
+        assert!(n.distance(Vec2::new(1.0, 0.0)) < 0.05, "{n:?}");
+        assert_eq!(nearest_ahead(&doors), Some(door));
+    }
+
+    #[test]
+    fn narrow_gaps_and_open_space_are_not_doors() {
+        assert!(find_doorways(&wall_with_gap(4.0, 0.0, 0.6), 0.9).is_empty());
+        assert!(find_doorways(&wall_with_gap(4.0, -2.0, 2.0), 0.9).is_empty());
+        assert!(find_doorways(&scan(|_| 8.0), 0.9).is_empty());
+        assert!(find_doorways(&scan(|_| 3.0), 0.9).is_empty());
+    }
+
+    #[test]
+    fn of_two_doorways_the_one_nearest_ahead_is_taken() {
+        let left = Doorway {
+            a: Vec2::new(2.0, 2.0),
+            b: Vec2::new(1.0, 2.5),
+        };
+        let ahead = Doorway {
+            a: Vec2::new(4.0, -0.6),
+            b: Vec2::new(4.0, 0.6),
+        };
+        assert_eq!(nearest_ahead(&[left, ahead]), Some(ahead));
+        let behind = Doorway {
+            a: Vec2::new(-4.0, -0.6),
+            b: Vec2::new(-4.0, 0.6),
+        };
+        assert_eq!(nearest_ahead(&[behind]), None);
+    }
+}

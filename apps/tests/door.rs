@@ -1,0 +1,36 @@
+//! DoorNavigator through the conference world's entrance door, from several start poses
+//! in the lobby: it finishes with 0, past the door, without touching anything.
+
+use lewis_apps::door::{DoorConfig, DoorNavigator, REQUIRES};
+
+use crate::support::{S, scene, sim_robot, truth};
+
+const SERVICES: &[&str] = &["base", "laser", "vector_mover", "obstacle_avoider"];
+
+/// Runs DoorNavigator from `start`; (exit code, x at the end, collisions).
+fn through_the_door(start: (f64, f64, f64)) -> (Option<i32>, f64, i32) {
+    let robot = sim_robot(start, (320, 240));
+    let program = Box::new(DoorNavigator::new(DoorConfig::default()));
+    let mut scene = scene(&robot, SERVICES, "door", program, REQUIRES);
+    scene.run_until(70 * S, |s| s.exit_code("door").is_some());
+    // A little longer: the robot comes to rest after the program's stop.
+    let end = scene.now_ns() + S;
+    scene.run_until(end, |_| false);
+    let truth = truth(&scene);
+    (scene.exit_code("door"), truth.pose.x, truth.collisions)
+}
+
+#[test]
+fn door_navigator_goes_through_the_entrance_from_four_start_poses() {
+    for start in [
+        (3.0, 12.5, 0.0),
+        (2.5, 11.0, 15.0),
+        (4.0, 14.0, -20.0),
+        (5.0, 16.0, -45.0),
+    ] {
+        let (code, x, collisions) = through_the_door(start);
+        assert_eq!(code, Some(0), "from {start:?}: ended at x {x:.2}");
+        assert_eq!(collisions, 0, "from {start:?}");
+        assert!(x > 8.9, "from {start:?}: past the door line x 8, at {x:.2}");
+    }
+}
