@@ -13,3 +13,4 @@
 
 pub mod common;
 pub mod door;
+pub mod sign;

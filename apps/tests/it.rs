@@ -7,4 +7,5 @@
 
 mod door;
 mod failsafe;
+mod sign;
 mod support;

@@ -141,7 +141,11 @@ impl Scene {
     }
 
     /// Adds a program (a service that no registry builds, provides nothing and finishes
-    /// itself) that asks for `requires`.
+    /// itself) that asks for `requires`; started at once when the scene runs already (a
+    /// mission's next state).
+    ///
+    /// # Panics
+    /// When it does not start.
     pub fn add_program(
         &mut self,
         name: &str,
@@ -155,6 +159,17 @@ impl Scene {
             requires.iter().map(|s| (*s).to_owned()).collect(),
             Vec::new(),
         );
+        if self.started {
+            let i = self.members.len() - 1;
+            let now = self.now_ns;
+            let member = &mut self.members[i];
+            member
+                .harness
+                .start(now)
+                .unwrap_or_else(|e| panic!("{name} does not start: {e}"));
+            member.next_tick_ns = member.period_ns.map(|p| now + p);
+            self.settle(i);
+        }
     }
 
     fn push(&mut self, harness: Harness, requires: Vec<String>, provides: Vec<(String, u32, u32)>) {

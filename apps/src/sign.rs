@@ -1,0 +1,559 @@
+//! SignFollower: to the nearest direction sign, the way its arrow says, and on until the
+//! next sign.
+//!
+//! Signs are tracked in the odometry frame; a sign's arrow is the majority of its last
+//! three readings. The program goes 1.3 m in front of the nearest sign it reads, turns as
+//! the arrow says (up: straight on, left: +90 degrees, right: -90, down: back), and goes on.
+//! It finishes with 0 once it reads another direction sign (more than 1.5 m from the one
+//! it followed: the next state follows that one), with 1 when it reads the registration
+//! desk's sign, and with 4 after a minute without a new sign.
+
+use std::collections::{BTreeSet, VecDeque};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use lewis_geometry::{Vec2, wrap_angle};
+use lewis_interfaces::msg::{Distance, Egomotion, Mover, SignArrow, Signs};
+use lewis_runtime::service::{Context, Input, ReplyEvent, Service};
+
+use crate::common::exit;
+use crate::common::frames::{Odometry, turn};
+use crate::common::mover::MoverClient;
+use crate::common::watch::{DEFAULT_STALE_NS, Watch};
+
+/// What SignFollower asks the broker for.
+pub const REQUIRES: &[&str] = &["Signs", "Egomotion", "Mover", "Distance"];
+
+/// Readings less sure than this are ignored.
+const MIN_CONFIDENCE: f64 = 0.5;
+/// Signs further than this are not read, in m.
+const MAX_READ_M: f64 = 8.0;
+/// Two readings this close (odometry) are the same sign, in m.
+const SAME_SIGN_M: f64 = 1.0;
+/// Another sign is one further than this from the followed one, in m.
+const OTHER_SIGN_M: f64 = 1.5;
+/// Where the robot stops before a sign, in m.
+const IN_FRONT_M: f64 = 1.3;
+/// How far ahead the robot goes on after a sign, in m.
+const GO_ON_M: f64 = 6.0;
+/// The go-on goal is renewed when the robot is this near it, in m.
+const RENEW_M: f64 = 3.0;
+/// The point before the sign counts as reached within this, in m.
+const REACHED_M: f64 = 0.3;
+/// A turn target this near an axis of the odometry frame is put on it, in rad: the
+/// building's corridors are square to each other.
+const SNAP_RAD: f64 = 0.45;
+/// Votes of the last readings of a sign.
+const VOTES: usize = 3;
+
+/// SignFollower's settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SignConfig {
+    /// The arrows it follows (`--signs "arrow left"`); empty: all four.
+    pub arrows: BTreeSet<ArrowWord>,
+    /// How long an input may be silent, in ns.
+    pub stale_ns: i64,
+    /// How long it goes without a new sign before giving up, in ns.
+    pub timeout_ns: i64,
+}
+
+impl Default for SignConfig {
+    fn default() -> Self {
+        Self {
+            arrows: BTreeSet::new(),
+            stale_ns: DEFAULT_STALE_NS,
+            timeout_ns: 60_000_000_000,
+        }
+    }
+}
+
+/// A direction arrow a sign can show.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum ArrowWord {
+    /// Turn left.
+    Left,
+    /// Turn right.
+    Right,
+    /// Straight on.
+    Up,
+    /// Turn back.
+    Down,
+}
+
+impl ArrowWord {
+    /// Reads `left`, `arrow left`, `Arrow-Left` and the like.
+    ///
+    /// # Errors
+    /// A word that is no arrow, with the ones that are.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let word = text
+            .trim()
+            .to_ascii_lowercase()
+            .trim_start_matches("arrow")
+            .trim_start_matches([' ', '-', '_'])
+            .to_owned();
+        match word.as_str() {
+            "left" => Ok(Self::Left),
+            "right" => Ok(Self::Right),
+            "up" => Ok(Self::Up),
+            "down" => Ok(Self::Down),
+            _ => Err(format!(
+                "`{text}` is no arrow: give left, right, up or down (`arrow left` is fine too)"
+            )),
+        }
+    }
+
+    /// The turn it asks for, in rad (counter-clockwise).
+    #[must_use]
+    pub fn turn_rad(self) -> f64 {
+        match self {
+            Self::Left => FRAC_PI_2,
+            Self::Right => -FRAC_PI_2,
+            Self::Up => 0.0,
+            Self::Down => PI,
+        }
+    }
+
+    fn of(arrow: SignArrow) -> Option<Self> {
+        match arrow {
+            SignArrow::Left => Some(Self::Left),
+            SignArrow::Right => Some(Self::Right),
+            SignArrow::Up => Some(Self::Up),
+            SignArrow::Down => Some(Self::Down),
+            SignArrow::Desk => None,
+        }
+    }
+}
+
+/// A sign seen, in the odometry frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SignTrack {
+    /// Where it is (the mean of its readings).
+    pub position: Vec2,
+    readings: u32,
+    votes: VecDeque<SignArrow>,
+}
+
+impl SignTrack {
+    /// What it says: the arrow of at least two of its last three readings.
+    #[must_use]
+    pub fn arrow(&self) -> Option<SignArrow> {
+        self.votes
+            .iter()
+            .copied()
+            .find(|a| self.votes.iter().filter(|b| *b == a).count() >= 2)
+    }
+}
+
+/// Every sign read so far (the pure core of SignFollower).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SignBook {
+    tracks: Vec<SignTrack>,
+}
+
+impl SignBook {
+    /// Takes one reading: a sign at `position` (odometry) saying `arrow`. Returns its track's
+    /// index.
+    pub fn observe(&mut self, position: Vec2, arrow: SignArrow) -> usize {
+        let index = if let Some(i) = self
+            .tracks
+            .iter()
+            .position(|t| t.position.distance(position) < SAME_SIGN_M)
+        {
+            i
+        } else {
+            self.tracks.push(SignTrack {
+                position,
+                readings: 0,
+                votes: VecDeque::new(),
+            });
+            self.tracks.len() - 1
+        };
+        let track = &mut self.tracks[index];
+        track.readings += 1;
+        let k = f64::from(track.readings);
+        track.position = track.position * ((k - 1.0) / k) + position * (1.0 / k);
+        track.votes.push_back(arrow);
+        while track.votes.len() > VOTES {
+            track.votes.pop_front();
+        }
+        index
+    }
+
+    /// The track `index`.
+    #[must_use]
+    pub fn track(&self, index: usize) -> &SignTrack {
+        &self.tracks[index]
+    }
+
+    /// The tracks whose arrow is settled, with their index.
+    pub fn settled(&self) -> impl Iterator<Item = (usize, &SignTrack, SignArrow)> {
+        self.tracks
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.arrow().map(|a| (i, t, a)))
+    }
+}
+
+/// The heading to go on after a sign: the direction the robot faced the sign in (from
+/// `before` to the sign at `sign`), turned by the arrow, put on an axis when near one.
+#[must_use]
+pub fn heading_after(before: Vec2, sign: Vec2, arrow: ArrowWord) -> f64 {
+    let facing = (sign - before).angle();
+    let heading = wrap_angle(facing + arrow.turn_rad());
+    let axis = (heading / FRAC_PI_2).round() * FRAC_PI_2;
+    if (heading - axis).abs() < SNAP_RAD {
+        wrap_angle(axis)
+    } else {
+        heading
+    }
+}
+
+/// How far the line on along `heading` from `here` must move sideways to pass the sign at
+/// `sign` with room (a sign saying "straight on" stands in the way of straight on).
+#[must_use]
+pub fn beside(here: Vec2, heading: f64, sign: Vec2) -> Vec2 {
+    let dir = Vec2::from_angle(heading);
+    let left = dir.perpendicular();
+    let rel = sign - here;
+    let (along, side) = (rel.dot(dir), rel.dot(left));
+    if along <= 0.0 || along > GO_ON_M + PASS_M || side.abs() >= PASS_M {
+        return Vec2::default();
+    }
+    let away = if side > 0.0 { -1.0 } else { 1.0 };
+    left * (away * (PASS_M - side.abs()))
+}
+
+/// The room kept beside a sign's centre when going on past it, in m: half its board and the
+/// robot with a margin.
+const PASS_M: f64 = 1.4;
+
+/// Where the program is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    /// Looking for the first sign; going on ahead meanwhile.
+    Look,
+    /// To the point in front of sign `track`.
+    Approach { track: usize, spot: Vec2 },
+    /// Turning as the sign says, then on along `heading`.
+    Turn { track: usize, heading: f64 },
+    /// On along `heading`, watching for the next sign.
+    GoOn { track: usize, heading: f64 },
+}
+
+/// The SignFollower program.
+#[derive(Debug)]
+pub struct SignFollower {
+    config: SignConfig,
+    watch: Watch,
+    odometry: Odometry,
+    mover: MoverClient,
+    book: SignBook,
+    phase: Phase,
+    /// When a sign was last taken (the start, then each one followed), in ns.
+    since_ns: Option<i64>,
+    start_heading: Option<f64>,
+    exit: Option<i32>,
+}
+
+impl SignFollower {
+    /// The program with its settings.
+    #[must_use]
+    pub fn new(config: SignConfig) -> Self {
+        Self {
+            watch: Watch::new(&["Signs", "Egomotion", "Distance"], config.stale_ns),
+            config,
+            odometry: Odometry::default(),
+            mover: MoverClient::default(),
+            book: SignBook::default(),
+            phase: Phase::Look,
+            since_ns: None,
+            start_heading: None,
+            exit: None,
+        }
+    }
+
+    fn finish(&mut self, ctx: &mut Context<'_>, code: i32, why: &str) {
+        if self.exit.is_none() {
+            ctx.info(&format!("exit {code}: {why}"));
+            self.exit = Some(code);
+        }
+    }
+
+    fn follows(&self, arrow: SignArrow) -> Option<ArrowWord> {
+        let word = ArrowWord::of(arrow)?;
+        (self.config.arrows.is_empty() || self.config.arrows.contains(&word)).then_some(word)
+    }
+
+    fn on_signs(&mut self, ctx: &mut Context<'_>, signs: &Signs) {
+        let Some(pose) = self.odometry.pose() else {
+            return;
+        };
+        for sign in &signs.signs {
+            let local = Vec2::new(sign.position.x, sign.position.y);
+            let Ok(arrow) = sign.arrow.parse::<SignArrow>() else {
+                continue;
+            };
+            if sign.confidence < MIN_CONFIDENCE || local.norm() > MAX_READ_M {
+                continue;
+            }
+            self.book.observe(pose.transform_point(local), arrow);
+        }
+        self.decide(ctx);
+    }
+
+    /// Acts on the signs read so far.
+    fn decide(&mut self, ctx: &mut Context<'_>) {
+        let Some(pose) = self.odometry.pose() else {
+            return;
+        };
+        let here = pose.position();
+        if self.book.settled().any(|(_, _, a)| a == SignArrow::Desk) {
+            self.finish(
+                ctx,
+                exit::SAW_DESK,
+                "the registration desk's sign is in sight",
+            );
+            return;
+        }
+        let followed = match self.phase {
+            Phase::Look => None,
+            // Before the sign taken, others wait: it is the nearest.
+            Phase::Approach { .. } => return,
+            Phase::Turn { track, .. } | Phase::GoOn { track, .. } => Some(track),
+        };
+        let nearest = self
+            .book
+            .settled()
+            .filter_map(|(i, t, a)| self.follows(a).map(|w| (i, t.position, w)))
+            .filter(|(i, p, _)| {
+                followed.is_none_or(|f| {
+                    *i != f && p.distance(self.book.track(f).position) > OTHER_SIGN_M
+                })
+            })
+            .min_by(|a, b| a.1.distance(here).total_cmp(&b.1.distance(here)));
+        let Some((track, position, word)) = nearest else {
+            return;
+        };
+        if followed.is_some() {
+            self.finish(
+                ctx,
+                exit::SUCCESS,
+                &format!(
+                    "the next sign ({word:?}) at {:.2},{:.2} (odometry)",
+                    position.x, position.y
+                ),
+            );
+            return;
+        }
+        let spot = position + (here - position) * (IN_FRONT_M / here.distance(position).max(1e-6));
+        ctx.info(&format!(
+            "a sign ({word:?}) at {:.2},{:.2} (odometry): going before it",
+            position.x, position.y
+        ));
+        self.phase = Phase::Approach { track, spot };
+        self.mover.goto(ctx, spot);
+    }
+
+    fn step(&mut self, ctx: &mut Context<'_>) {
+        let now = ctx.now();
+        let since = *self.since_ns.get_or_insert(now);
+        if let Some(lost) = self.watch.lost(now) {
+            self.finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
+            return;
+        }
+        if now - since > self.config.timeout_ns {
+            self.finish(ctx, exit::GAVE_UP, "no new sign in time");
+            return;
+        }
+        self.mover.tick(ctx);
+        let Some(pose) = self.odometry.pose() else {
+            return;
+        };
+        let here = pose.position();
+        match self.phase {
+            Phase::Look => {
+                // Nothing read yet: on along the heading it started with, after a look.
+                let heading = *self.start_heading.get_or_insert(pose.heading_rad);
+                if now - since > 1_500_000_000 {
+                    self.go_on(ctx, here, heading);
+                }
+            }
+            Phase::Approach { track, spot } => {
+                let position = self.book.track(track).position;
+                // The sign is better placed from nearer: follow its estimate.
+                let spot_now =
+                    position + (spot - position) * (IN_FRONT_M / spot.distance(position).max(1e-6));
+                if spot_now.distance(spot) > 0.1 {
+                    self.phase = Phase::Approach {
+                        track,
+                        spot: spot_now,
+                    };
+                    self.mover.goto(ctx, spot_now);
+                }
+                if here.distance(spot_now) < REACHED_M || self.mover.arrived() {
+                    let Some(word) = self.book.track(track).arrow().and_then(ArrowWord::of) else {
+                        return;
+                    };
+                    let heading = heading_after(spot_now, position, word);
+                    ctx.info(&format!(
+                        "before the sign: it says {word:?}, turning to {:.0} deg (odometry)",
+                        heading.to_degrees()
+                    ));
+                    self.since_ns = Some(now);
+                    self.phase = Phase::Turn { track, heading };
+                    self.mover.rotate(ctx, turn(pose.heading_rad, heading));
+                }
+            }
+            Phase::Turn { track, heading } => {
+                if self.mover.arrived() || turn(pose.heading_rad, heading).abs() < 0.05 {
+                    self.phase = Phase::GoOn { track, heading };
+                    self.go_on(ctx, here, heading);
+                }
+            }
+            Phase::GoOn { heading, .. } => self.go_on(ctx, here, heading),
+        }
+    }
+
+    /// Goes on along `heading`, the goal renewed as the robot nears it.
+    fn go_on(&mut self, ctx: &mut Context<'_>, here: Vec2, heading: f64) {
+        let renew = match self.mover.wanted() {
+            Some(crate::common::mover::Motion::Goto(goal)) => {
+                goal.distance(here) < RENEW_M || turn((goal - here).angle(), heading).abs() > 0.6
+            }
+            _ => true,
+        };
+        if renew {
+            let mut goal = here + Vec2::from_angle(heading) * GO_ON_M;
+            if let Phase::Turn { track, .. } | Phase::GoOn { track, .. } = self.phase {
+                goal = goal + beside(here, heading, self.book.track(track).position);
+            }
+            self.mover.goto(ctx, goal);
+        }
+    }
+}
+
+impl Service for SignFollower {
+    fn tick_period_ns(&self) -> Option<i64> {
+        Some(100_000_000)
+    }
+
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        self.watch.start(ctx.now());
+        self.since_ns = Some(ctx.now());
+        Ok(())
+    }
+
+    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        if self.exit.is_some() {
+            return;
+        }
+        self.watch.saw(input.interface, ctx.now());
+        match input.interface {
+            "Egomotion" => {
+                if let Ok(m) = input.decode::<Egomotion>() {
+                    self.odometry.update(&m.pose);
+                }
+            }
+            "Mover" => {
+                if let Ok(m) = input.decode::<Mover>() {
+                    self.mover.on_status(ctx, input.provider, m);
+                }
+            }
+            "Signs" => {
+                if let Ok(signs) = input.decode::<Signs>() {
+                    self.on_signs(ctx, &signs);
+                }
+            }
+            "Distance" => {
+                // Watched only: the Mover keeps the robot off obstacles.
+                let _ = input.decode::<Distance>();
+            }
+            _ => {}
+        }
+    }
+
+    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
+        self.mover.on_reply(ctx, reply);
+    }
+
+    fn on_tick(&mut self, ctx: &mut Context<'_>) {
+        if self.exit.is_none() {
+            self.step(ctx);
+        }
+    }
+
+    fn on_stop(&mut self, ctx: &mut Context<'_>) {
+        self.mover.stop_now(ctx);
+    }
+
+    fn exit_code(&self) -> Option<i32> {
+        self.exit
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn going_on_past_a_sign_keeps_room_beside_it() {
+        let here = Vec2::new(0.0, 0.0);
+        let shift = beside(here, 0.0, Vec2::new(1.3, 0.4));
+        assert!(shift.distance(Vec2::new(0.0, -1.0)) < 1e-9, "{shift:?}");
+        let shift = beside(here, 0.0, Vec2::new(1.3, -0.2));
+        assert!(shift.distance(Vec2::new(0.0, 1.2)) < 1e-9, "{shift:?}");
+        assert_eq!(beside(here, 0.0, Vec2::new(-1.0, 0.0)), Vec2::default());
+        assert_eq!(beside(here, 0.0, Vec2::new(2.0, 1.5)), Vec2::default());
+    }
+
+    #[test]
+    fn arrows_are_read_with_or_without_the_word_arrow() {
+        assert_eq!(ArrowWord::parse("arrow left"), Ok(ArrowWord::Left));
+        assert_eq!(ArrowWord::parse("Right"), Ok(ArrowWord::Right));
+        assert_eq!(ArrowWord::parse("arrow-up"), Ok(ArrowWord::Up));
+        assert!(ArrowWord::parse("desk").is_err());
+        assert!(ArrowWord::parse("arrow sideways").is_err());
+    }
+
+    #[test]
+    fn a_sign_says_what_two_of_its_last_three_readings_say() {
+        let mut book = SignBook::default();
+        let at = Vec2::new(5.0, 1.0);
+        let i = book.observe(at, SignArrow::Left);
+        assert_eq!(book.track(i).arrow(), None, "one reading is not enough");
+        assert_eq!(book.observe(at + Vec2::new(0.2, 0.0), SignArrow::Right), i);
+        assert_eq!(book.track(i).arrow(), None);
+        book.observe(at, SignArrow::Left);
+        assert_eq!(book.track(i).arrow(), Some(SignArrow::Left));
+        book.observe(at, SignArrow::Right);
+        assert_eq!(book.track(i).arrow(), Some(SignArrow::Right));
+        // Another sign, elsewhere.
+        let j = book.observe(Vec2::new(12.0, 1.0), SignArrow::Up);
+        assert_ne!(i, j);
+        assert_eq!(book.settled().count(), 1);
+    }
+
+    #[test]
+    fn the_heading_after_a_sign_is_the_arrow_turned_from_the_way_it_was_faced() {
+        let close = |a: f64, b: f64| (wrap_angle(a - b)).abs() < 1e-9;
+        let before = Vec2::new(0.0, 0.0);
+        // Facing a sign ahead (+x), slightly to the left.
+        let sign = Vec2::new(1.3, 0.2);
+        assert!(close(heading_after(before, sign, ArrowWord::Up), 0.0));
+        assert!(close(
+            heading_after(before, sign, ArrowWord::Left),
+            FRAC_PI_2
+        ));
+        assert!(close(
+            heading_after(before, sign, ArrowWord::Right),
+            -FRAC_PI_2
+        ));
+        assert!(close(heading_after(before, sign, ArrowWord::Down), PI));
+        // Far off an axis: kept as it is.
+        let diagonal = Vec2::new(1.0, 1.0);
+        assert!(close(
+            heading_after(before, diagonal, ArrowWord::Up),
+            std::f64::consts::FRAC_PI_4
+        ));
+    }
+}

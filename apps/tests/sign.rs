@@ -1,0 +1,74 @@
+//! SignFollower along the conference world's corridor, as the mission runs it: one program
+//! after another from the same robot, each reading its sign and turning as it says.
+
+use lewis_apps::sign::{REQUIRES, SignConfig, SignFollower};
+use lewis_runtime::service::Level;
+use lewis_testkit::scene::Scene;
+
+use crate::support::{S, scene, sim_robot, truth};
+
+const SERVICES: &[&str] = &[
+    "base",
+    "laser",
+    "camera",
+    "sign_detector",
+    "vector_mover",
+    "obstacle_avoider",
+];
+
+/// Runs one SignFollower named `name` to its end (or `limit_s`): its exit code and what
+/// it said.
+fn visit(scene: &mut Scene, name: &str, limit_s: i64) -> (Option<i32>, Vec<String>) {
+    scene.add_program(
+        name,
+        Box::new(SignFollower::new(SignConfig::default())),
+        REQUIRES,
+        7,
+    );
+    let limit = scene.now_ns() + limit_s * S;
+    scene.run_until(limit, |s| s.exit_code(name).is_some());
+    let said = scene
+        .harness(name)
+        .backend
+        .logs
+        .iter()
+        .filter(|(level, _)| *level == Level::Info)
+        .map(|(_, text)| text.clone())
+        .collect();
+    (scene.exit_code(name), said)
+}
+
+#[test]
+fn sign_follower_reads_the_corridor_signs_and_turns_as_they_say() {
+    // Just past the entrance door, facing east along the corridor.
+    let robot = sim_robot((9.5, 12.5, 0.0), (320, 240));
+    let mut scene = scene(&robot, SERVICES, "door", Box::new(Idle), &[]);
+    // The corridor's sign says straight on, the corner's left; the third visit (the hall's
+    // sign, then the desk's: exit 1) needs the desk sign in the world.
+    let expected = [("up", 0), ("left", 0)];
+    for (k, (arrow, code)) in expected.iter().enumerate() {
+        let name = format!("sign-{}", k + 1);
+        let (exit, said) = visit(&mut scene, &name, 70);
+        let t = truth(&scene);
+        assert_eq!(exit, Some(*code), "{name}: {said:#?}");
+        assert!(
+            said.iter()
+                .any(|line| line.contains(&format!("it says {}", capitalised(arrow)))),
+            "{name} read {arrow}: {said:#?}"
+        );
+        assert_eq!(t.collisions, 0, "{name}");
+    }
+}
+
+fn capitalised(word: &str) -> String {
+    let mut chars = word.chars();
+    chars
+        .next()
+        .map(|c| c.to_ascii_uppercase().to_string() + chars.as_str())
+        .unwrap_or_default()
+}
+
+/// A program that does nothing, for a scene's first member name.
+struct Idle;
+
+impl lewis_runtime::service::Service for Idle {}
