@@ -13,4 +13,10 @@
 
 pub mod common;
 pub mod door;
+pub mod queue;
+pub mod recovery;
+pub mod register;
+pub mod run;
 pub mod sign;
+
+pub use run::{App, run};

@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use lewis_runtime::logs::Verbosity;
 
+mod app;
 mod bench;
 mod fake_device;
 mod fault;
@@ -80,6 +81,9 @@ pub enum Command {
     Play(play::PlayArgs),
     /// Start the broker and a robot's services; run until Ctrl-C or --duration.
     Up(up::UpArgs),
+    /// Run one of the Robot Challenge's sub-task programs until it finishes (what the
+    /// mission's states start); exits with its code.
+    App(app::AppArgs),
     /// Run one service of a robot in this process (what `lewis up` starts).
     Service(service::ServiceArgs),
     /// Show the broker's services, health, restarts and bindings.
@@ -117,7 +121,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     };
     if matches!(
         cli.command,
-        Command::Up(_) | Command::Service(_) | Command::Record(_) | Command::StressPublish(_)
+        Command::Up(_)
+            | Command::Service(_)
+            | Command::App(_)
+            | Command::Record(_)
+            | Command::StressPublish(_)
     ) {
         lewis_runtime::logs::init(verbosity);
     }
@@ -131,6 +139,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Play(args) => play::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),
+        Command::App(args) => app::run(&args),
         Command::Service(args) => service::run(&args),
         Command::Status(args) => status::run(&args),
         #[cfg(feature = "viewer")]
