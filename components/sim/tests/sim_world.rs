@@ -89,7 +89,7 @@ fn the_conference_world_loads_with_its_doors_signs_desk_queue_and_red_cap() {
             .filter(|o| o.kind.name() == kind)
             .count()
     };
-    assert_eq!(count("sign"), 4);
+    assert_eq!(count("sign"), 5);
     assert_eq!(count("desk"), 1);
     assert!(count("person") >= 6);
     let capped: Vec<&str> = world

@@ -830,7 +830,7 @@ impl Checker<'_> {
                                 &a.span(),
                                 ProblemKind::BadValue,
                                 format!(
-                                    "unknown arrow `{}`: write left, right, up or down",
+                                    "unknown arrow `{}`: write left, right, up, down or desk",
                                     a.get_ref()
                                 ),
                             );

@@ -28,7 +28,8 @@
 //!   `heading_deg`); `height_m`, `colour` (required).
 //! - `sign`: `centre`, `facing_deg` (where the printed side looks), `size_m` (width,
 //!   height), `mounting_height_m` (of the board's centre), `arrow` (left, right, up, down, as
-//!   someone facing the sign sees it), `post` (stands on a post).
+//!   someone facing the sign sees it; or desk: the registration desk's own sign, a black
+//!   disc), `post` (stands on a post).
 //! - `desk`: `centre`, `size_m`, `heading_deg`, `height_m`, `colour`.
 //! - `person`: `centre`, `radius_m`, `height_m`, `shirt_colour` (required), `trousers_colour`,
 //!   `cap_colour`.
