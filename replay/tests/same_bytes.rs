@@ -2,6 +2,9 @@
 //! recording with the same fault, to files of different names, are the same file (the
 //! recorder's statistics name the file `replay`, not the output's name).
 
+// Test helpers fail the test by panicking, like the tests that call them.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 use std::path::{Path, PathBuf};
 
 use lewis_replay::fault::FaultSpec;
