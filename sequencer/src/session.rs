@@ -29,7 +29,7 @@ use crate::live::{
     Stream, control_channel, run_mission,
 };
 use crate::record::{Entry, JsonLinesSink, Record, RecordSink, Tee};
-use crate::{Mission, Publisher, Supervision, TerminalChooser};
+use crate::{Mission, Publisher, Supervision, TerminalChooser, Verdict};
 
 /// How long a mission beside a broker waits for the broker to answer before it gives up.
 const BROKER_READY_TIMEOUT: Duration = Duration::from_secs(30);
@@ -117,6 +117,44 @@ impl fmt::Display for Outcome {
     }
 }
 
+/// How a mission run ended: how the driver ended it, and the verdict on its records
+/// (reaching `stop` through recovery is `finished` but not a success).
+#[derive(Debug, Clone)]
+pub struct MissionReport {
+    /// Finished or aborted, as the FSM decided.
+    pub outcome: Outcome,
+    /// Whether the mission did its task, judged from its records.
+    pub verdict: Verdict,
+}
+
+impl MissionReport {
+    /// Whether the mission succeeded ([`Verdict::succeeded`]).
+    #[must_use]
+    pub fn succeeded(&self) -> bool {
+        self.verdict.succeeded
+    }
+
+    /// A mission that could not start (the broker never answered, an interruption first).
+    fn not_started(reason: String) -> Self {
+        Self {
+            outcome: Outcome::Aborted { reason },
+            verdict: Verdict::of(&[]),
+        }
+    }
+}
+
+/// Two lines: the outcome, then the verdict.
+impl fmt::Display for MissionReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}
+{}",
+            self.outcome, self.verdict
+        )
+    }
+}
+
 /// Runs a checked mission from `script` on this thread until it ends, catching Ctrl-C,
 /// SIGTERM and SIGHUP to stop it cleanly: what `lewis seq run` does.
 ///
@@ -127,7 +165,7 @@ pub fn run_session(
     mission: Mission,
     options: &SessionOptions,
     namespace: &Namespace,
-) -> Result<Outcome, SessionError> {
+) -> Result<MissionReport, SessionError> {
     let (controller, control) = control_channel().map_err(SessionError::Setup)?;
     let signals = SignalForwarder::start(controller.clone()).map_err(SessionError::Setup)?;
     let outcome = execute(script, mission, options, namespace, &controller, &control);
@@ -147,7 +185,7 @@ fn execute(
     namespace: &Namespace,
     controller: &Controller,
     control: &ControlReceiver,
-) -> Result<Outcome, SessionError> {
+) -> Result<MissionReport, SessionError> {
     let mut events = match &options.events {
         Some(path) => Some(
             JsonLinesSink::create(path).map_err(|source| SessionError::Events {
@@ -214,7 +252,8 @@ fn execute(
         .map_err(SessionError::Setup)?;
 
     let (publisher, published) = publisher.unzip();
-    let mut tee = Tee::new();
+    let mut records = Vec::new();
+    let mut tee = Tee::new().with(&mut records);
     if options.echo {
         tee = tee.with(Console);
     }
@@ -259,7 +298,10 @@ fn execute(
             source,
         })?;
     }
-    Ok(outcome?)
+    Ok(MissionReport {
+        outcome: outcome?,
+        verdict: Verdict::of(&records),
+    })
 }
 
 /// Prints the mission's decisions as they are taken.
@@ -283,7 +325,7 @@ impl RecordSink for Console {
 /// A mission running on a thread beside a broker.
 #[derive(Debug)]
 pub struct BesideBroker {
-    thread: JoinHandle<Result<Outcome, SessionError>>,
+    thread: JoinHandle<Result<MissionReport, SessionError>>,
     controller: Controller,
     /// Kept until the thread is joined, so that Ctrl-C reaches the mission.
     _signals: SignalForwarder,
@@ -325,7 +367,7 @@ impl BesideBroker {
                         &thread_controller,
                         &control,
                     ),
-                    Err(reason) => Ok(Outcome::Aborted { reason }),
+                    Err(reason) => Ok(MissionReport::not_started(reason)),
                 };
                 // The broker and the services go when the mission does.
                 on_end();
@@ -344,7 +386,7 @@ impl BesideBroker {
     ///
     /// # Errors
     /// When the mission could not run (process supervision, the supervisor's page).
-    pub fn finish(self, why: &str) -> Result<Outcome, SessionError> {
+    pub fn finish(self, why: &str) -> Result<MissionReport, SessionError> {
         // Queued and never read when the mission is already over.
         self.controller.interrupt(why);
         self.thread.join().map_err(|_| SessionError::Panicked)?
