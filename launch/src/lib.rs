@@ -16,6 +16,7 @@ use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up};
 use lewis_runtime::live::{StopHandle, StopSignals};
 use lewis_runtime::robot::Robot;
 use lewis_sequencer::Mission;
+use lewis_sequencer::gui::RobotWatchOptions;
 use lewis_sequencer::session::{BesideBroker, MissionReport, SessionError, SessionOptions};
 
 /// A mission script to run beside the robot.
@@ -150,10 +151,13 @@ impl Launch {
         let mut mission = match &options.mission {
             Some(plan) => {
                 let stop = signals.handle();
-                Some(BesideBroker::start(
+                // The supervisor's page shows this robot beside the question.
+                let watch = RobotWatchOptions::from_robot(&robot, &options.up.robot_path);
+                Some(BesideBroker::start_watching(
                     &plan.script,
                     plan.mission.clone(),
                     &plan.options,
+                    Some(watch),
                     namespace,
                     move || stop.stop(),
                 )?)

@@ -23,7 +23,7 @@ use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{Ipc, NAMESPACE_ENV, Namespace};
 use lewis_runtime::names;
 
-use crate::gui::{GuiError, GuiServer};
+use crate::gui::{GuiError, GuiServer, RobotWatch, RobotWatchOptions};
 use crate::live::{
     Command, ControlReceiver, Controller, LogLine, Outcome, RunError, RunOptions, SignalForwarder,
     Stream, control_channel, run_mission,
@@ -168,7 +168,15 @@ pub fn run_session(
 ) -> Result<MissionReport, SessionError> {
     let (controller, control) = control_channel().map_err(SessionError::Setup)?;
     let signals = SignalForwarder::start(controller.clone()).map_err(SessionError::Setup)?;
-    let outcome = execute(script, mission, options, namespace, &controller, &control);
+    let outcome = execute(
+        script,
+        mission,
+        options,
+        None,
+        namespace,
+        &controller,
+        &control,
+    );
     drop(signals);
     outcome
 }
@@ -176,12 +184,13 @@ pub fn run_session(
 /// Runs `mission` (from `script`) to its end: the programs in `namespace` (their
 /// `LEWIS_NAMESPACE`), every record published on /lewis/sequencer there and written to
 /// the events file; the supervisor asked on the page, on the terminal, or nobody
-/// ([`Supervision::decide`]). Commands come from `control` (the caller catches the
-/// signals).
+/// ([`Supervision::decide`]), the page showing the robot as `robot` says. Commands come
+/// from `control` (the caller catches the signals).
 fn execute(
     script: &Path,
     mission: Mission,
     options: &SessionOptions,
+    robot: Option<&RobotWatchOptions>,
     namespace: &Namespace,
     controller: &Controller,
     control: &ControlReceiver,
@@ -224,6 +233,18 @@ fn execute(
         Some(gui)
     } else {
         None
+    };
+    let watch = match (&gui, robot) {
+        (Some(gui), Some(robot)) => {
+            match RobotWatch::start(namespace, robot.clone(), gui.robot_feed()) {
+                Ok(watch) => Some(watch),
+                Err(e) => {
+                    tracing::warn!("the supervisor's page does not show the robot: {e}");
+                    None
+                }
+            }
+        }
+        _ => None,
     };
     let terminal = if supervision == Supervision::Terminal {
         let stdin = BufReader::new(io::stdin());
@@ -289,6 +310,9 @@ fn execute(
             );
         }
     }
+    if let Some(watch) = watch {
+        watch.stop();
+    }
     if let Some(gui) = gui {
         gui.shutdown();
     }
@@ -346,6 +370,22 @@ impl BesideBroker {
         namespace: &Namespace,
         on_end: impl FnOnce() + Send + 'static,
     ) -> Result<Self, SessionError> {
+        Self::start_watching(script, mission, options, None, namespace, on_end)
+    }
+
+    /// As [`BesideBroker::start`], the supervisor's page also showing the robot as `robot`
+    /// says (where it is, its camera, its bindings: [`RobotWatch`]).
+    ///
+    /// # Errors
+    /// When the thread, the signals or the control channel cannot be set up.
+    pub fn start_watching(
+        script: &Path,
+        mission: Mission,
+        options: &SessionOptions,
+        robot: Option<RobotWatchOptions>,
+        namespace: &Namespace,
+        on_end: impl FnOnce() + Send + 'static,
+    ) -> Result<Self, SessionError> {
         let (controller, control) = control_channel().map_err(SessionError::Setup)?;
         let signals = SignalForwarder::start(controller.clone()).map_err(SessionError::Setup)?;
         let options = SessionOptions {
@@ -363,6 +403,7 @@ impl BesideBroker {
                         &script,
                         mission,
                         &options,
+                        robot.as_ref(),
                         &namespace,
                         &thread_controller,
                         &control,
