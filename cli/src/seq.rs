@@ -8,8 +8,7 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand};
 use lewis_replay::mission_replay::replay_mission;
 use lewis_runtime::ipc::Namespace;
-use lewis_sequencer::Outcome;
-use lewis_sequencer::session::{SessionOptions, load_mission, run_session};
+use lewis_sequencer::session::{MissionReport, SessionOptions, load_mission, run_session};
 
 /// `lewis seq ...`
 #[derive(Debug, Subcommand)]
@@ -120,10 +119,11 @@ impl MissionArgs {
     }
 }
 
-/// Says how the mission ended; the exit code: 0 when it reached `stop`, 1 otherwise.
-pub(crate) fn report(outcome: &Outcome) -> ExitCode {
-    let _ = writeln!(std::io::stdout(), "{outcome}");
-    if outcome.is_finished() {
+/// Says how the mission ended and its verdict; the exit code: 0 when it succeeded (it
+/// reached `stop` other than through recovery), 1 otherwise.
+pub(crate) fn report(mission: &MissionReport) -> ExitCode {
+    let _ = writeln!(std::io::stdout(), "{mission}");
+    if mission.succeeded() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE

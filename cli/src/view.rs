@@ -11,7 +11,7 @@ use lewis_viewer::{
     rerun_on_path, view,
 };
 
-/// `lewis view RUN.mcap [more.mcap ...] [--save OUT.rrd | --spawn | --connect ADDR]`
+/// `lewis view RUN.mcap [more.mcap ...] [--save OUT.rrd | --spawn | --connect ADDR | --png OUT.png]`
 #[derive(Debug, Args)]
 #[command(
     long_about = "Shows a recording in the Rerun viewer: poses, paths and scans in the world \
@@ -19,7 +19,7 @@ use lewis_viewer::{
                   logs, and every numeric field as a plot, on the recording's log_time and \
                   publish_time timelines. Without --save, --spawn or --connect it starts the \
                   `rerun` viewer when it is on the PATH, and otherwise writes RUN.rrd next to \
-                  the first recording."
+                  the first recording. With --png it draws the mission as one picture instead."
 )]
 pub struct ViewArgs {
     /// The recording; several files are parts of one run, in order (a rotated recording's
@@ -39,6 +39,10 @@ pub struct ViewArgs {
     /// The port of the viewer to start (or to reuse, when one listens there already).
     #[arg(long, default_value_t = DEFAULT_VIEWER_PORT, conflicts_with_all = ["save", "connect"])]
     pub port: u16,
+    /// Instead, draw the mission as one picture: the world map, the path coloured by the
+    /// sequencer's state, the signs seen, a cross where a service failed for good.
+    #[arg(long, value_name = "OUT.png", conflicts_with_all = ["save", "spawn", "connect"])]
+    pub png: Option<PathBuf>,
 }
 
 /// Where the recording goes, and whether it is the default file (so that the user is told
@@ -73,6 +77,14 @@ fn open_hint(rrd: &Path) -> String {
 /// (what could be shown was shown, and the report says what was not).
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
     let files = lewis_replay::recording::expand_inputs(&args.files)?;
+    if let Some(png) = &args.png {
+        let [file] = files.as_slice() else {
+            bail!("--png draws one recording, not {} files", files.len());
+        };
+        let report = lewis_viewer::write_png(file, png)?;
+        writeln!(std::io::stdout().lock(), "{report}")?;
+        return Ok(ExitCode::SUCCESS);
+    }
     let (target, hint) = target(args, &files, rerun_on_path())?;
     let options = ViewOptions {
         target: target.clone(),
@@ -130,6 +142,10 @@ mod tests {
         );
         assert!(
             Command::try_parse_from(["view", "r.mcap", "--save", "o.rrd", "--port", "1"]).is_err()
+        );
+        assert!(
+            Command::try_parse_from(["view", "r.mcap", "--save", "o.rrd", "--png", "o.png"])
+                .is_err()
         );
     }
 

@@ -16,8 +16,8 @@ use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up};
 use lewis_runtime::live::{StopHandle, StopSignals};
 use lewis_runtime::robot::Robot;
 use lewis_sequencer::Mission;
-use lewis_sequencer::live::Outcome as MissionOutcome;
-use lewis_sequencer::session::{BesideBroker, SessionError, SessionOptions};
+use lewis_sequencer::gui::RobotWatchOptions;
+use lewis_sequencer::session::{BesideBroker, MissionReport, SessionError, SessionOptions};
 
 /// A mission script to run beside the robot.
 #[derive(Debug, Clone)]
@@ -71,17 +71,18 @@ pub struct LaunchReport {
     pub up: UpSummary,
     /// How the goal ended, when there was one.
     pub goal: Option<GoalOutcome>,
-    /// How the mission ended, when there was one.
-    pub mission: Option<MissionOutcome>,
+    /// How the mission ended and its verdict, when there was one.
+    pub mission: Option<MissionReport>,
 }
 
 impl LaunchReport {
-    /// Whether the run did what it was asked: the mission reached `stop`, or else the
-    /// goal was reached, or else (nothing asked) the robot ran until it was stopped.
+    /// Whether the run did what it was asked: the mission succeeded (it reached `stop`
+    /// other than through recovery: `lewis_sequencer::verdict`), or else the goal was
+    /// reached, or else (nothing asked) the robot ran until it was stopped.
     #[must_use]
     pub fn succeeded(&self) -> bool {
         match (&self.mission, &self.goal) {
-            (Some(mission), _) => mission.is_finished(),
+            (Some(mission), _) => mission.succeeded(),
             (None, Some(goal)) => *goal == GoalOutcome::Arrived,
             (None, None) => true,
         }
@@ -150,10 +151,13 @@ impl Launch {
         let mut mission = match &options.mission {
             Some(plan) => {
                 let stop = signals.handle();
-                Some(BesideBroker::start(
+                // The supervisor's page shows this robot beside the question.
+                let watch = RobotWatchOptions::from_robot(&robot, &options.up.robot_path);
+                Some(BesideBroker::start_watching(
                     &plan.script,
                     plan.mission.clone(),
                     &plan.options,
+                    Some(watch),
                     namespace,
                     move || stop.stop(),
                 )?)

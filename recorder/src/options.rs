@@ -107,6 +107,11 @@ pub struct RecorderOptions {
     pub sync_on_flush: bool,
     /// The provider name in the header of the recorder's own stats messages.
     pub recorder_name: String,
+    /// What the stats messages name as the file, instead of the part's file name: a
+    /// recording whose bytes must not depend on where it is written (a replay: two replays
+    /// to different names are the same file) sets it. The parts index, outside the
+    /// recording, keeps the real names, which locate the parts.
+    pub file_label: Option<String>,
 }
 
 impl RecorderOptions {
@@ -126,6 +131,7 @@ impl RecorderOptions {
             disk_reserve_bytes: 4 * 1024 * 1024,
             sync_on_flush: true,
             recorder_name: "recorder".to_owned(),
+            file_label: None,
         }
     }
 

@@ -472,7 +472,11 @@ impl Recorder {
                 publish_time_ns: now_ns,
                 inputs: Vec::new(),
             },
-            file: file_name(part.path()),
+            file: self
+                .options
+                .file_label
+                .clone()
+                .unwrap_or_else(|| file_name(part.path())),
             topic_count: i32::try_from(counts.len()).unwrap_or(i32::MAX),
             topics: counts.keys().cloned().collect(),
             written: counts.values().map(|c| as_i64(c.written)).collect(),

@@ -8,4 +8,5 @@ mod info;
 mod lockstep;
 mod play;
 mod ros2_recordings;
+mod same_bytes;
 mod versions;

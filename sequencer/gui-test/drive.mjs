@@ -4,7 +4,9 @@
 // The mission's first state waits for RELEASE_FILE; its second crashes into recovery, after
 // which the sequencer asks the supervisor. The script sees the first state highlighted,
 // releases it, sees the question arrive without a reload, taps `queue`, and sees the mission
-// finish. Exits non-zero with a message on the first expectation that fails.
+// finish. Beside the question it sees the robot the test feeds: on the map and moving, its
+// camera frame, the bindings with their health; it taps "registered" (the answer for the
+// robot's Speech provider). Exits non-zero with a message on the first expectation that fails.
 import { chromium } from "playwright-core";
 import { mkdtempSync, writeFileSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
@@ -57,7 +59,33 @@ try {
   if (!box || box.height < 72 || box.width < 120) {
     throw new Error(`the queue button is too small for a finger: ${JSON.stringify(box)}`);
   }
+
+  // The robot beside the question: the map with the robot moving on it, the camera, who
+  // serves what.
+  await page.locator("#robot").waitFor({ state: "visible" });
+  await page.locator("#map-image").waitFor({ state: "attached" });
+  const robotAt = () => page.locator("#map-robot").getAttribute("data-x");
+  await page.locator('#map-robot[visibility="visible"]').waitFor({ state: "attached" });
+  const x1 = await robotAt();
+  await page.waitForFunction((x) => document.querySelector("#map-robot").dataset.x !== x, x1);
+  const mapLoaded = await page.evaluate(() => new Promise((resolve) => {
+    const probe = new Image();
+    probe.onload = () => resolve(probe.naturalWidth);
+    probe.onerror = () => resolve(0);
+    probe.src = "map.png";
+  }));
+  if (mapLoaded !== 800) throw new Error(`the map did not load: width ${mapLoaded}`);
+  await page.waitForFunction(() => {
+    const img = document.querySelector("#camera-img");
+    return img.complete && img.naturalWidth === 64 && img.naturalHeight === 48;
+  });
+  await page.locator('#bindings li.ok[data-interface="RangeFinder"][data-service="sonar"]').waitFor();
+  await page.locator('#bindings li.failed[data-service="laser"]').waitFor();
+  step("beside the question the page shows the robot moving on the map, its camera and its bindings");
   await page.screenshot({ path: join(shots, "asking.png") });
+  await page.locator("#answer").tap();
+  await page.locator("#answer-note", { hasText: "answering `yes`" }).waitFor();
+  step("the registered answer was sent");
   // A 7-inch panel, as on many robots: the buttons stay finger-sized.
   await page.setViewportSize({ width: 800, height: 480 });
   const small = await page.locator('#choices [data-choice="queue"]').boundingBox();

@@ -13,7 +13,8 @@
 //! the supervisor answers on a page (`gui`) or the terminal (`terminal`); `session` puts
 //! these together as `lewis seq run` and `lewis up --script` run a mission; and `replay`
 //! feeds recorded events (JSON lines here; from an MCAP recording, `lewis_replay::mission_log`) to a script's
-//! FSM to show where it decides differently.
+//! FSM to show where it decides differently; `verdict` judges from the records whether a
+//! mission succeeded (reaching `stop` through recovery does not count).
 //!
 //! # The language
 //!
@@ -83,6 +84,7 @@ pub mod script;
 pub mod session;
 pub mod source;
 pub mod terminal;
+pub mod verdict;
 
 pub use check::{CheckedScript, check_file, check_script, check_with};
 pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
@@ -102,3 +104,4 @@ pub use resolve::{ProgramResolver, ResolveError, SystemResolver, TrustingResolve
 pub use script::{Script, parse};
 pub use source::{FileSystem, MemorySources, SourceLoader};
 pub use terminal::TerminalChooser;
+pub use verdict::{Verdict, Visit};

@@ -117,6 +117,13 @@ impl<S: RecordSink + ?Sized> RecordSink for Box<S> {
     }
 }
 
+/// Keeps every record (a mission's records are few: a handful per state visited).
+impl RecordSink for Vec<Record> {
+    fn record(&mut self, record: &Record) {
+        self.push(record.clone());
+    }
+}
+
 /// Sends every record to several sinks, in order. It is `Send`, so the mission can run on
 /// a thread of its own.
 #[derive(Default)]

@@ -23,13 +23,13 @@ use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{Ipc, NAMESPACE_ENV, Namespace};
 use lewis_runtime::names;
 
-use crate::gui::{GuiError, GuiServer};
+use crate::gui::{GuiError, GuiServer, RobotWatch, RobotWatchOptions};
 use crate::live::{
     Command, ControlReceiver, Controller, LogLine, Outcome, RunError, RunOptions, SignalForwarder,
     Stream, control_channel, run_mission,
 };
 use crate::record::{Entry, JsonLinesSink, Record, RecordSink, Tee};
-use crate::{Mission, Publisher, Supervision, TerminalChooser};
+use crate::{Mission, Publisher, Supervision, TerminalChooser, Verdict};
 
 /// How long a mission beside a broker waits for the broker to answer before it gives up.
 const BROKER_READY_TIMEOUT: Duration = Duration::from_secs(30);
@@ -117,6 +117,44 @@ impl fmt::Display for Outcome {
     }
 }
 
+/// How a mission run ended: how the driver ended it, and the verdict on its records
+/// (reaching `stop` through recovery is `finished` but not a success).
+#[derive(Debug, Clone)]
+pub struct MissionReport {
+    /// Finished or aborted, as the FSM decided.
+    pub outcome: Outcome,
+    /// Whether the mission did its task, judged from its records.
+    pub verdict: Verdict,
+}
+
+impl MissionReport {
+    /// Whether the mission succeeded ([`Verdict::succeeded`]).
+    #[must_use]
+    pub fn succeeded(&self) -> bool {
+        self.verdict.succeeded
+    }
+
+    /// A mission that could not start (the broker never answered, an interruption first).
+    fn not_started(reason: String) -> Self {
+        Self {
+            outcome: Outcome::Aborted { reason },
+            verdict: Verdict::of(&[]),
+        }
+    }
+}
+
+/// Two lines: the outcome, then the verdict.
+impl fmt::Display for MissionReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}
+{}",
+            self.outcome, self.verdict
+        )
+    }
+}
+
 /// Runs a checked mission from `script` on this thread until it ends, catching Ctrl-C,
 /// SIGTERM and SIGHUP to stop it cleanly: what `lewis seq run` does.
 ///
@@ -127,10 +165,18 @@ pub fn run_session(
     mission: Mission,
     options: &SessionOptions,
     namespace: &Namespace,
-) -> Result<Outcome, SessionError> {
+) -> Result<MissionReport, SessionError> {
     let (controller, control) = control_channel().map_err(SessionError::Setup)?;
     let signals = SignalForwarder::start(controller.clone()).map_err(SessionError::Setup)?;
-    let outcome = execute(script, mission, options, namespace, &controller, &control);
+    let outcome = execute(
+        script,
+        mission,
+        options,
+        None,
+        namespace,
+        &controller,
+        &control,
+    );
     drop(signals);
     outcome
 }
@@ -138,16 +184,17 @@ pub fn run_session(
 /// Runs `mission` (from `script`) to its end: the programs in `namespace` (their
 /// `LEWIS_NAMESPACE`), every record published on /lewis/sequencer there and written to
 /// the events file; the supervisor asked on the page, on the terminal, or nobody
-/// ([`Supervision::decide`]). Commands come from `control` (the caller catches the
-/// signals).
+/// ([`Supervision::decide`]), the page showing the robot as `robot` says. Commands come
+/// from `control` (the caller catches the signals).
 fn execute(
     script: &Path,
     mission: Mission,
     options: &SessionOptions,
+    robot: Option<&RobotWatchOptions>,
     namespace: &Namespace,
     controller: &Controller,
     control: &ControlReceiver,
-) -> Result<Outcome, SessionError> {
+) -> Result<MissionReport, SessionError> {
     let mut events = match &options.events {
         Some(path) => Some(
             JsonLinesSink::create(path).map_err(|source| SessionError::Events {
@@ -187,6 +234,18 @@ fn execute(
     } else {
         None
     };
+    let watch = match (&gui, robot) {
+        (Some(gui), Some(robot)) => {
+            match RobotWatch::start(namespace, robot.clone(), gui.robot_feed()) {
+                Ok(watch) => Some(watch),
+                Err(e) => {
+                    tracing::warn!("the supervisor's page does not show the robot: {e}");
+                    None
+                }
+            }
+        }
+        _ => None,
+    };
     let terminal = if supervision == Supervision::Terminal {
         let stdin = BufReader::new(io::stdin());
         Some(
@@ -214,7 +273,8 @@ fn execute(
         .map_err(SessionError::Setup)?;
 
     let (publisher, published) = publisher.unzip();
-    let mut tee = Tee::new();
+    let mut records = Vec::new();
+    let mut tee = Tee::new().with(&mut records);
     if options.echo {
         tee = tee.with(Console);
     }
@@ -250,6 +310,9 @@ fn execute(
             );
         }
     }
+    if let Some(watch) = watch {
+        watch.stop();
+    }
     if let Some(gui) = gui {
         gui.shutdown();
     }
@@ -259,7 +322,10 @@ fn execute(
             source,
         })?;
     }
-    Ok(outcome?)
+    Ok(MissionReport {
+        outcome: outcome?,
+        verdict: Verdict::of(&records),
+    })
 }
 
 /// Prints the mission's decisions as they are taken.
@@ -283,7 +349,7 @@ impl RecordSink for Console {
 /// A mission running on a thread beside a broker.
 #[derive(Debug)]
 pub struct BesideBroker {
-    thread: JoinHandle<Result<Outcome, SessionError>>,
+    thread: JoinHandle<Result<MissionReport, SessionError>>,
     controller: Controller,
     /// Kept until the thread is joined, so that Ctrl-C reaches the mission.
     _signals: SignalForwarder,
@@ -304,6 +370,22 @@ impl BesideBroker {
         namespace: &Namespace,
         on_end: impl FnOnce() + Send + 'static,
     ) -> Result<Self, SessionError> {
+        Self::start_watching(script, mission, options, None, namespace, on_end)
+    }
+
+    /// As [`BesideBroker::start`], the supervisor's page also showing the robot as `robot`
+    /// says (where it is, its camera, its bindings: [`RobotWatch`]).
+    ///
+    /// # Errors
+    /// When the thread, the signals or the control channel cannot be set up.
+    pub fn start_watching(
+        script: &Path,
+        mission: Mission,
+        options: &SessionOptions,
+        robot: Option<RobotWatchOptions>,
+        namespace: &Namespace,
+        on_end: impl FnOnce() + Send + 'static,
+    ) -> Result<Self, SessionError> {
         let (controller, control) = control_channel().map_err(SessionError::Setup)?;
         let signals = SignalForwarder::start(controller.clone()).map_err(SessionError::Setup)?;
         let options = SessionOptions {
@@ -321,11 +403,12 @@ impl BesideBroker {
                         &script,
                         mission,
                         &options,
+                        robot.as_ref(),
                         &namespace,
                         &thread_controller,
                         &control,
                     ),
-                    Err(reason) => Ok(Outcome::Aborted { reason }),
+                    Err(reason) => Ok(MissionReport::not_started(reason)),
                 };
                 // The broker and the services go when the mission does.
                 on_end();
@@ -344,7 +427,7 @@ impl BesideBroker {
     ///
     /// # Errors
     /// When the mission could not run (process supervision, the supervisor's page).
-    pub fn finish(self, why: &str) -> Result<Outcome, SessionError> {
+    pub fn finish(self, why: &str) -> Result<MissionReport, SessionError> {
         // Queued and never read when the mission is already over.
         self.controller.interrupt(why);
         self.thread.join().map_err(|_| SessionError::Panicked)?

@@ -7,6 +7,7 @@ mod common;
 mod fsm;
 mod gui_browser;
 mod gui_http;
+mod gui_robot;
 mod live;
 mod message;
 mod missions;

@@ -127,7 +127,9 @@ fn on_a_terminal_without_use_gui_the_supervisor_is_asked_and_enter_takes_the_sug
         seen.push_str(&text);
     }
 
-    assert_eq!(status.code(), Some(0), "the terminal showed:\n{seen}");
+    // The supervisor stopped the mission after recovery: it reached `stop`, but its task
+    // was not done, so `lewis seq run` exits with 1 (issue 20).
+    assert_eq!(status.code(), Some(1), "the terminal showed:\n{seen}");
     assert!(
         seen.contains("the supervisor is asked on this terminal after recovery"),
         "{seen}"
@@ -189,7 +191,12 @@ fn without_a_terminal_nobody_is_asked_even_with_use_gui_and_no_gui_and_recovery_
     let printed = String::from_utf8_lossy(&output.stdout).into_owned()
         + &String::from_utf8_lossy(&output.stderr);
 
-    assert_eq!(output.status.code(), Some(0), "{printed}");
+    // Recovery led to `stop`: a failure (issue 20), so `lewis seq run` exits with 1.
+    assert_eq!(output.status.code(), Some(1), "{printed}");
+    assert!(
+        printed.contains("mission failed: it reached `stop` through the recovery state `r`"),
+        "{printed}"
+    );
     assert!(
         printed.contains(
             "seq: nobody can answer (no supervisor's page, and the standard input is not a \

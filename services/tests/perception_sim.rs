@@ -125,6 +125,38 @@ fn the_sign_detector_reads_every_arrow_from_near_and_far_and_from_the_side() {
     }
 }
 
+#[test]
+fn the_sign_detector_reads_the_desk_sign_from_far_and_from_the_side() {
+    let mut detector = sign_detector();
+    let mut camera = SimCamera::new(CameraConfig::default(), 8).unwrap();
+    let (world, sign) = room_with_sign(ArrowDirection::Desk);
+    for distance_m in [2.5, 4.0, 6.0, 8.0] {
+        for view_deg in [-30.0f64, -15.0, 0.0, 15.0, 30.0] {
+            let from = sign.facing_rad + view_deg.to_radians();
+            let position = sign.centre + Vec2::from_angle(from) * distance_m;
+            let pose = Pose2::new(position.x, position.y, (sign.centre - position).angle());
+            let frame = camera.render(&world, pose);
+            let name = format!("sign-desk-{distance_m}m-{view_deg}deg");
+            save(&frame, &name);
+            let signs = detect(&mut detector, &frame);
+            assert_eq!(signs.signs.len(), 1, "{name}: {:#?}", signs.signs);
+            let found = &signs.signs[0];
+            assert_eq!(found.arrow, "desk", "{name}: {found:#?}");
+            assert!(found.confidence >= 0.5, "{name}: {found:#?}");
+            let (x, y, z) = in_robot_frame(pose, sign.centre, sign.mounting_height_m);
+            let error = ((found.position.x - x).powi(2)
+                + (found.position.y - y).powi(2)
+                + (found.position.z - z).powi(2))
+            .sqrt();
+            assert!(
+                error < 0.06 * distance_m + 0.05,
+                "{name}: found at {:?}, truth ({x:.2}, {y:.2}, {z:.2})",
+                found.position
+            );
+        }
+    }
+}
+
 fn conference() -> World {
     World::load(&repository("robots/worlds/conference")).expect("the conference world loads")
 }
@@ -139,6 +171,9 @@ fn the_sign_detector_reads_the_conference_signs_on_the_way() {
         (Pose2::new(3.0, 12.5, 0.0), "sign-lobby", "up"),
         (Pose2::new(10.0, 12.75, 0.0), "sign-corridor", "up"),
         (Pose2::new(25.0, 12.75, 0.0), "sign-corner", "left"),
+        // Coming west down the hall from its sign, 8 m and 4 m from the desk's.
+        (Pose2::new(23.0, 23.2, PI), "sign-desk", "desk"),
+        (Pose2::new(19.0, 22.8, PI), "sign-desk", "desk"),
     ];
     for (pose, name, arrow) in cases {
         let frame = camera.render(&world, pose);
@@ -182,7 +217,14 @@ fn red_cap_view() -> (
 ) {
     let world = conference();
     // In the hall, 4.5 m west of the guide, looking at them.
-    let pose = Pose2::new(21.0, 21.0, (-2.0f64).atan2(4.0));
+    let ObjectKind::Person(guide) = world.object("red-cap").unwrap().kind else {
+        panic!("red-cap is not a person");
+    };
+    let pose = Pose2::new(
+        guide.centre.x - 4.0,
+        guide.centre.y + 2.0,
+        (-2.0f64).atan2(4.0),
+    );
     let mut camera = SimCamera::new(CameraConfig::default(), 5).unwrap();
     let frame = camera.render(&world, pose);
     save(&frame, "red-cap");

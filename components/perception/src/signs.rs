@@ -14,10 +14,15 @@
 //!    and down; the confidence is how much more the head spreads than the shaft, 0 to 1.
 //! 4. Distance from the board's known height and its height in pixels (a sign turned away
 //!    keeps its height), then the position along the ray through the board's centre.
+//!
+//! The registration desk's own sign has a filled black disc instead of an arrow: a black
+//! region whose pixels, with the board's aspect restored, are round (the second moments'
+//! eigenvalues differ by less than [`DISC_MAX_ELONGATION`]) and fill their box (more than
+//! [`DISC_MIN_FILL`]; an arrow fills some 40%, a disc pi/4) is read as [`ArrowLabel::Desk`].
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use lewis_interfaces::msg::{Point3D, Sign};
+use lewis_interfaces::msg::{Point3D, Sign, SignArrow};
 
 use super::blobfinder::blob_of;
 use super::camera_model::PinholeCamera;
@@ -80,7 +85,13 @@ pub fn default_sign_colors() -> ColorConfig {
     }
 }
 
-/// Which way an arrow points, in the image.
+/// A black region whose second moments' eigenvalues differ more than this is no disc.
+pub const DISC_MAX_ELONGATION: f64 = 1.6;
+
+/// A black region that fills less of its bounding box than this is no disc.
+pub const DISC_MIN_FILL: f64 = 0.6;
+
+/// Which way an arrow points, in the image; or the desk's disc.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum ArrowLabel {
     /// To the right of the image.
@@ -91,17 +102,26 @@ pub enum ArrowLabel {
     Left,
     /// Down the image.
     Down,
+    /// No arrow but a disc: the registration desk's own sign.
+    Desk,
 }
 
 impl ArrowLabel {
-    /// `right`, `up`, `left` or `down`, as the Signs interface names them.
+    /// `right`, `up`, `left`, `down` or `desk`, as the Signs interface names them.
     #[must_use]
     pub fn name(self) -> &'static str {
+        self.word().as_str()
+    }
+
+    /// The Signs interface's word for it.
+    #[must_use]
+    pub fn word(self) -> SignArrow {
         match self {
-            Self::Right => "right",
-            Self::Up => "up",
-            Self::Left => "left",
-            Self::Down => "down",
+            Self::Right => SignArrow::Right,
+            Self::Up => SignArrow::Up,
+            Self::Left => SignArrow::Left,
+            Self::Down => SignArrow::Down,
+            Self::Desk => SignArrow::Desk,
         }
     }
 
@@ -116,6 +136,47 @@ impl ArrowLabel {
             _ => Self::Down,
         }
     }
+}
+
+/// How round and how full the pixels (column, row) of a black region are, with columns
+/// scaled by `x_scale` first: `Some(confidence)` (how much of a disc's share of its box
+/// they fill, 0 to 1) when they are the desk's disc, `None` otherwise or for fewer than 3
+/// pixels.
+#[must_use]
+pub fn read_disc(pixels: &[(f64, f64)], x_scale: f64) -> Option<f64> {
+    if pixels.len() < 3 {
+        return None;
+    }
+    // pixel counts are far below 2^52
+    let n = pixels.len() as f64;
+    let (mut lo_x, mut hi_x, mut lo_y, mut hi_y) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for &(x, y) in pixels {
+        lo_x = lo_x.min(x);
+        hi_x = hi_x.max(x);
+        lo_y = lo_y.min(y);
+        hi_y = hi_y.max(y);
+    }
+    let fill = n / ((hi_x - lo_x + 1.0) * (hi_y - lo_y + 1.0));
+    let points = || pixels.iter().map(|&(x, y)| (x * x_scale, y));
+    let (sx, sy) = points().fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    let (mx, my) = (sx / n, sy / n);
+    let (mut m20, mut m02, mut m11) = (0.0, 0.0, 0.0);
+    for (x, y) in points() {
+        let (dx, dy) = (x - mx, y - my);
+        m20 += dx * dx;
+        m02 += dy * dy;
+        m11 += dx * dy;
+    }
+    let mean = (m20 + m02) / 2.0;
+    let spread = ((m20 - m02) / 2.0).hypot(m11);
+    let (major, minor) = (mean + spread, mean - spread);
+    let round = minor > 0.0 && major / minor < DISC_MAX_ELONGATION;
+    (round && fill > DISC_MIN_FILL).then(|| (fill / std::f64::consts::FRAC_PI_4).min(1.0))
 }
 
 /// The arrow read from its pixels.
@@ -260,7 +321,7 @@ impl SignFinder {
             else {
                 continue;
             };
-            let Some(reading) = self.read(frame, &board, &arrow) else {
+            let Some((reading, label)) = self.read(frame, &board, &arrow) else {
                 continue;
             };
             if reading.confidence < self.model.min_confidence {
@@ -270,7 +331,7 @@ impl SignFinder {
                 height_px: self.centre_height_px(frame, &board),
                 board,
                 arrow,
-                label: ArrowLabel::nearest(reading.direction_rad),
+                label,
                 reading,
             });
         }
@@ -296,13 +357,14 @@ impl SignFinder {
             && (self.model.arrow_fraction.0..=self.model.arrow_fraction.1).contains(&fraction)
     }
 
-    /// Reads the arrow from the pixels of its box that are of the arrow's class.
+    /// Reads the arrow (or the desk's disc) from the pixels of its box that are of the
+    /// arrow's class.
     fn read(
         &mut self,
         frame: RgbFrame<'_>,
         board: &Region,
         arrow: &Region,
-    ) -> Option<ArrowReading> {
+    ) -> Option<(ArrowReading, ArrowLabel)> {
         let width = frame.width_px() as usize;
         let bit = 1u32 << self.arrow_color;
         self.arrow_pixels.clear();
@@ -316,10 +378,16 @@ impl SignFinder {
             }
         }
         let apparent_aspect = f64::from(board.width_px()) / f64::from(board.height_px());
-        read_arrow(
-            &self.arrow_pixels,
-            self.model.board_aspect / apparent_aspect,
-        )
+        let x_scale = self.model.board_aspect / apparent_aspect;
+        if let Some(confidence) = read_disc(&self.arrow_pixels, x_scale) {
+            let reading = ArrowReading {
+                direction_rad: 0.0,
+                confidence,
+            };
+            return Some((reading, ArrowLabel::Desk));
+        }
+        let reading = read_arrow(&self.arrow_pixels, x_scale)?;
+        Some((reading, ArrowLabel::nearest(reading.direction_rad)))
     }
 
     /// The board's height in px at the middle column of its box: where a sign turned
@@ -454,6 +522,37 @@ mod tests {
         for (direction, label) in cases {
             assert_eq!(ArrowLabel::nearest(direction), label, "{direction}");
         }
+    }
+
+    const DISC: &str = "\
+.....#####.....
+....#######....
+...#########...
+..###########..
+..###########..
+..###########..
+..###########..
+..###########..
+...#########...
+....#######....
+.....#####.....
+";
+
+    #[test]
+    fn a_disc_is_the_desk_and_no_arrow_is() {
+        let confidence = read_disc(&pixels(DISC), 1.0).unwrap();
+        assert!(confidence > 0.9, "{confidence}");
+        // Seen from the side and restored.
+        let squashed: String = DISC
+            .lines()
+            .map(|l| l.chars().step_by(2).collect::<String>() + "\n")
+            .collect();
+        assert!(read_disc(&pixels(&squashed), 2.0).is_some());
+        let up = turned_counter_clockwise(RIGHT);
+        for arrow in [RIGHT, &up] {
+            assert_eq!(read_disc(&pixels(arrow), 1.0), None, "{arrow}");
+        }
+        assert_eq!(ArrowLabel::Desk.name(), "desk");
     }
 
     #[test]

@@ -493,7 +493,8 @@ fn sign_colour(sign: &Sign, printed_side: bool, u: f64, v: f64) -> Rgb {
 /// Whether the black arrow covers the point (`u`, `v`) of a sign's printed side, `u` from
 /// 0 at the viewer's left edge to 1 at the right, `v` from 0 at the bottom to 1 at the top.
 /// The arrow fills a centred square of 80% of the board's smaller side: a shaft and a
-/// triangular head, pointing `direction`.
+/// triangular head, pointing `direction`; the desk's sign has a disc filling that square
+/// instead.
 #[must_use]
 pub fn arrow_covers(
     direction: ArrowDirection,
@@ -511,6 +512,7 @@ pub fn arrow_covers(
         ArrowDirection::Left => (-a, b),
         ArrowDirection::Up => (b, a),
         ArrowDirection::Down => (-b, a),
+        ArrowDirection::Desk => return a.hypot(b) <= 0.45,
     };
     let shaft = (-0.45..=0.0).contains(&along) && across.abs() <= 0.12;
     let head = (0.0..=0.45).contains(&along) && across.abs() <= 0.4 * (0.45 - along) / 0.45;
@@ -575,5 +577,29 @@ mod tests {
         assert_eq!(draw(ArrowDirection::Up), up);
         assert_eq!(draw(ArrowDirection::Left), left);
         assert_eq!(draw(ArrowDirection::Down), down);
+    }
+
+    #[test]
+    fn the_desk_sign_is_a_disc() {
+        assert_eq!(
+            draw(ArrowDirection::Desk),
+            concat!(
+                "...............\n",
+                "...............\n",
+                ".....#####.....\n",
+                "....#######....\n",
+                "...#########...\n",
+                "..###########..\n",
+                "..###########..\n",
+                "..###########..\n",
+                "..###########..\n",
+                "..###########..\n",
+                "...#########...\n",
+                "....#######....\n",
+                ".....#####.....\n",
+                "...............\n",
+                "...............\n",
+            )
+        );
     }
 }

@@ -17,6 +17,7 @@ pub mod base;
 pub mod camera;
 pub mod geometry;
 pub mod laser;
+pub mod scene;
 pub mod service;
 pub mod sonar;
 pub mod world;
@@ -25,5 +26,6 @@ pub use base::{BaseConfig, BaseConfigError, BatteryConfig, OdometryNoise, SimBas
 pub use camera::{CameraConfig, Intrinsics, SimCamera};
 pub use geometry::{RayHit, Shape};
 pub use laser::{LaserConfig, SensorConfigError, SimLaser};
+pub use scene::{Scene, ScenePlan};
 pub use sonar::{SimSonar, SonarConfig};
 pub use world::{Hit, Surface, World, WorldError, WorldLook};

@@ -4,5 +4,6 @@
 mod sim_camera;
 mod sim_devices;
 mod sim_properties;
+mod sim_scene;
 mod sim_services;
 mod sim_world;

@@ -81,7 +81,8 @@ fn is_red(p: [u8; 3]) -> bool {
 fn arrow_point(s: &Sign, along: f64, across: f64) -> (Vec2, f64) {
     let side = 0.8 * s.width_m.min(s.height_m);
     let (a, b) = match s.arrow {
-        ArrowDirection::Right => (along, across),
+        // The desk's disc points nowhere: its own frame is the board's.
+        ArrowDirection::Right | ArrowDirection::Desk => (along, across),
         ArrowDirection::Left => (-along, across),
         ArrowDirection::Up => (across, along),
         ArrowDirection::Down => (across, -along),

@@ -89,7 +89,7 @@ fn the_conference_world_loads_with_its_doors_signs_desk_queue_and_red_cap() {
             .filter(|o| o.kind.name() == kind)
             .count()
     };
-    assert_eq!(count("sign"), 4);
+    assert_eq!(count("sign"), 5);
     assert_eq!(count("desk"), 1);
     assert!(count("person") >= 6);
     let capped: Vec<&str> = world
@@ -296,7 +296,7 @@ fn syntax_errors_and_unknown_keys_are_reported_at_their_place() {
         Some((20, 10)),
         &[(
             ProblemKind::Syntax,
-            "4:1: unknown field `scale`, expected one of `name`, `map`, `metres_per_pixel`, `size_m`, `origin_m`, `wall_height_m`, `wall_colour`, `floor_colour`, `ceiling_colour`, `objects`",
+            "4:1: unknown field `scale`, expected one of `name`, `map`, `metres_per_pixel`, `size_m`, `origin_m`, `wall_height_m`, `wall_colour`, `floor_colour`, `ceiling_colour`, `objects`, `queue`, `walks`",
         )],
     );
     check(
@@ -319,4 +319,51 @@ fn a_folder_without_a_world_file_says_what_a_world_is() {
             .ends_with("(a world is a folder holding world.toml and its map image)"),
         "{err}"
     );
+}
+
+#[test]
+fn queues_and_walks_name_people_of_the_world_and_are_checked_where_written() {
+    let text = format!(
+        "{HEADER}\n[[objects]]\nkind = \"person\"\nname = \"ann\"\ncentre = [2.0, 2.0]\nshirt_colour = \"red\"\n\n\
+         [queue]\ndesk = \"nowhere\"\npeople = [\"ann\", \"bob\"]\nserve_s = [5.0, 3.0]\nstarts_when_robot_within_m = 4.0\nleave_by = [[1.0, 1.0]]\n\n\
+         [[walks]]\nperson = \"ann\"\nroute = [[20.0, 1.0]]\nstarts_at_s = 1.0\nleaves = true\nback_and_forth = true\n"
+    );
+    check(
+        &text,
+        Some((20, 10)),
+        &[
+            (
+                ProblemKind::BadValue,
+                "12:8: the queue's desk `nowhere` is no desk of this world",
+            ),
+            (
+                ProblemKind::BadValue,
+                "13:18: `bob` is no person of this world: name a `person` object",
+            ),
+            (
+                ProblemKind::BadValue,
+                "14:11: `serve_s` must be [shortest, longest] in s, both zero or more, not [5.0, 3.0]",
+            ),
+            (
+                ProblemKind::BadValue,
+                "18:1: a walk either `leaves` or goes `back_and_forth`, not both",
+            ),
+            (
+                ProblemKind::BadValue,
+                "19:10: `ann` already moves in the queue or another walk: a person moves one way",
+            ),
+            (
+                ProblemKind::OutsideMap,
+                "20:9: `route` goes through (20, 1), outside the map: give points inside it",
+            ),
+        ],
+    );
+    // A good plan loads.
+    let good = format!(
+        "{HEADER}\n[[objects]]\nkind = \"person\"\nname = \"ann\"\ncentre = [2.0, 2.0]\nshirt_colour = \"red\"\n\n\
+         [[walks]]\nperson = \"ann\"\nroute = [[4.0, 1.0]]\nstarts_when_robot_within_m = 2.0\nback_and_forth = true\n"
+    );
+    let dir = world_dir(&good, Some((20, 10)));
+    let world = World::load(dir.path()).unwrap();
+    assert_eq!(world.plan().walks.len(), 1);
 }

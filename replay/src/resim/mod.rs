@@ -376,6 +376,8 @@ pub fn replay(
     recorder_options.sync_on_flush = false;
     recorder_options.disk_reserve_bytes = 0;
     REPLAY_PROVIDER.clone_into(&mut recorder_options.recorder_name);
+    // The output's name stays out of its bytes: two replays to different names are one file.
+    recorder_options.file_label = Some("replay".to_owned());
     let recorder = Recorder::create(recorder_options)?;
     let comparator = comparator(
         &recording,

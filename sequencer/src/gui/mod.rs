@@ -4,11 +4,15 @@
 //! through Server-Sent Events.
 //!
 //! Routes: `GET /` the page; `GET /view` the [`View`] as JSON; `GET /events` the view again
-//! on every change (`text/event-stream`); `POST /choose` with `{"state":"NAME"}` (or
-//! `"stop"`) the supervisor's choice; `POST /stop` stops the mission. A POST must carry the
+//! on every change (`text/event-stream`), and the robot (`event: robot`); `POST /choose`
+//! with `{"state":"NAME"}` (or `"stop"`) the supervisor's choice; `POST /stop` stops the
+//! mission. Beside the mission, the robot ([`RobotWatch`]): `GET /robot` the [`RobotView`]
+//! as JSON, `GET /camera.bmp` its latest frame, `GET /map.png` the world's map, `POST
+//! /answer` with `{"answer":"yes","text":"registered"}` an answer for its Speech provider. A POST must carry the
 //! header `X-Lewis-Supervisor: 1`, which a page from another origin cannot send without
 //! the browser asking this server first (and it never agrees).
 
+mod robot;
 mod view;
 
 use std::io::{Read, Write};
@@ -20,6 +24,11 @@ use std::time::Duration;
 use serde::Deserialize;
 use tiny_http::{Header, Method, Request, Response, Server};
 
+pub use robot::{
+    Answer, BindingView, CAMERA_MAX_WIDTH_PX, CameraView, Frame, MapView, PersonView,
+    PoseInterface, PoseView, ROBOT_PERIOD, RobotFeed, RobotView, RobotWatch, RobotWatchOptions,
+    ServiceView, WorldMap, png_size, read_world,
+};
 pub use view::{
     Current, Diagram, DiagramAction, DiagramState, HISTORY_LINES, HistoryLine, Phase, Question,
     View,
@@ -121,6 +130,14 @@ impl GuiServer {
         }
     }
 
+    /// A feed showing the robot beside the mission (see [`RobotWatch`]).
+    #[must_use]
+    pub fn robot_feed(&self) -> RobotFeed {
+        RobotFeed {
+            hub: Arc::clone(&self.hub),
+        }
+    }
+
     /// What the page shows now.
     #[must_use]
     pub fn view(&self) -> View {
@@ -172,15 +189,16 @@ impl RecordSink for GuiSink {
 }
 
 /// The view shared between the driver's sink and the page's streams.
-struct Hub {
+pub(crate) struct Hub {
     state: Mutex<HubState>,
 }
 
-struct HubState {
+pub(crate) struct HubState {
     view: View,
     subscribers: Vec<Arc<Subscriber>>,
     streams: Vec<JoinHandle<()>>,
     closed: bool,
+    robot: robot::RobotState,
 }
 
 impl Hub {
@@ -191,11 +209,12 @@ impl Hub {
                 subscribers: Vec::new(),
                 streams: Vec::new(),
                 closed: false,
+                robot: robot::RobotState::default(),
             }),
         }
     }
 
-    fn lock(&self) -> MutexGuard<'_, HubState> {
+    pub(crate) fn lock(&self) -> MutexGuard<'_, HubState> {
         // The state is a plain value, whole after any panic elsewhere.
         self.state.lock().unwrap_or_else(PoisonError::into_inner)
     }
@@ -216,6 +235,13 @@ impl HubState {
             subscriber.offer(Arc::clone(&json));
         }
     }
+
+    pub(crate) fn publish_robot(&mut self, json: &Arc<str>) {
+        self.subscribers.retain(|s| !s.is_gone());
+        for subscriber in &self.subscribers {
+            subscriber.offer_robot(Arc::clone(json));
+        }
+    }
 }
 
 /// One open event stream: only the latest view is kept for it, so a slow browser skips
@@ -229,6 +255,7 @@ struct Subscriber {
 #[derive(Default)]
 struct Slot {
     latest: Option<Arc<str>>,
+    robot: Option<Arc<str>>,
     closed: bool,
     gone: bool,
 }
@@ -243,6 +270,11 @@ impl Subscriber {
         self.ready.notify_one();
     }
 
+    fn offer_robot(&self, json: Arc<str>) {
+        self.lock().robot = Some(json);
+        self.ready.notify_one();
+    }
+
     fn close(&self) {
         self.lock().closed = true;
         self.ready.notify_one();
@@ -252,19 +284,31 @@ impl Subscriber {
         self.lock().gone
     }
 
-    /// The next view to send, `Ok(None)` for a keep-alive, `Err(())` once closed and sent.
-    fn next(&self) -> Result<Option<Arc<str>>, ()> {
+    /// The next view or robot to send, `Ok(None)` for a keep-alive, `Err(())` once closed
+    /// and sent.
+    fn next(&self) -> Result<Option<Next>, ()> {
         let slot = self.lock();
         let (mut slot, _) = self
             .ready
-            .wait_timeout_while(slot, KEEPALIVE, |s| s.latest.is_none() && !s.closed)
+            .wait_timeout_while(slot, KEEPALIVE, |s| {
+                s.latest.is_none() && s.robot.is_none() && !s.closed
+            })
             .unwrap_or_else(PoisonError::into_inner);
-        match slot.latest.take() {
-            Some(json) => Ok(Some(json)),
+        if let Some(json) = slot.latest.take() {
+            return Ok(Some(Next::View(json)));
+        }
+        match slot.robot.take() {
+            Some(json) => Ok(Some(Next::Robot(json))),
             None if slot.closed => Err(()),
             None => Ok(None),
         }
     }
+}
+
+/// What an event stream sends next.
+enum Next {
+    View(Arc<str>),
+    Robot(Arc<str>),
 }
 
 fn handle(request: Request, hub: &Arc<Hub>, controller: &Controller) {
@@ -283,7 +327,19 @@ fn handle(request: Request, hub: &Arc<Hub>, controller: &Controller) {
             stream(request, hub);
             Ok(())
         }
-        (Method::Post, "/choose" | "/stop") => post(request, &path, hub, controller),
+        (Method::Get, "/robot") => match hub.lock().robot.json.clone() {
+            Some(json) => request.respond(json_response(200, &json)),
+            None => request.respond(text_response(404, "the robot is not watched")),
+        },
+        (Method::Get, "/camera.bmp") => match hub.lock().robot.camera_bmp.clone() {
+            Some(bmp) => request.respond(bytes_response(&bmp, "image/bmp")),
+            None => request.respond(text_response(404, "no camera frame yet")),
+        },
+        (Method::Get, "/map.png") => match hub.lock().robot.map_png.clone() {
+            Some(png) => request.respond(bytes_response(&png, "image/png")),
+            None => request.respond(text_response(404, "no world map")),
+        },
+        (Method::Post, "/choose" | "/stop" | "/answer") => post(request, &path, hub, controller),
         (Method::Get, _) => request.respond(text_response(404, "no such page: try /")),
         _ => request.respond(text_response(405, "method not allowed")),
     };
@@ -322,7 +378,15 @@ fn post(
     {
         return request.respond(text_response(400, "the body is not UTF-8 text"));
     }
-    let (status, message) = if path == "/stop" {
+    let (status, message) = if path == "/answer" {
+        match serde_json::from_str::<Answer>(&body) {
+            Err(e) => (
+                400,
+                format!("expected {{\"answer\":\"yes\",\"text\":\"...\"}}: {e}"),
+            ),
+            Ok(answer) => send_answer(hub, answer),
+        }
+    } else if path == "/stop" {
         if controller.stop() {
             (202, "stopping the mission".to_owned())
         } else {
@@ -353,6 +417,25 @@ fn choose(hub: &Hub, controller: &Controller, state: &str) -> (u16, String) {
     }
 }
 
+fn send_answer(hub: &Hub, answer: Answer) -> (u16, String) {
+    if !matches!(answer.answer.as_str(), "yes" | "no") {
+        return (
+            400,
+            format!("the answer is yes or no, not `{}`", answer.answer),
+        );
+    }
+    let hub = hub.lock();
+    let commands = hub.robot.commands.as_ref().filter(|_| hub.robot.speech);
+    let Some(commands) = commands else {
+        return (409, "the robot has no Speech provider to answer".into());
+    };
+    let word = answer.answer.clone();
+    if commands.send(robot::WatchCommand::Answer(answer)).is_err() {
+        return (409, "the robot is no longer watched".into());
+    }
+    (202, format!("answering `{word}`"))
+}
+
 /// Answers `GET /events` on a thread of its own: the view now, then on every change.
 fn stream(request: Request, hub: &Arc<Hub>) {
     let subscriber = Arc::new(Subscriber::default());
@@ -363,6 +446,9 @@ fn stream(request: Request, hub: &Arc<Hub>) {
         return;
     }
     subscriber.offer(state.json());
+    if let Some(robot) = state.robot.json.clone() {
+        subscriber.offer_robot(robot);
+    }
     state.subscribers.push(Arc::clone(&subscriber));
     let spawned = std::thread::Builder::new()
         .name("lewis-seq-gui-events".into())
@@ -388,7 +474,8 @@ fn write_stream(out: &mut dyn Write, subscriber: &Subscriber) -> std::io::Result
     out.flush()?;
     while let Ok(next) = subscriber.next() {
         match next {
-            Some(json) => write!(out, "data: {json}\n\n")?,
+            Some(Next::View(json)) => write!(out, "data: {json}\n\n")?,
+            Some(Next::Robot(json)) => write!(out, "event: robot\ndata: {json}\n\n")?,
             None => out.write_all(b": keep-alive\n\n")?,
         }
         out.flush()?;
@@ -409,6 +496,12 @@ fn with_header(response: Response<Body>, field: &str, value: &str) -> Response<B
 fn text_response(status: u16, text: &str) -> Response<Body> {
     let response = Response::from_string(text).with_status_code(status);
     with_header(response, "Content-Type", "text/plain; charset=utf-8")
+}
+
+fn bytes_response(bytes: &[u8], content_type: &str) -> Response<Body> {
+    let response = Response::from_data(bytes.to_vec());
+    let response = with_header(response, "Content-Type", content_type);
+    with_header(response, "Cache-Control", "no-store")
 }
 
 fn json_response(status: u16, json: &str) -> Response<Body> {

@@ -87,6 +87,21 @@ fn colour(path: &str, value: &str, index: usize) -> u32 {
     PALETTE[index % PALETTE.len()]
 }
 
+/// The colour of the sequencer's lane value `value` (0xRRGGBB as bytes) when the values
+/// `earlier` appeared before it, in order: what the lane shows, for pictures drawn
+/// elsewhere (`picture.rs`).
+pub(crate) fn state_colour(value: &str, earlier: &[&str]) -> [u8; 3] {
+    const PATH: &str = "status/sequencer";
+    let mut named = 0;
+    for earlier in earlier {
+        if colour(PATH, earlier, named) == PALETTE[named % PALETTE.len()] {
+            named += 1;
+        }
+    }
+    let [r, g, b, _] = colour(PATH, value, named).to_be_bytes();
+    [r, g, b]
+}
+
 /// Logs the colours of every lane of `rows`, for all times.
 pub(super) fn configure(rows: &mut Rows, sink: &mut dyn ChunkSink) -> Result<(), ViewError> {
     for (path, values) in rows.take_lanes() {

@@ -47,6 +47,8 @@ use crate::rows::{ChunkSink, Rows, Stamp};
 use crate::source::ChannelInfo;
 
 pub(crate) use geometry::Point;
+pub(crate) use lanes::state_colour;
+pub(crate) use sequencer::lane as sequencer_lane;
 
 /// The entity path made of these parts, each taken literally.
 pub(crate) fn entity<'a>(parts: impl IntoIterator<Item = &'a str>) -> EntityPath {

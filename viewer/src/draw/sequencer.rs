@@ -59,7 +59,7 @@ impl SequencerState {
 }
 
 /// The lane's value after a record, when the record changes where the mission is.
-fn lane(m: &Sequencer) -> Option<String> {
+pub(crate) fn lane(m: &Sequencer) -> Option<String> {
     if m.entry != SequencerEntry::Decided {
         return None;
     }

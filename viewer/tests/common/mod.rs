@@ -570,3 +570,102 @@ pub fn replay_run(dir: &Path) -> PathBuf {
     w.recorder.close().unwrap();
     path
 }
+
+/// The signs' places along [`corridor_run`]'s path (world frame, m).
+pub const CORRIDOR_SIGNS: [[f64; 2]; 2] = [[12.0, 14.4], [20.0, 11.1]];
+/// Where the laser fails for good in [`corridor_run`] (world frame, m).
+pub const LASER_DIES_AT: [f64; 2] = [16.0, 12.5];
+
+/// A mission along the conference world's corridor, for the picture: `door` from x 3 to
+/// 9 m, then `sign` to x 26 m; the camera sees a sign beside the path twice (at x 12 and
+/// 20 m, 1.9 m to the left and 1.4 m to the right) on every step within 4 m of it; the laser
+/// fails for good at x 16 m. Writes `dir/corridor.mcap` and returns its path.
+pub fn corridor_run(dir: &Path) -> PathBuf {
+    let path = dir.join("corridor.mcap");
+    let mut w = writer(&path, Some(robot_toml(&conference_world())));
+    let truth = w.channel::<GroundTruth>("base", "/base/GroundTruth");
+    let broker = w.channel::<Broker>("broker", "/lewis/broker");
+    let signs = w.channel::<Signs>("sign_detector", "/sign_detector/Signs");
+    let sequencer = w.channel::<Sequencer>("lewis-sequencer", "/lewis/sequencer");
+    let run = |state: &str| Sequencer {
+        attempt: 1,
+        program: format!("./bin/{state}"),
+        ..record("decided", "run", state)
+    };
+    let mut t = START_NS;
+    w.write(sequencer, run("door"), t);
+    let mut failed = false;
+    for k in 0..=230 {
+        t += STEP_NS;
+        let x = 3.0 + 0.1 * f64::from(k);
+        if (x - 9.0).abs() < 1e-9 {
+            w.write(
+                sequencer,
+                Sequencer {
+                    to: "sign".to_owned(),
+                    ..record("decided", "transition", "door")
+                },
+                t,
+            );
+            w.write(sequencer, run("sign"), t + 1);
+        }
+        let pose = Pose2D {
+            x,
+            y: 12.5,
+            theta: 0.0,
+        };
+        w.write(
+            truth,
+            GroundTruth {
+                header: header("base"),
+                pose: pose.clone(),
+                ..GroundTruth::default()
+            },
+            t + 10,
+        );
+        if !failed && x >= LASER_DIES_AT[0] {
+            failed = true;
+            w.write(
+                broker,
+                Broker {
+                    header: header("broker"),
+                    action: "service-failed".to_owned(),
+                    reason: "laser crashed 3 times within 60 s".to_owned(),
+                    service: "laser".to_owned(),
+                    at_ns: t,
+                    ..Broker::default()
+                },
+                t + 20,
+            );
+        }
+        let seen: Vec<Sign> = CORRIDOR_SIGNS
+            .iter()
+            .zip(["right", "up"])
+            .filter(|([sx, _], _)| (sx - x).abs() < 4.0 && *sx > x)
+            .map(|([sx, sy], arrow)| Sign {
+                position: Point3D {
+                    x: sx - x,
+                    y: sy - 12.5,
+                    z: 1.2,
+                },
+                arrow: arrow.to_owned(),
+                confidence: 0.9,
+                ..Sign::default()
+            })
+            .collect();
+        if !seen.is_empty() {
+            w.write(
+                signs,
+                Signs {
+                    header: header("sign_detector"),
+                    sign_count: seen.len() as i32,
+                    signs: seen,
+                },
+                t + 30,
+            );
+        }
+    }
+    w.write(sequencer, record("decided", "finished", ""), t + 40);
+    w.recorder.close().unwrap();
+    path
+}

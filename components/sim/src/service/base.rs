@@ -4,8 +4,11 @@
 //! by walls and objects) and publishes, for each interface the robot file lets it provide:
 //! GroundTruth (the true pose, velocities, collisions: what the simulated sensors render
 //! from), Synchrodrive (velocities and bumpers), Egomotion (odometry, which drifts) and,
-//! at its own lower rate, Power (a battery that drains). Commands are applied at the time
-//! they arrive: the motion is integrated up to then first.
+//! at its own lower rate, Power (a battery that drains), and WorldState (where the world's
+//! people are: the queue at the desk is served, people walk; see [`crate::scene`]). The
+//! people move with the true pose and the time only, from the seed, and stand in the base's
+//! own world too: the robot bumps into them. Commands are applied at the time they arrive:
+//! the motion is integrated up to then first.
 //!
 //! ```toml
 //! [services.parameters]
@@ -26,7 +29,7 @@ use lewis_geometry::Pose2;
 use lewis_interfaces::msg::{
     Egomotion, EgomotionCommand, EgomotionResetOdometryReply, GroundTruth, Power, PowerCommand,
     PowerSetLowThresholdReply, Synchrodrive, SynchrodriveCommand, SynchrodriveSetBrakeReply,
-    SynchrodriveSetVelocityReply, SynchrodriveStopReply,
+    SynchrodriveSetVelocityReply, SynchrodriveStopReply, WorldState,
 };
 use lewis_runtime::service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
@@ -35,6 +38,7 @@ use serde::Deserialize;
 
 use super::{PoseParams, invalid, load_world, period_ns, provides, publish};
 use crate::base::{BaseConfig, BatteryConfig, OdometryNoise, SimBase};
+use crate::scene::Scene;
 use crate::world::World;
 
 /// The kind name in robot files.
@@ -260,12 +264,14 @@ struct Outputs {
     synchrodrive: bool,
     egomotion: bool,
     power: bool,
+    world_state: bool,
 }
 
 /// The `sim-base` service.
 #[derive(Debug)]
 pub struct SimBaseService {
     world: World,
+    scene: Scene,
     base: SimBase,
     outputs: Outputs,
     period_ns: i64,
@@ -309,6 +315,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         ));
     }
     Ok(Box::new(SimBaseService {
+        scene: Scene::new(&world, config.seed()),
         world,
         base,
         outputs: Outputs {
@@ -316,6 +323,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
             synchrodrive: provides::<Synchrodrive>(config),
             egomotion: provides::<Egomotion>(config),
             power: provides::<Power>(config),
+            world_state: provides::<WorldState>(config),
         },
         period_ns,
         power_period_ns,
@@ -333,6 +341,12 @@ impl SimBaseService {
         &self.base
     }
 
+    /// The people of the world, where they are now.
+    #[must_use]
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
     /// Integrates the motion up to the context's now.
     fn advance(&mut self, ctx: &mut Context<'_>) {
         let now = ctx.now();
@@ -347,6 +361,9 @@ impl SimBaseService {
         }
         self.base.step(&self.world, dt.min(MAX_CATCH_UP_NS));
         self.simulated_to_ns = Some(now.max(from));
+        self.scene
+            .step(now.max(from), self.base.true_pose().position());
+        self.scene.apply_to(&mut self.world);
         let collisions = self.base.collision_count();
         if collisions > self.reported_collisions {
             self.reported_collisions = collisions;
@@ -389,6 +406,9 @@ impl SimBaseService {
         }
         if self.outputs.egomotion {
             publish(ctx, &mut self.base.egomotion());
+        }
+        if self.outputs.world_state {
+            publish(ctx, &mut self.scene.world_state());
         }
         if self.outputs.power && ctx.now() >= self.next_power_ns {
             self.next_power_ns = ctx.now().saturating_add(self.power_period_ns);

@@ -249,7 +249,7 @@ impl Service for SimCameraService {
         {
             return;
         }
-        let Some(pose) = self.truth.pose_for_rendering(ctx) else {
+        let Some(pose) = self.truth.pose_for_rendering(ctx, &mut self.world) else {
             return;
         };
         let due = self.next_frame_ns.unwrap_or(now);

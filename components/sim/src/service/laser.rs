@@ -164,7 +164,7 @@ impl Service for SimLaserService {
     }
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        let Some(pose) = self.truth.pose_for_rendering(ctx) else {
+        let Some(pose) = self.truth.pose_for_rendering(ctx, &mut self.world) else {
             return;
         };
         let mut scan = self.laser.scan(&self.world, pose);

@@ -13,7 +13,9 @@
 //! commands at the same times give the same bytes.
 //!
 //! Every sensor publication names, in its header's `inputs`, the GroundTruth sample it was
-//! rendered from.
+//! rendered from, and the WorldState sample when the sensor requires WorldState: then it
+//! draws the people where `sim-base` has them (the queue moves, people walk). A sensor
+//! that does not require it draws them where the world file puts them.
 
 pub mod base;
 pub mod camera;
@@ -24,7 +26,7 @@ use std::path::Path;
 
 use lewis_geometry::{Pose2, SensorMount};
 use lewis_interfaces::Interface;
-use lewis_interfaces::msg::{GroundTruth, InputRef};
+use lewis_interfaces::msg::{GroundTruth, InputRef, PersonState, WorldState};
 use lewis_runtime::service::{BuildError, Context, Input, ServiceConfig, ServiceRegistry};
 use serde::Deserialize;
 
@@ -150,42 +152,71 @@ fn publish<T: Interface>(ctx: &mut Context<'_>, message: &mut T) {
 }
 
 /// The true pose a sensor renders from: the latest GroundTruth sample, and the reference
-/// to it that every publication rendered from it carries as provenance.
+/// to it that every publication rendered from it carries as provenance; and where the
+/// people are, from the latest WorldState sample (when the sensor requires WorldState).
 #[derive(Debug, Clone, Default)]
 pub struct TruthFollower {
     latest: Option<(Pose2, InputRef)>,
+    people: Option<(Vec<PersonState>, InputRef)>,
+    /// Whether `people` changed since it was last put in a world.
+    people_changed: bool,
     warned: bool,
 }
 
 impl TruthFollower {
-    /// Takes in `input` when it is a GroundTruth sample (other inputs are ignored).
+    /// Takes in `input` when it is a GroundTruth or WorldState sample (other inputs are
+    /// ignored).
     pub fn take(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if input.interface != GroundTruth::NAME {
+        let source = |seq| InputRef {
+            channel: input.channel.to_owned(),
+            seq,
+        };
+        let taken = if input.interface == GroundTruth::NAME {
+            input.decode::<GroundTruth>().map(|truth| {
+                self.latest = Some((Pose2::from_msg(&truth.pose), source(truth.header.seq)));
+            })
+        } else if input.interface == WorldState::NAME {
+            input.decode::<WorldState>().map(|state| {
+                self.people = Some((state.people, source(state.header.seq)));
+                self.people_changed = true;
+            })
+        } else {
             return;
-        }
-        match input.decode::<GroundTruth>() {
-            Ok(truth) => {
-                let source = InputRef {
-                    channel: input.channel.to_owned(),
-                    seq: truth.header.seq,
-                };
-                self.latest = Some((Pose2::from_msg(&truth.pose), source));
-                self.warned = false;
-            }
+        };
+        match taken {
+            Ok(()) => self.warned = false,
             Err(e) => {
                 if !self.warned {
-                    ctx.warn(&format!("ignoring a GroundTruth sample: {e}"));
+                    ctx.warn(&format!("ignoring a {} sample: {e}", input.interface));
                     self.warned = true;
                 }
             }
         }
     }
 
-    /// The latest true pose, after setting the provenance of the publications that follow
-    /// to its sample; `None` (nothing to render) before the first sample.
-    pub fn pose_for_rendering(&self, ctx: &mut Context<'_>) -> Option<Pose2> {
+    /// The latest true pose, after putting the people of the latest WorldState sample in
+    /// `world` and setting the provenance of the publications that follow to the samples;
+    /// `None` (nothing to render) before the first GroundTruth sample.
+    pub fn pose_for_rendering(
+        &mut self,
+        ctx: &mut Context<'_>,
+        world: &mut World,
+    ) -> Option<Pose2> {
         let (pose, source) = self.latest.as_ref()?;
-        ctx.set_inputs(vec![source.clone()]);
+        let mut inputs = vec![source.clone()];
+        if let Some((people, source)) = &self.people {
+            if self.people_changed {
+                self.people_changed = false;
+                for person in people {
+                    if let Some(index) = world.object_index(&person.name) {
+                        let at = lewis_geometry::Vec2::new(person.position.x, person.position.y);
+                        world.place_person(index, person.present.then_some(at));
+                    }
+                }
+            }
+            inputs.push(source.clone());
+        }
+        ctx.set_inputs(inputs);
         Some(*pose)
     }
 }

@@ -14,6 +14,7 @@ use super::{World, WorldLook};
 use lewis_geometry::Vec2;
 
 use crate::geometry::Shape;
+use crate::scene::{QueuePlan, ScenePlan, WalkEnd, WalkPlan, WalkStart};
 
 type Field<T> = Option<Spanned<T>>;
 
@@ -31,6 +32,32 @@ struct RawWorld {
     ceiling_colour: Field<String>,
     #[serde(default)]
     objects: Vec<Spanned<RawObject>>,
+    queue: Option<Spanned<RawQueue>>,
+    #[serde(default)]
+    walks: Vec<Spanned<RawWalk>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawQueue {
+    desk: Spanned<String>,
+    people: Spanned<Vec<Spanned<String>>>,
+    serve_s: Spanned<[f64; 2]>,
+    starts_when_robot_within_m: Spanned<f64>,
+    leave_by: Spanned<Vec<[f64; 2]>>,
+    walk_speed_mps: Field<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWalk {
+    person: Spanned<String>,
+    route: Spanned<Vec<[f64; 2]>>,
+    speed_mps: Field<f64>,
+    starts_when_robot_within_m: Field<f64>,
+    starts_at_s: Field<f64>,
+    leaves: Field<bool>,
+    back_and_forth: Field<bool>,
 }
 
 #[derive(Deserialize)]
@@ -132,6 +159,7 @@ const DEFAULT_SIGN_MOUNTING_HEIGHT_M: f64 = 1.4;
 const DEFAULT_PERSON_RADIUS_M: f64 = 0.22;
 const DEFAULT_PERSON_HEIGHT_M: f64 = 1.75;
 const DEFAULT_TROUSERS: Rgb = Rgb::new(45, 50, 75);
+const DEFAULT_WALK_SPEED_MPS: f64 = 1.0;
 
 /// Loads `dir/world.toml` and the map it names.
 pub(super) fn load(dir: &Path) -> Result<World, WorldError> {
@@ -252,7 +280,189 @@ impl Checker<'_> {
             dir.file_name()
                 .map_or_else(|| "world".to_owned(), |n| n.to_string_lossy().into_owned())
         });
-        Some(World::new(name, grid?, look, objects))
+        let plan = self.plan(raw, &objects, bounds);
+        Some(World::new(name, grid?, look, objects).with_plan(plan))
+    }
+
+    /// The `[queue]` and `[[walks]]` tables: who moves and how.
+    fn plan(
+        &mut self,
+        raw: &RawWorld,
+        objects: &[WorldObject],
+        bounds: Option<(Vec2, Vec2)>,
+    ) -> ScenePlan {
+        let mut plan = ScenePlan::default();
+        let mut moving: Vec<String> = Vec::new();
+        if let Some(q) = &raw.queue {
+            let q = q.get_ref();
+            let desk = q.desk.get_ref();
+            if !objects
+                .iter()
+                .any(|o| &o.name == desk && matches!(o.kind, ObjectKind::Desk { .. }))
+            {
+                self.problem(
+                    &q.desk.span(),
+                    ProblemKind::BadValue,
+                    format!("the queue's desk `{desk}` is no desk of this world"),
+                );
+            }
+            let mut people = Vec::new();
+            for name in q.people.get_ref() {
+                if self.person(name, objects, &mut moving) {
+                    people.push(name.get_ref().clone());
+                }
+            }
+            if q.people.get_ref().is_empty() {
+                self.problem(
+                    &q.people.span(),
+                    ProblemKind::BadValue,
+                    "the queue needs at least one person",
+                );
+            }
+            let serve = *q.serve_s.get_ref();
+            if !(serve.iter().all(|s| s.is_finite() && *s >= 0.0) && serve[0] <= serve[1]) {
+                self.problem(
+                    &q.serve_s.span(),
+                    ProblemKind::BadValue,
+                    format!(
+                        "`serve_s` must be [shortest, longest] in s, both zero or more, not {serve:?}"
+                    ),
+                );
+            }
+            let within =
+                self.non_negative(&q.starts_when_robot_within_m, "starts_when_robot_within_m");
+            let leave_by = self.route(&q.leave_by, "leave_by", bounds);
+            let speed = self.speed(q.walk_speed_mps.as_ref(), "walk_speed_mps");
+            if let (Some(within), Some(leave_by), Some(speed)) = (within, leave_by, speed) {
+                plan.queue = Some(QueuePlan {
+                    desk: desk.clone(),
+                    people,
+                    serve_s: (serve[0], serve[1]),
+                    starts_when_robot_within_m: within,
+                    leave_by,
+                    walk_speed_mps: speed,
+                });
+            }
+        }
+        for walk in &raw.walks {
+            let span = walk.span();
+            let w = walk.get_ref();
+            let known = self.person(&w.person, objects, &mut moving);
+            let route = self.route(&w.route, "route", bounds);
+            let speed = self.speed(w.speed_mps.as_ref(), "speed_mps");
+            let start = match (&w.starts_when_robot_within_m, &w.starts_at_s) {
+                (Some(d), None) => self
+                    .non_negative(d, "starts_when_robot_within_m")
+                    .map(WalkStart::RobotWithin),
+                (None, Some(t)) => self.non_negative(t, "starts_at_s").map(WalkStart::At),
+                _ => {
+                    self.problem(
+                        &span,
+                        ProblemKind::BadValue,
+                        "a walk starts either when the robot comes near (`starts_when_robot_within_m`) or at a time (`starts_at_s`): give one of the two",
+                    );
+                    None
+                }
+            };
+            let flag = |f: &Field<bool>| f.as_ref().is_some_and(|f| *f.get_ref());
+            let end = match (flag(&w.leaves), flag(&w.back_and_forth)) {
+                (false, false) => Some(WalkEnd::Stays),
+                (true, false) => Some(WalkEnd::Leaves),
+                (false, true) => Some(WalkEnd::BackAndForth),
+                (true, true) => {
+                    self.problem(
+                        &span,
+                        ProblemKind::BadValue,
+                        "a walk either `leaves` or goes `back_and_forth`, not both",
+                    );
+                    None
+                }
+            };
+            if let (true, Some(route), Some(speed_mps), Some(start), Some(end)) =
+                (known, route, speed, start, end)
+            {
+                plan.walks.push(WalkPlan {
+                    person: w.person.get_ref().clone(),
+                    route,
+                    speed_mps,
+                    start,
+                    end,
+                });
+            }
+        }
+        plan
+    }
+
+    /// Whether `name` is a person of `objects` that nothing else moves yet (noted in
+    /// `moving`).
+    fn person(
+        &mut self,
+        name: &Spanned<String>,
+        objects: &[WorldObject],
+        moving: &mut Vec<String>,
+    ) -> bool {
+        let text = name.get_ref();
+        if !objects
+            .iter()
+            .any(|o| &o.name == text && matches!(o.kind, ObjectKind::Person(_)))
+        {
+            self.problem(
+                &name.span(),
+                ProblemKind::BadValue,
+                format!("`{text}` is no person of this world: name a `person` object"),
+            );
+            return false;
+        }
+        if moving.contains(text) {
+            self.problem(
+                &name.span(),
+                ProblemKind::BadValue,
+                format!(
+                    "`{text}` already moves in the queue or another walk: a person moves one way"
+                ),
+            );
+            return false;
+        }
+        moving.push(text.clone());
+        true
+    }
+
+    /// A route: points inside the map.
+    fn route(
+        &mut self,
+        value: &Spanned<Vec<[f64; 2]>>,
+        name: &str,
+        bounds: Option<(Vec2, Vec2)>,
+    ) -> Option<Vec<Vec2>> {
+        let points: Vec<Vec2> = value
+            .get_ref()
+            .iter()
+            .map(|p| Vec2::new(p[0], p[1]))
+            .collect();
+        let outside = points.iter().find(|p| {
+            !p.is_finite()
+                || bounds
+                    .is_some_and(|(lo, hi)| p.x < lo.x || p.y < lo.y || p.x > hi.x || p.y > hi.y)
+        });
+        if let Some(p) = outside {
+            self.problem(
+                &value.span(),
+                ProblemKind::OutsideMap,
+                format!(
+                    "`{name}` goes through ({}, {}), outside the map: give points inside it",
+                    p.x, p.y
+                ),
+            );
+            return None;
+        }
+        Some(points)
+    }
+
+    fn speed(&mut self, value: Option<&Spanned<f64>>, name: &str) -> Option<f64> {
+        match value {
+            Some(v) => self.positive(v, name),
+            None => Some(DEFAULT_WALK_SPEED_MPS),
+        }
     }
 
     fn grid(
@@ -620,7 +830,7 @@ impl Checker<'_> {
                                 &a.span(),
                                 ProblemKind::BadValue,
                                 format!(
-                                    "unknown arrow `{}`: write left, right, up or down",
+                                    "unknown arrow `{}`: write left, right, up, down or desk",
                                     a.get_ref()
                                 ),
                             );

@@ -28,12 +28,17 @@
 //!   `heading_deg`); `height_m`, `colour` (required).
 //! - `sign`: `centre`, `facing_deg` (where the printed side looks), `size_m` (width,
 //!   height), `mounting_height_m` (of the board's centre), `arrow` (left, right, up, down, as
-//!   someone facing the sign sees it), `post` (stands on a post).
+//!   someone facing the sign sees it; or desk: the registration desk's own sign, a black
+//!   disc), `post` (stands on a post).
 //! - `desk`: `centre`, `size_m`, `heading_deg`, `height_m`, `colour`.
 //! - `person`: `centre`, `radius_m`, `height_m`, `shirt_colour` (required), `trousers_colour`,
 //!   `cap_colour`.
 //!
 //! Colours are `"#rrggbb"` or a name of [`Rgb::NAMED`].
+//!
+//! Optional tables say how people move (see [`crate::scene`]): `[queue]` (the people in line
+//! at a desk, served one by one once the robot comes near) and `[[walks]]` (a person walking
+//! a route). Without them every person stands where the file puts them.
 
 mod error;
 mod file;
@@ -52,6 +57,7 @@ pub use objects::{
 use lewis_geometry::Vec2;
 
 use crate::geometry::RayHit;
+use crate::scene::ScenePlan;
 
 /// How the parts that are not objects look: the map's walls, the floor and the ceiling.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,7 +104,7 @@ pub struct UnknownDoor {
     pub known: String,
 }
 
-/// The simulated world. Immutable but for its doors.
+/// The simulated world. Immutable but for its doors and where its people stand.
 #[derive(Debug, Clone, PartialEq)]
 pub struct World {
     name: String,
@@ -106,8 +112,14 @@ pub struct World {
     look: WorldLook,
     objects: Vec<WorldObject>,
     primitives: Vec<Primitive>,
+    /// Per object: the range of its primitives in `primitives`.
+    object_primitives: Vec<std::ops::Range<usize>>,
+    /// Per object: whether it has left the world (a person who walked away).
+    gone: Vec<bool>,
     /// Per door (in the order of the objects): its object's index and whether it is open.
     doors: Vec<(usize, bool)>,
+    /// How its people move.
+    plan: ScenePlan,
 }
 
 impl World {
@@ -138,22 +150,86 @@ impl World {
         objects: Vec<WorldObject>,
     ) -> Self {
         let mut primitives = Vec::new();
+        let mut object_primitives = Vec::with_capacity(objects.len());
         let mut door_count = 0;
         let mut doors = Vec::new();
         for (index, object) in objects.iter().enumerate() {
+            let first = primitives.len();
             objects::primitives_of(object, index, &mut door_count, &mut primitives);
+            object_primitives.push(first..primitives.len());
             if let ObjectKind::Door { open, .. } = object.kind {
                 doors.push((index, open));
             }
         }
+        let gone = vec![false; objects.len()];
         Self {
             name,
             grid,
             look,
             objects,
             primitives,
+            object_primitives,
+            gone,
             doors,
+            plan: ScenePlan::default(),
         }
+    }
+
+    /// This world with its people moving as `plan` says (the plan is trusted as given: the
+    /// world file's reader checks it).
+    #[must_use]
+    pub fn with_plan(mut self, plan: ScenePlan) -> Self {
+        self.plan = plan;
+        self
+    }
+
+    /// How its people move (empty when they all stand still).
+    #[must_use]
+    pub fn plan(&self) -> &ScenePlan {
+        &self.plan
+    }
+
+    /// The index of the object called `name`.
+    #[must_use]
+    pub fn object_index(&self, name: &str) -> Option<usize> {
+        self.objects.iter().position(|o| o.name == name)
+    }
+
+    /// Puts the person of object `index` at `centre`, or takes them out of the world
+    /// (`None`: they left). Returns false, changing nothing, when that object is no person.
+    /// Only their primitives are redrawn: everything else stays as it was computed.
+    pub fn place_person(&mut self, index: usize, centre: Option<Vec2>) -> bool {
+        let Some(WorldObject {
+            kind: ObjectKind::Person(person),
+            ..
+        }) = self.objects.get_mut(index)
+        else {
+            return false;
+        };
+        match centre {
+            None => self.gone[index] = true,
+            Some(centre) => {
+                self.gone[index] = false;
+                if person.centre != centre {
+                    person.centre = centre;
+                    let range = self.object_primitives[index].clone();
+                    let mut redrawn = Vec::with_capacity(range.len());
+                    objects::primitives_of(&self.objects[index], index, &mut 0, &mut redrawn);
+                    // A person's primitives depend on their look only, never on where they
+                    // stand: the count is the same.
+                    for (slot, primitive) in self.primitives[range].iter_mut().zip(redrawn) {
+                        *slot = primitive;
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Whether object `index` is in the world now (false for a person who left).
+    #[must_use]
+    pub fn is_here(&self, index: usize) -> bool {
+        !self.gone.get(index).copied().unwrap_or(false)
     }
 
     /// Its name.
@@ -229,10 +305,11 @@ impl World {
             .map(|&(_, open)| open)
     }
 
-    /// Whether a primitive is there now (a door's panel is not while the door is open).
+    /// Whether a primitive is there now (a door's panel is not while the door is open, nor
+    /// a person who left).
     #[must_use]
     pub fn is_present(&self, primitive: &Primitive) -> bool {
-        primitive.door.is_none_or(|d| !self.doors[d].1)
+        primitive.door.is_none_or(|d| !self.doors[d].1) && !self.gone[primitive.object]
     }
 
     /// The nearest surface along the ray from `origin` in the unit direction `dir`, within

@@ -65,7 +65,8 @@ impl Rgb {
     }
 }
 
-/// Which way the arrow on a sign points, as someone facing the sign sees it.
+/// Which way the arrow on a sign points, as someone facing the sign sees it; or the
+/// registration desk's own sign, which points nowhere.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ArrowDirection {
     /// To the viewer's left: turn left.
@@ -76,6 +77,8 @@ pub enum ArrowDirection {
     Up,
     /// Downwards: back, or here.
     Down,
+    /// No arrow but a filled black disc: the registration desk is here.
+    Desk,
 }
 
 impl ArrowDirection {
@@ -87,19 +90,20 @@ impl ArrowDirection {
             Self::Right => "right",
             Self::Up => "up",
             Self::Down => "down",
+            Self::Desk => "desk",
         }
     }
 
     /// Parses a name of [`ArrowDirection::name`].
     #[must_use]
     pub fn parse(text: &str) -> Option<Self> {
-        [Self::Left, Self::Right, Self::Up, Self::Down]
+        [Self::Left, Self::Right, Self::Up, Self::Down, Self::Desk]
             .into_iter()
             .find(|d| d.name() == text)
     }
 }
 
-/// A direction sign: a white board with a black arrow, facing one way.
+/// A direction sign: a white board with a black arrow (or the desk's disc), facing one way.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sign {
     /// Centre of the board, seen from above.
