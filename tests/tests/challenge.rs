@@ -1,0 +1,148 @@
+//! The Robot Challenge end to end, real processes, as the README's main job runs it:
+//! `lewis demo --seed 1 --no-gui` starts the simulated robot with the recorder and the
+//! sequencer on `robots/missions/challenge.seq`; after the door the laser is killed beyond
+//! its restart limit and the broker moves its clients to the sonar; the mission must still
+//! succeed through door, sign (at least twice), queue and register (`register` exits 0),
+//! within about 3 minutes of simulated time. The recording must read in independent
+//! readers, and a replay of it with a fault must give the same bytes whatever the output
+//! file is called.
+//!
+//! Its own test binary: the one live mission of CI, a closed loop in real time that should
+//! not share the machine with other end-to-end tests.
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stderr)]
+
+use std::path::Path;
+use std::process::Command;
+
+use lewis_interfaces::msg::Broker;
+use lewis_sequencer::replay::read_json_lines;
+use lewis_sequencer::verdict::Verdict;
+use lewis_tests::{doctor, lewis_exe, python_tool, repo_root, run_ok};
+
+/// The mission's limit in simulated time, with the "about 3 minutes".
+const MISSION_LIMIT_S: f64 = 200.0;
+
+#[test]
+fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let namespace = lewis_runtime::ipc::Namespace::unique("challenge");
+    let run = Command::new(lewis_exe())
+        .current_dir(repo_root())
+        .args(["demo", "--seed", "1", "--no-gui", "--out"])
+        .arg(&out)
+        .args(["--namespace", namespace.as_str()])
+        .output()
+        .expect("lewis demo runs");
+    let printed = format!(
+        "{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        run.status.success(),
+        "lewis demo exited with {}:\n{printed}",
+        run.status
+    );
+
+    // The mission, judged from its records: through door, sign (twice or more), queue and
+    // register, ending on register's exit 0.
+    let events = std::fs::File::open(out.join("events.jsonl")).expect("the demo writes its events");
+    let records = read_json_lines(std::io::BufReader::new(events)).unwrap();
+    let verdict = Verdict::of(&records);
+    assert!(verdict.succeeded, "{}\n{printed}", verdict.reason);
+    let states: Vec<&str> = verdict
+        .states_visited
+        .iter()
+        .map(|v| v.state.as_str())
+        .collect();
+    assert_eq!(states.first(), Some(&"door"), "{states:?}");
+    assert!(
+        states.iter().filter(|s| **s == "sign").count() >= 2,
+        "the mission follows at least two signs: {states:?}"
+    );
+    assert!(states.contains(&"queue"), "{states:?}");
+    assert_eq!(states.last(), Some(&"register"), "{states:?}");
+    assert!(
+        verdict.states_visited.last().unwrap().left_by.as_deref()
+            == Some("transition register -> stop on 0"),
+        "{:?}",
+        verdict.states_visited.last()
+    );
+    let first = verdict.states_visited.first().unwrap().started_ns;
+    let last = verdict.states_visited.last().unwrap().ended_ns.unwrap();
+    let seconds = (last - first) as f64 / 1e9;
+    assert!(
+        seconds <= MISSION_LIMIT_S,
+        "the mission took {seconds:.0} s (limit {MISSION_LIMIT_S} s)"
+    );
+
+    // The laser's failure and the rebinding to the sonar are in the recording.
+    let run_mcap = out.join("run.mcap");
+    let decisions = broker_decisions(&run_mcap);
+    assert!(
+        decisions
+            .iter()
+            .any(|d| d.action == "service-failed" && d.service == "laser"),
+        "the laser fails for good: {:?}",
+        decisions
+            .iter()
+            .map(|d| (&d.action, &d.service))
+            .collect::<Vec<_>>()
+    );
+    assert!(
+        decisions.iter().any(|d| d.action == "rebind"
+            && d.client == "obstacle_avoider"
+            && d.interface == "RangeFinder"
+            && d.from_service == "laser"
+            && d.to_service == "sonar"),
+        "the obstacle_avoider is moved to the sonar"
+    );
+
+    // Independent readers: pymcap-cli doctor (and rerun's check), mcap-ros2-support.
+    doctor(&run_mcap);
+    let decoded = run_ok(
+        python_tool("python")
+            .arg(repo_root().join("tests/python/decode_all.py"))
+            .arg(&run_mcap),
+    );
+    assert!(decoded.contains("/lewis/sequencer "), "{decoded}");
+
+    // A replay with a fault gives the same bytes twice, whatever its output is called.
+    let replay = |name: &str| {
+        let path = dir.path().join(name);
+        let status = Command::new(lewis_exe())
+            .arg("replay")
+            .arg(&run_mcap)
+            .args(["--inject-fault", "laser@40s", "-o"])
+            .arg(&path)
+            .output()
+            .expect("lewis replay runs");
+        assert!(
+            status.status.success(),
+            "lewis replay: {}",
+            String::from_utf8_lossy(&status.stderr)
+        );
+        std::fs::read(path).unwrap()
+    };
+    let a = replay("first.mcap");
+    let b = replay("second-with-another-name.mcap");
+    assert!(
+        a == b,
+        "two replays of the same recording with the same fault differ"
+    );
+}
+
+/// Every decision on `/lewis/broker` in a recording.
+fn broker_decisions(path: &Path) -> Vec<Broker> {
+    let bytes = std::fs::read(path).unwrap();
+    let mut decisions = Vec::new();
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        let message = message.unwrap();
+        if message.channel.topic == "/lewis/broker" {
+            decisions.push(lewis_interfaces::cdr::from_bytes(&message.data).unwrap());
+        }
+    }
+    decisions
+}
