@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 use lewis_runtime::logs::Verbosity;
 
 mod bench;
+mod demo;
 mod fake_device;
 mod fault;
 mod goal;
@@ -80,6 +81,8 @@ pub enum Command {
     Play(play::PlayArgs),
     /// Start the broker and a robot's services; run until Ctrl-C or --duration.
     Up(up::UpArgs),
+    /// The Robot Challenge on the simulated robot: a fault, the verdict, a replay.
+    Demo(demo::DemoArgs),
     /// Run one service of a robot in this process (what `lewis up` starts).
     Service(service::ServiceArgs),
     /// Show the broker's services, health, restarts and bindings.
@@ -117,7 +120,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     };
     if matches!(
         cli.command,
-        Command::Up(_) | Command::Service(_) | Command::Record(_) | Command::StressPublish(_)
+        Command::Up(_)
+            | Command::Demo(_)
+            | Command::Service(_)
+            | Command::Record(_)
+            | Command::StressPublish(_)
     ) {
         lewis_runtime::logs::init(verbosity);
     }
@@ -131,6 +138,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Play(args) => play::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Service(args) => service::run(&args),
         Command::Status(args) => status::run(&args),
         #[cfg(feature = "viewer")]
