@@ -11,6 +11,7 @@ use lewis_runtime::logs::Verbosity;
 
 mod app;
 mod bench;
+mod demo;
 mod fake_device;
 mod fault;
 mod goal;
@@ -84,6 +85,8 @@ pub enum Command {
     /// Run one of the Robot Challenge's sub-task programs until it finishes (what the
     /// mission's states start); exits with its code.
     App(app::AppArgs),
+    /// The Robot Challenge on the simulated robot: a fault, the verdict, a replay.
+    Demo(demo::DemoArgs),
     /// Run one service of a robot in this process (what `lewis up` starts).
     Service(service::ServiceArgs),
     /// Show the broker's services, health, restarts and bindings.
@@ -124,6 +127,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Up(_)
             | Command::Service(_)
             | Command::App(_)
+            | Command::Demo(_)
             | Command::Record(_)
             | Command::StressPublish(_)
     ) {
@@ -140,6 +144,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),
         Command::App(args) => app::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Service(args) => service::run(&args),
         Command::Status(args) => status::run(&args),
         #[cfg(feature = "viewer")]

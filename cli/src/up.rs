@@ -49,7 +49,7 @@ pub struct UpArgs {
     #[command(flatten)]
     pub goal: crate::goal::GoalArgs,
     /// Run this mission script once the broker is up; `lewis up` ends with the mission: exit
-    /// 0 when it reaches `stop`, 1 when it fails.
+    /// 0 when it reaches `stop` other than through recovery, 1 when it fails.
     #[arg(long, value_name = "MISSION.seq")]
     pub script: Option<PathBuf>,
     /// How the supervisor is asked and where the records go.

@@ -6,3 +6,491 @@
 //! It owns the demo's story: which robot and script, when the fault strikes, what is
 //! written where and what is printed. It decides nothing of a run itself: the launch runs
 //! the robot, the sequencer judges the mission, replay re-simulates it.
+
+pub mod fault;
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+use lewis_launch::{Launch, LaunchError, LaunchOptions, MissionPlan};
+use lewis_replay::fault::FaultSpec;
+use lewis_replay::recording::RecordingFiles;
+use lewis_replay::report::Report;
+use lewis_replay::resim::{ReplayOptions, replay};
+use lewis_runtime::broker::live::UpOptions;
+use lewis_runtime::ipc::Namespace;
+use lewis_runtime::live::ClockSource;
+use lewis_runtime::robot::{self, Known, Robot};
+use lewis_runtime::service::ServiceRegistry;
+use lewis_sequencer::session::{MissionReport, SessionOptions, load_mission};
+use lewis_sequencer::{Verdict, Visit};
+
+pub use fault::{FaultLog, LiveFault, Strike};
+
+/// The robot the demo runs, from the repository's root.
+pub const ROBOT: &str = "robots/sim.toml";
+
+/// The mission it runs, from the repository's root.
+pub const SCRIPT: &str = "robots/missions/challenge.seq";
+
+/// Where it writes by default.
+pub const OUT_DIR: &str = "logs/demo";
+
+/// What to run and where to write.
+#[derive(Debug, Clone)]
+pub struct DemoOptions {
+    /// The robot file (`robots/sim.toml`).
+    pub robot: PathBuf,
+    /// The mission script (`robots/missions/challenge.seq`).
+    pub script: PathBuf,
+    /// The seed of the simulated devices (`seed` of every `sim-*` service: this one for
+    /// the first, one more for each next); `None`: the robot file's own.
+    pub seed: Option<u64>,
+    /// No supervisor's page (the mission is then unattended unless a terminal answers).
+    pub no_gui: bool,
+    /// Where the supervisor's page is served.
+    pub gui_addr: SocketAddr,
+    /// The output folder.
+    pub out: PathBuf,
+    /// The live fault (default: the laser crashes beyond its restart limit after the first
+    /// state).
+    pub fault: LiveFault,
+    /// The IPC namespace.
+    pub namespace: Namespace,
+    /// The `lewis` binary (for the services, the recorder and the programs).
+    pub lewis_exe: PathBuf,
+    /// The kinds that replay feeds from the recording (`lewis_services::SOURCE_KINDS`).
+    pub source_kinds: BTreeSet<String>,
+}
+
+/// The files a demo writes, in its output folder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DemoFiles {
+    /// The live recording.
+    pub run: PathBuf,
+    /// The mission's records as JSON lines.
+    pub events: PathBuf,
+    /// The re-simulated recording.
+    pub replay: PathBuf,
+    /// The replay's report as JSON.
+    pub replay_report: PathBuf,
+    /// The Rerun file (written by the caller when it has the viewer).
+    pub rrd: PathBuf,
+    /// The robot file with the seed given, when one was.
+    pub robot: Option<PathBuf>,
+}
+
+impl DemoFiles {
+    fn in_dir(out: &Path) -> Self {
+        Self {
+            run: out.join("run.mcap"),
+            events: out.join("events.jsonl"),
+            replay: out.join("replay.mcap"),
+            replay_report: out.join("replay.json"),
+            rrd: out.join("run.rrd"),
+            robot: None,
+        }
+    }
+}
+
+/// How a demo went.
+#[derive(Debug)]
+pub struct DemoReport {
+    /// How the mission ended, and its verdict.
+    pub mission: MissionReport,
+    /// What the live fault did.
+    pub fault: FaultLog,
+    /// The replay's report, or why there is none.
+    pub replay: Result<Report, String>,
+    /// The replay's fault, as given to it.
+    pub replay_fault: String,
+    /// The files written.
+    pub files: DemoFiles,
+}
+
+impl DemoReport {
+    /// Whether the mission succeeded (the verdict).
+    #[must_use]
+    pub fn succeeded(&self) -> bool {
+        self.mission.succeeded()
+    }
+
+    /// A few lines for people: what happened and where the files are.
+    #[must_use]
+    pub fn summary(&self) -> String {
+        let verdict = &self.mission.verdict;
+        let mut s = String::new();
+        let _ = writeln!(s, "{verdict}");
+        let route: Vec<&str> = verdict
+            .states_visited
+            .iter()
+            .map(|v| v.state.as_str())
+            .collect();
+        let _ = writeln!(
+            s,
+            "states: {}",
+            if route.is_empty() {
+                "none".to_owned()
+            } else {
+                route.join(" -> ")
+            }
+        );
+        let _ = writeln!(s, "live fault: {}", self.fault_line());
+        match &self.replay {
+            Ok(report) => {
+                let takeovers: Vec<String> = report
+                    .faults
+                    .iter()
+                    .flat_map(|f| &f.takeovers)
+                    .map(|t| {
+                        format!(
+                            "{} {} -> {} after {:.1}s",
+                            t.client,
+                            t.interface,
+                            t.provider,
+                            secs(t.latency_ns)
+                        )
+                    })
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "replay with {}: {}",
+                    self.replay_fault,
+                    if takeovers.is_empty() {
+                        "no client was moved".to_owned()
+                    } else {
+                        takeovers.join(", ")
+                    }
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(s, "replay with {}: failed: {e}", self.replay_fault);
+            }
+        }
+        let files = &self.files;
+        let _ = writeln!(
+            s,
+            "files: {} (recording), {} (mission records), {} and {} (replay)",
+            files.run.display(),
+            files.events.display(),
+            files.replay.display(),
+            files.replay_report.display()
+        );
+        s
+    }
+
+    fn fault_line(&self) -> String {
+        let f = &self.fault;
+        if let Some(error) = &f.error {
+            return format!("could not strike: {error}");
+        }
+        if f.struck_ns.is_none() {
+            return "did not strike (the mission ended first)".to_owned();
+        }
+        let mut line = String::new();
+        if !f.killed.is_empty() {
+            let _ = write!(line, "{} process(es) killed", f.killed.len());
+        } else {
+            line.push_str("struck");
+        }
+        if f.failed_ns.is_some() {
+            line.push_str(", given up by the broker");
+        }
+        if f.rebinds.is_empty() {
+            line.push_str("; no client moved");
+        } else {
+            let _ = write!(line, "; moved: {}", f.rebinds.join(", "));
+        }
+        line
+    }
+}
+
+/// Why the demo could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    /// Not in the repository's root.
+    #[error(
+        "{} not found: run `lewis demo` from the root of the Lewis repository (where robots/ is)",
+        path.display()
+    )]
+    NotInRepository {
+        /// The file missing.
+        path: PathBuf,
+    },
+    /// The robot file is not valid (or the seed could not be set).
+    #[error("{0}")]
+    Robot(String),
+    /// The output folder or a file in it cannot be written.
+    #[error("cannot write {}: {source}", path.display())]
+    Write {
+        /// The file or folder.
+        path: PathBuf,
+        /// What the system said.
+        source: std::io::Error,
+    },
+    /// The mission script has errors.
+    #[error(transparent)]
+    Script(#[from] lewis_sequencer::session::SessionError),
+    /// The robot could not run.
+    #[error(transparent)]
+    Launch(#[from] LaunchError),
+    /// The fault thread could not start.
+    #[error("cannot watch the robot for the fault: {0}")]
+    Fault(#[source] std::io::Error),
+    /// The robot ran without a mission report (a bug of the launch).
+    #[error("the launch ended without the mission's report")]
+    NoMission,
+}
+
+/// Runs the demo: the robot and the mission with the recorder and the live fault, then the
+/// replay with a fault in the middle of the `sign` states (half-way when there were none).
+/// The files of an earlier demo in the same folder are replaced.
+/// `registry` builds the services in the replay and checks the robot's kinds.
+///
+/// # Errors
+/// When the robot or the mission cannot run; a failed mission or replay is in the report.
+pub fn run_demo(
+    options: &DemoOptions,
+    registry: &ServiceRegistry,
+) -> Result<DemoReport, DemoError> {
+    for path in [&options.robot, &options.script] {
+        if !path.exists() {
+            return Err(DemoError::NotInRepository { path: path.clone() });
+        }
+    }
+    std::fs::create_dir_all(&options.out).map_err(|source| DemoError::Write {
+        path: options.out.clone(),
+        source,
+    })?;
+    let mut files = DemoFiles::in_dir(&options.out);
+    // The demo's own files from an earlier run: the recorder never replaces a recording.
+    for old in [
+        &files.run,
+        &files.events,
+        &files.replay,
+        &files.replay_report,
+        &files.rrd,
+    ] {
+        match std::fs::remove_file(old) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(source) => {
+                return Err(DemoError::Write {
+                    path: old.clone(),
+                    source,
+                });
+            }
+        }
+    }
+    let robot_path = match options.seed {
+        Some(seed) => {
+            let text = std::fs::read_to_string(&options.robot).map_err(|e| {
+                DemoError::Robot(format!("cannot read {}: {e}", options.robot.display()))
+            })?;
+            let seeded = with_seed(&text, seed).map_err(DemoError::Robot)?;
+            let file_name = options
+                .robot
+                .file_name()
+                .map_or_else(|| PathBuf::from("robot.toml"), PathBuf::from);
+            let path = options.out.join(file_name);
+            std::fs::write(&path, seeded).map_err(|source| DemoError::Write {
+                path: path.clone(),
+                source,
+            })?;
+            files.robot = Some(path.clone());
+            path
+        }
+        None => options.robot.clone(),
+    };
+    // Services get an absolute path: they may run in another directory.
+    let robot_path = std::path::absolute(&robot_path).map_err(|source| DemoError::Write {
+        path: robot_path.clone(),
+        source,
+    })?;
+    let robot = load_robot(&robot_path, registry)?;
+    let mission = load_mission(&options.script)?;
+
+    let fault = fault::FaultThread::start(&options.namespace, options.fault.clone())
+        .map_err(DemoError::Fault)?;
+    let launch_options = LaunchOptions {
+        up: UpOptions {
+            robot_path,
+            namespace: options.namespace.clone(),
+            lewis_exe: options.lewis_exe.clone(),
+            duration: None,
+            stop_grace: lewis_runtime::supervise::DEFAULT_STOP_GRACE,
+            clock: ClockSource::Wall,
+        },
+        record: Some(Some(files.run.clone())),
+        goal: None,
+        mission: Some(MissionPlan {
+            script: options.script.clone(),
+            mission,
+            options: SessionOptions {
+                no_gui: options.no_gui,
+                gui_addr: options.gui_addr,
+                events: Some(files.events.clone()),
+                echo: false,
+            },
+        }),
+    };
+    let launched = Launch::new(robot, launch_options).and_then(Launch::run);
+    let fault = fault.finish();
+    let mission = launched?.mission.ok_or(DemoError::NoMission)?;
+
+    let replay_fault = replay_fault(&options.fault.provider, &mission.verdict, &files.run);
+    let replayed = re_simulate(options, registry, &files, &replay_fault);
+    Ok(DemoReport {
+        mission,
+        fault,
+        replay: replayed,
+        replay_fault,
+        files,
+    })
+}
+
+/// The robot at `path`, checked against the kinds of `registry`.
+fn load_robot(path: &Path, registry: &ServiceRegistry) -> Result<Robot, DemoError> {
+    let interfaces = lewis_interfaces::interface_names();
+    let known = Known {
+        interfaces: &interfaces,
+        kinds: Some(registry),
+    };
+    robot::load_checked(path, known).map_err(|e| DemoError::Robot(e.to_string()))
+}
+
+/// The robot description `text` with `seed` of every `sim-*` service set: `seed` for the
+/// first, `seed + 1` for the next, and so on, so that no two devices draw the same noise.
+///
+/// # Errors
+/// When the text is not TOML.
+pub fn with_seed(text: &str, seed: u64) -> Result<String, String> {
+    let mut table: toml::Table = text.parse().map_err(|e| format!("{e}"))?;
+    let mut next = i64::try_from(seed).map_err(|_| format!("--seed {seed} is too large"))?;
+    if let Some(toml::Value::Array(services)) = table.get_mut("services") {
+        for service in services {
+            let Some(service) = service.as_table_mut() else {
+                continue;
+            };
+            let simulated = service
+                .get("kind")
+                .and_then(toml::Value::as_str)
+                .is_some_and(|kind| kind.starts_with("sim-"));
+            if !simulated {
+                continue;
+            }
+            let parameters = service
+                .entry("parameters")
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if let Some(parameters) = parameters.as_table_mut() {
+                parameters.insert("seed".to_owned(), toml::Value::Integer(next));
+                next = next.saturating_add(1);
+            }
+        }
+    }
+    toml::to_string(&table).map_err(|e| format!("{e}"))
+}
+
+/// The replay's fault: `PROVIDER@T` with T the middle of the `sign` visits (from the
+/// recording's start), or `PROVIDER` (half-way) when the mission never got there.
+fn replay_fault(provider: &str, verdict: &Verdict, recording: &Path) -> String {
+    let signs: Vec<&Visit> = verdict.visits_of("sign").collect();
+    let (Some(first), Some(last)) = (signs.first(), signs.last()) else {
+        return provider.to_owned();
+    };
+    let end = last.ended_ns.unwrap_or(last.started_ns);
+    let middle_ns = first.started_ns + (end - first.started_ns) / 2;
+    match RecordingFiles::open(&[recording.to_path_buf()]) {
+        Ok(files) if middle_ns > files.start_ns() => {
+            format!(
+                "{provider}@{}ms",
+                (middle_ns - files.start_ns()) / 1_000_000
+            )
+        }
+        _ => provider.to_owned(),
+    }
+}
+
+/// Re-simulates the recording with `fault` (open loop: the recorded sensors, the services
+/// that depend on them re-run) and writes its report as JSON.
+fn re_simulate(
+    options: &DemoOptions,
+    registry: &ServiceRegistry,
+    files: &DemoFiles,
+    fault: &str,
+) -> Result<Report, String> {
+    let spec: FaultSpec = fault.parse().map_err(|e| format!("{e}"))?;
+    let mut replay_options = ReplayOptions::new(vec![files.run.clone()]);
+    replay_options.output = Some(files.replay.clone());
+    replay_options.faults = vec![spec];
+    replay_options
+        .source_kinds
+        .clone_from(&options.source_kinds);
+    let report = replay(&replay_options, registry, &mut |_| {}).map_err(|e| format!("{e}"))?;
+    let json = serde_json::to_string_pretty(&report).map_err(|e| format!("{e}"))?;
+    std::fs::write(&files.replay_report, json + "\n").map_err(|e| {
+        format!(
+            "cannot write the report to {}: {e}",
+            files.replay_report.display()
+        )
+    })?;
+    Ok(report)
+}
+
+// For display only.
+#[allow(clippy::cast_precision_loss)]
+fn secs(ns: i64) -> f64 {
+    ns as f64 / 1e9
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_seed_goes_to_every_simulated_device_and_nothing_else() {
+        let text = "[robot]\nname = \"r\"\n\n\
+            [[services]]\nname = \"base\"\nkind = \"sim-base\"\n[services.parameters]\nseed = 1\nworld = \"w\"\n\n\
+            [[services]]\nname = \"avoider\"\nkind = \"obstacle_avoider\"\n[services.parameters]\nseed = 9\n\n\
+            [[services]]\nname = \"laser\"\nkind = \"sim-laser\"\n";
+        let seeded: toml::Table = with_seed(text, 7).unwrap().parse().unwrap();
+        let seeds: Vec<Option<i64>> = seeded["services"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| {
+                s.get("parameters")
+                    .and_then(|p| p.get("seed"))
+                    .and_then(toml::Value::as_integer)
+            })
+            .collect();
+        assert_eq!(seeds, [Some(7), Some(9), Some(8)]);
+        assert_eq!(
+            seeded["services"][0]["parameters"]["world"].as_str(),
+            Some("w")
+        );
+    }
+
+    #[test]
+    fn garbage_and_windows_are_refused_live() {
+        let spec = |text: &str| text.parse::<FaultSpec>().unwrap();
+        assert!(LiveFault::from_spec(&spec("laser@1s:garbage")).is_err());
+        assert!(LiveFault::from_spec(&spec("laser@1s-2s:stall")).is_err());
+        assert_eq!(
+            LiveFault::from_spec(&spec("sonar@2s:crash")),
+            Ok(LiveFault {
+                provider: "sonar".to_owned(),
+                kind: lewis_replay::fault::FaultKind::Crash,
+                strike: Strike::At {
+                    after_start_ns: 2_000_000_000
+                },
+            })
+        );
+        assert_eq!(
+            LiveFault::from_spec(&spec("laser:crash")),
+            Ok(LiveFault::laser_after_first_state())
+        );
+    }
+}

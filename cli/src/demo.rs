@@ -1,0 +1,129 @@
+//! `lewis demo`: the simulated robot on the Robot Challenge, a fault on the way, the
+//! recording re-simulated with another fault, and a few lines saying what happened
+//! (`lewis_demo`).
+
+use std::io::Write;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context as _;
+use clap::Args;
+use lewis_demo::{DemoOptions, LiveFault};
+use lewis_replay::fault::FaultSpec;
+use lewis_runtime::ipc::Namespace;
+
+/// Arguments of `lewis demo`.
+#[derive(Debug, Args)]
+#[command(
+    long_about = "Runs the simulated robot (robots/sim.toml) on the Robot Challenge mission \
+                  (robots/missions/challenge.seq) with the recorder on. When the first state \
+                  (`door`) is over, the laser is killed again after every restart until the \
+                  broker gives it up and moves its clients to the sonar. Then the mission's \
+                  verdict, a replay of the recording with the laser stalled in the middle of \
+                  the `sign` states, and the files written. Run it from the repository's root. \
+                  Exits 0 when the mission succeeded, 1 when it failed."
+)]
+pub struct DemoArgs {
+    /// The seed of the simulated devices (their noise, the people's timing).
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
+    /// Do not serve the supervisor's page: nobody is asked after recovery.
+    #[arg(long)]
+    pub no_gui: bool,
+    /// The output folder: run.mcap, events.jsonl, replay.mcap, replay.json, run.rrd.
+    #[arg(long, value_name = "DIR", default_value = lewis_demo::OUT_DIR)]
+    pub out: PathBuf,
+    /// Another live fault, in the `lewis replay --inject-fault` grammar with the time from
+    /// the mission's start (`sonar@20s:crash`, `laser@30s:stall`; without a time, when the
+    /// first state is over); `garbage` only exists in a replay.
+    #[arg(long, value_name = "SPEC", value_parser = parse_fault)]
+    pub fault: Option<FaultSpec>,
+    /// The supervisor page's port (0 picks a free one).
+    #[arg(long, default_value_t = 8042)]
+    pub gui_port: u16,
+    /// The IPC namespace (default: `LEWIS_NAMESPACE`, else `default`).
+    #[arg(long)]
+    pub namespace: Option<String>,
+    /// Another mission script (for tests of the demo itself).
+    #[arg(long, hide = true, default_value = lewis_demo::SCRIPT)]
+    pub script: PathBuf,
+    /// Another robot file (for tests of the demo itself).
+    #[arg(long, hide = true, default_value = lewis_demo::ROBOT)]
+    pub robot: PathBuf,
+}
+
+fn parse_fault(text: &str) -> Result<FaultSpec, String> {
+    text.parse()
+        .map_err(|e: lewis_replay::fault::FaultError| e.to_string())
+}
+
+/// Runs `lewis demo`: exit 0 when the mission succeeded, 1 when it failed.
+pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    let fault = match &args.fault {
+        Some(spec) => LiveFault::from_spec(spec).map_err(anyhow::Error::msg)?,
+        None => LiveFault::laser_after_first_state(),
+    };
+    let options = DemoOptions {
+        robot: args.robot.clone(),
+        script: args.script.clone(),
+        seed: args.seed,
+        no_gui: args.no_gui,
+        gui_addr: SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), args.gui_port),
+        out: args.out.clone(),
+        fault,
+        namespace: Namespace::from_arg(args.namespace.as_deref())?,
+        lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
+        source_kinds: crate::replay::source_kinds(),
+    };
+    let report = lewis_demo::run_demo(&options, &crate::service::registry())?;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{}", report.mission.outcome)?;
+    if let Ok(replayed) = &report.replay {
+        writeln!(out, "\n{replayed}")?;
+    }
+    writeln!(out)?;
+    write!(out, "{}", report.summary())?;
+    write_rrd(&report.files.run, &report.files.rrd, &mut out)?;
+    Ok(if report.succeeded() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The recording as a Rerun file, when this binary has the viewer.
+#[cfg(feature = "viewer")]
+fn write_rrd(
+    run: &std::path::Path,
+    rrd: &std::path::Path,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    let options = lewis_viewer::ViewOptions {
+        target: lewis_viewer::Target::Save(rrd.to_path_buf()),
+        progress: false,
+    };
+    match lewis_viewer::view(&[run.to_path_buf()], &options) {
+        Ok(_) => writeln!(
+            out,
+            "rerun: {} (open with `rerun {}`)",
+            rrd.display(),
+            rrd.display()
+        )?,
+        Err(e) => writeln!(out, "rerun: no file ({e})")?,
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "viewer"))]
+fn write_rrd(
+    _run: &std::path::Path,
+    _rrd: &std::path::Path,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    writeln!(
+        out,
+        "rerun: no file (this lewis is built without the viewer)"
+    )?;
+    Ok(())
+}

@@ -1,0 +1,125 @@
+//! The demo's mechanics without the challenge's programs: the simulated robot of
+//! `robots/sim.toml` (paths made absolute: the test runs in `demo/`) on a two-state script
+//! of `/bin/sleep`s. When the first state is over, the fault thread kills the laser after
+//! every restart until the broker gives it up and moves its RangeFinder client to the sonar
+//! (on `/lewis/broker` in the recording); the verdict, the replay and the files follow.
+
+// Test helpers fail the test by panicking, like the tests that call them.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::collections::BTreeSet;
+use std::net::{Ipv4Addr, SocketAddr};
+use std::path::{Path, PathBuf};
+
+use lewis_demo::{DemoOptions, LiveFault, run_demo};
+use lewis_interfaces::cdr;
+use lewis_interfaces::msg::Broker;
+use lewis_runtime::ipc::Namespace;
+use lewis_tests::{lewis_exe, repo_root};
+
+/// Door, then a sign state, then `stop`: long enough for the laser's three deaths.
+const SCRIPT: &str = "\
+start door
+restart 3
+recovery oops
+
+state door /bin/sleep 3
+  action 0 trans sign
+
+state sign /bin/sleep 6
+  action 0 trans stop
+
+state oops /bin/true
+  action 0 trans stop
+";
+
+fn robot_with_absolute_paths(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
+    let text = text.replace(
+        "= \"robots/",
+        &format!("= \"{}/robots/", repo_root().display()),
+    );
+    let path = dir.join("sim.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn broker_decisions(recording: &Path) -> Vec<Broker> {
+    let bytes = std::fs::read(recording).unwrap();
+    mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/lewis/broker")
+        .map(|m| cdr::from_bytes::<Broker>(&m.data).unwrap())
+        .collect()
+}
+
+#[test]
+fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("mission.seq");
+    std::fs::write(&script, SCRIPT).unwrap();
+    let options = DemoOptions {
+        robot: robot_with_absolute_paths(dir.path()),
+        script,
+        seed: Some(3),
+        no_gui: true,
+        gui_addr: SocketAddr::from((Ipv4Addr::LOCALHOST, 0)),
+        out: dir.path().join("out"),
+        fault: LiveFault::laser_after_first_state(),
+        namespace: Namespace::unique("demo-mechanics"),
+        lewis_exe: lewis_exe(),
+        source_kinds: lewis_services::SOURCE_KINDS
+            .iter()
+            .map(|k| (*k).to_owned())
+            .collect::<BTreeSet<_>>(),
+    };
+    let report = run_demo(&options, &lewis_services::registry()).unwrap();
+    let summary = report.summary();
+
+    assert!(report.succeeded(), "{summary}");
+    let fault = &report.fault;
+    assert!(fault.killed.len() >= 3, "{fault:?}\n{summary}");
+    assert!(fault.failed_ns.is_some(), "{fault:?}\n{summary}");
+    // Struck once `door` was over, not before.
+    let door = &report.mission.verdict.states_visited[0];
+    assert_eq!(door.state, "door");
+    assert!(fault.struck_ns >= door.ended_ns, "{fault:?}\n{summary}");
+    assert!(
+        fault
+            .rebinds
+            .iter()
+            .any(|r| r.ends_with("RangeFinder: laser -> sonar")),
+        "{fault:?}\n{summary}"
+    );
+
+    let files = &report.files;
+    for file in [
+        &files.run,
+        &files.events,
+        &files.replay,
+        &files.replay_report,
+    ] {
+        assert!(file.is_file(), "{} is missing\n{summary}", file.display());
+    }
+    let seeded = std::fs::read_to_string(files.robot.as_ref().unwrap()).unwrap();
+    assert!(seeded.contains("seed = 3"), "{seeded}");
+
+    let decisions = broker_decisions(&files.run);
+    assert!(
+        decisions
+            .iter()
+            .any(|d| d.action == "service-failed" && d.service == "laser"),
+        "{decisions:#?}"
+    );
+    assert!(
+        decisions.iter().any(|d| d.action == "rebind"
+            && d.interface == "RangeFinder"
+            && d.from_service == "laser"
+            && d.to_service == "sonar"),
+        "{decisions:#?}"
+    );
+    assert!(report.replay.is_ok(), "{summary}");
+    assert!(summary.contains("mission succeeded"), "{summary}");
+    assert!(summary.contains("moved: "), "{summary}");
+}
