@@ -359,6 +359,25 @@ impl RawClient {
         let _ = self.broker.call(&frame, names::BROKER_CALL_TIMEOUT);
     }
 
+    /// [`RawClient::release`], waiting (at most `timeout`) until the broker has heard it.
+    ///
+    /// For a process that is about to exit while the broker runs on (a finished sub-task
+    /// program): a request still in flight when the process exits is dropped with its port,
+    /// and the broker would then sweep the client as one that died without a release. A
+    /// service stopped by the broker must not wait: the broker is busy stopping it.
+    pub fn release_and_wait(&mut self, timeout: Duration) {
+        if self.released {
+            return;
+        }
+        self.released = true;
+        let message = BrokerRelease {
+            client: self.client.clone(),
+            ..BrokerRelease::default()
+        };
+        // Best effort: a broker that is gone needs no goodbye.
+        let _ = call_blocking(&mut self.broker, &message, timeout);
+    }
+
     fn send_request(&mut self) {
         self.retry_at = None;
         let message = BrokerRequest {

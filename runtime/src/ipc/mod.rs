@@ -103,6 +103,20 @@ pub enum IpcError {
     },
 }
 
+/// The environment variable that sets iceoryx2's own log level (`warn`, `info`, ...).
+pub const ICEORYX2_LOG_ENV: &str = "IOX2_LOG_LEVEL";
+
+/// Lets iceoryx2 say only errors, unless [`ICEORYX2_LOG_ENV`] asks for more: its warnings
+/// are its housekeeping (a dead node's resources cleaned up, the default configuration
+/// used), which Lewis expects and reports in its own words, and they would otherwise fill a
+/// person's terminal whenever a service is killed.
+fn quiet_iceoryx2() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        iceoryx2::prelude::set_log_level_from_env_or(iceoryx2::prelude::LogLevel::Error);
+    });
+}
+
 /// The IPC endpoint of one process (an iceoryx2 node) in one namespace: it makes publishers,
 /// subscribers, command servers and clients, and sees the other nodes of the namespace.
 #[derive(Debug)]
@@ -115,6 +129,7 @@ impl Ipc {
     /// Joins `namespace` as the node `node_name` (shown in node lists; the service's name is
     /// a good choice). Creating a node also removes what dead nodes of the namespace left.
     pub fn open(namespace: &Namespace, node_name: &str) -> Result<Self, IpcError> {
+        quiet_iceoryx2();
         let config = namespace.iceoryx2_config()?;
         let name = NodeName::new(node_name).map_err(|e| IpcError::InvalidName {
             kind: "node",

@@ -293,8 +293,19 @@ fn run_one(
         overruns,
     };
     harness.tick_period_ns = harness.service.tick_period_ns().filter(|ns| *ns > 0);
-    harness.run(&signals, heartbeat_period)
+    let finished = harness.run(&signals, heartbeat_period)?;
+    if finished.is_some() {
+        // A program that finished leaves while the broker runs on: it says goodbye and
+        // waits to be heard, so that its bindings end as released, not as a death.
+        for client in harness.backend.clients.values_mut() {
+            client.release_and_wait(PROGRAM_RELEASE_TIMEOUT);
+        }
+    }
+    Ok(finished)
 }
+
+/// How long a finished program waits for the broker to hear each release.
+const PROGRAM_RELEASE_TIMEOUT: Duration = Duration::from_millis(500);
 
 struct Harness<'s> {
     service: &'s mut dyn Service,
