@@ -7,5 +7,7 @@
 
 mod door;
 mod failsafe;
+mod queue;
+mod recovery;
 mod sign;
 mod support;
