@@ -50,6 +50,7 @@ pub const SOURCE_KINDS: &[&str] = &[
     lewis_sim::service::laser::KIND,
     lewis_sim::service::sonar::KIND,
     lewis_sim::service::camera::KIND,
+    lewis_sim::service::speech::KIND,
     lewis_drivers::service::sick::KIND,
     lewis_drivers::service::rflex::KIND,
     lewis_drivers::camera::KIND,

@@ -6,4 +6,5 @@ mod sim_devices;
 mod sim_properties;
 mod sim_scene;
 mod sim_services;
+mod sim_speech;
 mod sim_world;

@@ -1,7 +1,8 @@
 //! The simulated devices as services, each in its own process: `sim-base` owns the true
 //! pose and publishes it as GroundTruth; `sim-laser`, `sim-sonar` and `sim-camera` require
-//! GroundTruth and render the world from the latest true pose at their own rates. Killing
-//! one leaves the others running.
+//! GroundTruth and render the world from the latest true pose at their own rates;
+//! `sim-speech` is the robot's voice and the registrar who answers it. Killing one leaves
+//! the others running.
 //!
 //! Every kind loads the world from its `world` parameter (a folder holding `world.toml`
 //! and its map). A relative path is taken from the current directory of the process, which
@@ -21,6 +22,7 @@ pub mod base;
 pub mod camera;
 pub mod laser;
 pub mod sonar;
+pub mod speech;
 
 use std::path::Path;
 
@@ -36,13 +38,15 @@ pub use base::{BaseLimits, BaseParams, BatteryParams, BodyParams, OdometryParams
 pub use camera::{CameraParams, SimCameraService};
 pub use laser::{LaserParams, SimLaserService};
 pub use sonar::{SimSonarService, SonarParams};
+pub use speech::{SimSpeechService, SpeechParams};
 
-/// Registers `sim-base`, `sim-laser`, `sim-sonar` and `sim-camera`.
+/// Registers `sim-base`, `sim-laser`, `sim-sonar`, `sim-camera` and `sim-speech`.
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<BaseParams>(base::KIND, base::build);
     registry.register_with_parameters::<LaserParams>(laser::KIND, laser::build);
     registry.register_with_parameters::<SonarParams>(sonar::KIND, sonar::build);
     registry.register_with_parameters::<CameraParams>(camera::KIND, camera::build);
+    registry.register_with_parameters::<SpeechParams>(speech::KIND, speech::build);
 }
 
 /// A pose in the world frame, as robot files write it.
