@@ -9,5 +9,6 @@ mod door;
 mod failsafe;
 mod queue;
 mod recovery;
+mod register;
 mod sign;
 mod support;
