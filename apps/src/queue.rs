@@ -28,8 +28,9 @@ const HEAD_M: f64 = 1.0;
 /// The robot's centre stays this far behind the person ahead's nearest point, in m
 /// (0.8 m between them and the robot's radius).
 const BEHIND_M: f64 = 1.1;
-/// Scan points this near the queue's line are the queue, in m.
-const LINE_HALF_WIDTH_M: f64 = 0.6;
+/// Scan points this near the queue's line are the queue, in m: the desk's sign need not be
+/// right above the line the people stand on.
+const LINE_HALF_WIDTH_M: f64 = 1.3;
 /// Points nearer the desk than this along the line are the desk, in m.
 const DESK_DEPTH_M: f64 = 0.5;
 /// The queue is not longer than this, in m.

@@ -100,7 +100,7 @@ pub struct Recovery {
     cap: Option<Vec2>,
     /// The cap's latest bearing in the image.
     bearing: Option<f64>,
-    renewed_ns: i64,
+    renewed_ns: Option<i64>,
     ahead_clear: bool,
     exit: Option<i32>,
 }
@@ -118,7 +118,7 @@ impl Recovery {
             seen_ns: None,
             cap: None,
             bearing: None,
-            renewed_ns: i64::MIN,
+            renewed_ns: None,
             ahead_clear: true,
             exit: None,
         }
@@ -211,10 +211,10 @@ impl Recovery {
                     self.mover.stop(ctx);
                     return;
                 }
-                if now - self.renewed_ns < RENEW_NS {
+                if self.renewed_ns.is_some_and(|at| now - at < RENEW_NS) {
                     return;
                 }
-                self.renewed_ns = now;
+                self.renewed_ns = Some(now);
                 let here = pose.position();
                 if let Some(cap) = self.cap {
                     let gap = cap.distance(here);

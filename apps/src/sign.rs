@@ -208,20 +208,25 @@ pub fn heading_after(before: Vec2, sign: Vec2, arrow: ArrowWord) -> f64 {
     }
 }
 
-/// How far the line on along `heading` from `here` must move sideways to pass the sign at
-/// `sign` with room (a sign saying "straight on" stands in the way of straight on).
+/// The go-on goal from `here` along `heading` past the sign at `sign`: straight on, unless
+/// the sign stands in the way (a sign saying "straight on" does): then a point just past
+/// it on its other side, with room, so that the robot's path never crosses its board (which
+/// the range finder, below it, does not see).
 #[must_use]
-pub fn beside(here: Vec2, heading: f64, sign: Vec2) -> Vec2 {
+pub fn go_on_goal(here: Vec2, heading: f64, sign: Vec2) -> Vec2 {
     let dir = Vec2::from_angle(heading);
     let left = dir.perpendicular();
     let rel = sign - here;
     let (along, side) = (rel.dot(dir), rel.dot(left));
-    if along <= 0.0 || along > GO_ON_M + PASS_M || side.abs() >= PASS_M {
-        return Vec2::default();
+    if along <= -0.3 || along > GO_ON_M || side.abs() >= PASS_M {
+        return here + dir * GO_ON_M;
     }
     let away = if side > 0.0 { -1.0 } else { 1.0 };
-    left * (away * (PASS_M - side.abs()))
+    sign + left * (away * PASS_M) + dir * PASSED_M
 }
+
+/// How far past a sign in the way its side-step goal is, in m.
+const PASSED_M: f64 = 0.5;
 
 /// The room kept beside a sign's centre when going on past it, in m: half its board and the
 /// robot with a margin.
@@ -423,10 +428,12 @@ impl SignFollower {
             _ => true,
         };
         if renew {
-            let mut goal = here + Vec2::from_angle(heading) * GO_ON_M;
-            if let Phase::Turn { track, .. } | Phase::GoOn { track, .. } = self.phase {
-                goal = goal + beside(here, heading, self.book.track(track).position);
-            }
+            let goal = match self.phase {
+                Phase::Turn { track, .. } | Phase::GoOn { track, .. } => {
+                    go_on_goal(here, heading, self.book.track(track).position)
+                }
+                Phase::Look | Phase::Approach { .. } => here + Vec2::from_angle(heading) * GO_ON_M,
+            };
             self.mover.goto(ctx, goal);
         }
     }
@@ -496,14 +503,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn going_on_past_a_sign_keeps_room_beside_it() {
+    fn going_on_past_a_sign_in_the_way_steps_beside_it_first() {
         let here = Vec2::new(0.0, 0.0);
-        let shift = beside(here, 0.0, Vec2::new(1.3, 0.4));
-        assert!(shift.distance(Vec2::new(0.0, -1.0)) < 1e-9, "{shift:?}");
-        let shift = beside(here, 0.0, Vec2::new(1.3, -0.2));
-        assert!(shift.distance(Vec2::new(0.0, 1.2)) < 1e-9, "{shift:?}");
-        assert_eq!(beside(here, 0.0, Vec2::new(-1.0, 0.0)), Vec2::default());
-        assert_eq!(beside(here, 0.0, Vec2::new(2.0, 1.5)), Vec2::default());
+        // The sign ahead, a little to the left: a point past it on its right.
+        let goal = go_on_goal(here, 0.0, Vec2::new(1.3, 0.4));
+        assert!(goal.distance(Vec2::new(1.8, -1.0)) < 1e-9, "{goal:?}");
+        let goal = go_on_goal(here, 0.0, Vec2::new(1.3, -0.2));
+        assert!(goal.distance(Vec2::new(1.8, 1.2)) < 1e-9, "{goal:?}");
+        // Behind, or well to the side: straight on.
+        let straight = Vec2::new(GO_ON_M, 0.0);
+        assert_eq!(go_on_goal(here, 0.0, Vec2::new(-1.0, 0.0)), straight);
+        assert_eq!(go_on_goal(here, 0.0, Vec2::new(2.0, 1.5)), straight);
     }
 
     #[test]

@@ -7,5 +7,8 @@
 
 mod door;
 mod failsafe;
+mod queue;
+mod recovery;
+mod register;
 mod sign;
 mod support;

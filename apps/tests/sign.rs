@@ -43,9 +43,9 @@ fn sign_follower_reads_the_corridor_signs_and_turns_as_they_say() {
     // Just past the entrance door, facing east along the corridor.
     let robot = sim_robot((9.5, 12.5, 0.0), (320, 240));
     let mut scene = scene(&robot, SERVICES, "door", Box::new(Idle), &[]);
-    // The corridor's sign says straight on, the corner's left; the third visit (the hall's
-    // sign, then the desk's: exit 1) needs the desk sign in the world.
-    let expected = [("up", 0), ("left", 0)];
+    // The corridor's sign says straight on, the corner's left, the hall's left, and then
+    // the desk's sign is in sight (exit 1).
+    let expected = [("up", 0), ("left", 0), ("left", 1)];
     for (k, (arrow, code)) in expected.iter().enumerate() {
         let name = format!("sign-{}", k + 1);
         let (exit, said) = visit(&mut scene, &name, 70);
