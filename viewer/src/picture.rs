@@ -31,7 +31,7 @@ const BARE_MARGIN_M: f64 = 2.0;
 /// Poses closer than this to the last one drawn are skipped.
 const MIN_STEP_M: f64 = 0.02;
 /// Detections of one sign fall within this distance of each other.
-const SIGN_CLUSTER_M: f64 = 1.0;
+const SIGN_CLUSTER_M: f64 = 1.5;
 /// A sign seen fewer times is taken for noise.
 const SIGN_MIN_DETECTIONS: usize = 3;
 /// The path's colour before the mission starts (or without a mission).

@@ -40,6 +40,7 @@ const FAILOVER_ROWS: &[(&str, u64)] = &[
     ("/world/robot/path", 1),
     ("/world/odometry/pose", 20),
     ("/world/odometry/path", 1),
+    ("/world/mission/path", 1),
     ("/robot/body", 1),
     // 10 scans, then cleared a second after the last one: the laser is gone.
     ("/robot/scans/laser/RangeFinder", 11),

@@ -3,6 +3,7 @@
 //! | entity | what |
 //! |---|---|
 //! | `world/robot/pose`, `world/robot/path` | the true pose (GroundTruth) and its whole path |
+//! | `world/mission/path` | the true path again, coloured by the mission's state (the `status/sequencer` lane's colours), when the recording has a mission |
 //! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path, in the odometry frame (`world/odometry` places it in the world: where the odometry started on the true path) |
 //! | `world/scans/<topic>` | every RangeFinder's hits placed in the world with the pose above |
 //! | `world/map` | the simulated world's map, for all times, under everything else |
@@ -156,6 +157,8 @@ pub(crate) struct Scene {
     first_odometry: Option<Pose2D>,
     odometry_placed: bool,
     sequencer: sequencer::SequencerState,
+    /// The true path in pieces, each with the mission's state while it was driven.
+    mission_path: Vec<(String, Vec<Point>)>,
     faults: faults::FaultMarks,
     has_replay: bool,
     camera: camera::CameraState,
@@ -195,6 +198,7 @@ impl Scene {
             first_odometry: None,
             odometry_placed: false,
             sequencer: sequencer::SequencerState::default(),
+            mission_path: Vec::new(),
             faults: faults::FaultMarks::default(),
             has_replay: false,
             camera: camera::CameraState::default(),
@@ -340,6 +344,9 @@ impl Scene {
                 self.first_truth.get_or_insert_with(|| truth.pose.clone());
                 self.world_pose = Some(truth.pose.clone());
                 push_path(&mut self.truth_path, &truth.pose);
+                if let Some(state) = self.sequencer.current(Side::Recorded) {
+                    push_mission_path(&mut self.mission_path, state, &truth.pose);
+                }
                 scans::log_pose(
                     rows,
                     sink,
@@ -484,8 +491,51 @@ impl Scene {
                 )?;
             }
         }
+        if !self.mission_path.is_empty() {
+            let mut states: Vec<&str> = Vec::new();
+            let mut strips = Vec::new();
+            let mut colours = Vec::new();
+            for (state, points) in &self.mission_path {
+                let [r, g, b] = state_colour(state, &states);
+                if !states.contains(&state.as_str()) {
+                    states.push(state);
+                }
+                strips.push(points.iter().map(|p| p.to_f32()).collect::<Vec<[f32; 2]>>());
+                colours.push(Color::from_rgb(r, g, b));
+            }
+            self.rows.log_static(
+                sink,
+                &entity(["world", "mission", "path"]),
+                &LineStrips2D::new(strips)
+                    .with_colors(colours)
+                    .with_radii([0.05_f32]),
+            )?;
+        }
         lanes::configure(&mut self.rows, sink)?;
         self.rows.flush(sink)
+    }
+}
+
+/// Adds `pose` to the piece of the mission's path driven in `state`: a new piece (from the
+/// last point, so that the path stays whole) when the state changed.
+fn push_mission_path(pieces: &mut Vec<(String, Vec<Point>)>, state: &str, pose: &Pose2D) {
+    let point = Point::new(pose.x, pose.y);
+    if !point.is_finite() {
+        return;
+    }
+    match pieces.last_mut() {
+        Some((last_state, points)) if last_state == state => {
+            if points
+                .last()
+                .is_none_or(|last| last.distance(point) >= PATH_STEP_M)
+            {
+                points.push(point);
+            }
+        }
+        last => {
+            let start = last.and_then(|(_, points)| points.last().copied());
+            pieces.push((state.to_owned(), start.into_iter().chain([point]).collect()));
+        }
     }
 }
 

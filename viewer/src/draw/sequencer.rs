@@ -26,6 +26,11 @@ pub(super) struct SequencerState {
 }
 
 impl SequencerState {
+    /// The lane's value now on `side` (the mission's state), when a record set it.
+    pub(super) fn current(&self, side: Side) -> Option<&str> {
+        self.lane.get(&side).map(String::as_str)
+    }
+
     /// Draws one record.
     pub(super) fn record(
         &mut self,
