@@ -78,13 +78,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     };
     let report = lewis_demo::run_demo(&options, &crate::service::registry())?;
     let mut out = std::io::stdout().lock();
-    writeln!(out, "{}", report.mission.outcome)?;
-    if let Ok(replayed) = &report.replay {
-        writeln!(out, "\n{replayed}")?;
-    }
     writeln!(out)?;
     write!(out, "{}", report.summary())?;
-    write_rrd(&report.files.run, &report.files.rrd, &mut out)?;
+    write_pictures(&report.files, &mut out)?;
     Ok(if report.succeeded() {
         ExitCode::SUCCESS
     } else {
@@ -92,23 +88,23 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// The recording as a Rerun file, when this binary has the viewer.
+/// The run as a picture (PNG) and as a Rerun file, when this binary has the viewer.
 #[cfg(feature = "viewer")]
-fn write_rrd(
-    run: &std::path::Path,
-    rrd: &std::path::Path,
-    out: &mut dyn Write,
-) -> anyhow::Result<()> {
+fn write_pictures(files: &lewis_demo::DemoFiles, out: &mut dyn Write) -> anyhow::Result<()> {
+    match lewis_viewer::write_png(&files.run, &files.png) {
+        Ok(picture) => writeln!(out, "picture: {picture}")?,
+        Err(e) => writeln!(out, "picture: none ({e})")?,
+    }
     let options = lewis_viewer::ViewOptions {
-        target: lewis_viewer::Target::Save(rrd.to_path_buf()),
+        target: lewis_viewer::Target::Save(files.rrd.clone()),
         progress: false,
     };
-    match lewis_viewer::view(&[run.to_path_buf()], &options) {
+    match lewis_viewer::view(std::slice::from_ref(&files.run), &options) {
         Ok(_) => writeln!(
             out,
             "rerun: {} (open with `rerun {}`)",
-            rrd.display(),
-            rrd.display()
+            files.rrd.display(),
+            files.rrd.display()
         )?,
         Err(e) => writeln!(out, "rerun: no file ({e})")?,
     }
@@ -116,14 +112,10 @@ fn write_rrd(
 }
 
 #[cfg(not(feature = "viewer"))]
-fn write_rrd(
-    _run: &std::path::Path,
-    _rrd: &std::path::Path,
-    out: &mut dyn Write,
-) -> anyhow::Result<()> {
+fn write_pictures(_files: &lewis_demo::DemoFiles, out: &mut dyn Write) -> anyhow::Result<()> {
     writeln!(
         out,
-        "rerun: no file (this lewis is built without the viewer)"
+        "picture and rerun: none (this lewis is built without the viewer)"
     )?;
     Ok(())
 }

@@ -25,7 +25,7 @@ use lewis_runtime::live::ClockSource;
 use lewis_runtime::robot::{self, Known, Robot};
 use lewis_runtime::service::ServiceRegistry;
 use lewis_sequencer::session::{MissionReport, SessionOptions, load_mission};
-use lewis_sequencer::{Verdict, Visit};
+use lewis_sequencer::Verdict;
 
 pub use fault::{FaultLog, LiveFault, Strike};
 
@@ -78,6 +78,9 @@ pub struct DemoFiles {
     pub replay_report: PathBuf,
     /// The Rerun file (written by the caller when it has the viewer).
     pub rrd: PathBuf,
+    /// The picture of the run: the world, the path coloured by state, the signs seen, where
+    /// a provider failed (written by the caller when it has the viewer).
+    pub png: PathBuf,
     /// The robot file with the seed given, when one was.
     pub robot: Option<PathBuf>,
 }
@@ -90,6 +93,7 @@ impl DemoFiles {
             replay: out.join("replay.mcap"),
             replay_report: out.join("replay.json"),
             rrd: out.join("run.rrd"),
+            png: out.join("run.png"),
             robot: None,
         }
     }
@@ -140,30 +144,7 @@ impl DemoReport {
         let _ = writeln!(s, "live fault: {}", self.fault_line());
         match &self.replay {
             Ok(report) => {
-                let takeovers: Vec<String> = report
-                    .faults
-                    .iter()
-                    .flat_map(|f| &f.takeovers)
-                    .map(|t| {
-                        format!(
-                            "{} {} -> {} after {:.1}s",
-                            t.client,
-                            t.interface,
-                            t.provider,
-                            secs(t.latency_ns)
-                        )
-                    })
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    "replay with {}: {}",
-                    self.replay_fault,
-                    if takeovers.is_empty() {
-                        "no client was moved".to_owned()
-                    } else {
-                        takeovers.join(", ")
-                    }
-                );
+                let _ = write!(s, "{}", replay_lines(&self.replay_fault, report));
             }
             Err(e) => {
                 let _ = writeln!(s, "replay with {}: failed: {e}", self.replay_fault);
@@ -177,6 +158,11 @@ impl DemoReport {
             files.events.display(),
             files.replay.display(),
             files.replay_report.display()
+        );
+        let run = files.run.display();
+        let _ = writeln!(
+            s,
+            "next: `lewis view {run}` (Rerun), `lewis info {run}`, `lewis replay {run} --inject-fault sonar@60s`"
         );
         s
     }
@@ -205,6 +191,61 @@ impl DemoReport {
         }
         line
     }
+}
+
+/// What the replay says, in a few lines: the fault, who took over, what diverged.
+fn replay_lines(fault: &str, report: &Report) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "replay: what if {fault} had happened instead? (open loop: the recorded robot moves as it did)");
+    let takeovers: Vec<String> = report
+        .faults
+        .iter()
+        .flat_map(|f| &f.takeovers)
+        .map(|t| {
+            format!(
+                "{} {} -> {} after {:.1} s",
+                t.client,
+                t.interface,
+                t.provider,
+                secs(t.latency_ns)
+            )
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  the broker moved: {}",
+        if takeovers.is_empty() {
+            "no client".to_owned()
+        } else {
+            takeovers.join(", ")
+        }
+    );
+    let diverged: Vec<String> = report
+        .divergence
+        .iter()
+        .filter(|d| d.differing > 0)
+        .filter_map(|d| {
+            d.first_divergence_ns.map(|first| {
+                format!(
+                    "{} from {:.1} s ({} of {})",
+                    d.channel,
+                    secs(first),
+                    d.differing,
+                    d.compared
+                )
+            })
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "  outputs that changed: {}",
+        if diverged.is_empty() {
+            "none".to_owned()
+        } else {
+            diverged.join(", ")
+        }
+    );
+    s
 }
 
 /// Why the demo could not run.
@@ -272,6 +313,7 @@ pub fn run_demo(
         &files.replay,
         &files.replay_report,
         &files.rrd,
+        &files.png,
     ] {
         match std::fs::remove_file(old) {
             Ok(()) => {}
@@ -393,14 +435,14 @@ pub fn with_seed(text: &str, seed: u64) -> Result<String, String> {
     toml::to_string(&table).map_err(|e| format!("{e}"))
 }
 
-/// The replay's fault: `PROVIDER@T` with T the middle of the `sign` visits (from the
-/// recording's start), or `PROVIDER` (half-way) when the mission never got there.
+/// The replay's fault: `PROVIDER@T` with T the middle of the mission's first visit (the
+/// door, before the live fault struck: "what if it had died there instead?"), from the
+/// recording's start; `PROVIDER` (half-way) when the mission has no visit.
 fn replay_fault(provider: &str, verdict: &Verdict, recording: &Path) -> String {
-    let signs: Vec<&Visit> = verdict.visits_of("sign").collect();
-    let (Some(first), Some(last)) = (signs.first(), signs.last()) else {
+    let Some(first) = verdict.states_visited.first() else {
         return provider.to_owned();
     };
-    let end = last.ended_ns.unwrap_or(last.started_ns);
+    let end = first.ended_ns.unwrap_or(first.started_ns);
     let middle_ns = first.started_ns + (end - first.started_ns) / 2;
     match RecordingFiles::open(&[recording.to_path_buf()]) {
         Ok(files) if middle_ns > files.start_ns() => {
