@@ -22,6 +22,7 @@ pub fn registry() -> ServiceRegistry {
     lewis_sim::service::register(&mut registry);
     lewis_motion::service::register(&mut registry);
     lewis_drivers::camera::register(&mut registry);
+    lewis_drivers::speech::register(&mut registry);
     lewis_perception::register(&mut registry);
     registry
 }
@@ -54,6 +55,7 @@ pub const SOURCE_KINDS: &[&str] = &[
     lewis_drivers::service::sick::KIND,
     lewis_drivers::service::rflex::KIND,
     lewis_drivers::camera::KIND,
+    lewis_drivers::speech::KIND,
     lewis_emulators::testing::range::KIND,
 ];
 

@@ -5,4 +5,5 @@ mod camera_yuv;
 mod perception_photos;
 mod perception_sim;
 mod sim_sonar_avoidance;
+mod speech_espeak;
 mod support;

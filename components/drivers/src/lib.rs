@@ -1,6 +1,6 @@
 //! The device drivers: the SICK laser and the RFlex base over serial ports, and the camera
 //! (image sequences and V4L2 video devices), each as a service kind (`sick`, `rflex`,
-//! `camera`).
+//! `camera`); and the robot's voice through espeak-ng (`espeak-speech`, [`speech`]).
 //!
 //! In layers:
 //!
@@ -24,3 +24,4 @@ pub mod io;
 pub mod rflex;
 pub mod service;
 pub mod sick;
+pub mod speech;
