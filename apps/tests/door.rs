@@ -34,3 +34,21 @@ fn door_navigator_goes_through_the_entrance_from_four_start_poses() {
         assert!(x > 8.9, "from {start:?}: past the door line x 8, at {x:.2}");
     }
 }
+
+#[test]
+fn the_same_seeds_give_the_same_ground_truth_track_bit_for_bit() {
+    let track = || {
+        let robot = sim_robot((2.5, 11.0, 15.0), (320, 240));
+        let program = Box::new(DoorNavigator::new(DoorConfig::default()));
+        let mut scene = scene(&robot, SERVICES, "door", program, REQUIRES);
+        scene.run_until(15 * S, |_| false);
+        scene
+            .tapped("GroundTruth")
+            .iter()
+            .map(|t| (t.time_ns, t.publication.bytes.clone()))
+            .collect::<Vec<_>>()
+    };
+    let first = track();
+    assert!(first.len() > 500, "{} samples", first.len());
+    assert!(first == track(), "two runs differ");
+}
