@@ -24,8 +24,8 @@ use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
 use lewis_runtime::robot::{self, Known, Robot};
 use lewis_runtime::service::ServiceRegistry;
-use lewis_sequencer::session::{MissionReport, SessionOptions, load_mission};
 use lewis_sequencer::Verdict;
+use lewis_sequencer::session::{MissionReport, SessionOptions, load_mission};
 
 pub use fault::{FaultLog, LiveFault, Strike};
 
@@ -196,7 +196,10 @@ impl DemoReport {
 /// What the replay says, in a few lines: the fault, who took over, what diverged.
 fn replay_lines(fault: &str, report: &Report) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "replay: what if {fault} had happened instead? (open loop: the recorded robot moves as it did)");
+    let _ = writeln!(
+        s,
+        "replay: what if {fault} had happened instead? (open loop: the recorded robot moves as it did)"
+    );
     let takeovers: Vec<String> = report
         .faults
         .iter()

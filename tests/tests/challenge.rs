@@ -5,7 +5,7 @@
 //! succeed through door, sign (at least twice), queue and register (`register` exits 0),
 //! within about 3 minutes of simulated time. The recording must read in independent
 //! readers, and a replay of it with a fault must give the same bytes whatever the output
-//! file is called.
+//! file is called. The demo's picture and Rerun file must be written.
 //!
 //! Its own test binary: the one live mission of CI, a closed loop in real time that should
 //! not share the machine with other end-to-end tests.
@@ -78,6 +78,13 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         "the mission took {seconds:.0} s (limit {MISSION_LIMIT_S} s)"
     );
 
+    for file in ["run.png", "run.rrd"] {
+        assert!(
+            out.join(file).exists(),
+            "the demo writes {file}:\n{printed}"
+        );
+    }
+
     // The laser's failure and the rebinding to the sonar are in the recording.
     let run_mcap = out.join("run.mcap");
     let decisions = broker_decisions(&run_mcap);
@@ -109,28 +116,30 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
     );
     assert!(decoded.contains("/lewis/sequencer "), "{decoded}");
 
-    // A replay with a fault gives the same bytes twice, whatever its output is called.
-    let replay = |name: &str| {
-        let path = dir.path().join(name);
-        let status = Command::new(lewis_exe())
-            .arg("replay")
-            .arg(&run_mcap)
-            .args(["--inject-fault", "laser@40s", "-o"])
-            .arg(&path)
-            .output()
-            .expect("lewis replay runs");
-        assert!(
-            status.status.success(),
-            "lewis replay: {}",
-            String::from_utf8_lossy(&status.stderr)
-        );
-        std::fs::read(path).unwrap()
-    };
-    let a = replay("first.mcap");
-    let b = replay("second-with-another-name.mcap");
+    // A replay with a fault gives the same bytes twice, whatever its output is called: the
+    // demo's own replay, and one more with the same fault into another file.
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("replay.json")).unwrap()).unwrap();
+    let fault = report["faults"][0]["spec"]
+        .as_str()
+        .expect("the demo's replay names its fault")
+        .to_owned();
+    let again = dir.path().join("again-with-another-name.mcap");
+    let replay = Command::new(lewis_exe())
+        .arg("replay")
+        .arg(&run_mcap)
+        .args(["--inject-fault", &fault, "-o"])
+        .arg(&again)
+        .output()
+        .expect("lewis replay runs");
     assert!(
-        a == b,
-        "two replays of the same recording with the same fault differ"
+        replay.status.success(),
+        "lewis replay: {}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    assert!(
+        std::fs::read(out.join("replay.mcap")).unwrap() == std::fs::read(&again).unwrap(),
+        "two replays of the same recording with the same fault ({fault}) differ"
     );
 }
 
