@@ -125,7 +125,10 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         .expect("the demo's replay names its fault")
         .to_owned();
     let again = dir.path().join("again-with-another-name.mcap");
+    // From the repository's root, as the demo ran: the robot file names its world and
+    // colour files relative to it.
     let replay = Command::new(lewis_exe())
+        .current_dir(repo_root())
         .arg("replay")
         .arg(&run_mcap)
         .args(["--inject-fault", &fault, "-o"])
