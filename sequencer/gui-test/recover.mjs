@@ -50,8 +50,11 @@ try {
   // The crashes and the recovery, live.
   await page.locator("#history li.restart").nth(2).waitFor({ timeout: MISSION_PHASE_MS });
   await page.locator("#history li.recovery").first().waitFor({ timeout: MISSION_PHASE_MS });
-  await page.locator('#diagram .box.current[data-state="oops"]').waitFor({ timeout: MISSION_PHASE_MS });
-  step("`sign` crashed beyond its 3 restarts and the recovery state `oops` runs");
+  // Recovery runs for about 20 s, so the page normally sees it running; a browser slow to
+  // start on a loaded machine may see it over already, which is no fault of the page.
+  await page.locator('#diagram .box.current[data-state="oops"], #status[data-phase="asking"]')
+    .first().waitFor({ timeout: MISSION_PHASE_MS });
+  step("`sign` crashed beyond its 3 restarts and the recovery state `oops` ran");
   await page.screenshot({ path: join(shots, "recovering.png") });
 
   await page.locator('#status[data-phase="asking"]').waitFor({ timeout: MISSION_PHASE_MS });
