@@ -7,13 +7,12 @@
 //! turns in 45 degree steps; after a full turn, or a minute, it gives up (4).
 
 use lewis_geometry::Vec2;
-use lewis_interfaces::msg::{Egomotion, Mover, RangeFinder};
-use lewis_runtime::service::{Context, Input, ReplyEvent, Service};
+use lewis_interfaces::msg::RangeFinder;
+use lewis_runtime::service::{Context, Input};
 
+use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
-use crate::common::frames::Odometry;
-use crate::common::mover::MoverClient;
-use crate::common::watch::{DEFAULT_STALE_NS, Watch};
+use crate::common::watch::DEFAULT_STALE_NS;
 
 /// What DoorNavigator asks the broker for.
 pub const REQUIRES: &[&str] = &["RangeFinder", "Egomotion", "Mover"];
@@ -180,12 +179,8 @@ enum Phase {
 #[derive(Debug)]
 pub struct DoorNavigator {
     config: DoorConfig,
-    watch: Watch,
-    odometry: Odometry,
-    mover: MoverClient,
+    driver: Driver,
     phase: Phase,
-    started_ns: Option<i64>,
-    exit: Option<i32>,
 }
 
 impl DoorNavigator {
@@ -193,28 +188,17 @@ impl DoorNavigator {
     #[must_use]
     pub fn new(config: DoorConfig) -> Self {
         Self {
-            watch: Watch::new(&["RangeFinder", "Egomotion"], config.stale_ns),
+            driver: Driver::new(&["RangeFinder", "Egomotion"], config.stale_ns),
             config,
-            odometry: Odometry::default(),
-            mover: MoverClient::default(),
             phase: Phase::Search {
                 scans_without: 0,
                 turns: 0,
             },
-            started_ns: None,
-            exit: None,
-        }
-    }
-
-    fn finish(&mut self, ctx: &mut Context<'_>, code: i32, why: &str) {
-        if self.exit.is_none() {
-            ctx.info(&format!("exit {code}: {why}"));
-            self.exit = Some(code);
         }
     }
 
     fn on_scan(&mut self, ctx: &mut Context<'_>, scan: &RangeFinder) {
-        let Some(pose) = self.odometry.pose() else {
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         let seen = nearest_ahead(&find_doorways(scan, self.config.min_width_m)).map(|d| {
@@ -233,7 +217,7 @@ impl DoorNavigator {
                         centre.x, centre.y
                     ));
                     self.phase = Phase::Approach { centre, normal };
-                    self.mover.goto(ctx, centre - normal * APPROACH_M);
+                    self.driver.mover.goto(ctx, centre - normal * APPROACH_M);
                 } else {
                     self.phase = Phase::Search {
                         scans_without: scans_without + 1,
@@ -250,26 +234,36 @@ impl DoorNavigator {
                     let mixed = normal * 0.7 + n * 0.3;
                     let normal = mixed * (1.0 / mixed.norm().max(1e-9));
                     self.phase = Phase::Approach { centre, normal };
-                    self.mover.goto(ctx, centre - normal * APPROACH_M);
+                    self.driver.mover.goto(ctx, centre - normal * APPROACH_M);
                 }
             }
             Phase::Through { .. } => {}
         }
     }
 
+    fn other_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        if input.interface == "RangeFinder"
+            && let Ok(scan) = input.decode::<RangeFinder>()
+        {
+            self.on_scan(ctx, &scan);
+        }
+    }
+
     fn step(&mut self, ctx: &mut Context<'_>) {
         let now = ctx.now();
-        let started = *self.started_ns.get_or_insert(now);
-        if let Some(lost) = self.watch.lost(now) {
-            self.finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
+        let started = *self.driver.started_ns.get_or_insert(now);
+        if let Some(lost) = self.driver.watch.lost(now) {
+            self.driver
+                .finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
             return;
         }
         if now - started > self.config.timeout_ns {
-            self.finish(ctx, exit::GAVE_UP, "not through a door in time");
+            self.driver
+                .finish(ctx, exit::GAVE_UP, "not through a door in time");
             return;
         }
-        self.mover.tick(ctx);
-        let Some(pose) = self.odometry.pose() else {
+        self.driver.mover.tick(ctx);
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         match self.phase {
@@ -278,13 +272,14 @@ impl DoorNavigator {
                 turns,
             } => {
                 if scans_without >= SCANS_BEFORE_TURN
-                    && (self.mover.wanted().is_none() || self.mover.arrived())
+                    && (self.driver.mover.wanted().is_none() || self.driver.mover.arrived())
                 {
                     if turns >= SEARCH_TURNS {
-                        self.finish(ctx, exit::GAVE_UP, "no doorway all around");
+                        self.driver
+                            .finish(ctx, exit::GAVE_UP, "no doorway all around");
                         return;
                     }
-                    self.mover.rotate(ctx, std::f64::consts::FRAC_PI_4);
+                    self.driver.mover.rotate(ctx, std::f64::consts::FRAC_PI_4);
                     self.phase = Phase::Search {
                         scans_without: 0,
                         turns: turns + 1,
@@ -293,10 +288,10 @@ impl DoorNavigator {
             }
             Phase::Approach { centre, normal } => {
                 let target = centre - normal * APPROACH_M;
-                if pose.position().distance(target) < REACHED_M || self.mover.arrived() {
+                if pose.position().distance(target) < REACHED_M || self.driver.mover.arrived() {
                     ctx.info("before the door: going through");
                     self.phase = Phase::Through { centre, normal };
-                    self.mover.goto(ctx, centre + normal * PAST_M);
+                    self.driver.mover.goto(ctx, centre + normal * PAST_M);
                 }
             }
             Phase::Through { .. } => {}
@@ -304,65 +299,12 @@ impl DoorNavigator {
         if let Phase::Approach { centre, normal } | Phase::Through { centre, normal } = self.phase
             && (pose.position() - centre).dot(normal) >= DONE_PAST_M
         {
-            self.finish(ctx, exit::SUCCESS, "through the door");
+            self.driver.finish(ctx, exit::SUCCESS, "through the door");
         }
     }
 }
 
-impl Service for DoorNavigator {
-    fn tick_period_ns(&self) -> Option<i64> {
-        Some(100_000_000)
-    }
-
-    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.watch.start(ctx.now());
-        self.started_ns = Some(ctx.now());
-        Ok(())
-    }
-
-    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if self.exit.is_some() {
-            return;
-        }
-        self.watch.saw(input.interface, ctx.now());
-        match input.interface {
-            "Egomotion" => {
-                if let Ok(m) = input.decode::<Egomotion>() {
-                    self.odometry.update(&m.pose);
-                }
-            }
-            "Mover" => {
-                if let Ok(m) = input.decode::<Mover>() {
-                    self.mover.on_status(ctx, input.provider, m);
-                }
-            }
-            "RangeFinder" => {
-                if let Ok(scan) = input.decode::<RangeFinder>() {
-                    self.on_scan(ctx, &scan);
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
-        self.mover.on_reply(ctx, reply);
-    }
-
-    fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        if self.exit.is_none() {
-            self.step(ctx);
-        }
-    }
-
-    fn on_stop(&mut self, ctx: &mut Context<'_>) {
-        self.mover.stop_now(ctx);
-    }
-
-    fn exit_code(&self) -> Option<i32> {
-        self.exit
-    }
-}
+moving_service!(DoorNavigator);
 
 #[cfg(test)]
 mod tests {

@@ -11,13 +11,12 @@
 use std::f64::consts::FRAC_PI_2;
 
 use lewis_geometry::{Vec2, range_readings, wrap_angle};
-use lewis_interfaces::msg::{Egomotion, Mover, RangeFinder, SignArrow, Signs};
-use lewis_runtime::service::{Context, Input, ReplyEvent, Service};
+use lewis_interfaces::msg::{RangeFinder, SignArrow, Signs};
+use lewis_runtime::service::{Context, Input};
 
+use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
-use crate::common::frames::Odometry;
-use crate::common::mover::MoverClient;
-use crate::common::watch::{DEFAULT_STALE_NS, Watch};
+use crate::common::watch::DEFAULT_STALE_NS;
 use crate::sign::SignBook;
 
 /// What QueueStander asks the broker for.
@@ -120,17 +119,13 @@ impl QueueLine {
 #[derive(Debug)]
 pub struct QueueStander {
     config: QueueConfig,
-    watch: Watch,
-    odometry: Odometry,
-    mover: MoverClient,
+    driver: Driver,
     book: SignBook,
     line: Option<QueueLine>,
     /// The latest scan's points (odometry).
     points: Vec<Vec2>,
     front_clear: bool,
-    started_ns: Option<i64>,
     start_heading: Option<f64>,
-    exit: Option<i32>,
 }
 
 impl QueueStander {
@@ -138,29 +133,18 @@ impl QueueStander {
     #[must_use]
     pub fn new(config: QueueConfig) -> Self {
         Self {
-            watch: Watch::new(&["Signs", "RangeFinder", "Egomotion"], config.stale_ns),
+            driver: Driver::new(&["Signs", "RangeFinder", "Egomotion"], config.stale_ns),
             config,
-            odometry: Odometry::default(),
-            mover: MoverClient::default(),
             book: SignBook::default(),
             line: None,
             points: Vec::new(),
             front_clear: true,
-            started_ns: None,
             start_heading: None,
-            exit: None,
-        }
-    }
-
-    fn finish(&mut self, ctx: &mut Context<'_>, code: i32, why: &str) {
-        if self.exit.is_none() {
-            ctx.info(&format!("exit {code}: {why}"));
-            self.exit = Some(code);
         }
     }
 
     fn on_signs(&mut self, ctx: &mut Context<'_>, signs: &Signs) {
-        let Some(pose) = self.odometry.pose() else {
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         for sign in &signs.signs {
@@ -183,7 +167,7 @@ impl QueueStander {
     }
 
     fn on_scan(&mut self, scan: &RangeFinder) {
-        let Some(pose) = self.odometry.pose() else {
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         let readings = range_readings(scan);
@@ -196,19 +180,31 @@ impl QueueStander {
             .collect();
     }
 
+    fn other_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        let _ = match input.interface {
+            "Signs" => input
+                .decode()
+                .map(|signs: Signs| self.on_signs(ctx, &signs)),
+            "RangeFinder" => input.decode().map(|scan: RangeFinder| self.on_scan(&scan)),
+            _ => Ok(()),
+        };
+    }
+
     fn step(&mut self, ctx: &mut Context<'_>) {
         let now = ctx.now();
-        let started = *self.started_ns.get_or_insert(now);
-        if let Some(lost) = self.watch.lost(now) {
-            self.finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
+        let started = *self.driver.started_ns.get_or_insert(now);
+        if let Some(lost) = self.driver.watch.lost(now) {
+            self.driver
+                .finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
             return;
         }
         if now - started > self.config.timeout_ns {
-            self.finish(ctx, exit::GAVE_UP, "not at the head of the queue in time");
+            self.driver
+                .finish(ctx, exit::GAVE_UP, "not at the head of the queue in time");
             return;
         }
-        self.mover.tick(ctx);
-        let Some(pose) = self.odometry.pose() else {
+        self.driver.mover.tick(ctx);
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         let here = pose.position();
@@ -217,86 +213,31 @@ impl QueueStander {
             // finding it (the previous state saw it).
             let heading = *self.start_heading.get_or_insert(pose.heading_rad);
             if now - started > 1_500_000_000 {
-                self.mover.goto(ctx, here + Vec2::from_angle(heading) * 1.0);
+                self.driver
+                    .mover
+                    .goto(ctx, here + Vec2::from_angle(heading) * 1.0);
             }
             return;
         };
         let place = line.place_for(here, &self.points);
         let head = line.desk + line.along * HEAD_M;
         if here.distance(head) < REACHED_M.max(0.3) && place.distance(head) < 0.05 {
-            self.finish(ctx, exit::SUCCESS, "at the head of the queue");
+            self.driver
+                .finish(ctx, exit::SUCCESS, "at the head of the queue");
             return;
         }
         let towards = (place - here).angle();
         let blocked_ahead =
             !self.front_clear && wrap_angle(towards - pose.heading_rad).abs() < FRONT_RAD;
         if blocked_ahead || here.distance(place) < REACHED_M {
-            self.mover.stop(ctx);
+            self.driver.mover.stop(ctx);
         } else {
-            self.mover.goto(ctx, place);
+            self.driver.mover.goto(ctx, place);
         }
     }
 }
 
-impl Service for QueueStander {
-    fn tick_period_ns(&self) -> Option<i64> {
-        Some(100_000_000)
-    }
-
-    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.watch.start(ctx.now());
-        self.started_ns = Some(ctx.now());
-        Ok(())
-    }
-
-    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if self.exit.is_some() {
-            return;
-        }
-        self.watch.saw(input.interface, ctx.now());
-        match input.interface {
-            "Egomotion" => {
-                if let Ok(m) = input.decode::<Egomotion>() {
-                    self.odometry.update(&m.pose);
-                }
-            }
-            "Mover" => {
-                if let Ok(m) = input.decode::<Mover>() {
-                    self.mover.on_status(ctx, input.provider, m);
-                }
-            }
-            "Signs" => {
-                if let Ok(signs) = input.decode::<Signs>() {
-                    self.on_signs(ctx, &signs);
-                }
-            }
-            "RangeFinder" => {
-                if let Ok(scan) = input.decode::<RangeFinder>() {
-                    self.on_scan(&scan);
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
-        self.mover.on_reply(ctx, reply);
-    }
-
-    fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        if self.exit.is_none() {
-            self.step(ctx);
-        }
-    }
-
-    fn on_stop(&mut self, ctx: &mut Context<'_>) {
-        self.mover.stop_now(ctx);
-    }
-
-    fn exit_code(&self) -> Option<i32> {
-        self.exit
-    }
-}
+moving_service!(QueueStander);
 
 #[cfg(test)]
 mod tests {

@@ -9,13 +9,13 @@
 use std::f64::consts::FRAC_PI_4;
 
 use lewis_geometry::Vec2;
-use lewis_interfaces::msg::{Blob, Blobs, Blobs3D, Distance, Egomotion, Mover};
-use lewis_runtime::service::{Context, Input, ReplyEvent, Service};
+use lewis_interfaces::msg::{Blob, Blobs, Blobs3D, Distance};
+use lewis_runtime::service::{Context, Input};
 
+use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
-use crate::common::frames::Odometry;
-use crate::common::mover::{Motion, MoverClient};
-use crate::common::watch::{DEFAULT_STALE_NS, Watch};
+use crate::common::mover::Motion;
+use crate::common::watch::DEFAULT_STALE_NS;
 
 /// What Recovery asks the broker for.
 pub const REQUIRES: &[&str] = &["Blobs", "Blobs3D", "Distance", "Egomotion", "Mover"];
@@ -90,9 +90,7 @@ enum Phase {
 #[derive(Debug)]
 pub struct Recovery {
     config: RecoveryConfig,
-    watch: Watch,
-    odometry: Odometry,
-    mover: MoverClient,
+    driver: Driver,
     phase: Phase,
     /// When the cap was last seen, in ns.
     seen_ns: Option<i64>,
@@ -102,7 +100,6 @@ pub struct Recovery {
     bearing: Option<f64>,
     renewed_ns: Option<i64>,
     ahead_clear: bool,
-    exit: Option<i32>,
 }
 
 impl Recovery {
@@ -110,24 +107,14 @@ impl Recovery {
     #[must_use]
     pub fn new(config: RecoveryConfig) -> Self {
         Self {
-            watch: Watch::new(&["Blobs", "Egomotion", "Distance"], config.stale_ns),
+            driver: Driver::new(&["Blobs", "Egomotion", "Distance"], config.stale_ns),
             config,
-            odometry: Odometry::default(),
-            mover: MoverClient::default(),
             phase: Phase::Search { turns: 0 },
             seen_ns: None,
             cap: None,
             bearing: None,
             renewed_ns: None,
             ahead_clear: true,
-            exit: None,
-        }
-    }
-
-    fn finish(&mut self, ctx: &mut Context<'_>, code: i32, why: &str) {
-        if self.exit.is_none() {
-            ctx.info(&format!("exit {code}: {why}"));
-            self.exit = Some(code);
         }
     }
 
@@ -158,21 +145,45 @@ impl Recovery {
             .filter(|b| b.range_valid && self.is_followed(&b.blob))
             .max_by_key(|b| b.blob.area);
         if let Some(b) = best
-            && let Some(at) = self.odometry.to_odom(Vec2::new(b.position.x, b.position.y))
+            && let Some(at) = self
+                .driver
+                .odometry
+                .to_odom(Vec2::new(b.position.x, b.position.y))
         {
             self.seen_ns = Some(ctx.now());
             self.cap = Some(at);
         }
     }
 
+    /// It stops first (see the module documentation).
+    fn stop_first(&mut self, ctx: &mut Context<'_>) {
+        self.driver.mover.stop(ctx);
+    }
+
+    fn other_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        let _ = match input.interface {
+            "Blobs" => input
+                .decode()
+                .map(|blobs: Blobs| self.on_blobs(ctx, &blobs)),
+            "Blobs3D" => input
+                .decode()
+                .map(|blobs: Blobs3D| self.on_blobs3d(ctx, &blobs)),
+            "Distance" => input
+                .decode()
+                .map(|d: Distance| self.ahead_clear = ahead_clear(&d)),
+            _ => Ok(()),
+        };
+    }
+
     fn step(&mut self, ctx: &mut Context<'_>) {
         let now = ctx.now();
-        if let Some(lost) = self.watch.lost(now) {
-            self.finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
+        if let Some(lost) = self.driver.watch.lost(now) {
+            self.driver
+                .finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
             return;
         }
-        self.mover.tick(ctx);
-        let Some(pose) = self.odometry.pose() else {
+        self.driver.mover.tick(ctx);
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         let seen_lately = self.seen_ns.is_some_and(|at| now - at < LOST_NS);
@@ -181,26 +192,27 @@ impl Recovery {
                 if self.seen_ns.is_some() {
                     ctx.info("the cap is in view: following");
                     self.phase = Phase::Follow;
-                    self.mover.stop(ctx);
+                    self.driver.mover.stop(ctx);
                     return;
                 }
-                let idle = match self.mover.wanted() {
+                let idle = match self.driver.mover.wanted() {
                     None => true,
-                    Some(Motion::Stop) => self.mover.state().is_some(),
-                    Some(_) => self.mover.arrived(),
+                    Some(Motion::Stop) => self.driver.mover.state().is_some(),
+                    Some(_) => self.driver.mover.arrived(),
                 };
                 if idle {
                     if turns >= SEARCH_TURNS {
-                        self.finish(ctx, exit::GAVE_UP, "no cap in sight all around");
+                        self.driver
+                            .finish(ctx, exit::GAVE_UP, "no cap in sight all around");
                         return;
                     }
-                    self.mover.rotate(ctx, FRAC_PI_4);
+                    self.driver.mover.rotate(ctx, FRAC_PI_4);
                     self.phase = Phase::Search { turns: turns + 1 };
                 }
             }
             Phase::Follow => {
                 if !seen_lately {
-                    self.finish(
+                    self.driver.finish(
                         ctx,
                         exit::SUCCESS,
                         "the guide went out of sight: here is safe",
@@ -208,7 +220,7 @@ impl Recovery {
                     return;
                 }
                 if !self.ahead_clear {
-                    self.mover.stop(ctx);
+                    self.driver.mover.stop(ctx);
                     return;
                 }
                 if self.renewed_ns.is_some_and(|at| now - at < RENEW_NS) {
@@ -219,84 +231,23 @@ impl Recovery {
                 if let Some(cap) = self.cap {
                     let gap = cap.distance(here);
                     if gap > SHORT_M + 0.2 {
-                        self.mover.goto(ctx, cap + (here - cap) * (SHORT_M / gap));
+                        self.driver
+                            .mover
+                            .goto(ctx, cap + (here - cap) * (SHORT_M / gap));
                     } else {
-                        self.mover.stop(ctx);
+                        self.driver.mover.stop(ctx);
                     }
                 } else if let Some(bearing) = self.bearing
                     && bearing.abs() > 0.15
                 {
-                    self.mover.rotate(ctx, bearing);
+                    self.driver.mover.rotate(ctx, bearing);
                 }
             }
         }
     }
 }
 
-impl Service for Recovery {
-    fn tick_period_ns(&self) -> Option<i64> {
-        Some(100_000_000)
-    }
-
-    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.watch.start(ctx.now());
-        self.mover.stop(ctx);
-        Ok(())
-    }
-
-    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if self.exit.is_some() {
-            return;
-        }
-        self.watch.saw(input.interface, ctx.now());
-        match input.interface {
-            "Egomotion" => {
-                if let Ok(m) = input.decode::<Egomotion>() {
-                    self.odometry.update(&m.pose);
-                }
-            }
-            "Mover" => {
-                if let Ok(m) = input.decode::<Mover>() {
-                    self.mover.on_status(ctx, input.provider, m);
-                }
-            }
-            "Blobs" => {
-                if let Ok(blobs) = input.decode::<Blobs>() {
-                    self.on_blobs(ctx, &blobs);
-                }
-            }
-            "Blobs3D" => {
-                if let Ok(blobs) = input.decode::<Blobs3D>() {
-                    self.on_blobs3d(ctx, &blobs);
-                }
-            }
-            "Distance" => {
-                if let Ok(d) = input.decode::<Distance>() {
-                    self.ahead_clear = ahead_clear(&d);
-                }
-            }
-            _ => {}
-        }
-    }
-
-    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
-        self.mover.on_reply(ctx, reply);
-    }
-
-    fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        if self.exit.is_none() {
-            self.step(ctx);
-        }
-    }
-
-    fn on_stop(&mut self, ctx: &mut Context<'_>) {
-        self.mover.stop_now(ctx);
-    }
-
-    fn exit_code(&self) -> Option<i32> {
-        self.exit
-    }
-}
+moving_service!(Recovery, then stop_first);
 
 /// Whether nothing is nearer than 0.8 m in the sectors ahead.
 #[must_use]

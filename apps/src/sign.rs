@@ -12,13 +12,13 @@ use std::collections::{BTreeSet, VecDeque};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use lewis_geometry::{Vec2, wrap_angle};
-use lewis_interfaces::msg::{Distance, Egomotion, Mover, SignArrow, Signs};
-use lewis_runtime::service::{Context, Input, ReplyEvent, Service};
+use lewis_interfaces::msg::{Distance, SignArrow, Signs};
+use lewis_runtime::service::{Context, Input};
 
+use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
-use crate::common::frames::{Odometry, turn};
-use crate::common::mover::MoverClient;
-use crate::common::watch::{DEFAULT_STALE_NS, Watch};
+use crate::common::frames::turn;
+use crate::common::watch::DEFAULT_STALE_NS;
 
 /// What SignFollower asks the broker for.
 pub const REQUIRES: &[&str] = &["Signs", "Egomotion", "Mover", "Distance"];
@@ -249,15 +249,10 @@ enum Phase {
 #[derive(Debug)]
 pub struct SignFollower {
     config: SignConfig,
-    watch: Watch,
-    odometry: Odometry,
-    mover: MoverClient,
+    driver: Driver,
     book: SignBook,
     phase: Phase,
-    /// When a sign was last taken (the start, then each one followed), in ns.
-    since_ns: Option<i64>,
     start_heading: Option<f64>,
-    exit: Option<i32>,
 }
 
 impl SignFollower {
@@ -265,22 +260,11 @@ impl SignFollower {
     #[must_use]
     pub fn new(config: SignConfig) -> Self {
         Self {
-            watch: Watch::new(&["Signs", "Egomotion", "Distance"], config.stale_ns),
+            driver: Driver::new(&["Signs", "Egomotion", "Distance"], config.stale_ns),
             config,
-            odometry: Odometry::default(),
-            mover: MoverClient::default(),
             book: SignBook::default(),
             phase: Phase::Look,
-            since_ns: None,
             start_heading: None,
-            exit: None,
-        }
-    }
-
-    fn finish(&mut self, ctx: &mut Context<'_>, code: i32, why: &str) {
-        if self.exit.is_none() {
-            ctx.info(&format!("exit {code}: {why}"));
-            self.exit = Some(code);
         }
     }
 
@@ -290,7 +274,7 @@ impl SignFollower {
     }
 
     fn on_signs(&mut self, ctx: &mut Context<'_>, signs: &Signs) {
-        let Some(pose) = self.odometry.pose() else {
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         for sign in &signs.signs {
@@ -308,12 +292,12 @@ impl SignFollower {
 
     /// Acts on the signs read so far.
     fn decide(&mut self, ctx: &mut Context<'_>) {
-        let Some(pose) = self.odometry.pose() else {
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         let here = pose.position();
         if self.book.settled().any(|(_, _, a)| a == SignArrow::Desk) {
-            self.finish(
+            self.driver.finish(
                 ctx,
                 exit::SAW_DESK,
                 "the registration desk's sign is in sight",
@@ -340,7 +324,7 @@ impl SignFollower {
             return;
         };
         if followed.is_some() {
-            self.finish(
+            self.driver.finish(
                 ctx,
                 exit::SUCCESS,
                 &format!(
@@ -356,22 +340,35 @@ impl SignFollower {
             position.x, position.y
         ));
         self.phase = Phase::Approach { track, spot };
-        self.mover.goto(ctx, spot);
+        self.driver.mover.goto(ctx, spot);
+    }
+
+    fn other_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        let _ = match input.interface {
+            "Signs" => input
+                .decode()
+                .map(|signs: Signs| self.on_signs(ctx, &signs)),
+            // Watched only: the Mover keeps the robot off obstacles.
+            "Distance" => input.decode::<Distance>().map(|_| ()),
+            _ => Ok(()),
+        };
     }
 
     fn step(&mut self, ctx: &mut Context<'_>) {
         let now = ctx.now();
-        let since = *self.since_ns.get_or_insert(now);
-        if let Some(lost) = self.watch.lost(now) {
-            self.finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
+        let since = *self.driver.started_ns.get_or_insert(now);
+        if let Some(lost) = self.driver.watch.lost(now) {
+            self.driver
+                .finish(ctx, exit::INPUT_LOST, &format!("no {lost} for too long"));
             return;
         }
         if now - since > self.config.timeout_ns {
-            self.finish(ctx, exit::GAVE_UP, "no new sign in time");
+            self.driver
+                .finish(ctx, exit::GAVE_UP, "no new sign in time");
             return;
         }
-        self.mover.tick(ctx);
-        let Some(pose) = self.odometry.pose() else {
+        self.driver.mover.tick(ctx);
+        let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
         let here = pose.position();
@@ -393,9 +390,9 @@ impl SignFollower {
                         track,
                         spot: spot_now,
                     };
-                    self.mover.goto(ctx, spot_now);
+                    self.driver.mover.goto(ctx, spot_now);
                 }
-                if here.distance(spot_now) < REACHED_M || self.mover.arrived() {
+                if here.distance(spot_now) < REACHED_M || self.driver.mover.arrived() {
                     let Some(word) = self.book.track(track).arrow().and_then(ArrowWord::of) else {
                         return;
                     };
@@ -404,13 +401,16 @@ impl SignFollower {
                         "before the sign: it says {word:?}, turning to {:.0} deg (odometry)",
                         heading.to_degrees()
                     ));
-                    self.since_ns = Some(now);
+                    // The timeout counts from the last sign taken.
+                    self.driver.started_ns = Some(now);
                     self.phase = Phase::Turn { track, heading };
-                    self.mover.rotate(ctx, turn(pose.heading_rad, heading));
+                    self.driver
+                        .mover
+                        .rotate(ctx, turn(pose.heading_rad, heading));
                 }
             }
             Phase::Turn { track, heading } => {
-                if self.mover.arrived() || turn(pose.heading_rad, heading).abs() < 0.05 {
+                if self.driver.mover.arrived() || turn(pose.heading_rad, heading).abs() < 0.05 {
                     self.phase = Phase::GoOn { track, heading };
                     self.go_on(ctx, here, heading);
                 }
@@ -421,7 +421,7 @@ impl SignFollower {
 
     /// Goes on along `heading`, the goal renewed as the robot nears it.
     fn go_on(&mut self, ctx: &mut Context<'_>, here: Vec2, heading: f64) {
-        let renew = match self.mover.wanted() {
+        let renew = match self.driver.mover.wanted() {
             Some(crate::common::mover::Motion::Goto(goal)) => {
                 goal.distance(here) < RENEW_M || turn((goal - here).angle(), heading).abs() > 0.6
             }
@@ -434,69 +434,12 @@ impl SignFollower {
                 }
                 Phase::Look | Phase::Approach { .. } => here + Vec2::from_angle(heading) * GO_ON_M,
             };
-            self.mover.goto(ctx, goal);
+            self.driver.mover.goto(ctx, goal);
         }
     }
 }
 
-impl Service for SignFollower {
-    fn tick_period_ns(&self) -> Option<i64> {
-        Some(100_000_000)
-    }
-
-    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.watch.start(ctx.now());
-        self.since_ns = Some(ctx.now());
-        Ok(())
-    }
-
-    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if self.exit.is_some() {
-            return;
-        }
-        self.watch.saw(input.interface, ctx.now());
-        match input.interface {
-            "Egomotion" => {
-                if let Ok(m) = input.decode::<Egomotion>() {
-                    self.odometry.update(&m.pose);
-                }
-            }
-            "Mover" => {
-                if let Ok(m) = input.decode::<Mover>() {
-                    self.mover.on_status(ctx, input.provider, m);
-                }
-            }
-            "Signs" => {
-                if let Ok(signs) = input.decode::<Signs>() {
-                    self.on_signs(ctx, &signs);
-                }
-            }
-            "Distance" => {
-                // Watched only: the Mover keeps the robot off obstacles.
-                let _ = input.decode::<Distance>();
-            }
-            _ => {}
-        }
-    }
-
-    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
-        self.mover.on_reply(ctx, reply);
-    }
-
-    fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        if self.exit.is_none() {
-            self.step(ctx);
-        }
-    }
-
-    fn on_stop(&mut self, ctx: &mut Context<'_>) {
-        self.mover.stop_now(ctx);
-    }
-
-    fn exit_code(&self) -> Option<i32> {
-        self.exit
-    }
-}
+moving_service!(SignFollower);
 
 #[cfg(test)]
 mod tests {

@@ -1,5 +1,7 @@
-//! What every program shares: exit codes, the Mover client, the staleness watch, frames.
+//! What every program shares: exit codes, the Mover client, the staleness watch, frames,
+//! and the driver of the moving programs.
 
+pub mod driver;
 pub mod exit;
 pub mod frames;
 pub mod mover;
