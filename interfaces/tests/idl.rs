@@ -56,7 +56,9 @@ fn every_interface_of_the_paper_is_defined() {
             "RecorderStats",
             "Sequencer",
             "Signs",
-            "Synchrodrive"
+            "Speech",
+            "Synchrodrive",
+            "WorldState"
         ]
     );
     // The system interfaces and the simulator's truth are records; the paper's all take
@@ -69,6 +71,7 @@ fn every_interface_of_the_paper_is_defined() {
         "LogLine",
         "RecorderStats",
         "Sequencer",
+        "WorldState",
     ];
     for interface in idl
         .interfaces
