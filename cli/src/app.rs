@@ -7,7 +7,6 @@
 use std::collections::BTreeSet;
 use std::process::ExitCode;
 
-use anyhow::Context as _;
 use clap::{Args, Subcommand};
 use lewis_apps::App;
 use lewis_apps::door::DoorConfig;
@@ -16,7 +15,7 @@ use lewis_apps::recovery::RecoveryConfig;
 use lewis_apps::register::RegisterConfig;
 use lewis_apps::sign::{ArrowWord, SignConfig};
 use lewis_runtime::ipc::Namespace;
-use lewis_runtime::live::{CLOCK_ENV, ClockSource};
+use lewis_runtime::live::ClockSource;
 
 /// Arguments of `lewis app`.
 #[derive(Debug, Args)]
@@ -140,15 +139,7 @@ impl AppArgs {
 pub fn run(args: &AppArgs) -> anyhow::Result<ExitCode> {
     let app = args.app()?;
     let namespace = Namespace::from_arg(args.namespace.as_deref())?;
-    let clock = match args.clock {
-        Some(clock) => clock,
-        None => match std::env::var(CLOCK_ENV) {
-            Ok(value) => value
-                .parse()
-                .with_context(|| format!("{CLOCK_ENV}={value}"))?,
-            Err(_) => ClockSource::Wall,
-        },
-    };
+    let clock = crate::service::clock_source(args.clock)?;
     let code = lewis_apps::run(app, &namespace, clock)?;
     Ok(ExitCode::from(u8::try_from(code).unwrap_or(1)))
 }

@@ -33,11 +33,13 @@ pub fn registry() -> ServiceRegistry {
     lewis_services::registry()
 }
 
-/// Runs `lewis service`.
-pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
-    let robot = lewis_services::load_robot(&args.robot)?;
-    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
-    let clock = match args.clock {
+/// The clock a service or a program reads: `--clock` when given, else `LEWIS_CLOCK` (what
+/// `lewis up --clock` passes down), else the machine's.
+///
+/// # Errors
+/// When `LEWIS_CLOCK` names no clock.
+pub fn clock_source(arg: Option<ClockSource>) -> anyhow::Result<ClockSource> {
+    Ok(match arg {
         Some(clock) => clock,
         None => match std::env::var(CLOCK_ENV) {
             Ok(value) => value
@@ -45,7 +47,14 @@ pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("{CLOCK_ENV}={value}"))?,
             Err(_) => ClockSource::Wall,
         },
-    };
+    })
+}
+
+/// Runs `lewis service`.
+pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
+    let robot = lewis_services::load_robot(&args.robot)?;
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
+    let clock = clock_source(args.clock)?;
     run_service(&robot, &args.name, &registry(), &namespace, clock)?;
     Ok(ExitCode::SUCCESS)
 }
