@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use lewis_stdx::world::{WorldHeader, WorldHeaderError, find_world};
 use rerun::components::DrawOrder;
 use rerun::{Image, Transform3D};
 
@@ -102,24 +103,6 @@ pub(crate) fn named_world(metadata: &BTreeMap<String, BTreeMap<String, String>>)
         .find_map(|toml| world_folders(toml).into_iter().next())
 }
 
-/// Where `world` may be: as written (absolute, or relative to the current folder, as
-/// `lewis up` ran it from the repository's root), then relative to each folder above the
-/// recording (a recording in `logs/` of the same repository).
-fn candidates(world: &str, recording: &Path) -> Vec<PathBuf> {
-    let world_path = Path::new(world);
-    let mut found = vec![world_path.to_owned()];
-    if world_path.is_relative() {
-        let recording = std::path::absolute(recording).unwrap_or_else(|_| recording.to_owned());
-        for folder in recording.ancestors().skip(1) {
-            let candidate = folder.join(world_path);
-            if !found.contains(&candidate) {
-                found.push(candidate);
-            }
-        }
-    }
-    found
-}
-
 /// The map of a world folder, ready to draw.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct WorldMap {
@@ -137,47 +120,30 @@ pub(crate) struct WorldMap {
     pub origin_m: [f64; 2],
 }
 
-/// Finds and reads the map of `world` for the recording at `recording`.
+/// Finds and reads the map of `world` for the recording at `recording`: the folder as
+/// written, then above the recording (see [`find_world`]).
 pub(crate) fn find(world: &str, recording: &Path) -> Result<WorldMap, MapStatus> {
     let missing = |detail: String| MapStatus::Missing {
         world: world.to_owned(),
         detail,
     };
-    let tried = candidates(world, recording);
-    let Some(folder) = tried.iter().find(|f| f.join("world.toml").is_file()) else {
-        let looked: Vec<String> = tried.iter().map(|p| p.display().to_string()).collect();
-        return Err(missing(format!(
-            "no world.toml in {}; run `lewis view` from the folder `lewis up` ran in",
-            looked.join(", ")
-        )));
-    };
-    load(folder).map_err(missing)
+    let header = find_world(world, recording).map_err(|e| match e {
+        WorldHeaderError::NotFound { .. } => missing(format!(
+            "{e}; run `lewis view` from the folder `lewis up` ran in"
+        )),
+        WorldHeaderError::Invalid { .. } => missing(e.to_string()),
+    })?;
+    load(header).map_err(missing)
 }
 
-/// Reads `folder/world.toml` and the map image it names; `Err` says what is wrong.
-fn load(folder: &Path) -> Result<WorldMap, String> {
-    let path = folder.join("world.toml");
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let world: toml::Table = text
-        .parse()
-        .map_err(|e| format!("{}: not TOML: {e}", path.display()))?;
-    let map = world
-        .get("map")
-        .and_then(toml::Value::as_str)
-        .ok_or_else(|| format!("{}: no `map` (the image's file name)", path.display()))?;
-    let metres_per_pixel = world
-        .get("metres_per_pixel")
-        .and_then(number)
-        .filter(|m| m.is_finite() && *m > 0.0)
-        .ok_or_else(|| format!("{}: no positive `metres_per_pixel`", path.display()))?;
-    let origin_m = match world.get("origin_m").and_then(toml::Value::as_array) {
-        None => [0.0, 0.0],
-        Some(pair) => match (pair.first().and_then(number), pair.get(1).and_then(number)) {
-            (Some(x), Some(y)) if x.is_finite() && y.is_finite() => [x, y],
-            _ => return Err(format!("{}: `origin_m` is not [x, y]", path.display())),
-        },
-    };
-    let image = folder.join(map);
+/// Reads the map image a world's header names; `Err` says what is wrong.
+fn load(header: WorldHeader) -> Result<WorldMap, String> {
+    let WorldHeader {
+        image,
+        metres_per_pixel,
+        origin_m,
+        ..
+    } = header;
     let luma = image::open(&image)
         .map_err(|e| format!("{}: {e}", image.display()))?
         .into_luma8();
@@ -200,12 +166,6 @@ fn load(folder: &Path) -> Result<WorldMap, String> {
         metres_per_pixel,
         origin_m,
     })
-}
-
-fn number(value: &toml::Value) -> Option<f64> {
-    value
-        .as_float()
-        .or_else(|| value.as_integer().map(|i| i as f64))
 }
 
 /// Draws `map` at `world/map`, for all times, under the paths and scans: the image's pixels

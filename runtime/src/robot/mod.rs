@@ -79,6 +79,15 @@ impl Robot {
         self.services.iter().find(|s| s.name == name)
     }
 
+    /// The world folder the first service with a `world` parameter names (a simulated
+    /// robot's, or an emulated one's), as written in the file; see [`lewis_stdx::world::find_world`].
+    #[must_use]
+    pub fn world_folder(&self) -> Option<&str> {
+        self.services
+            .iter()
+            .find_map(|s| s.parameters.get("world").and_then(toml::Value::as_str))
+    }
+
     /// The names of its services, comma-separated: what an error about an unknown service
     /// lists as the valid ones.
     #[must_use]

@@ -27,7 +27,7 @@ use tiny_http::{Header, Method, Request, Response, Server};
 pub use robot::{
     Answer, BindingView, CAMERA_MAX_WIDTH_PX, CameraView, Frame, MapView, PersonView,
     PoseInterface, PoseView, ROBOT_PERIOD, RobotFeed, RobotView, RobotWatch, RobotWatchOptions,
-    ServiceView, WorldMap, png_size, read_world,
+    ServiceView, png_size,
 };
 pub use view::{
     Current, Diagram, DiagramAction, DiagramState, HISTORY_LINES, HistoryLine, Phase, Question,

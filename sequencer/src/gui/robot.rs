@@ -15,7 +15,7 @@
 //! which the map only matches at the start); the best ImageSource, WorldState and Speech
 //! providers; the `world` folder a service names, whose `world.toml` gives the map.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
@@ -30,6 +30,7 @@ use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{CommandClient, Ipc, Namespace, Subscriber};
 use lewis_runtime::names;
 use lewis_runtime::robot::Robot;
+use lewis_stdx::world::{WorldHeader, find_world};
 use serde::{Deserialize, Serialize};
 
 /// How often the page gets the robot: at most twice a second.
@@ -65,17 +66,6 @@ impl PoseInterface {
     }
 }
 
-/// The world's map: an image whose bottom-left corner lies at `origin_m`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct WorldMap {
-    /// The PNG file.
-    pub image: PathBuf,
-    /// Metres per pixel.
-    pub metres_per_pixel: f64,
-    /// Where the image's bottom-left corner lies in the world frame, in metres.
-    pub origin_m: [f64; 2],
-}
-
 /// What a [`RobotWatch`] reads: each part is optional (a robot without a camera shows none).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RobotWatchOptions {
@@ -88,7 +78,7 @@ pub struct RobotWatchOptions {
     /// The service the supervisor's answers go to (Speech `hear`).
     pub speech: Option<String>,
     /// The world's map.
-    pub world_map: Option<WorldMap>,
+    pub world_map: Option<WorldHeader>,
 }
 
 impl RobotWatchOptions {
@@ -102,18 +92,10 @@ impl RobotWatchOptions {
         let pose = best_provider(robot, "GroundTruth")
             .map(|s| (s, PoseInterface::GroundTruth))
             .or_else(|| best_provider(robot, "Egomotion").map(|s| (s, PoseInterface::Egomotion)));
-        let world = robot.services.iter().find_map(|s| {
-            s.parameters
-                .get("world")
-                .and_then(toml::Value::as_str)
-                .map(str::to_owned)
-        });
-        let world_map = world.and_then(|world| match read_world(&world, robot_path) {
-            Ok(map) => Some(map),
-            Err(e) => {
-                tracing::warn!("the supervisor's page shows no map: {e}");
-                None
-            }
+        let world_map = robot.world_folder().and_then(|world| {
+            find_world(world, robot_path)
+                .inspect_err(|e| tracing::warn!("the supervisor's page shows no map: {e}"))
+                .ok()
         });
         Self {
             pose,
@@ -133,58 +115,6 @@ fn best_provider(robot: &Robot, interface: &str) -> Option<String> {
         .filter_map(|s| s.provision(interface).map(|p| (s, p)))
         .max_by(|(_, a), (_, b)| a.quality.cmp(&b.quality).then(b.cost.cmp(&a.cost)))
         .map(|(s, _)| s.name.clone())
-}
-
-/// The map of the world folder `world`: looked for as written, then above `robot_path`.
-///
-/// # Errors
-/// When no folder has a readable `world.toml` with `map` and `metres_per_pixel`.
-pub fn read_world(world: &str, robot_path: &Path) -> Result<WorldMap, String> {
-    let written = Path::new(world);
-    let mut candidates = vec![written.to_path_buf()];
-    if written.is_relative() {
-        let robot = std::path::absolute(robot_path).unwrap_or_else(|_| robot_path.to_owned());
-        candidates.extend(robot.ancestors().skip(1).map(|dir| dir.join(written)));
-    }
-    let Some(folder) = candidates.iter().find(|c| c.join("world.toml").is_file()) else {
-        return Err(format!(
-            "no world.toml in `{world}` (from here or above the robot file)"
-        ));
-    };
-    let file = folder.join("world.toml");
-    let text = std::fs::read_to_string(&file).map_err(|e| format!("{}: {e}", file.display()))?;
-    let table: toml::Table = text
-        .parse()
-        .map_err(|e| format!("{}: {e}", file.display()))?;
-    let map = table
-        .get("map")
-        .and_then(toml::Value::as_str)
-        .ok_or_else(|| format!("{}: no `map`", file.display()))?;
-    let metres_per_pixel = table
-        .get("metres_per_pixel")
-        .and_then(toml::Value::as_float)
-        .filter(|m| *m > 0.0)
-        .ok_or_else(|| format!("{}: no positive `metres_per_pixel`", file.display()))?;
-    let origin = table
-        .get("origin_m")
-        .and_then(toml::Value::as_array)
-        .map(|a| a.iter().filter_map(number).collect::<Vec<_>>());
-    let origin_m = match origin.as_deref() {
-        None => [0.0, 0.0],
-        Some(&[x, y]) => [x, y],
-        Some(_) => return Err(format!("{}: `origin_m` is not [x, y]", file.display())),
-    };
-    Ok(WorldMap {
-        image: folder.join(map),
-        metres_per_pixel,
-        origin_m,
-    })
-}
-
-fn number(value: &toml::Value) -> Option<f64> {
-    value
-        .as_float()
-        .or_else(|| value.as_integer().map(|i| i as f64))
 }
 
 /// What the page shows of the robot (`GET /robot`).
