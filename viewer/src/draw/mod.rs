@@ -7,7 +7,7 @@
 //! | `world/odometry/pose`, `world/odometry/path` | the odometry's pose (Egomotion) and path, in the odometry frame (`world/odometry` places it in the world: where the odometry started on the true path) |
 //! | `world/scans/<topic>` | every RangeFinder's hits placed in the world with the pose above |
 //! | `world/map` | the simulated world's map, for all times, under everything else |
-//! | `world/odometry/mover/goal`, `.../waypoint` | where the Mover is going (odometry frame) |
+//! | `world/odometry/mover/PROVIDER/goal`, `.../waypoint` | where each Mover is going (odometry frame) |
 //! | `world/blobs3d/<topic>`, `world/signs/<topic>` | perception placed in the world |
 //! | `robot/body`, `robot/scans/<topic>` | the robot frame: outline, hits and (sonar) rays |
 //! | `camera/<topic>/image`, `.../blobs/<topic>`, `.../signs/<topic>` | images, with boxes |
@@ -93,11 +93,10 @@ impl Side {
     /// `root/prefix.../<topic's parts>`, with [`REPLAY_BRANCH`] after the root for
     /// re-simulated data and the topic without its `/replay` prefix.
     pub(crate) fn topic_entity(self, root: &str, prefix: &[&str], topic: &str) -> EntityPath {
-        let recorded = topic.strip_prefix("/replay").unwrap_or(topic);
         let parts: Vec<&str> = prefix
             .iter()
             .copied()
-            .chain(topic_parts(recorded))
+            .chain(topic_parts(recorded_topic(topic)))
             .collect();
         self.entity(root, &parts)
     }
@@ -111,6 +110,12 @@ impl Side {
                 .chain(rest.iter().copied()),
         )
     }
+}
+
+/// The channel a replay's channel re-simulates: `/replay/mover/Mover` is `/mover/Mover`; a
+/// recorded channel is itself.
+pub(crate) fn recorded_topic(topic: &str) -> &str {
+    topic.strip_prefix("/replay").unwrap_or(topic)
 }
 
 /// The parts of a topic: `/laser/RangeFinder` is `laser`, `RangeFinder`.
@@ -397,7 +402,7 @@ impl Scene {
                 self.world_pose.as_ref(),
             ),
             Drawn::Mover(mover) => {
-                scans::log_mover(rows, sink, side, stamp, &mover)?;
+                scans::log_mover(rows, sink, side, topic, stamp, &mover)?;
                 self.events.mover(rows, sink, side, topic, stamp, &mover)
             }
             Drawn::Broker(decision) => events::broker(rows, sink, side, stamp, &decision),

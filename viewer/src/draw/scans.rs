@@ -3,7 +3,7 @@
 use lewis_interfaces::msg::{Blobs3D, Mover, Pose2D, RangeFinder, Signs};
 use rerun::{Arrows2D, Color, EntityPath, LineStrips2D, Points2D};
 
-use super::{Point, Side, entity, topic_entity};
+use super::{Point, Side, entity, recorded_topic, topic_entity, topic_parts};
 use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
 
@@ -223,9 +223,13 @@ pub(super) fn log_mover(
     rows: &mut Rows,
     sink: &mut dyn ChunkSink,
     side: Side,
+    topic: &str,
     stamp: Stamp,
     mover: &Mover,
 ) -> Result<(), ViewError> {
+    let provider = topic_parts(recorded_topic(topic))
+        .next()
+        .unwrap_or_default();
     let goal = if mover.goal_id == 0 {
         Vec::new()
     } else {
@@ -233,7 +237,7 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &mover_entity(side, "goal"),
+        &mover_entity(side, provider, "goal"),
         stamp,
         &Points2D::new(goal)
             .with_colors([Color::from_rgb(220, 0, 120)])
@@ -248,7 +252,7 @@ pub(super) fn log_mover(
     };
     rows.log(
         sink,
-        &mover_entity(side, "waypoint"),
+        &mover_entity(side, provider, "waypoint"),
         stamp,
         &Points2D::new(waypoint)
             .with_colors([Color::from_rgb(250, 140, 200)])
@@ -257,11 +261,20 @@ pub(super) fn log_mover(
     )
 }
 
-/// Where the Mover's `what` is drawn: in the odometry frame, where its goals are given.
-fn mover_entity(side: Side, what: &str) -> EntityPath {
+/// Where the Mover's `what` is drawn: in the odometry frame, where its goals are given, one
+/// entity per provider (the avoider's goal and the VectorMover's waypoints it sets are
+/// different things, published at different times).
+fn mover_entity(side: Side, provider: &str, what: &str) -> EntityPath {
     match side {
-        Side::Recorded => entity(["world", "odometry", "mover", what]),
-        Side::Replayed => entity(["world", "odometry", super::REPLAY_BRANCH, "mover", what]),
+        Side::Recorded => entity(["world", "odometry", "mover", provider, what]),
+        Side::Replayed => entity([
+            "world",
+            "odometry",
+            super::REPLAY_BRANCH,
+            "mover",
+            provider,
+            what,
+        ]),
     }
 }
 
