@@ -138,15 +138,11 @@ impl fmt::Display for Action {
             Self::AskForHelp {
                 need: Need::Service(service),
             } => write!(f, "ask for help with service {service}"),
+            // No time: the decision is stamped when it is made, and its reason says how
+            // long the backoff is (an absolute clock reading helps nobody).
             Self::RestartScheduled {
-                service,
-                at_ns,
-                attempt,
-            } => write!(
-                f,
-                "restart {service} at {} (attempt {attempt})",
-                fmt_time(*at_ns)
-            ),
+                service, attempt, ..
+            } => write!(f, "restart {service} (attempt {attempt})"),
             Self::ServiceFailed { service } => write!(f, "{service} failed"),
         }
     }

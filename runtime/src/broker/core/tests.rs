@@ -270,7 +270,7 @@ fn laser_crash_is_restarted_and_the_client_stays_bound() {
             @5 laser ready
             @10 laser heartbeat: ok
             @12 laser exited with signal 9
-              restart laser at 32 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+              restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             @32 time passed
               start laser: restart 1 of laser after its backoff
             @35 laser ready
@@ -308,12 +308,12 @@ fn laser_crash_beyond_limit_rebinds_client_to_sonar() {
             @5 laser ready
             @10 laser heartbeat: ok
             @12 laser exited with signal 9
-              restart laser at 32 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+              restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             @32 time passed
               start laser: restart 1 of laser after its backoff
             @35 laser ready
             @40 laser exited with exit code 1
-              restart laser at 80 ms (attempt 2): laser exited with exit code 1; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
+              restart laser (attempt 2): laser exited with exit code 1; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
             @80 time passed
               start laser: restart 2 of laser after its backoff
             @81 laser exited with exit code 1
@@ -775,11 +775,11 @@ fn a_service_providing_two_interfaces_fails_and_both_interfaces_clients_are_rebo
               bind avoider to laser for Distance: laser is the best provider of Distance (quality 10, cost 2)
             @5 laser ready
             @10 laser exited with signal 9
-              restart laser at 30 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+              restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             @30 time passed
               start laser: restart 1 of laser after its backoff
             @31 laser exited with signal 9
-              restart laser at 71 ms (attempt 2): laser exited with signal 9; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
+              restart laser (attempt 2): laser exited with signal 9; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
             @71 time passed
               start laser: restart 2 of laser after its backoff
             @72 laser exited with signal 9
@@ -1022,7 +1022,7 @@ fn failed_services_are_retried_when_the_robot_says_so() {
             @170 laser ready
               rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
             @180 laser exited with signal 9
-              restart laser at 200 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+              restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             == state
             service laser: restarting at 200 ms (attempt 1), health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
             service sonar: ready, last heartbeat 140 ms, health ok, 0 restarts, 0 clients
@@ -1099,11 +1099,11 @@ fn the_test_robot_file_fails_over_from_laser_to_sonar() {
               bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
             @5 laser ready
             @10 laser exited with signal 9
-              restart laser at 30 ms (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
+              restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             @30 time passed
               start laser: restart 1 of laser after its backoff
             @31 laser exited with signal 9
-              restart laser at 71 ms (attempt 2): laser exited with signal 9; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
+              restart laser (attempt 2): laser exited with signal 9; restart 2 of at most 2 within 10000 ms, after 40 ms of backoff; its clients stay bound
             @71 time passed
               start laser: restart 2 of laser after its backoff
             @72 laser exited with signal 9
