@@ -12,6 +12,7 @@ use lewis_runtime::logs::Verbosity;
 mod app;
 mod bench;
 mod demo;
+mod error_text;
 mod fake_device;
 mod fault;
 mod goal;
@@ -30,6 +31,8 @@ mod tune;
 mod up;
 #[cfg(feature = "viewer")]
 mod view;
+
+pub use error_text::error_text;
 
 /// The `lewis` command line.
 #[derive(Debug, Parser)]

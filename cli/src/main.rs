@@ -12,7 +12,7 @@ fn main() -> ExitCode {
         Err(err) => {
             #[allow(clippy::print_stderr)]
             {
-                eprintln!("error: {err:#}");
+                eprintln!("error: {}", lewis::error_text(&err));
             }
             ExitCode::from(2)
         }
