@@ -3,11 +3,14 @@
 
     scripts/sim-cpu.py [--lewis target/release/lewis] [--robot robots/sim.toml]
                        [--duration 30] [--warmup 5] [--record]
+                       [--goal X,Y | --script robots/missions/challenge.seq]
 
 Starts `lewis up ROBOT --duration D` (with `--no-record` unless --record, then into a
 temporary file), and every 100 ms reads utime + stime of `lewis up` and of every process
-below it (the services, `lewis service NAME`, and the recorder, `lewis record`) from
-/proc/PID/stat. Prints, per service:
+below it (the services, `lewis service NAME`, the mission's programs, `lewis app NAME`,
+and the recorder, `lewis record`) from /proc/PID/stat. With `--script`, the run is a whole
+mission (the sequencer inside `lewis up`), which ends the run; `--duration` is then only
+an upper bound. Prints, per service or program (a program's restarts added up):
 
 - `steady %`: CPU time between the end of the warm-up and the last sample before the
   robot was stopped, over that wall time, as a percentage of one core (what the robot
@@ -17,12 +20,15 @@ below it (the services, `lewis service NAME`, and the recorder, `lewis record`) 
 
 and the total of both. The total of the whole run is also taken exactly from the kernel
 (wait4's rusage of `lewis up`, which includes every descendant it reaped), as a check on
-the sampling. Standard library only; Linux only.
+the sampling. With `--record`, the messages the recorder lost (`lewis info --json`), and
+for a mission its wall time and `lewis up`'s exit code (0: the mission succeeded).
+Standard library only; Linux only.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -46,10 +52,10 @@ def proc_stat(pid: int) -> tuple[int, int] | None:
     return int(fields[1]), int(fields[11]) + int(fields[12])
 
 
-def label(pid: int, root: int) -> str:
-    """What a process is: the service's name, `recorder`, or `lewis up (broker)`."""
+def label(pid: int, root: int, mission: bool) -> str:
+    """What a process is: the service's name, `recorder`, a program, or `lewis up`."""
     if pid == root:
-        return "lewis up (broker, goal thread)"
+        return "lewis up (broker, sequencer)" if mission else "lewis up (broker, goal thread)"
     try:
         with open(f"/proc/{pid}/cmdline", "rb") as f:
             argv = [a.decode(errors="replace") for a in f.read().split(b"\0") if a]
@@ -59,6 +65,8 @@ def label(pid: int, root: int) -> str:
         return argv[2]
     if len(argv) >= 2 and argv[1] == "record":
         return "recorder (lewis record)"
+    if len(argv) >= 3 and argv[1] == "app":
+        return f"program {argv[2]}"
     return " ".join(argv[:3]) or f"pid {pid}"
 
 
@@ -86,7 +94,9 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--warmup", type=float, default=5.0)
     parser.add_argument("--record", action="store_true", help="record the run (default --no-record)")
-    parser.add_argument("--goal", help="also drive to X,Y (the run still ends at --duration, or on arrival)")
+    what = parser.add_mutually_exclusive_group()
+    what.add_argument("--goal", help="also drive to X,Y (the run still ends at --duration, or on arrival)")
+    what.add_argument("--script", help="run this mission (it ends the run; --duration bounds it)")
     args = parser.parse_args()
 
     out_dir = tempfile.mkdtemp(prefix="lewis-cpu-")
@@ -95,6 +105,8 @@ def main() -> int:
     command += ["-o", os.path.join(out_dir, "run.mcap")] if args.record else ["--no-record"]
     if args.goal:
         command += ["--goal", args.goal, "--goal-timeout", f"{args.duration}s"]
+    if args.script:
+        command += ["--script", args.script]
     started = time.monotonic()
     child = subprocess.Popen(command, stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
 
@@ -119,18 +131,21 @@ def main() -> int:
                 continue
             # Labelled again until it has exec'd: a child caught between fork and exec still
             # has the cmdline of `lewis up`.
-            if pid not in names or names[pid].startswith(("lewis up", "pid ", args.lewis)):
-                names[pid] = label(pid, child.pid)
+            # (Or the `/bin/sh` of a mission's program wrapper, which execs `lewis app`.)
+            if pid not in names or names[pid].startswith(("lewis up", "pid ", args.lewis, "/bin/sh")):
+                names[pid] = label(pid, child.pid, bool(args.script))
             last[pid] = stat[1]
             if in_window and pid not in first:
                 # A process seen for the first time inside the window started inside it.
                 first[pid] = stat[1] if now - window_start < 0.15 else 0
-        # The robot is stopped at --duration: the window ends just before.
-        if now < args.duration - 0.3:
+        # The robot is stopped at --duration: the window ends just before. A mission ends
+        # the run itself, so its window ends at the last sample taken while it ran.
+        if args.script or now < args.duration - 0.3:
             window_end = now
             window_last = dict(last)
         time.sleep(0.1)
     exact = usage.ru_utime + usage.ru_stime
+    wall = time.monotonic() - started
 
     steady = defaultdict(float)
     whole = defaultdict(float)
@@ -144,16 +159,25 @@ def main() -> int:
     print(f"# {record}; steady window {window_start or 0:.1f}-{window_end or 0:.1f} s; {os.cpu_count()} cores")
     print(f"{'process':34} {'steady % of a core':>19} {'whole run s':>12}")
     for name in sorted(whole, key=lambda n: -whole[n]):
+        if whole[name] == 0 and steady[name] == 0:
+            continue  # a child seen only between fork and exec
         pct = 100 * steady[name] / span if span > 0 else 0.0
         print(f"{name:34} {pct:19.1f} {whole[name]:12.2f}")
     total_pct = 100 * sum(steady.values()) / span if span > 0 else 0.0
     print(f"{'total (sampled)':34} {total_pct:19.1f} {sum(whole.values()):12.2f}")
     print(f"{'total (kernel, wait4 rusage)':34} {'':19} {exact:12.2f}")
+    code = os.waitstatus_to_exitcode(status)
+    if args.script:
+        verdict = "succeeded" if code == 0 else f"failed (lewis up exited with {code})"
+        print(f"# mission {verdict}: {wall:.1f} s of wall time")
     if args.record:
         path = os.path.join(out_dir, "run.mcap")
         if os.path.exists(path):
-            print(f"# recording: {os.path.getsize(path) / 1e6:.1f} MB in {args.duration:.0f} s ({path})")
-    code = os.waitstatus_to_exitcode(status)
+            print(f"# recording: {os.path.getsize(path) / 1e6:.1f} MB in {wall:.0f} s ({path})")
+            info = subprocess.run([args.lewis, "info", "--json", path], capture_output=True, text=True)
+            if info.returncode == 0:
+                lost = json.loads(info.stdout).get("lost_messages", {})
+                print(f"# recorder lost {sum(lost.values())} messages on {len(lost)} channels")
     if code != 0:
         print(f"lewis up exited with {code}", file=sys.stderr)
     return code
