@@ -4,8 +4,9 @@
 //!
 //! It owns no service: the simulator's are in `lewis-sim`, the drivers' in `lewis-drivers`,
 //! motion's in `lewis-motion`, perception's in `lewis-perception`, and the test service
-//! `test-range` in `lewis-emulators` (registered here too, so that a robot file such as
-//! `robots/test.toml` runs and replays through the same registry as any other).
+//! `test-range` and the emulated B21r's camera `emulated-camera` in `lewis-emulators`
+//! (registered here too, so that a robot file such as `robots/test.toml` or
+//! `robots/b21r-emulated.toml` runs and replays through the same registry as any other).
 
 use std::path::Path;
 
@@ -18,6 +19,7 @@ use lewis_runtime::service::ServiceRegistry;
 pub fn registry() -> ServiceRegistry {
     let mut registry = ServiceRegistry::new();
     lewis_emulators::testing::register(&mut registry);
+    lewis_emulators::camera::register(&mut registry);
     lewis_drivers::service::register(&mut registry);
     lewis_sim::service::register(&mut registry);
     lewis_motion::service::register(&mut registry);
@@ -57,6 +59,7 @@ pub const SOURCE_KINDS: &[&str] = &[
     lewis_drivers::camera::KIND,
     lewis_drivers::speech::KIND,
     lewis_emulators::testing::range::KIND,
+    lewis_emulators::camera::KIND,
 ];
 
 #[cfg(test)]

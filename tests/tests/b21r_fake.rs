@@ -9,9 +9,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::f64::consts::FRAC_PI_2;
-use std::io::{BufRead as _, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::rc::Rc;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -29,60 +27,8 @@ use lewis_interfaces::msg::{Broker, RangeFinder, Synchrodrive, SynchrodriveSetVe
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber};
 use lewis_runtime::names;
-use lewis_tests::{RangeApp, Up, WATCHDOG, lewis_exe, open_ipc, repo_root, signal, wait_child};
-
-/// A `lewis fake-device` process, killed when dropped.
-struct FakeDeviceProcess {
-    child: Child,
-}
-
-impl FakeDeviceProcess {
-    /// Starts `lewis fake-device DEVICE --pty PTY ARGS` and waits for the path it prints,
-    /// which it prints once the device answers there.
-    fn start(device: &str, pty: &Path, args: &[&str]) -> Self {
-        Self::start_with("--pty", device, pty, args)
-    }
-
-    /// As [`FakeDeviceProcess::start`], naming the pseudo-terminal with `option`.
-    fn start_with(option: &str, device: &str, pty: &Path, args: &[&str]) -> Self {
-        let mut child = Command::new(lewis_exe())
-            .args(["fake-device", device, option])
-            .arg(pty)
-            .args(args)
-            .current_dir(repo_root())
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("lewis fake-device starts");
-        let stdout = child.stdout.take().expect("stdout is piped");
-        let mut line = String::new();
-        // The line comes at once or the process ended (an error on stderr): no watchdog
-        // needed, the read ends either way.
-        BufReader::new(stdout).read_line(&mut line).unwrap();
-        assert_eq!(
-            line.trim_end(),
-            pty.to_str().unwrap(),
-            "lewis fake-device {device} prints the link it made"
-        );
-        Self { child }
-    }
-
-    /// Kills it as a crash would (the link is left dangling: the device is gone).
-    fn kill(&mut self) {
-        signal(self.child.id(), nix::sys::signal::Signal::SIGKILL);
-        let _ = wait_child(&mut self.child);
-    }
-}
-
-impl Drop for FakeDeviceProcess {
-    fn drop(&mut self) {
-        if matches!(self.child.try_wait(), Ok(None)) {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
-    }
-}
+use lewis_tests::fake_device::FakeDeviceProcess;
+use lewis_tests::{RangeApp, Up, WATCHDOG, open_ipc, repo_root};
 
 /// `robots/b21r.toml` with its ports replaced by `laser` and `base`, and `changes` made
 /// (`(from, to)` text replacements, each of which must apply once).

@@ -10,12 +10,16 @@
 //!   opens, its readings ray cast in a world of `lewis-sim` ([`WorldLaserSource`],
 //!   [`WorldSonarSource`]) or in a bare room; emulators of one robot in two processes share
 //!   the base's true pose through a file ([`pose_file`]).
+//! - [`camera`]: `emulated-camera`, the simulator's camera rendering from that shared pose,
+//!   so that a robot of emulated devices sees the world's signs too.
 //! - [`testing`]: `test-range`, the service the failover tests and demonstrations run.
 //!
 //! Nothing in the production drivers depends on this crate: only the registry (for
-//! `test-range`), the `lewis` binary and tests do. The drivers and services never read the
-//! pose file.
+//! `test-range` and `emulated-camera`), the `lewis` binary and tests do. Only the emulators
+//! read the pose file (the laser's, and `emulated-camera`): the drivers, perception, motion
+//! and the programs never do.
 
+pub mod camera;
 mod clock;
 pub mod fake_device;
 mod fault_spec;

@@ -3,6 +3,11 @@
 //! CameraControl (zoom, pan, tilt, exposure) at its first frame and after every command
 //! that changes it.
 //!
+//! Where there is no simulator to publish GroundTruth (the B21r's device emulators), the same
+//! camera renders from a pose its builder hands it ([`TruePoseSource`],
+//! [`SimCameraService::with_true_pose`]): `lewis-emulators`' `emulated-camera` reads the pose
+//! that the base's emulator shares.
+//!
 //! Commands: CameraControl `set_zoom` (clamped to 1..=`max_zoom`, the reply says what was
 //! set), `set_pan_tilt` (clamped to the mount's limits), `set_focus` and `set_exposure`
 //! (the rendering is a pinhole with unlimited depth of field and fixed exposure: they are
@@ -148,12 +153,57 @@ struct Optics {
     gain_db: f64,
 }
 
+/// Where a camera without GroundTruth learns the robot's true pose in the world: an
+/// emulator's, never a real robot's (a real camera has no such thing).
+pub trait TruePoseSource: std::fmt::Debug + Send {
+    /// The robot's true pose in the world frame now; `Ok(None)` before there is one.
+    ///
+    /// # Errors
+    /// Why the pose cannot be had, for a log line (the camera renders nothing meanwhile).
+    fn true_pose(&mut self) -> Result<Option<lewis_geometry::Pose2>, String>;
+}
+
+/// Where the camera's renderings are seen from.
+#[derive(Debug)]
+enum Truth {
+    /// The latest GroundTruth sample (and WorldState's people), named as provenance.
+    Published(TruthFollower),
+    /// A pose handed over by the service's builder.
+    Given {
+        source: Box<dyn TruePoseSource>,
+        /// Whether the last failure was logged (once per run of failures).
+        warned: bool,
+    },
+}
+
+impl Truth {
+    /// The pose to render from now, if any.
+    fn pose(&mut self, ctx: &mut Context<'_>, world: &mut World) -> Option<lewis_geometry::Pose2> {
+        match self {
+            Self::Published(follower) => follower.pose_for_rendering(ctx, world),
+            Self::Given { source, warned } => match source.true_pose() {
+                Ok(pose) => {
+                    *warned = false;
+                    pose
+                }
+                Err(e) => {
+                    if !*warned {
+                        ctx.warn(&format!("no true pose to render from: {e}"));
+                        *warned = true;
+                    }
+                    None
+                }
+            },
+        }
+    }
+}
+
 /// The `sim-camera` service.
 #[derive(Debug)]
 pub struct SimCameraService {
     world: World,
     camera: SimCamera,
-    truth: TruthFollower,
+    truth: Truth,
     period_ns: i64,
     max_rate_hz: f64,
     /// The period `set_rate` asked for, in ns (no shorter than `period_ns`).
@@ -171,32 +221,63 @@ pub struct SimCameraService {
 /// When a parameter is missing, unknown or cannot work, or the world does not load.
 pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: CameraParams = config.parameters()?;
-    let period_ns = period_ns(config, "rate_hz", params.rate_hz)?;
-    let camera = SimCamera::new(params.camera_config(), config.seed())
-        .map_err(|e| invalid(config, e.to_string()))?;
-    let world = load_world(config, &params.world)?;
-    let control = camera.camera_control();
-    Ok(Box::new(SimCameraService {
-        world,
-        camera,
-        truth: TruthFollower::default(),
-        period_ns,
-        max_rate_hz: params.rate_hz,
-        frame_period_ns: period_ns,
-        next_frame_ns: None,
-        optics: Optics {
-            focus_m: control.focus,
-            iris: control.iris,
-            shutter_s: control.shutter,
-            gain_db: control.gain,
-        },
-        control_changed: true,
-        publish_image: provides::<ImageSource>(config),
-        publish_control: provides::<CameraControl>(config),
-    }))
+    let service =
+        SimCameraService::new(config, &params, Truth::Published(TruthFollower::default()))?;
+    Ok(Box::new(service))
 }
 
 impl SimCameraService {
+    /// The camera of service `config` with `params`, rendering from the poses `source`
+    /// gives rather than from GroundTruth (its inputs, if any, are ignored): for a robot
+    /// whose devices are emulated outside the simulator.
+    ///
+    /// # Errors
+    /// When a parameter cannot work, or the world does not load.
+    pub fn with_true_pose(
+        config: &ServiceConfig<'_>,
+        params: &CameraParams,
+        source: Box<dyn TruePoseSource>,
+    ) -> Result<Self, BuildError> {
+        Self::new(
+            config,
+            params,
+            Truth::Given {
+                source,
+                warned: false,
+            },
+        )
+    }
+
+    fn new(
+        config: &ServiceConfig<'_>,
+        params: &CameraParams,
+        truth: Truth,
+    ) -> Result<Self, BuildError> {
+        let period_ns = period_ns(config, "rate_hz", params.rate_hz)?;
+        let camera = SimCamera::new(params.camera_config(), config.seed())
+            .map_err(|e| invalid(config, e.to_string()))?;
+        let world = load_world(config, &params.world)?;
+        let control = camera.camera_control();
+        Ok(SimCameraService {
+            world,
+            camera,
+            truth,
+            period_ns,
+            max_rate_hz: params.rate_hz,
+            frame_period_ns: period_ns,
+            next_frame_ns: None,
+            optics: Optics {
+                focus_m: control.focus,
+                iris: control.iris,
+                shutter_s: control.shutter,
+                gain_db: control.gain,
+            },
+            control_changed: true,
+            publish_image: provides::<ImageSource>(config),
+            publish_control: provides::<CameraControl>(config),
+        })
+    }
+
     /// The CameraControl publication (header left to the context).
     #[must_use]
     pub fn camera_control(&self) -> CameraControl {
@@ -231,7 +312,9 @@ impl Service for SimCameraService {
     }
 
     fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        self.truth.take(ctx, input);
+        if let Truth::Published(follower) = &mut self.truth {
+            follower.take(ctx, input);
+        }
     }
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
@@ -249,7 +332,7 @@ impl Service for SimCameraService {
         {
             return;
         }
-        let Some(pose) = self.truth.pose_for_rendering(ctx, &mut self.world) else {
+        let Some(pose) = self.truth.pose(ctx, &mut self.world) else {
             return;
         };
         let due = self.next_frame_ns.unwrap_or(now);

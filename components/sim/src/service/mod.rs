@@ -35,7 +35,7 @@ use serde::Deserialize;
 use super::world::World;
 
 pub use base::{BaseLimits, BaseParams, BatteryParams, BodyParams, OdometryParams, SimBaseService};
-pub use camera::{CameraParams, SimCameraService};
+pub use camera::{CameraParams, SimCameraService, TruePoseSource};
 pub use laser::{LaserParams, SimLaserService};
 pub use sonar::{SimSonarService, SonarParams};
 pub use speech::{SimSpeechService, SpeechParams};
