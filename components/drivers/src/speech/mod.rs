@@ -19,7 +19,7 @@ use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 
-use lewis_interfaces::msg::{Speech, SpeechAnswer, SpeechCommand, SpeechHearReply, SpeechSayReply};
+use lewis_interfaces::msg::{Speech, SpeechCommand, SpeechHearReply, SpeechSayReply};
 use lewis_runtime::service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
     ServiceRegistry,
@@ -91,10 +91,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     Ok(Box::new(EspeakSpeech {
         params,
         period_ns,
-        state: Speech {
-            answer: SpeechAnswer::None.as_str().to_owned(),
-            ..Speech::default()
-        },
+        state: Speech::silent(),
         queue: VecDeque::new(),
         child: None,
     }))
@@ -195,9 +192,7 @@ impl Service for EspeakSpeech {
         match command.interface {
             "Speech" => match command.decode::<Speech>()? {
                 SpeechCommand::Say(c) => {
-                    self.state.said_count = self.state.said_count.saturating_add(1);
-                    self.state.last_said.clone_from(&c.text);
-                    let n = self.state.said_count;
+                    let n = self.state.said(&c.text);
                     self.queue.push_back((n, c.text));
                     self.pump(ctx);
                     self.publish(ctx);
@@ -207,17 +202,9 @@ impl Service for EspeakSpeech {
                     }))
                 }
                 SpeechCommand::Hear(c) => {
-                    let Some(answer @ (SpeechAnswer::Yes | SpeechAnswer::No)) =
-                        SpeechAnswer::parse(&c.answer)
-                    else {
-                        return Err(CommandError::new(format!(
-                            "hear: answer `{}`, expected yes or no",
-                            c.answer
-                        )));
-                    };
-                    self.state.heard_count = self.state.heard_count.saturating_add(1);
-                    self.state.answer = answer.as_str().to_owned();
-                    self.state.last_heard = c.text;
+                    self.state
+                        .hear(&c.answer, &c.text)
+                        .map_err(|e| CommandError::new(e.to_string()))?;
                     self.publish(ctx);
                     Ok(ctx.reply(SpeechHearReply::default()))
                 }
