@@ -283,3 +283,23 @@ fn the_simulated_robot_is_watched_on_its_true_pose_and_world_map() {
     );
     assert_eq!(options.world_map, None);
 }
+
+#[test]
+fn the_robot_is_watched_for_the_page_only_while_a_page_looks() {
+    let gui = server();
+    let feed = gui.robot_feed();
+    feed.show(&snapshot(None));
+    assert!(!feed.is_viewed(), "nobody looks yet");
+    assert_eq!(request(gui.addr(), "GET", "/robot", "", "").status, 200);
+    assert!(feed.is_viewed(), "the robot's view was just asked for");
+
+    let other = server();
+    let feed = other.robot_feed();
+    feed.show(&snapshot(None));
+    let mut events = EventStream::open(other.addr());
+    assert_eq!(events.next("robot")["pose"]["x"], 12.5);
+    assert!(feed.is_viewed(), "an event stream is open");
+    drop(events);
+    other.shutdown();
+    gui.shutdown();
+}
