@@ -23,9 +23,7 @@ use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{Ipc, NAMESPACE_ENV, Namespace};
 use lewis_runtime::names;
 
-use crate::gui::{
-    GuiError, GuiServer, RobotFeed, RobotWatch, RobotWatchOptions, open_in_browser,
-};
+use crate::gui::{GuiError, GuiServer, RobotFeed, RobotWatch, RobotWatchOptions, open_in_browser};
 use crate::keys::{KEYS_HINT, KeyTerminal};
 use crate::live::{
     Command, ControlReceiver, Controller, LogLine, Outcome, RunError, RunOptions, SignalForwarder,

@@ -128,13 +128,19 @@ mod tests {
         let out = Lines::default();
         open_with("/nonexistent/xdg-open", true, "http://x/", out.clone());
         let text = out.text();
-        assert!(text.starts_with("supervisor's page: cannot start /nonexistent/xdg-open"), "{text}");
+        assert!(
+            text.starts_with("supervisor's page: cannot start /nonexistent/xdg-open"),
+            "{text}"
+        );
         assert_eq!(text.lines().count(), 1);
 
         let out = Lines::default();
         open_with("false", true, "http://x/", out.clone());
         let text = out.wait();
-        assert!(text.starts_with("supervisor's page: false found no browser"), "{text}");
+        assert!(
+            text.starts_with("supervisor's page: false found no browser"),
+            "{text}"
+        );
 
         let out = Lines::default();
         open_with("true", true, "http://x/", out.clone());
