@@ -278,6 +278,9 @@ fn execute(
             feed.on_said(|text| {
                 let _ = writeln!(io::stderr(), "robot says \"{text}\": {KEYS_HINT}");
             });
+            feed.on_answered(|what| {
+                let _ = writeln!(io::stderr(), "registrar: {what}");
+            });
             Some((answer_through(feed.clone(), io::stderr()), input))
         }
         _ => None,

@@ -19,15 +19,14 @@ use crate::record::{Entry, Record, RecordSink};
 /// Where the terminal's answers for the robot's Speech provider go.
 pub type AnswerSink = Box<dyn FnMut(Answer) + Send>;
 
-/// An [`AnswerSink`] that sends through `feed` (the page's one way) and says on `out` what
-/// became of each answer.
+/// An [`AnswerSink`] that sends through `feed` (the page's one way) and says on `out` why
+/// an answer was refused (what became of one sent, the feed tells:
+/// [`RobotFeed::on_answered`]).
 pub fn answer_through(feed: RobotFeed, mut out: impl Write + Send + 'static) -> AnswerSink {
     Box::new(move |answer| {
-        let line = match feed.answer(answer) {
-            Ok(sent) => sent,
-            Err(refused) => refused.to_string(),
-        };
-        let _ = writeln!(out, "registrar: {line}");
+        if let Err(refused) = feed.answer(answer) {
+            let _ = writeln!(out, "registrar: {refused}");
+        }
     })
 }
 

@@ -13,7 +13,8 @@
 //! world's map as it is on disk (`GET /map.png`). `POST /answer` sends the supervisor's
 //! answer to the robot's Speech provider (`hear`), as the registrar at a real desk would;
 //! the supervisor's terminal sends its keys' answers the same way ([`RobotFeed::answer`]),
-//! and hears when the robot speaks ([`RobotFeed::on_said`]).
+//! and hears when the robot speaks and what became of its answers ([`RobotFeed::on_said`],
+//! [`RobotFeed::on_answered`]).
 //!
 //! What to watch ([`RobotWatchOptions`]) comes from the robot description: the GroundTruth
 //! provider when the robot has one (a simulator), else Egomotion (the odometry's frame,
@@ -456,8 +457,9 @@ pub(crate) enum WatchCommand {
     Stop,
 }
 
-/// Told what the robot says (see [`RobotFeed::on_said`]).
-type SaidHook = Arc<dyn Fn(&str) + Send + Sync>;
+/// Told what the robot says, or what became of an answer ([`RobotFeed::on_said`],
+/// [`RobotFeed::on_answered`]).
+type NoteHook = Arc<dyn Fn(&str) + Send + Sync>;
 
 /// What the page holds of the robot, shared with the server's threads.
 #[derive(Default)]
@@ -469,7 +471,8 @@ pub(crate) struct RobotState {
     pub(crate) speech: bool,
     /// When a page last asked for the robot's view or frame.
     requested_at: Option<Instant>,
-    said: Option<SaidHook>,
+    said: Option<NoteHook>,
+    answered: Option<NoteHook>,
 }
 
 impl RobotState {
@@ -542,6 +545,19 @@ impl RobotFeed {
         let hook = self.hub.lock().robot.said.clone();
         if let Some(hook) = hook {
             hook(text);
+        }
+    }
+
+    /// Calls `hook` with what became of every answer sent from now on, for people (`speech
+    /// heard `yes``, or why not), as the page shows it (one hook at a time).
+    pub fn on_answered(&self, hook: impl Fn(&str) + Send + Sync + 'static) {
+        self.hub.lock().robot.answered = Some(Arc::new(hook));
+    }
+
+    fn answered(&self, what: &str) {
+        let hook = self.hub.lock().robot.answered.clone();
+        if let Some(hook) = hook {
+            hook(what);
         }
     }
 
@@ -775,7 +791,9 @@ fn watch(
             let left = tick.saturating_duration_since(Instant::now());
             match commands.recv_timeout(left) {
                 Ok(WatchCommand::Answer(answer)) => {
-                    view.answer = Some(send_answer(&mut watched, options, &answer));
+                    let what = send_answer(&mut watched, options, &answer);
+                    feed.answered(&what);
+                    view.answer = Some(what);
                     feed.show(&view);
                 }
                 Ok(WatchCommand::Stop) | Err(RecvTimeoutError::Disconnected) => return,
