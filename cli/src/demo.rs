@@ -28,7 +28,9 @@ pub struct DemoArgs {
     /// The seed of the simulated devices (their noise, the people's timing).
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
-    /// Do not serve the supervisor's page: nobody is asked after recovery.
+    /// Do not serve the supervisor's page (else it is opened in the desktop's browser when
+    /// there is a display, and its URL printed): after recovery the terminal is asked when
+    /// the standard input is one, else nobody.
     #[arg(long)]
     pub no_gui: bool,
     /// The output folder: run.mcap, events.jsonl, replay.mcap, replay.json, run.rrd.

@@ -114,6 +114,7 @@ impl MissionArgs {
             no_gui: self.no_gui,
             gui_addr: SocketAddr::new(self.gui_bind, self.gui_port),
             events: self.events.clone(),
+            open_page: false,
             echo,
         }
     }

@@ -377,6 +377,8 @@ pub fn run_demo(
                 no_gui: options.no_gui,
                 gui_addr: options.gui_addr,
                 events: Some(files.events.clone()),
+                // The demo is watched by a person at a desktop, when there is one.
+                open_page: !options.no_gui,
                 echo: false,
             },
         }),

@@ -3,17 +3,21 @@
 //! stopped after them (`lewis_recorder::live::child`), and beside them, when asked, a goal
 //! to drive to (`lewis_motion::goal`) or a mission script (`lewis_sequencer::session`).
 //!
+//! When it records, every service learns where the recording goes
+//! (`lewis_runtime::live::RECORDING_ENV`): a service that writes files of its own, as
+//! espeak-speech writes its audio, puts them beside it.
+//!
 //! It owns the order in which they start and stop, and how a run ends: Ctrl-C, SIGTERM,
 //! the duration, a [`StopHandle`] from another thread, or the goal or mission being over
 //! (they ask through a stop handle too; nothing signals its own process). It owns no
 //! decision of theirs.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use lewis_motion::goal::{GoalPlan, GoalRun, GoalRunError, Outcome as GoalOutcome};
 use lewis_recorder::live::child::{ChildError, ChildOptions, RecorderChild};
 use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up};
-use lewis_runtime::live::{StopHandle, StopSignals};
+use lewis_runtime::live::{RECORDING_ENV, StopHandle, StopSignals};
 use lewis_runtime::robot::Robot;
 use lewis_sequencer::Mission;
 use lewis_sequencer::gui::RobotWatchOptions;
@@ -126,7 +130,7 @@ impl Launch {
     /// When the broker, the recorder, the goal or the mission could not run.
     pub fn run(self) -> Result<LaunchReport, LaunchError> {
         let Self {
-            robot,
+            mut robot,
             options,
             signals,
         } = self;
@@ -141,6 +145,9 @@ impl Launch {
             })?,
             None => None,
         };
+        if let Some(recorder) = &recorder {
+            name_the_recording(&mut robot, recorder.path());
+        }
         let goal = match options.goal {
             Some(plan) => {
                 let stop = signals.handle();
@@ -190,6 +197,19 @@ impl Launch {
     }
 }
 
+/// Names the recording at `path` to every service of `robot` ([`RECORDING_ENV`]), so one
+/// that writes files of its own puts them beside it; a service's own `environment` wins.
+fn name_the_recording(robot: &mut Robot, path: &Path) {
+    let path = std::path::absolute(path).unwrap_or_else(|_| path.to_owned());
+    let path = path.to_string_lossy();
+    for service in &mut robot.services {
+        service
+            .environment
+            .entry(RECORDING_ENV.to_owned())
+            .or_insert_with(|| path.clone().into_owned());
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use std::path::Path;
@@ -199,6 +219,25 @@ mod tests {
     use lewis_runtime::live::ClockSource;
 
     use super::*;
+
+    #[test]
+    fn every_service_learns_where_the_recording_goes_unless_it_says_otherwise() {
+        let robot_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
+        let mut robot =
+            lewis_runtime::robot::load(&robot_path, &lewis_interfaces::interface_names())
+                .unwrap_or_else(|e| panic!("{e}"));
+        robot.services[0]
+            .environment
+            .insert(RECORDING_ENV.to_owned(), "/elsewhere.mcap".to_owned());
+        name_the_recording(&mut robot, Path::new("/logs/run.mcap"));
+        assert_eq!(
+            robot.services[0].environment[RECORDING_ENV],
+            "/elsewhere.mcap"
+        );
+        for service in &robot.services[1..] {
+            assert_eq!(service.environment[RECORDING_ENV], "/logs/run.mcap");
+        }
+    }
 
     #[test]
     fn a_stop_handle_ends_the_run_as_a_request() {

@@ -7,9 +7,8 @@
 // finish. Beside the question it sees the robot the test feeds: on the map and moving, its
 // camera frame, the bindings with their health; it taps "registered" (the answer for the
 // robot's Speech provider). Exits non-zero with a message on the first expectation that fails.
-import { chromium } from "playwright-core";
-import { mkdtempSync, writeFileSync, rmSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { imageWidth, runInBrowser, sameDocument, step } from "./browser.mjs";
+import { writeFileSync } from "node:fs";
 import { join } from "node:path";
 
 const [url, release, shots] = process.argv.slice(2);
@@ -17,29 +16,8 @@ if (!url || !release || !shots) {
   console.error("usage: node drive.mjs URL RELEASE_FILE SCREENSHOT_DIR");
   process.exit(2);
 }
-const executablePath = process.env.LEWIS_CHROMIUM || "/usr/bin/chromium";
-const profile = mkdtempSync(join(tmpdir(), "lewis-seq-chromium-"));
-const step = (what) => console.log(`gui-test: ${what}`);
 
-const context = await chromium.launchPersistentContext(profile, {
-  executablePath,
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--no-first-run"],
-  viewport: { width: 1280, height: 800 },
-  hasTouch: true,
-  isMobile: false,
-  timeout: 30000,
-});
-let failed = false;
-try {
-  const page = context.pages()[0] ?? await context.newPage();
-  page.setDefaultTimeout(20000);
-  page.on("pageerror", (e) => { console.error(`gui-test: page error: ${e}`); failed = true; });
-  page.on("dialog", (d) => { console.error(`gui-test: unexpected dialog: ${d.message()}`); failed = true; d.dismiss(); });
-
-  await page.goto(url);
-  await page.evaluate(() => { window.__sameDocument = true; });
+await runInBrowser(url, async (page) => {
   await page.locator('#status[data-phase="running"]').waitFor();
   await page.locator('#diagram .box.current[data-state="door"]').waitFor();
   await page.locator("#history li.start", { hasText: "start at door" }).waitFor();
@@ -68,12 +46,7 @@ try {
   await page.locator('#map-robot[visibility="visible"]').waitFor({ state: "attached" });
   const x1 = await robotAt();
   await page.waitForFunction((x) => document.querySelector("#map-robot").dataset.x !== x, x1);
-  const mapLoaded = await page.evaluate(() => new Promise((resolve) => {
-    const probe = new Image();
-    probe.onload = () => resolve(probe.naturalWidth);
-    probe.onerror = () => resolve(0);
-    probe.src = "map.png";
-  }));
+  const mapLoaded = await imageWidth(page, "map.png");
   if (mapLoaded !== 800) throw new Error(`the map did not load: width ${mapLoaded}`);
   await page.waitForFunction(() => {
     const img = document.querySelector("#camera-img");
@@ -103,17 +76,6 @@ try {
   await page.locator("#outcome", { hasText: "The mission reached stop" }).waitFor();
   await page.locator("#history li.start", { hasText: "start at door" }).waitFor();
   step("after the tap on `queue` the mission resumed there and finished");
-  if (!(await page.evaluate(() => window.__sameDocument === true))) {
-    throw new Error("the page was reloaded: updates must arrive live");
-  }
+  await sameDocument(page);
   await page.screenshot({ path: join(shots, "finished.png") });
-  if (failed) throw new Error("the page reported errors (see above)");
-  step("ok");
-} catch (e) {
-  console.error(`gui-test: FAILED: ${e.message ?? e}`);
-  failed = true;
-} finally {
-  await context.close();
-  rmSync(profile, { recursive: true, force: true });
-}
-process.exit(failed ? 1 : 0);
+});

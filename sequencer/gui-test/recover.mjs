@@ -8,9 +8,7 @@
 // corridor's turn took it), its camera's latest frame, and who serves what; it taps `sign`
 // and sees the mission finish through queue and register. Exits non-zero with a message on
 // the first expectation that fails.
-import { chromium } from "playwright-core";
-import { mkdtempSync, rmSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { imageWidth, runInBrowser, sameDocument, step } from "./browser.mjs";
 import { join } from "node:path";
 
 const [url, shots] = process.argv.slice(2);
@@ -18,32 +16,11 @@ if (!url || !shots) {
   console.error("usage: node recover.mjs URL SCREENSHOT_DIR");
   process.exit(2);
 }
-const executablePath = process.env.LEWIS_CHROMIUM || "/usr/bin/chromium";
-const profile = mkdtempSync(join(tmpdir(), "lewis-seq-chromium-"));
-const step = (what) => console.log(`gui-test: ${what}`);
 // The live mission's phases take tens of seconds: the waits for them are longer than the
 // default one for what the page must show at once.
 const MISSION_PHASE_MS = 120000;
 
-const context = await chromium.launchPersistentContext(profile, {
-  executablePath,
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--no-first-run"],
-  viewport: { width: 1280, height: 800 },
-  hasTouch: true,
-  isMobile: false,
-  timeout: 30000,
-});
-let failed = false;
-try {
-  const page = context.pages()[0] ?? await context.newPage();
-  page.setDefaultTimeout(20000);
-  page.on("pageerror", (e) => { console.error(`gui-test: page error: ${e}`); failed = true; });
-  page.on("dialog", (d) => { console.error(`gui-test: unexpected dialog: ${d.message()}`); failed = true; d.dismiss(); });
-
-  await page.goto(url);
-  await page.evaluate(() => { window.__sameDocument = true; });
+await runInBrowser(url, async (page) => {
   await page.locator("#history li.start", { hasText: "start at sign" }).waitFor();
   step("the page shows the mission started at `sign`");
 
@@ -67,12 +44,7 @@ try {
   // the corridor, y > 17.25 m) and west of where it started, after following the cap.
   await page.locator("#robot").waitFor({ state: "visible" });
   await page.locator('#map-robot[visibility="visible"]').waitFor({ state: "attached" });
-  const mapWidth = await page.evaluate(() => new Promise((resolve) => {
-    const probe = new Image();
-    probe.onload = () => resolve(probe.naturalWidth);
-    probe.onerror = () => resolve(0);
-    probe.src = "map.png";
-  }));
+  const mapWidth = await imageWidth(page, "map.png");
   if (mapWidth !== 800) throw new Error(`the world's map did not load: width ${mapWidth}`);
   const x = Number(await page.locator("#map-robot").getAttribute("data-x"));
   const y = Number(await page.locator("#map-robot").getAttribute("data-y"));
@@ -99,17 +71,6 @@ try {
   await page.locator("#diagram .stopnode.reached").waitFor();
   await page.locator("#outcome", { hasText: "The mission reached stop" }).waitFor();
   step("the mission finished through queue and register");
-  if (!(await page.evaluate(() => window.__sameDocument === true))) {
-    throw new Error("the page was reloaded: updates must arrive live");
-  }
+  await sameDocument(page);
   await page.screenshot({ path: join(shots, "finished.png") });
-  if (failed) throw new Error("the page reported errors (see above)");
-  step("ok");
-} catch (e) {
-  console.error(`gui-test: FAILED: ${e.message ?? e}`);
-  failed = true;
-} finally {
-  await context.close();
-  rmSync(profile, { recursive: true, force: true });
-}
-process.exit(failed ? 1 : 0);
+});

@@ -72,6 +72,7 @@ pub mod check;
 pub mod diagnostic;
 pub mod fsm;
 pub mod gui;
+pub mod keys;
 pub mod live;
 pub mod location;
 pub mod message;

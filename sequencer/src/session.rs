@@ -23,12 +23,14 @@ use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{Ipc, NAMESPACE_ENV, Namespace};
 use lewis_runtime::names;
 
-use crate::gui::{GuiError, GuiServer, RobotWatch, RobotWatchOptions};
+use crate::gui::{GuiError, GuiServer, RobotFeed, RobotWatch, RobotWatchOptions, open_in_browser};
+use crate::keys::{KEYS_HINT, KeyTerminal};
 use crate::live::{
     Command, ControlReceiver, Controller, LogLine, Outcome, RunError, RunOptions, SignalForwarder,
     Stream, control_channel, run_mission,
 };
 use crate::record::{Entry, JsonLinesSink, Record, RecordSink, Tee};
+use crate::terminal::{TerminalKeys, answer_through};
 use crate::{Mission, Publisher, Supervision, TerminalChooser, Verdict};
 
 /// How long a mission beside a broker waits for the broker to answer before it gives up.
@@ -50,6 +52,9 @@ pub struct SessionOptions {
     pub gui_addr: SocketAddr,
     /// Also write every record to this file, as JSON lines.
     pub events: Option<PathBuf>,
+    /// Open the supervisor's page in the desktop's browser when it is served (its URL is
+    /// printed either way; without a display or a browser, one line says so).
+    pub open_page: bool,
     /// Print the decisions and the programs' lines (`[state] text`) on stdout and stderr;
     /// without, they go to the logs only (a caller whose logs already show them).
     pub echo: bool,
@@ -230,13 +235,34 @@ fn execute(
     let gui = if supervision == Supervision::Page {
         let gui = GuiServer::start(options.gui_addr, &mission, controller.clone())?;
         let _ = writeln!(io::stdout(), "supervisor's page: {}", gui.url());
+        if options.open_page {
+            open_in_browser(&gui.url(), io::stdout());
+        }
         Some(gui)
     } else {
         None
     };
-    let watch = match (&gui, robot) {
-        (Some(gui), Some(robot)) => {
-            match RobotWatch::start(namespace, robot.clone(), gui.robot_feed()) {
+    // The terminal's keys answer for the registrar when there is a Speech provider and the
+    // standard input is a terminal in the foreground; restored when this is dropped,
+    // however the mission ends.
+    let keys = match robot.filter(|r| r.speech.is_some()) {
+        Some(_) if io::stdin().is_terminal() => match KeyTerminal::stdin() {
+            Ok(keys) => Some(keys),
+            Err(e) => {
+                tracing::debug!("no answers from the terminal's keys: {e}");
+                None
+            }
+        },
+        _ => None,
+    };
+    let feed = match (&gui, robot) {
+        (Some(gui), Some(_)) => Some(gui.robot_feed()),
+        (None, Some(_)) if keys.is_some() => Some(RobotFeed::detached(&mission)),
+        _ => None,
+    };
+    let watch = match (&feed, robot) {
+        (Some(feed), Some(robot)) => {
+            match RobotWatch::start(namespace, robot.clone(), feed.clone()) {
                 Ok(watch) => Some(watch),
                 Err(e) => {
                     tracing::warn!("the supervisor's page does not show the robot: {e}");
@@ -246,14 +272,36 @@ fn execute(
         }
         _ => None,
     };
-    let terminal = if supervision == Supervision::Terminal {
-        let stdin = BufReader::new(io::stdin());
-        Some(
-            TerminalChooser::start(stdin, io::stderr(), controller.clone())
+    let (keys, key_input) = keys.unzip();
+    let answers = match (&feed, key_input) {
+        (Some(feed), Some(input)) => {
+            feed.on_said(|text| {
+                let _ = writeln!(io::stderr(), "robot says \"{text}\": {KEYS_HINT}");
+            });
+            feed.on_answered(|what| {
+                let _ = writeln!(io::stderr(), "registrar: {what}");
+            });
+            Some((answer_through(feed.clone(), io::stderr()), input))
+        }
+        _ => None,
+    };
+    let terminal = match (supervision, answers) {
+        (Supervision::Terminal, Some((answers, input))) => Some(
+            TerminalChooser::with_keys(input, io::stderr(), controller.clone(), Some(answers))
                 .map_err(SessionError::Setup)?,
-        )
-    } else {
-        None
+        ),
+        (Supervision::Terminal, None) => {
+            let stdin = BufReader::new(io::stdin());
+            Some(
+                TerminalChooser::start(stdin, io::stderr(), controller.clone())
+                    .map_err(SessionError::Setup)?,
+            )
+        }
+        (_, Some((answers, input))) => {
+            TerminalKeys::start(input, controller.clone(), answers).map_err(SessionError::Setup)?;
+            None
+        }
+        (_, None) => None,
     };
 
     let (lines, incoming) = mpsc::sync_channel(4096);
@@ -313,6 +361,8 @@ fn execute(
     if let Some(watch) = watch {
         watch.stop();
     }
+    // The terminal's settings come back now (and on every early return, when dropped).
+    drop(keys);
     if let Some(gui) = gui {
         gui.shutdown();
     }

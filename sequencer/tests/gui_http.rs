@@ -4,11 +4,10 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{Ipv4Addr, SocketAddr, TcpStream};
+use std::net::{Ipv4Addr, SocketAddr};
 use std::path::Path;
-use std::time::Duration;
 
+use crate::common::http::{EventStream, Reply, command, request};
 use lewis_sequencer::live::{Command, control_channel};
 use lewis_sequencer::record::{Entry, Record, RecordSink};
 use lewis_sequencer::{Event, GuiServer, MemorySources, Sequencer, TrustingResolver, check_with};
@@ -81,42 +80,12 @@ impl Feeder {
     }
 }
 
-struct Reply {
-    status: u16,
-    body: String,
-}
-
-fn request(addr: SocketAddr, method: &str, path: &str, headers: &str, body: &str) -> Reply {
-    let mut stream = TcpStream::connect(addr).unwrap();
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    write!(
-        stream,
-        "{method} {path} HTTP/1.1\r\nHost: test\r\nConnection: close\r\n{headers}\
-         Content-Length: {}\r\n\r\n{body}",
-        body.len()
-    )
-    .unwrap();
-    let mut text = String::new();
-    stream.read_to_string(&mut text).unwrap();
-    let status = text[9..12].parse().unwrap();
-    let body = text.split_once("\r\n\r\n").unwrap().1.to_owned();
-    Reply { status, body }
-}
-
 fn choose(addr: SocketAddr, state: &str) -> Reply {
-    request(
-        addr,
-        "POST",
-        "/choose",
-        "X-Lewis-Supervisor: 1\r\nContent-Type: application/json\r\n",
-        &format!("{{\"state\":\"{state}\"}}"),
-    )
+    command(addr, "/choose", &format!("{{\"state\":\"{state}\"}}"))
 }
 
 fn view(addr: SocketAddr) -> serde_json::Value {
-    serde_json::from_str(&request(addr, "GET", "/view", "", "").body).unwrap()
+    serde_json::from_slice(&request(addr, "GET", "/view", "", "").body).unwrap()
 }
 
 #[test]
@@ -129,14 +98,14 @@ fn the_page_is_compiled_in_and_loads_nothing_from_the_network() {
     )
     .unwrap();
     let page = request(gui.addr(), "GET", "/", "", "");
+    let text = page.text();
     assert_eq!(page.status, 200);
-    assert!(page.body.contains("<svg id=\"diagram\""));
-    assert!(page.body.contains("new EventSource(\"events\")"));
+    assert!(text.contains("<svg id=\"diagram\""));
+    assert!(text.contains("new EventSource(\"events\")"));
     for remote in ["http://", "https://", "//cdn"] {
-        let outside = page
-            .body
+        let outside = text
             .match_indices(remote)
-            .any(|(at, _)| !page.body[at..].starts_with("http://www.w3.org/2000/svg"));
+            .any(|(at, _)| !text[at..].starts_with("http://www.w3.org/2000/svg"));
         assert!(!outside, "the page refers to {remote}");
     }
     assert_eq!(request(gui.addr(), "GET", "/nowhere", "", "").status, 404);
@@ -162,7 +131,7 @@ fn the_view_follows_the_mission_and_choices_are_taken_only_when_asked() {
 
     let unsigned = request(addr, "POST", "/choose", "", "{\"state\":\"b\"}");
     assert_eq!(unsigned.status, 403);
-    assert!(unsigned.body.contains("X-Lewis-Supervisor"));
+    assert!(unsigned.text().contains("X-Lewis-Supervisor"));
 
     feeder.feed(Event::Signalled { signal: 11 });
     feeder.feed(Event::Signalled { signal: 11 });
@@ -181,7 +150,7 @@ fn the_view_follows_the_mission_and_choices_are_taken_only_when_asked() {
 
     let unknown = choose(addr, "nowhere");
     assert_eq!(unknown.status, 400);
-    assert!(unknown.body.contains("`nowhere` is not a state"));
+    assert!(unknown.text().contains("`nowhere` is not a state"));
     assert_eq!(
         request(addr, "POST", "/choose", "X-Lewis-Supervisor: 1\r\n", "b").status,
         400
@@ -204,21 +173,8 @@ fn the_event_stream_sends_the_view_at_once_and_again_on_every_change() {
         controller,
     )
     .unwrap();
-    let mut stream = TcpStream::connect(gui.addr()).unwrap();
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    write!(stream, "GET /events HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
-    let mut lines = BufReader::new(stream);
-    let mut next_view = || -> serde_json::Value {
-        loop {
-            let mut line = String::new();
-            assert_ne!(lines.read_line(&mut line).unwrap(), 0, "the stream ended");
-            if let Some(json) = line.strip_prefix("data: ") {
-                return serde_json::from_str(json).unwrap();
-            }
-        }
-    };
+    let mut events = EventStream::open(gui.addr());
+    let mut next_view = || events.next("message");
     assert_eq!(next_view()["phase"], "starting");
     let mut feeder = Feeder::start(&gui);
     // Views may be skipped for a slow reader, never reordered: wait for the running one.

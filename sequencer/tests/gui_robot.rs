@@ -5,11 +5,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{Ipv4Addr, SocketAddr, TcpStream};
+use std::net::{Ipv4Addr, SocketAddr};
 use std::path::Path;
 use std::time::Duration;
 
+use crate::common::http::{EventStream, Reply, command, request};
 use lewis_interfaces::msg::ImageSource;
 use lewis_sequencer::gui::{
     BindingView, CameraView, Frame, MapView, PoseInterface, PoseView, RobotView, RobotWatchOptions,
@@ -107,44 +107,8 @@ fn frame() -> Frame {
     }
 }
 
-struct Reply {
-    status: u16,
-    head: String,
-    body: Vec<u8>,
-}
-
-fn request(addr: SocketAddr, method: &str, path: &str, headers: &str, body: &str) -> Reply {
-    let mut stream = TcpStream::connect(addr).unwrap();
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    write!(
-        stream,
-        "{method} {path} HTTP/1.1\r\nHost: test\r\nConnection: close\r\n{headers}\
-         Content-Length: {}\r\n\r\n{body}",
-        body.len()
-    )
-    .unwrap();
-    let mut bytes = Vec::new();
-    stream.read_to_end(&mut bytes).unwrap();
-    let split = bytes.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
-    let head = String::from_utf8(bytes[..split].to_vec()).unwrap();
-    let status = head[9..12].parse().unwrap();
-    Reply {
-        status,
-        head,
-        body: bytes[split + 4..].to_vec(),
-    }
-}
-
 fn answer(addr: SocketAddr, body: &str) -> Reply {
-    request(
-        addr,
-        "POST",
-        "/answer",
-        "X-Lewis-Supervisor: 1\r\nContent-Type: application/json\r\n",
-        body,
-    )
+    command(addr, "/answer", body)
 }
 
 #[test]
@@ -224,29 +188,8 @@ fn the_event_stream_sends_the_robot_as_its_own_event() {
     let gui = server();
     let feed = gui.robot_feed();
     feed.show(&snapshot(None));
-    let mut stream = TcpStream::connect(gui.addr()).unwrap();
-    stream
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    write!(stream, "GET /events HTTP/1.1\r\nHost: test\r\n\r\n").unwrap();
-    let mut lines = BufReader::new(stream);
-    let mut next_robot = || -> serde_json::Value {
-        let mut robot_event = false;
-        loop {
-            let mut line = String::new();
-            assert_ne!(lines.read_line(&mut line).unwrap(), 0, "the stream ended");
-            if line == "event: robot\n" {
-                robot_event = true;
-            } else if let Some(json) = line.strip_prefix("data: ") {
-                let json = serde_json::from_str(json).unwrap();
-                if robot_event {
-                    return json;
-                }
-            } else if line == "\n" {
-                robot_event = false;
-            }
-        }
-    };
+    let mut events = EventStream::open(gui.addr());
+    let mut next_robot = || events.next("robot");
     // The latest robot at once, then every new one.
     assert_eq!(next_robot()["pose"]["x"], 12.5);
     let mut moved = snapshot(None);
@@ -270,7 +213,7 @@ fn an_answer_goes_to_the_speech_provider_only_when_there_is_one() {
     assert_eq!(refused.status, 403, "the supervisor's header is required");
     assert_eq!(answer(gui.addr(), r#"{"answer":"maybe"}"#).status, 400);
     let sent = answer(gui.addr(), body);
-    assert_eq!(sent.status, 202, "{}", String::from_utf8_lossy(&sent.body));
+    assert_eq!(sent.status, 202, "{}", sent.text());
     let got = answers.recv_timeout(Duration::from_secs(5)).unwrap();
     assert_eq!(
         (got.answer.as_str(), got.text.as_str()),
@@ -339,4 +282,24 @@ fn the_simulated_robot_is_watched_on_its_true_pose_and_world_map() {
         Some(PoseInterface::GroundTruth)
     );
     assert_eq!(options.world_map, None);
+}
+
+#[test]
+fn the_robot_is_watched_for_the_page_only_while_a_page_looks() {
+    let gui = server();
+    let feed = gui.robot_feed();
+    feed.show(&snapshot(None));
+    assert!(!feed.is_viewed(), "nobody looks yet");
+    assert_eq!(request(gui.addr(), "GET", "/robot", "", "").status, 200);
+    assert!(feed.is_viewed(), "the robot's view was just asked for");
+
+    let other = server();
+    let feed = other.robot_feed();
+    feed.show(&snapshot(None));
+    let mut events = EventStream::open(other.addr());
+    assert_eq!(events.next("robot")["pose"]["x"], 12.5);
+    assert!(feed.is_viewed(), "an event stream is open");
+    drop(events);
+    other.shutdown();
+    gui.shutdown();
 }

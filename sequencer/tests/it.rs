@@ -16,4 +16,5 @@ mod published;
 mod replay;
 mod robustness;
 mod supervisor_terminal;
+mod terminal_keys;
 mod up_script;

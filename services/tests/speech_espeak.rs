@@ -24,10 +24,15 @@ fn espeak_installed() -> bool {
 }
 
 fn speech(audio_dir: &std::path::Path) -> Harness {
+    speech_with(audio_dir, "")
+}
+
+/// `espeak-speech` writing into `audio_dir`, with more parameters (TOML lines).
+fn speech_with(audio_dir: &std::path::Path, parameters: &str) -> Harness {
     let text = format!(
         "[robot]\nname = \"t\"\n\n[[services]]\nname = \"speech\"\nkind = \"espeak-speech\"\n\
          provides = [{{ interface = \"Speech\", quality = 5, cost = 1 }}]\n\n\
-         [services.parameters]\naudio_dir = {:?}\n",
+         [services.parameters]\naudio_dir = {:?}\n{parameters}",
         audio_dir.display().to_string()
     );
     let mut registry = ServiceRegistry::new();
@@ -93,5 +98,56 @@ fn espeak_speech_writes_a_wav_per_utterance_and_hears_only_the_supervisor() {
     .unwrap();
     let heard = h.take::<Speech>().pop().unwrap();
     assert_eq!((heard.heard_count, heard.answer.as_str()), (1, "yes"));
+    h.stop(t + 100 * MS);
+}
+
+/// Ticks until the voice is free (espeak-ng and the player are real child processes).
+fn until_silent(h: &mut Harness, mut t: i64) -> i64 {
+    let started = Instant::now();
+    loop {
+        t += 100 * MS;
+        h.tick(t);
+        if !h.take::<Speech>().pop().unwrap().speaking {
+            return t;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "the voice never fell silent"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_player_that_cannot_play_leaves_the_voice_working_and_the_wavs_written() {
+    if !espeak_installed() {
+        eprintln!("skipped: espeak-ng is not installed (apt-get install espeak-ng)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let audio = dir.path().join("speech");
+    // A robot without a player (or a sound card): playing fails, speaking goes on.
+    let mut h = speech_with(&audio, "play = true\nplayer = \"/nonexistent/aplay\"\n");
+    h.start(0).unwrap();
+    let mut t = 10 * MS;
+    for n in 1..=2 {
+        let say = SpeechSay {
+            text: format!("Utterance {n}."),
+            ..SpeechSay::default()
+        };
+        assert_eq!(h.command(t, &say).unwrap().utterance, n);
+        t = until_silent(&mut h, t);
+        let wav = std::fs::read(audio.join(format!("utterance-{n:04}.wav"))).unwrap();
+        assert_eq!(&wav[..4], b"RIFF");
+    }
+    // A player that plays: the voice is busy until it is done, then free.
+    let mut h = speech_with(&audio, "play = true\nplayer = \"true\"\n");
+    h.start(t).unwrap();
+    let say = SpeechSay {
+        text: "Played.".to_owned(),
+        ..SpeechSay::default()
+    };
+    h.command(t, &say).unwrap();
+    until_silent(&mut h, t);
     h.stop(t + 100 * MS);
 }

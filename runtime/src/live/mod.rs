@@ -33,6 +33,11 @@ mod signals;
 pub use service_clock::{CLOCK_ENV, ClockSource, UnknownClock};
 pub use signals::{StopHandle, StopSignals};
 
+/// The variable in which `lewis up` names the recording to the robot's services when it
+/// records (the file's path): a service that writes files of its own (espeak-speech's
+/// audio) puts them beside it. Services never read or write the recording itself.
+pub const RECORDING_ENV: &str = "LEWIS_RECORDING";
+
 use std::collections::BTreeMap;
 use std::os::fd::AsFd;
 use std::rc::Rc;

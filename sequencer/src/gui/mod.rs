@@ -12,6 +12,7 @@
 //! header `X-Lewis-Supervisor: 1`, which a page from another origin cannot send without
 //! the browser asking this server first (and it never agrees).
 
+mod open;
 mod robot;
 mod view;
 
@@ -24,10 +25,11 @@ use std::time::Duration;
 use serde::Deserialize;
 use tiny_http::{Header, Method, Request, Response, Server};
 
+pub use open::open_in_browser;
 pub use robot::{
-    Answer, BindingView, CAMERA_MAX_WIDTH_PX, CameraView, Frame, MapView, PersonView,
-    PoseInterface, PoseView, ROBOT_PERIOD, RobotFeed, RobotView, RobotWatch, RobotWatchOptions,
-    ServiceView, png_size,
+    Answer, AnswerRefused, BindingView, CAMERA_MAX_WIDTH_PX, CameraView, Frame, MapView,
+    PersonView, PoseInterface, PoseView, ROBOT_PERIOD, RobotFeed, RobotView, RobotWatch,
+    RobotWatchOptions, ServiceView, VIEWED_FOR, png_size,
 };
 pub use view::{
     Current, Diagram, DiagramAction, DiagramState, HISTORY_LINES, HistoryLine, Phase, Question,
@@ -228,6 +230,13 @@ impl HubState {
         }))
     }
 
+    /// Whether a page looks at the robot: an event stream is open, or the robot's view or
+    /// frame was asked for lately.
+    pub(crate) fn viewed(&mut self) -> bool {
+        self.subscribers.retain(|s| !s.is_gone());
+        !self.subscribers.is_empty() || self.robot.requested_lately()
+    }
+
     fn publish(&mut self) {
         self.subscribers.retain(|s| !s.is_gone());
         let json = self.json();
@@ -327,11 +336,11 @@ fn handle(request: Request, hub: &Arc<Hub>, controller: &Controller) {
             stream(request, hub);
             Ok(())
         }
-        (Method::Get, "/robot") => match hub.lock().robot.json.clone() {
+        (Method::Get, "/robot") => match hub.lock().robot.requested().json.clone() {
             Some(json) => request.respond(json_response(200, &json)),
             None => request.respond(text_response(404, "the robot is not watched")),
         },
-        (Method::Get, "/camera.bmp") => match hub.lock().robot.camera_bmp.clone() {
+        (Method::Get, "/camera.bmp") => match hub.lock().robot.requested().camera_bmp.clone() {
             Some(bmp) => request.respond(bytes_response(&bmp, "image/bmp")),
             None => request.respond(text_response(404, "no camera frame yet")),
         },
@@ -384,7 +393,15 @@ fn post(
                 400,
                 format!("expected {{\"answer\":\"yes\",\"text\":\"...\"}}: {e}"),
             ),
-            Ok(answer) => send_answer(hub, answer),
+            Ok(answer) => match (RobotFeed {
+                hub: Arc::clone(hub),
+            })
+            .answer(answer)
+            {
+                Ok(sent) => (202, sent),
+                Err(refused @ AnswerRefused::NotYesOrNo(_)) => (400, refused.to_string()),
+                Err(refused) => (409, refused.to_string()),
+            },
         }
     } else if path == "/stop" {
         if controller.stop() {
@@ -415,25 +432,6 @@ fn choose(hub: &Hub, controller: &Controller, state: &str) -> (u16, String) {
         Some(true) if controller.choose(state) => (202, format!("resuming at `{state}`")),
         Some(true) => (409, "the mission is over".into()),
     }
-}
-
-fn send_answer(hub: &Hub, answer: Answer) -> (u16, String) {
-    if !matches!(answer.answer.as_str(), "yes" | "no") {
-        return (
-            400,
-            format!("the answer is yes or no, not `{}`", answer.answer),
-        );
-    }
-    let hub = hub.lock();
-    let commands = hub.robot.commands.as_ref().filter(|_| hub.robot.speech);
-    let Some(commands) = commands else {
-        return (409, "the robot has no Speech provider to answer".into());
-    };
-    let word = answer.answer.clone();
-    if commands.send(robot::WatchCommand::Answer(answer)).is_err() {
-        return (409, "the robot is no longer watched".into());
-    }
-    (202, format!("answering `{word}`"))
 }
 
 /// Answers `GET /events` on a thread of its own: the view now, then on every change.

@@ -3,12 +3,18 @@
 //! robot before choosing where the mission resumes.
 //!
 //! A [`RobotWatch`] thread reads the robot as any client could (raw subscribers on the
-//! pose, camera and people channels; the broker's `status` every second) and feeds the
-//! page through a [`RobotFeed`] at most twice a second. The page gets the [`RobotView`] as
+//! pose, camera, people and Speech channels; the broker's `status` every second) and feeds
+//! the page through a [`RobotFeed`] at most twice a second. The camera's frames and the
+//! broker's status are read only while a page looks (an event stream is open, or the
+//! robot's view or frame was asked for within [`VIEWED_FOR`]): nobody watching costs
+//! nothing. The page gets the [`RobotView`] as
 //! JSON (`GET /robot`, and `event: robot` on the event stream), the latest frame as a
 //! 24-bit BMP written here (`GET /camera.bmp`: no image crate in the sequencer) and the
 //! world's map as it is on disk (`GET /map.png`). `POST /answer` sends the supervisor's
-//! answer to the robot's Speech provider (`hear`), as the registrar at a real desk would.
+//! answer to the robot's Speech provider (`hear`), as the registrar at a real desk would;
+//! the supervisor's terminal sends its keys' answers the same way ([`RobotFeed::answer`]),
+//! and hears when the robot speaks and what became of its answers ([`RobotFeed::on_said`],
+//! [`RobotFeed::on_answered`]).
 //!
 //! What to watch ([`RobotWatchOptions`]) comes from the robot description: the GroundTruth
 //! provider when the robot has one (a simulator), else Egomotion (the odometry's frame,
@@ -24,7 +30,8 @@ use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
-    BrokerStatus, BrokerStatusReply, Egomotion, GroundTruth, ImageSource, SpeechHear, WorldState,
+    BrokerStatus, BrokerStatusReply, Egomotion, GroundTruth, ImageSource, Speech, SpeechHear,
+    WorldState,
 };
 use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{CommandClient, Ipc, Namespace, Subscriber};
@@ -38,6 +45,9 @@ pub const ROBOT_PERIOD: Duration = Duration::from_millis(500);
 
 /// How often the broker is asked for its status.
 const STATUS_PERIOD: Duration = Duration::from_secs(1);
+
+/// A page that asked for the robot's view or frame is taken as looking for this long.
+pub const VIEWED_FOR: Duration = Duration::from_secs(5);
 
 /// How long one question to the broker or to the Speech provider may take.
 const CALL_TIMEOUT: Duration = Duration::from_secs(1);
@@ -246,7 +256,7 @@ impl RobotView {
     }
 }
 
-/// An answer for the robot's Speech provider (`POST /answer`).
+/// An answer for the robot's Speech provider (`POST /answer`, or a key on the terminal).
 #[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
 pub struct Answer {
     /// `yes` or `no`.
@@ -254,6 +264,20 @@ pub struct Answer {
     /// The words, for people (`registered`).
     #[serde(default)]
     pub text: String,
+}
+
+/// Why an answer was not sent ([`RobotFeed::answer`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum AnswerRefused {
+    /// The answer is not `yes` or `no`.
+    #[error("the answer is yes or no, not `{0}`")]
+    NotYesOrNo(String),
+    /// The robot has no Speech provider to take it.
+    #[error("the robot has no Speech provider to answer")]
+    NoSpeech,
+    /// Nobody watches the robot any more (the mission is over).
+    #[error("the robot is no longer watched")]
+    NotWatched,
 }
 
 /// A camera frame, as 8-bit RGB rows without padding.
@@ -363,6 +387,10 @@ pub(crate) enum WatchCommand {
     Stop,
 }
 
+/// Told what the robot says, or what became of an answer ([`RobotFeed::on_said`],
+/// [`RobotFeed::on_answered`]).
+type NoteHook = Arc<dyn Fn(&str) + Send + Sync>;
+
 /// What the page holds of the robot, shared with the server's threads.
 #[derive(Default)]
 pub(crate) struct RobotState {
@@ -371,6 +399,24 @@ pub(crate) struct RobotState {
     pub(crate) map_png: Option<Arc<Vec<u8>>>,
     pub(crate) commands: Option<Sender<WatchCommand>>,
     pub(crate) speech: bool,
+    /// When a page last asked for the robot's view or frame.
+    requested_at: Option<Instant>,
+    said: Option<NoteHook>,
+    answered: Option<NoteHook>,
+}
+
+impl RobotState {
+    /// Notes that a page asked for the robot now.
+    pub(crate) fn requested(&mut self) -> &Self {
+        self.requested_at = Some(Instant::now());
+        self
+    }
+
+    /// Whether a page asked for the robot within [`VIEWED_FOR`].
+    pub(crate) fn requested_lately(&self) -> bool {
+        self.requested_at
+            .is_some_and(|at| at.elapsed() < VIEWED_FOR)
+    }
 }
 
 /// Feeds the page with the robot; from [`crate::GuiServer::robot_feed`].
@@ -380,6 +426,71 @@ pub struct RobotFeed {
 }
 
 impl RobotFeed {
+    /// A feed for a robot watched without a page: answers still go to its Speech provider
+    /// ([`RobotFeed::answer`]) and what it says is still heard ([`RobotFeed::on_said`]),
+    /// for the supervisor at the terminal.
+    #[must_use]
+    pub fn detached(mission: &crate::Mission) -> Self {
+        Self {
+            hub: Arc::new(super::Hub::new(super::View::new(mission))),
+        }
+    }
+
+    /// Whether a page looks at the robot now (an event stream is open, or the robot was
+    /// asked for within [`VIEWED_FOR`]).
+    #[must_use]
+    pub fn is_viewed(&self) -> bool {
+        self.hub.lock().viewed()
+    }
+
+    /// Sends `answer` to the robot's Speech provider, through the watch; the one way an
+    /// answer goes, from the page or the terminal. Returns what is being done, for people.
+    ///
+    /// # Errors
+    /// When the answer is neither yes nor no, the robot has no Speech provider, or it is
+    /// no longer watched.
+    pub fn answer(&self, answer: Answer) -> Result<String, AnswerRefused> {
+        if !matches!(answer.answer.as_str(), "yes" | "no") {
+            return Err(AnswerRefused::NotYesOrNo(answer.answer));
+        }
+        let hub = self.hub.lock();
+        let commands = hub.robot.commands.as_ref().filter(|_| hub.robot.speech);
+        let Some(commands) = commands else {
+            return Err(AnswerRefused::NoSpeech);
+        };
+        let word = answer.answer.clone();
+        commands
+            .send(WatchCommand::Answer(answer))
+            .map_err(|_| AnswerRefused::NotWatched)?;
+        Ok(format!("answering `{word}`"))
+    }
+
+    /// Calls `hook` with the words of every utterance the robot's Speech provider says from
+    /// now on (one hook at a time: a later call replaces it).
+    pub fn on_said(&self, hook: impl Fn(&str) + Send + Sync + 'static) {
+        self.hub.lock().robot.said = Some(Arc::new(hook));
+    }
+
+    fn said(&self, text: &str) {
+        let hook = self.hub.lock().robot.said.clone();
+        if let Some(hook) = hook {
+            hook(text);
+        }
+    }
+
+    /// Calls `hook` with what became of every answer sent from now on, for people (`speech
+    /// heard `yes``, or why not), as the page shows it (one hook at a time).
+    pub fn on_answered(&self, hook: impl Fn(&str) + Send + Sync + 'static) {
+        self.hub.lock().robot.answered = Some(Arc::new(hook));
+    }
+
+    fn answered(&self, what: &str) {
+        let hook = self.hub.lock().robot.answered.clone();
+        if let Some(hook) = hook {
+            hook(what);
+        }
+    }
+
     /// Shows `view` on the page (and sends it to every open page).
     pub fn show(&self, view: &RobotView) {
         let json = match serde_json::to_string(view) {
@@ -509,6 +620,8 @@ struct Watched {
     pose: Option<(Subscriber, PoseInterface, String)>,
     camera: Option<(Subscriber, String)>,
     people: Option<Subscriber>,
+    /// The Speech provider's publications, for what the robot says.
+    said: Option<Subscriber>,
     broker: Option<CommandClient>,
     speech: Option<CommandClient>,
 }
@@ -538,6 +651,10 @@ fn open(namespace: &Namespace, options: &RobotWatchOptions) -> Option<Watched> {
         .people
         .as_ref()
         .and_then(|service| subscribe(&ipc, service, "WorldState"));
+    let said = options
+        .speech
+        .as_ref()
+        .and_then(|service| subscribe(&ipc, service, "Speech"));
     let broker = ipc
         .command_client(names::BROKER_COMMAND, &names::broker_command_config())
         .map_err(|e| tracing::warn!("the supervisor's page cannot ask the broker: {e}"))
@@ -547,6 +664,7 @@ fn open(namespace: &Namespace, options: &RobotWatchOptions) -> Option<Watched> {
         pose,
         camera,
         people,
+        said,
         broker,
         speech: None,
     })
@@ -578,10 +696,14 @@ fn watch(
     };
     let mut next_status = Instant::now();
     let mut frames = 0u64;
+    let mut said_count = 0;
     while !stopped.load(Ordering::SeqCst) {
         let tick = Instant::now() + ROBOT_PERIOD;
-        read_robot(&mut watched, &mut view, feed, &mut frames);
-        if Instant::now() >= next_status {
+        let viewed = feed.is_viewed();
+        read_robot(&mut watched, &mut view, feed, &mut frames, viewed);
+        read_said(&mut watched, feed, &mut said_count);
+        // Nobody looks: the broker is not asked on the page's behalf.
+        if viewed && Instant::now() >= next_status {
             next_status = Instant::now() + STATUS_PERIOD;
             if let Some(broker) = watched.broker.as_mut() {
                 match call_blocking(broker, &BrokerStatus::default(), CALL_TIMEOUT) {
@@ -599,7 +721,9 @@ fn watch(
             let left = tick.saturating_duration_since(Instant::now());
             match commands.recv_timeout(left) {
                 Ok(WatchCommand::Answer(answer)) => {
-                    view.answer = Some(send_answer(&mut watched, options, &answer));
+                    let what = send_answer(&mut watched, options, &answer);
+                    feed.answered(&what);
+                    view.answer = Some(what);
                     feed.show(&view);
                 }
                 Ok(WatchCommand::Stop) | Err(RecvTimeoutError::Disconnected) => return,
@@ -609,7 +733,32 @@ fn watch(
     }
 }
 
-fn read_robot(watched: &mut Watched, view: &mut RobotView, feed: &RobotFeed, frames: &mut u64) {
+/// Tells the feed each new utterance of the Speech provider (`said_count`: the count last
+/// seen).
+fn read_said(watched: &mut Watched, feed: &RobotFeed, said_count: &mut i32) {
+    let Some(subscriber) = watched.said.as_mut() else {
+        return;
+    };
+    if let Ok(Some(sample)) = subscriber.latest()
+        && let Ok(speech) = cdr::from_bytes::<Speech>(sample.bytes())
+        && speech.said_count != *said_count
+    {
+        // A restarted provider counts from zero again: any change is a new utterance.
+        *said_count = speech.said_count;
+        if speech.said_count > 0 {
+            feed.said(&speech.last_said);
+        }
+    }
+}
+
+/// Reads the latest pose and people, and (when `viewed`) the latest camera frame.
+fn read_robot(
+    watched: &mut Watched,
+    view: &mut RobotView,
+    feed: &RobotFeed,
+    frames: &mut u64,
+    viewed: bool,
+) {
     if let Some((subscriber, interface, service)) = watched.pose.as_mut()
         && let Ok(Some(sample)) = subscriber.latest()
     {
@@ -634,7 +783,9 @@ fn read_robot(watched: &mut Watched, view: &mut RobotView, feed: &RobotFeed, fra
             Err(e) => tracing::debug!("the supervisor's page: a pose does not decode: {e}"),
         }
     }
-    if let Some((subscriber, service)) = watched.camera.as_mut()
+    // A frame is decoded and shrunk only for a page that looks.
+    if viewed
+        && let Some((subscriber, service)) = watched.camera.as_mut()
         && let Ok(Some(sample)) = subscriber.latest()
     {
         let frame = cdr::from_bytes::<ImageSource>(sample.bytes())

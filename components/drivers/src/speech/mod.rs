@@ -1,25 +1,36 @@
 //! `espeak-speech`: the robot's voice through espeak-ng, as the Speech interface.
 //!
-//! `say` spawns `espeak-ng -w AUDIO_DIR/utterance-NNNN.wav TEXT` as a child process: the
-//! handler does not wait for it; the child is reaped at a later tick, and the next queued
-//! utterance starts then (one voice, one utterance at a time). `speaking` is true while an
-//! utterance is queued or being synthesised. Nobody answers on the robot's side: answers
-//! come only from `hear` (a person at the supervisor's page or terminal), taken at once.
-//! Speech is published at every tick.
+//! `say` spawns `espeak-ng -w AUDIO_DIR/utterance-NNNN.wav TEXT` as a child process, then,
+//! with `play`, the player on that WAV (`aplay -q FILE`): what the robot says aloud is
+//! what is kept. The handler does not wait for them; each child is reaped at a later
+//! tick, and the next step starts then (one voice, one utterance at a time). `speaking` is
+//! true while an utterance is queued, synthesised or played. A player that cannot start
+//! or fails is one warning, not a fault: the WAVs are still written. Nobody answers on the
+//! robot's side: answers come only from `hear` (a person at the supervisor's page or
+//! terminal), taken at once. Speech is published at every tick.
+//!
+//! The audio goes beside the recording: when the robot is recorded, `lewis up` names the
+//! recording in [`RECORDING_ENV`] and the WAVs go to `<recording's stem>.speech/` beside it
+//! (`logs/b21r-20260101T120000Z.speech/utterance-0001.wav`); an `audio_dir` given wins;
+//! unrecorded and without one, they go to `logs/speech/`.
 //!
 //! ```toml
 //! [services.parameters]
-//! audio_dir = "logs/speech"   # created when missing; one WAV per utterance
+//! audio_dir = "logs/speech"   # optional (see above); created when missing
 //! program = "espeak-ng"       # looked up on PATH
 //! voice = "en"                # optional: espeak-ng's -v
+//! play = true                 # play each utterance aloud (default false)
+//! player = "aplay"            # looked up on PATH; run as `aplay -q FILE`
 //! rate_hz = 10.0
 //! ```
 
 use std::collections::VecDeque;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use lewis_interfaces::msg::{Speech, SpeechAnswer, SpeechCommand, SpeechHearReply, SpeechSayReply};
+pub use lewis_runtime::live::RECORDING_ENV;
+
+use lewis_interfaces::msg::{Speech, SpeechCommand, SpeechHearReply, SpeechSayReply};
 use lewis_runtime::service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
     ServiceRegistry,
@@ -34,18 +45,29 @@ pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<Params>(KIND, build);
 }
 
+/// Where the audio goes when the robot is not recorded and no `audio_dir` is given.
+pub const UNRECORDED_AUDIO_DIR: &str = "logs/speech";
+
 /// The parameters of `espeak-speech`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Params {
-    /// Where the WAV files go (created when missing).
-    pub audio_dir: PathBuf,
+    /// Where the WAV files go (created when missing); default: beside the recording
+    /// ([`audio_dir`]).
+    #[serde(default)]
+    pub audio_dir: Option<PathBuf>,
     /// The synthesiser, looked up on PATH.
     #[serde(default = "default_program")]
     pub program: String,
     /// The voice (espeak-ng's `-v`), if not its default.
     #[serde(default)]
     pub voice: Option<String>,
+    /// Play each utterance aloud once written.
+    #[serde(default)]
+    pub play: bool,
+    /// The player, looked up on PATH and run as `PLAYER -q FILE`.
+    #[serde(default = "default_player")]
+    pub player: String,
     /// Speech publications per second.
     #[serde(default = "default_rate_hz")]
     pub rate_hz: f64,
@@ -53,6 +75,36 @@ pub struct Params {
 
 fn default_program() -> String {
     "espeak-ng".to_owned()
+}
+
+fn default_player() -> String {
+    "aplay".to_owned()
+}
+
+/// Where the audio goes: `given` when there is one, else beside `recording`
+/// (`<folder>/<stem>.speech/`) when the robot is recorded, else [`UNRECORDED_AUDIO_DIR`].
+#[must_use]
+pub fn audio_dir(given: Option<&Path>, recording: Option<&Path>) -> PathBuf {
+    if let Some(given) = given {
+        return given.to_path_buf();
+    }
+    match recording.and_then(|r| Some((r.parent()?, r.file_stem()?))) {
+        Some((folder, stem)) => {
+            let mut name = stem.to_os_string();
+            name.push(".speech");
+            folder.join(name)
+        }
+        None => PathBuf::from(UNRECORDED_AUDIO_DIR),
+    }
+}
+
+/// What a child of the service is doing for utterance `n`.
+#[derive(Debug)]
+struct Running {
+    n: i32,
+    child: Child,
+    /// Playing the WAV (else synthesising it).
+    playing: bool,
 }
 
 fn default_rate_hz() -> f64 {
@@ -63,12 +115,15 @@ fn default_rate_hz() -> f64 {
 #[derive(Debug)]
 pub struct EspeakSpeech {
     params: Params,
+    audio_dir: PathBuf,
     period_ns: i64,
     state: Speech,
     /// Utterances waiting for the voice: (number, text).
     queue: VecDeque<(i32, String)>,
-    /// The utterance being synthesised.
-    child: Option<(i32, Child)>,
+    /// The utterance being synthesised or played.
+    child: Option<Running>,
+    /// The player failed once (and said so): it is not warned about again.
+    player_warned: bool,
 }
 
 /// Builds an `espeak-speech` service from its robot-file entry.
@@ -88,15 +143,16 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     }
     // 1e9 / rate is at most 1e10 for a rate in range: it fits an i64.
     let period_ns = (1e9 / params.rate_hz).round() as i64;
+    let recording = std::env::var_os(RECORDING_ENV).map(PathBuf::from);
+    let audio_dir = audio_dir(params.audio_dir.as_deref(), recording.as_deref());
     Ok(Box::new(EspeakSpeech {
         params,
+        audio_dir,
         period_ns,
-        state: Speech {
-            answer: SpeechAnswer::None.as_str().to_owned(),
-            ..Speech::default()
-        },
+        state: Speech::silent(),
         queue: VecDeque::new(),
         child: None,
+        player_warned: false,
     }))
 }
 
@@ -104,25 +160,53 @@ impl EspeakSpeech {
     /// The WAV file of utterance `n`.
     #[must_use]
     pub fn wav_path(&self, n: i32) -> PathBuf {
-        self.params.audio_dir.join(format!("utterance-{n:04}.wav"))
+        self.audio_dir.join(format!("utterance-{n:04}.wav"))
     }
 
-    /// Reaps a finished child and starts the next utterance if the voice is free.
+    /// The folder the WAV files go to.
+    #[must_use]
+    pub fn audio_dir(&self) -> &Path {
+        &self.audio_dir
+    }
+
+    /// Reaps a finished child, plays a WAV just written (with `play`), and starts the next
+    /// utterance if the voice is free.
     fn pump(&mut self, ctx: &mut Context<'_>) {
-        if let Some((n, child)) = &mut self.child {
-            match child.try_wait() {
+        if let Some(running) = self.child.as_mut() {
+            let status = match running.child.try_wait() {
                 Ok(None) => return,
-                Ok(Some(status)) => {
-                    if !status.success() {
-                        ctx.warn(&format!(
-                            "{} failed on utterance {n}: {status}",
-                            self.params.program
-                        ));
-                    }
+                Ok(Some(status)) => Ok(status),
+                Err(e) => Err(e),
+            };
+            let Some(Running { n, playing, .. }) = self.child.take() else {
+                return;
+            };
+            let program = if playing {
+                self.params.player.clone()
+            } else {
+                self.params.program.clone()
+            };
+            let success = match status {
+                Ok(status) if status.success() => true,
+                Ok(status) => {
+                    self.failed(
+                        ctx,
+                        playing,
+                        &format!("{program} failed on utterance {n}: {status}"),
+                    );
+                    false
                 }
-                Err(e) => ctx.warn(&format!("cannot wait for {}: {e}", self.params.program)),
+                Err(e) => {
+                    self.failed(ctx, playing, &format!("cannot wait for {program}: {e}"));
+                    false
+                }
+            };
+            if success && !playing && self.params.play {
+                self.play(ctx, n);
+                if self.child.is_some() {
+                    return;
+                }
             }
-            self.child = None;
         }
         while let Some((n, text)) = self.queue.pop_front() {
             let mut command = Command::new(&self.params.program);
@@ -139,7 +223,11 @@ impl EspeakSpeech {
                 .stderr(Stdio::null());
             match command.spawn() {
                 Ok(child) => {
-                    self.child = Some((n, child));
+                    self.child = Some(Running {
+                        n,
+                        child,
+                        playing: false,
+                    });
                     return;
                 }
                 Err(e) => ctx.warn(&format!(
@@ -147,6 +235,44 @@ impl EspeakSpeech {
                     self.params.program
                 )),
             }
+        }
+    }
+
+    /// Starts the player on utterance `n`'s WAV.
+    fn play(&mut self, ctx: &mut Context<'_>, n: i32) {
+        let spawned = Command::new(&self.params.player)
+            .arg("-q")
+            .arg(self.wav_path(n))
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn();
+        match spawned {
+            Ok(child) => {
+                self.child = Some(Running {
+                    n,
+                    child,
+                    playing: true,
+                });
+            }
+            Err(e) => {
+                let failure = format!("cannot start {} for utterance {n}: {e}", self.params.player);
+                self.failed(ctx, true, &failure);
+            }
+        }
+    }
+
+    /// Says that a child failed: always for the synthesiser, once for the player (the
+    /// robot may have no sound card; the WAVs are still written).
+    fn failed(&mut self, ctx: &mut Context<'_>, playing: bool, failure: &str) {
+        if !playing {
+            ctx.warn(failure);
+        } else if !self.player_warned {
+            self.player_warned = true;
+            ctx.warn(&format!(
+                "{failure}; the utterances are not played aloud (their WAVs are in {})",
+                self.audio_dir.display()
+            ));
         }
     }
 
@@ -164,10 +290,10 @@ impl Service for EspeakSpeech {
     }
 
     fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        std::fs::create_dir_all(&self.params.audio_dir).map_err(|e| {
+        std::fs::create_dir_all(&self.audio_dir).map_err(|e| {
             format!(
                 "cannot create the audio folder {}: {e}",
-                self.params.audio_dir.display()
+                self.audio_dir.display()
             )
         })?;
         self.publish(ctx);
@@ -181,9 +307,9 @@ impl Service for EspeakSpeech {
 
     fn on_stop(&mut self, _ctx: &mut Context<'_>) {
         // A child left running would outlive the service: stop it and reap it.
-        if let Some((_, mut child)) = self.child.take() {
-            let _ = child.kill();
-            let _ = child.wait();
+        if let Some(mut running) = self.child.take() {
+            let _ = running.child.kill();
+            let _ = running.child.wait();
         }
     }
 
@@ -195,9 +321,7 @@ impl Service for EspeakSpeech {
         match command.interface {
             "Speech" => match command.decode::<Speech>()? {
                 SpeechCommand::Say(c) => {
-                    self.state.said_count = self.state.said_count.saturating_add(1);
-                    self.state.last_said.clone_from(&c.text);
-                    let n = self.state.said_count;
+                    let n = self.state.said(&c.text);
                     self.queue.push_back((n, c.text));
                     self.pump(ctx);
                     self.publish(ctx);
@@ -207,22 +331,33 @@ impl Service for EspeakSpeech {
                     }))
                 }
                 SpeechCommand::Hear(c) => {
-                    let Some(answer @ (SpeechAnswer::Yes | SpeechAnswer::No)) =
-                        SpeechAnswer::parse(&c.answer)
-                    else {
-                        return Err(CommandError::new(format!(
-                            "hear: answer `{}`, expected yes or no",
-                            c.answer
-                        )));
-                    };
-                    self.state.heard_count = self.state.heard_count.saturating_add(1);
-                    self.state.answer = answer.as_str().to_owned();
-                    self.state.last_heard = c.text;
+                    self.state
+                        .hear(&c.answer, &c.text)
+                        .map_err(|e| CommandError::new(e.to_string()))?;
                     self.publish(ctx);
                     Ok(ctx.reply(SpeechHearReply::default()))
                 }
             },
             other => Err(CommandError::new(format!("{KIND} does not serve {other}"))),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_audio_goes_beside_the_recording_unless_a_folder_is_given() {
+        let recording = Path::new("logs/b21r-20260101T120000Z.mcap");
+        assert_eq!(
+            audio_dir(None, Some(recording)),
+            Path::new("logs/b21r-20260101T120000Z.speech")
+        );
+        assert_eq!(
+            audio_dir(Some(Path::new("/tmp/voice")), Some(recording)),
+            Path::new("/tmp/voice")
+        );
+        assert_eq!(audio_dir(None, None), Path::new(UNRECORDED_AUDIO_DIR));
     }
 }

@@ -149,22 +149,10 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         answer_delay_ns,
         answer_text: params.answer_text,
         period_ns,
-        state: Speech {
-            answer: SpeechAnswer::None.as_str().to_owned(),
-            ..Speech::default()
-        },
+        state: Speech::silent(),
         speaking_until_ns: 0,
         answer_due_ns: None,
     }))
-}
-
-impl SimSpeechService {
-    /// Takes an answer: `answer` (a word of [`SpeechAnswer`]) and its words.
-    fn heard(&mut self, answer: SpeechAnswer, text: &str) {
-        self.state.heard_count = self.state.heard_count.saturating_add(1);
-        self.state.answer = answer.as_str().to_owned();
-        text.clone_into(&mut self.state.last_heard);
-    }
 }
 
 impl Service for SimSpeechService {
@@ -187,9 +175,8 @@ impl Service for SimSpeechService {
         let _ = self.truth.pose_for_rendering(ctx, &mut self.world);
         if self.answer_due_ns.is_some_and(|due| now >= due) {
             self.answer_due_ns = None;
-            let text = self.answer_text.clone();
-            self.heard(SpeechAnswer::Yes, &text);
-            ctx.info(&format!("the registrar answers: {text}"));
+            self.state.heard(SpeechAnswer::Yes, &self.answer_text);
+            ctx.info(&format!("the registrar answers: {}", self.answer_text));
         }
         self.state.speaking = now < self.speaking_until_ns;
         publish(ctx, &mut self.state.clone());
@@ -204,8 +191,7 @@ impl Service for SimSpeechService {
             "Speech" => match command.decode::<Speech>()? {
                 SpeechCommand::Say(c) => {
                     let now = ctx.now();
-                    self.state.said_count = self.state.said_count.saturating_add(1);
-                    self.state.last_said.clone_from(&c.text);
+                    let utterance = self.state.said(&c.text);
                     self.state.speaking = true;
                     let chars = i64::try_from(c.text.chars().count()).unwrap_or(i64::MAX);
                     self.speaking_until_ns =
@@ -226,7 +212,6 @@ impl Service for SimSpeechService {
                             ": nobody is near enough to hear it"
                         }
                     ));
-                    let utterance = self.state.said_count;
                     publish(ctx, &mut self.state.clone());
                     Ok(ctx.reply(SpeechSayReply {
                         utterance,
@@ -234,15 +219,9 @@ impl Service for SimSpeechService {
                     }))
                 }
                 SpeechCommand::Hear(c) => {
-                    let Some(answer @ (SpeechAnswer::Yes | SpeechAnswer::No)) =
-                        SpeechAnswer::parse(&c.answer)
-                    else {
-                        return Err(CommandError::new(format!(
-                            "hear: answer `{}`, expected yes or no",
-                            c.answer
-                        )));
-                    };
-                    self.heard(answer, &c.text);
+                    self.state
+                        .hear(&c.answer, &c.text)
+                        .map_err(|e| CommandError::new(e.to_string()))?;
                     publish(ctx, &mut self.state.clone());
                     Ok(ctx.reply(SpeechHearReply::default()))
                 }
