@@ -157,11 +157,13 @@ fn info(file: &Path) -> Value {
 }
 
 #[test]
-fn the_reference_predates_versioning_and_its_replay_says_which_versions_wrote_it() {
-    // Made by the code as it was before recordings said which versions wrote them: still
-    // read, and said to be so.
+fn the_reference_and_its_replay_say_which_versions_wrote_them() {
+    // Made again when the motion services became event driven (the reflex), by a lewis
+    // that writes its versions. A recording made before versioning is still read and said
+    // to be so: replay/tests/versions.rs.
     let reference = info(&repo_root().join(REFERENCE));
-    assert_eq!(reference["written_by"]["kind"], "before_versioning");
+    assert_eq!(reference["written_by"]["kind"], "versioned", "{reference}");
+    assert_eq!(reference["written_by"]["format_version"], 1, "{reference}");
     let dir = tempfile::tempdir().unwrap();
     let replayed = replay(dir.path(), "out", &["--check"]);
     assert!(replayed.status.success(), "{}", replayed.text);

@@ -6,7 +6,8 @@
 //! - [`ObstacleAvoider`] serves the same Mover goals around obstacles, from a RangeFinder
 //!   (laser or sonar) or a Distance reading, by the paper's greedy strategy; it yields
 //!   [`MoverRequest`]s for a VectorMover, either one in another service or the one
-//!   [`AvoiderDrive`] owns.
+//!   [`AvoiderDrive`] owns. Its steps plan; its reflex ([`ObstacleAvoider::react`]) checks
+//!   each reading as it comes against the motion under way and asks for a stop at once.
 //!
 //! [`goal`] drives a robot to one point through whichever Mover the broker binds (`lewis up
 //! --goal`): a pure policy that decides when to send the goal again after a failover, and

@@ -15,7 +15,9 @@
 //! behind the robot still knows what it just passed.
 
 use super::cost_map::GoalCostMap;
-use super::free_space::{Candidate, Coverage, closest_reachable, free_distance_m};
+use super::free_space::{
+    Candidate, Coverage, closest_reachable, disc_hit_distance, free_distance_m,
+};
 use super::mover::{
     ConfigError, GoalError, GoalId, MoverRequest, MoverStatus, VelocityCommand, answer_command,
     require_non_negative, require_positive,
@@ -68,6 +70,10 @@ pub struct ObstacleAvoiderConfig {
     pub waypoint_resend_m: f64,
     /// A translate stops (blocked) when the free distance along it falls below this, in m.
     pub translate_lookahead_m: f64,
+    /// How far along the way to its waypoint the reflex ([`ObstacleAvoider::react`]) looks
+    /// for an obstacle in a new reading, in m: the braking distance from full speed (0.25 m
+    /// for a B21r) with room to spare; what lies further is the next step's to plan around.
+    pub reflex_lookahead_m: f64,
     /// How long obstacles are remembered, in ns.
     pub memory_ns: i64,
     /// At most this many readings are remembered (the bound of the memory).
@@ -104,6 +110,7 @@ impl Default for ObstacleAvoiderConfig {
             waypoint_hysteresis_m: 0.1,
             waypoint_resend_m: 0.05,
             translate_lookahead_m: 0.3,
+            reflex_lookahead_m: 0.6,
             memory_ns: 5_000_000_000,
             memory_readings: 64,
             arc_point_spacing_m: 0.05,
@@ -129,6 +136,7 @@ impl ObstacleAvoiderConfig {
         require_non_negative("waypoint_hysteresis_m", self.waypoint_hysteresis_m)?;
         require_non_negative("waypoint_resend_m", self.waypoint_resend_m)?;
         require_non_negative("translate_lookahead_m", self.translate_lookahead_m)?;
+        require_non_negative("reflex_lookahead_m", self.reflex_lookahead_m)?;
         require_positive("arc_point_spacing_m", self.arc_point_spacing_m)?;
         require_positive("candidate_spacing_m", self.candidate_spacing_m)?;
         require_positive("cost_cell_m", self.cost_cell_m)?;
@@ -174,6 +182,14 @@ impl ObstacleAvoiderConfig {
     #[must_use]
     pub fn keep_out_radius_m(&self) -> f64 {
         self.robot_radius_m + self.clearance_m
+    }
+
+    /// The disc the reflex keeps free along the way: radius plus half the clearance, in m.
+    /// Smaller than the keep-out radius the steps plan with, so that the reflex stops for
+    /// what is new in a reading (a person stepping in), not for the planning margin.
+    #[must_use]
+    pub fn reflex_radius_m(&self) -> f64 {
+        self.robot_radius_m + self.clearance_m / 2.0
     }
 }
 
@@ -582,6 +598,60 @@ impl ObstacleAvoider {
     /// (arrived, blocked, restarted) while the avoider still has a goal.
     pub fn resend(&mut self) {
         self.sent = None;
+    }
+
+    /// The reflex, for every new reading as it comes, between steps: whether the motion
+    /// under way is still safe with this reading alone. It is when no obstacle of the
+    /// reading lies within [`ObstacleAvoiderConfig::reflex_radius_m`] of the straight way
+    /// to the current waypoint (a goto's, or a translate's end), over its first
+    /// [`ObstacleAvoiderConfig::reflex_lookahead_m`] (a translate's: its
+    /// `translate_lookahead_m`, as the steps check it). When it is not, the avoider drops
+    /// the waypoint and asks the VectorMover to stop now: the next [`ObstacleAvoider::step`]
+    /// plans around the obstacle and sends a new waypoint. The goal and the status are kept.
+    ///
+    /// It costs a pass over the reading's points (tens of microseconds for a laser scan),
+    /// where a step costs milliseconds (it rebuilds the cost map), so it can run on every
+    /// reading. It neither remembers the reading (the next step takes in the newest one)
+    /// nor reads a clock: `pose_in_odom` is the pose of when the reading was taken, and
+    /// the answer depends only on it, the reading and what the last step chose.
+    pub fn react(&mut self, scan: &RangeScan, pose_in_odom: &Pose2D) -> Option<MoverRequest> {
+        if self.status != MoverStatus::Moving
+            || self.hold.is_some()
+            || !pose_is_finite(pose_in_odom)
+        {
+            return None;
+        }
+        let lookahead_m = match self.goal? {
+            Goal::Point { .. } => self.config.reflex_lookahead_m,
+            Goal::Line { .. } => self.config.translate_lookahead_m,
+            // A round robot turns in place without touching anything new.
+            Goal::Turn { .. } => return None,
+        };
+        let waypoint = self.waypoint?;
+        let here = position(pose_in_odom);
+        let to_waypoint = waypoint - here;
+        let distance_m = to_waypoint.norm();
+        if distance_m <= self.config.position_tolerance_m {
+            return None;
+        }
+        let direction = to_waypoint * (1.0 / distance_m);
+        let length_m = distance_m.min(lookahead_m);
+        let radius_m = self.config.reflex_radius_m();
+        let config = &self.config;
+        let blocked = scan
+            .beams()
+            .iter()
+            .flat_map(|beam| {
+                beam.obstacle_points(config.arc_point_spacing_m, config.max_points_per_beam)
+            })
+            .map(|p| robot_to_odom(pose_in_odom, p))
+            .any(|p| disc_hit_distance(here, direction, radius_m, p) < length_m);
+        if !blocked {
+            return None;
+        }
+        self.waypoint = None;
+        self.sent = Some(MoverRequest::Stop);
+        Some(MoverRequest::Stop)
     }
 
     fn reading_age_ns(&self, now_ns: i64) -> i64 {

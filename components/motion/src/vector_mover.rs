@@ -161,6 +161,18 @@ enum Target {
     },
 }
 
+/// The last control step, as [`VectorMover::restep`] does it again.
+#[derive(Debug, Clone, PartialEq)]
+struct LastStep {
+    pose: Pose2D,
+    /// The command before it.
+    command_before: VelocityCommand,
+    /// Its length, in s.
+    dt_s: f64,
+    /// The lowest cap on the translation since, in m/s.
+    translation_cap_m_s: f64,
+}
+
 /// Moves the robot straight to a goal (the paper's VectorMover), one control step at a time.
 #[derive(Debug, Clone)]
 pub struct VectorMover {
@@ -174,6 +186,9 @@ pub struct VectorMover {
     distance_to_goal_m: f64,
     last_step_ns: Option<i64>,
     last_pose: Option<Pose2D>,
+    /// What [`VectorMover::restep`] does the last step again from; `None` before the first
+    /// step and after one with a pose that was not finite.
+    last_step: Option<LastStep>,
     stall_anchor: Option<(Pose2D, i64)>,
 }
 
@@ -195,6 +210,7 @@ impl VectorMover {
             distance_to_goal_m: 0.0,
             last_step_ns: None,
             last_pose: None,
+            last_step: None,
             stall_anchor: None,
         })
     }
@@ -343,6 +359,7 @@ impl VectorMover {
                 self.target = None;
             }
             self.command = VelocityCommand::ZERO;
+            self.last_step = None;
             return self.command;
         }
         self.last_pose = Some(pose_in_odom.clone());
@@ -354,8 +371,47 @@ impl VectorMover {
         } else {
             VelocityCommand::ZERO
         };
-        self.command = self.ramp(desired, dt_s);
+        self.last_step = Some(LastStep {
+            pose: pose_in_odom.clone(),
+            command_before: self.command,
+            dt_s,
+            translation_cap_m_s: f64::INFINITY,
+        });
+        self.command = self.ramp(self.command, desired, dt_s);
         self.command
+    }
+
+    /// Does the last step again for the goal given since (a new goal, or none after
+    /// `stop`): the velocities to send now, so that the robot reacts to a command at once
+    /// rather than at the next step. It takes the pose and the time of that step and ramps
+    /// from the command before it, within the same acceleration limits: the answer depends
+    /// on the steps and commands so far, not on when it is asked (a replay asks at another
+    /// instant than the live run did). A cap on the translation since that step
+    /// ([`VectorMover::cap_translation`]) still holds. The next step goes on from it. `None`
+    /// before any step, or when the last one had a pose that was not finite.
+    pub fn restep(&mut self) -> Option<VelocityCommand> {
+        let LastStep {
+            pose,
+            command_before,
+            dt_s,
+            translation_cap_m_s,
+        } = self.last_step.clone()?;
+        self.resolve(&pose);
+        let desired = self.desired(&pose);
+        if let Some(step_ns) = self.last_step_ns {
+            self.watch_stall(&pose, step_ns);
+        }
+        let desired = if self.target.is_some() {
+            desired
+        } else {
+            VelocityCommand::ZERO
+        };
+        self.command = self.ramp(command_before, desired, dt_s);
+        self.command.translation_m_s = self
+            .command
+            .translation_m_s
+            .clamp(-translation_cap_m_s, translation_cap_m_s);
+        Some(self.command)
     }
 
     fn step_length_s(&mut self, now_ns: i64) -> f64 {
@@ -446,20 +502,20 @@ impl VectorMover {
         }
     }
 
-    fn ramp(&self, desired: VelocityCommand, dt_s: f64) -> VelocityCommand {
+    fn ramp(&self, from: VelocityCommand, desired: VelocityCommand, dt_s: f64) -> VelocityCommand {
         let limit = |last: f64, want: f64, accel: f64, max: f64| {
             let step = accel * dt_s;
             (last + (want - last).clamp(-step, step)).clamp(-max, max)
         };
         VelocityCommand {
             translation_m_s: limit(
-                self.command.translation_m_s,
+                from.translation_m_s,
                 desired.translation_m_s,
                 self.config.translation_accel_m_s2,
                 self.config.max_translation_m_s,
             ),
             rotation_rad_s: limit(
-                self.command.rotation_rad_s,
+                from.rotation_rad_s,
                 desired.rotation_rad_s,
                 self.config.rotation_accel_rad_s2,
                 self.config.max_rotation_rad_s,
@@ -476,6 +532,9 @@ impl VectorMover {
         } else {
             max_abs_m_s.max(0.0)
         };
+        if let Some(last) = &mut self.last_step {
+            last.translation_cap_m_s = last.translation_cap_m_s.min(cap);
+        }
         self.command.translation_m_s = self.command.translation_m_s.clamp(-cap, cap);
         self.command
     }

@@ -6,10 +6,10 @@
 
 use crate::motion_support;
 
-use lewis_interfaces::msg::{MoverReply, Pose2D};
+use lewis_interfaces::msg::{MoverReply, Pose2D, RangeFinder};
 use lewis_motion::{
-    AvoiderDrive, HoldReason, MoverStatus, ObstacleAvoider, ObstacleAvoiderConfig, VectorMover,
-    VectorMoverConfig, VelocityCommand,
+    AvoiderDrive, HoldReason, MoverRequest, MoverStatus, ObstacleAvoider, ObstacleAvoiderConfig,
+    RangeScan, VectorMover, VectorMoverConfig, VelocityCommand,
 };
 use motion_support::{B21R_RADIUS_M, Robot, STEP_NS, Sensors, World, p};
 
@@ -54,7 +54,7 @@ fn read(sensor: Sensor, world: &World, robot: &Robot, sensors: &mut Sensors) -> 
 }
 
 enum Reading {
-    Range(lewis_interfaces::msg::RangeFinder),
+    Range(RangeFinder),
     Distance(lewis_interfaces::msg::Distance),
 }
 
@@ -400,7 +400,7 @@ fn an_avoider_and_a_separate_vector_mover_talking_mover_commands_reach_the_goal(
     };
     let reply = split
         .avoider
-        .handle(&lewis_motion::MoverRequest::Goto { x_m: 4.0, y_m: 0.0 }.to_command());
+        .handle(&MoverRequest::Goto { x_m: 4.0, y_m: 0.0 }.to_command());
     assert!(matches!(reply, Ok(MoverReply::Goto(r)) if r.goal_id == 1));
     let outcome = run(
         &mut split,
@@ -480,4 +480,50 @@ fn the_publication_carries_the_avoider_goal_waypoint_and_the_mover_velocities() 
         d.mover().last_command().translation_m_s
     );
     assert!(publication.distance_to_goal > 3.0);
+}
+
+#[test]
+fn the_reflex_stops_at_once_for_an_obstacle_that_comes_into_the_way_and_the_next_step_goes_around()
+{
+    let config = ObstacleAvoiderConfig::default();
+    let mut avoider = ObstacleAvoider::new(config.clone()).unwrap();
+    avoider.goto(4.0, 0.0).unwrap();
+    let robot = Robot::at(Pose2D::default());
+    let pose = robot.odom_pose();
+    let mut sensors = Sensors::new(13);
+    let mut scan_of = |world: &World| sensors.laser(world, &robot.world_pose);
+    let beams = |reading: &RangeFinder| {
+        RangeScan::from_range_finder(reading, config.non_uniform_half_width_rad).unwrap()
+    };
+    let clear = scan_of(&World::default());
+    avoider.observe_range_finder(&clear, &pose, 0).unwrap();
+    assert!(matches!(
+        avoider.step(&pose, 0).request,
+        Some(MoverRequest::Goto { .. })
+    ));
+    // Nothing new on the way, something beside it or beyond the lookahead: no reflex.
+    let beside = World::default().wall(p(0.3, 1.0), p(1.5, 1.0));
+    let beyond = World::default().wall(p(2.0, -0.3), p(2.0, 0.3));
+    for world in [World::default(), beside, beyond] {
+        assert_eq!(avoider.react(&beams(&scan_of(&world)), &pose), None);
+    }
+    // Someone steps in 0.7 m ahead: stop now, once; the goal goes on.
+    let blocked = scan_of(&World::default().wall(p(0.7, -0.2), p(0.7, 0.2)));
+    assert_eq!(
+        avoider.react(&beams(&blocked), &pose),
+        Some(MoverRequest::Stop)
+    );
+    assert_eq!(avoider.status(), MoverStatus::Moving);
+    assert_eq!(avoider.waypoint(), None);
+    assert_eq!(avoider.react(&beams(&blocked), &pose), None, "once");
+    // The next step plans around it: a new waypoint, clear of the reflex with that reading.
+    avoider
+        .observe_range_finder(&blocked, &pose, 50_000_000)
+        .unwrap();
+    let step = avoider.step(&pose, 100_000_000);
+    let Some(MoverRequest::Goto { y_m, .. }) = step.request else {
+        panic!("a new waypoint: {step:?}");
+    };
+    assert!(y_m.abs() > 0.2, "around the obstacle: {y_m}");
+    assert_eq!(avoider.react(&beams(&blocked), &pose), None);
 }

@@ -320,3 +320,59 @@ proptest! {
         check_goto(Pose2D { x: 0.0, y: 0.0, theta }, (x, y), &VectorMoverConfig::default());
     }
 }
+
+#[test]
+fn a_command_is_carried_out_at_once_as_if_it_had_come_before_the_last_step() {
+    let mut mover = VectorMover::new(VectorMoverConfig::default()).unwrap();
+    assert_eq!(
+        mover.restep(),
+        None,
+        "nothing to do again before a first step"
+    );
+    let mut robot = Robot::at(Pose2D::default());
+    let world = World::default();
+    mover.goto(10.0, 0.0).unwrap();
+    for _ in 0..12 {
+        let command = mover.step(&robot.odom_pose(), robot.now_ns);
+        robot.drive(&world, command);
+    }
+    let (pose, now_ns) = (robot.odom_pose(), robot.now_ns);
+    let commands: [fn(&mut VectorMover); 3] = [
+        |m| {
+            m.goto(3.0, 4.0).unwrap();
+        },
+        |m| {
+            m.rotate(-1.0).unwrap();
+        },
+        VectorMover::stop,
+    ];
+    for command in commands {
+        // The twin hears the command before the step, the mover after it.
+        let mut twin = mover.clone();
+        command(&mut twin);
+        let expected = twin.step(&pose, now_ns);
+        let mut late = mover.clone();
+        late.step(&pose, now_ns);
+        command(&mut late);
+        assert_eq!(late.restep(), Some(expected));
+        assert_eq!(late.status(), twin.status());
+        // And they go on alike.
+        let later = now_ns + STEP_NS;
+        assert_eq!(late.step(&pose, later), twin.step(&pose, later));
+    }
+}
+
+#[test]
+fn a_command_carried_out_at_once_keeps_a_cap_put_on_the_last_step() {
+    let mut mover = VectorMover::new(VectorMoverConfig::default()).unwrap();
+    let mut robot = Robot::at(Pose2D::default());
+    mover.goto(10.0, 0.0).unwrap();
+    for _ in 0..12 {
+        let command = mover.step(&robot.odom_pose(), robot.now_ns);
+        robot.drive(&World::default(), command);
+    }
+    mover.cap_translation(0.1);
+    mover.goto(10.0, 0.5).unwrap();
+    let command = mover.restep().unwrap();
+    assert!(command.translation_m_s <= 0.1, "{command:?}");
+}

@@ -8,10 +8,7 @@ use crate::common::{CpuMeter, IDLE_LIMIT, Mode, Res, Stats, mono_ns, pace, ready
 
 // The same channel settings as the raw baseline, so both preallocate the same number of
 // chunks (same memory, same page-fault pattern).
-pub const BUFFER: usize = 8;
-pub const MAX_HELD: usize = 2;
-pub const MAX_SUBSCRIBERS: usize = 8;
-pub const MAX_PUBLISHERS: usize = 2;
+use lewis_runtime::ipc::baseline::{BUFFER, MAX_HELD, MAX_PUBLISHERS, MAX_SUBSCRIBERS};
 
 fn channel(len: usize) -> (String, ChannelConfig) {
     let config = ChannelConfig {

@@ -23,7 +23,7 @@ use serde::Deserialize;
 use crate::common::{
     CpuMeter, IDLE_LIMIT, Mode, Res, RoleChild, Row, Stats, mono_ns, print_result, var,
 };
-use crate::raw::{Fill, RawPublisher, RawReceiver};
+use crate::raw::{Fill, RawPublisher, RawReceiver, wake};
 
 /// The service kind of the source, known only to this benchmark.
 const KIND: &str = "bench-source";
@@ -200,8 +200,13 @@ pub fn service_role(args: &[String]) -> Res<()> {
                 Fill::CopyIn
             };
             let namespace = Namespace::from_env().map_err(|e| fail(e.into()))?;
-            let publisher =
-                RawPublisher::open(&namespace, mode, fill, cdr::to_vec(&message)).map_err(fail)?;
+            let publisher = RawPublisher::open(
+                &namespace,
+                wake(mode).map_err(fail)?,
+                fill,
+                cdr::to_vec(&message),
+            )
+            .map_err(|e| fail(e.into()))?;
             Some(Twin {
                 publisher,
                 due: false,
@@ -267,7 +272,7 @@ pub fn receive_role() -> Res<()> {
         Read::Decode
     };
     let twin = match std::env::var("BENCH_TWIN_SIZE") {
-        Ok(len) => Some(RawReceiver::open(&namespace, mode, len.parse()?)?),
+        Ok(len) => Some(RawReceiver::open(&namespace, wake(mode)?, len.parse()?)?),
         Err(_) => None,
     };
     let ipc = std::rc::Rc::new(Ipc::open(&namespace, "bench-app")?);
@@ -282,7 +287,7 @@ pub fn receive_role() -> Res<()> {
     let meter = CpuMeter::start();
     while latencies_ns.len() < count {
         if let Some(twin) = &twin {
-            let next = || Ok(twin.next()?.map(|sent| (mono_ns(), sent, 0)));
+            let next = || Ok(twin.next(IDLE_LIMIT)?.map(|sent| (mono_ns(), sent, 0)));
             let Some((latency, _)) = next_newer(&mut last_sent, next)? else {
                 break;
             };

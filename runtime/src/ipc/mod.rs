@@ -17,7 +17,10 @@
 //! - [`Ipc::nodes`] / [`Ipc::cleanup_dead_nodes`]: liveness of the processes in the
 //!   namespace, the only way to see a publisher that was killed with SIGKILL;
 //!   [`NodeCleaner`] cleans on a thread of its own, for loops that must not stall.
+//! - [`baseline`]: raw iceoryx2, none of the above, for the latency benchmarks to compare
+//!   with.
 
+pub mod baseline;
 mod channel;
 mod cleaner;
 mod command;

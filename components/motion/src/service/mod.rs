@@ -3,12 +3,20 @@
 //!
 //! - [`vector_mover`] (`kind = "vector_mover"`): provides Mover, requires Egomotion and
 //!   Synchrodrive. Every tick it steps a [`VectorMover`](super::VectorMover) on the newest
-//!   odometry pose and sends the velocities to the base (`Synchrodrive.set_velocity`).
+//!   odometry pose and sends the velocities to the base (`Synchrodrive.set_velocity`); a
+//!   Mover command is carried out at once, its velocities sent in the command's own event.
 //! - [`obstacle_avoider`] (`kind = "obstacle_avoider"`): provides Mover, requires
 //!   Egomotion, Mover (a `vector_mover`, never itself: the broker does not bind a client to
-//!   itself) and RangeFinder or Distance. Every tick it steps an
-//!   [`ObstacleAvoider`](super::ObstacleAvoider) on the newest reading and sends the
-//!   waypoints it chooses to the VectorMover's Mover; it never commands the wheels.
+//!   itself) and RangeFinder or Distance. Each reading is checked against the motion under
+//!   way as it comes (the reflex: a stop at once when the way ahead is no longer free);
+//!   every tick it steps an [`ObstacleAvoider`](super::ObstacleAvoider) on the newest
+//!   reading and sends the waypoints it chooses to the VectorMover's Mover; it never
+//!   commands the wheels.
+//!
+//! So a reading that shows an obstacle on the way reaches the base through two events, the
+//! avoider's input and the VectorMover's command, with no tick between (the reflex latency
+//! of the README); planning stays on the tick, where its cost (milliseconds: the cost map)
+//! is paid ten times a second, not at the laser's rate.
 //!
 //! Both answer the Mover commands (goto, rotate, translate, stop) at once with the goal id
 //! and publish the Mover status every tick. Calls to other services are asynchronous

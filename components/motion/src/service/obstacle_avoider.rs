@@ -9,10 +9,20 @@
 //! the three samples it stands on (the newest odometry, the reading observed last, the
 //! VectorMover status), which is what lets a replay give it exactly the same inputs.
 //!
-//! Readings are taken at the tick, the newest one only: a laser at 75 Hz costs no more than
-//! one at 10 Hz, and nothing waits. When the range finder changes (the broker moves it from
-//! the laser to the sonar), the readings simply come from the new provider; while none
-//! come the avoider holds the robot (fail safe) and goes on when they come back.
+//! Between ticks, every reading goes through the reflex as it arrives
+//! ([`ObstacleAvoider::react`]): when an obstacle of that reading lies on the way to the
+//! current waypoint, within the reflex's lookahead, the avoider sends the VectorMover a
+//! stop in the same event, and the next tick plans around the obstacle. The reflex costs a
+//! pass over the reading's points, the step milliseconds (it rebuilds the cost map of up to
+//! 40,000 cells and tries 180 directions), so only the reflex runs at the laser's rate. It
+//! reads no clock and places the reading with the pose of when it was taken, so its answer
+//! does not depend on when the event ran (live, a little after the publication; in a
+//! replay, at it). It publishes nothing: the status goes out at the tick.
+//!
+//! The step takes in the newest reading only: a laser at 75 Hz costs the planner no more
+//! than one at 10 Hz. When the range finder changes (the broker moves it from the laser to
+//! the sonar), the readings simply come from the new provider; while none come the avoider
+//! holds the robot (fail safe) and goes on when they come back.
 //!
 //! When the VectorMover stops pursuing the avoider's waypoint on its own (it arrived,
 //! blocked, or was restarted and is idle) while the avoider still has a goal, the avoider
@@ -25,7 +35,7 @@
 //! provides = [{ interface = "Mover", quality = 10, cost = 2 }]
 //! requires = ["RangeFinder", "Egomotion", "Mover"]
 //! [services.parameters]             # all optional; defaults of ObstacleAvoiderConfig
-//! rate_hz = 10.0
+//! rate_hz = 10.0                    # steps (plans) per second; the reflex runs on each reading
 //! robot_radius_m = 0.26
 //! clearance_m = 0.12
 //! direction_count = 180
@@ -52,7 +62,9 @@ use lewis_runtime::service::{
 use serde::Deserialize;
 
 use super::{Complaint, InFlight, PoseTrack, answer_mover, config_error, ms_to_ns, period_ns};
-use crate::{MoverRequest, MoverStatus, ObstacleAvoider, ObstacleAvoiderConfig, VelocityCommand};
+use crate::{
+    MoverRequest, MoverStatus, ObstacleAvoider, ObstacleAvoiderConfig, RangeScan, VelocityCommand,
+};
 
 /// The kind name in robot files.
 pub const KIND: &str = "obstacle_avoider";
@@ -160,11 +172,13 @@ impl Sensor {
     }
 }
 
-/// A reading waiting for the next tick.
+/// A reading waiting for the next tick, turned into beams.
 #[derive(Debug, Clone)]
-enum Pending {
-    Range(RangeFinder),
-    Distance(Distance),
+struct Pending {
+    scan: RangeScan,
+    /// When it was taken (its publish time).
+    stamp_ns: i64,
+    source: InputRef,
 }
 
 /// The `obstacle_avoider` service.
@@ -174,7 +188,7 @@ pub struct ObstacleAvoiderService {
     sensor: Sensor,
     period_ns: i64,
     pose: PoseTrack,
-    pending: Option<(Pending, InputRef)>,
+    pending: Option<Pending>,
     reading_source: Option<InputRef>,
     calls: InFlight,
     last_call: Option<CallId>,
@@ -254,49 +268,67 @@ impl ObstacleAvoiderService {
         &self.avoider
     }
 
+    /// Takes in a reading: the reflex checks the motion under way against it at once, and
+    /// it waits for the next step, which takes in the newest one.
     fn take_reading(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
+        let half_width_rad = self.avoider.config().non_uniform_half_width_rad;
         let decoded = match self.sensor {
             Sensor::RangeFinder => input.decode::<RangeFinder>().map(|r| {
-                let seq = r.header.seq;
-                (Pending::Range(r), seq)
+                let scan = RangeScan::from_range_finder(&r, half_width_rad);
+                (scan, r.header.publish_time_ns, r.header.seq)
             }),
             Sensor::Distance => input.decode::<Distance>().map(|d| {
-                let seq = d.header.seq;
-                (Pending::Distance(d), seq)
+                let scan = RangeScan::from_distance(&d);
+                (scan, d.header.publish_time_ns, d.header.seq)
             }),
         };
-        match decoded {
-            Ok((reading, seq)) => {
-                let source = InputRef {
-                    channel: input.channel.to_owned(),
-                    seq,
-                };
-                self.pending = Some((reading, source));
+        let (scan, stamp_ns, seq) = match decoded {
+            Ok((Ok(scan), stamp_ns, seq)) => (scan, stamp_ns, seq),
+            Ok((Err(e), ..)) => {
+                return self
+                    .bad_reading
+                    .raise(ctx, format!("{} sample ignored: {e}", input.interface));
             }
-            Err(e) => self
-                .bad_reading
-                .raise(ctx, format!("{} sample ignored: {e}", input.interface)),
+            Err(e) => {
+                return self
+                    .bad_reading
+                    .raise(ctx, format!("{} sample ignored: {e}", input.interface));
+            }
+        };
+        // The pose of when the reading was taken, not the newest: the reflex then depends
+        // on the reading alone, not on when it was handled (a replay hands it over at its
+        // publish time, live it comes a little later).
+        if let Some(pose) = self.pose.at(stamp_ns).cloned()
+            && let Some(request) = self.avoider.react(&scan, &pose)
+        {
+            self.send(ctx, request);
         }
+        let source = InputRef {
+            channel: input.channel.to_owned(),
+            seq,
+        };
+        self.pending = Some(Pending {
+            scan,
+            stamp_ns,
+            source,
+        });
     }
 
     /// Places the newest reading with the pose of when it was taken.
     fn observe_pending(&mut self, ctx: &mut Context<'_>) {
-        let Some((reading, source)) = self.pending.take() else {
+        let Some(Pending {
+            scan,
+            stamp_ns,
+            source,
+        }) = self.pending.take()
+        else {
             return;
-        };
-        let stamp_ns = match &reading {
-            Pending::Range(r) => r.header.publish_time_ns,
-            Pending::Distance(d) => d.header.publish_time_ns,
         };
         let Some(pose) = self.pose.at(stamp_ns).cloned() else {
             // No odometry yet: a reading cannot be placed.
             return;
         };
-        let result = match &reading {
-            Pending::Range(r) => self.avoider.observe_range_finder(r, &pose, stamp_ns),
-            Pending::Distance(d) => self.avoider.observe_distance(d, &pose, stamp_ns),
-        };
-        match result {
+        match self.avoider.observe_scan(&scan, &pose, stamp_ns) {
             Ok(()) => {
                 self.reading_source = Some(source);
                 self.bad_reading

@@ -404,6 +404,93 @@ fn an_avoider_that_cannot_reach_its_vector_mover_asks_again_at_the_next_step() {
     assert_eq!((calls[0].1.as_str(), calls[0].2), ("Mover", "goto"));
 }
 
+/// A forward laser of 61 beams over 180 degrees reading `range_m` within `half_width_rad`
+/// of straight ahead and 5 m elsewhere.
+fn laser_scan(range_m: f64, half_width_rad: f64) -> RangeFinder {
+    let count = 61;
+    let separation = std::f64::consts::PI / f64::from(count - 1);
+    let offset = -std::f64::consts::FRAC_PI_2;
+    RangeFinder {
+        range_count: count,
+        ranges: (0..count)
+            .map(|i| {
+                if (offset + f64::from(i) * separation).abs() <= half_width_rad {
+                    range_m
+                } else {
+                    5.0
+                }
+            })
+            .collect(),
+        max_range: 5.0,
+        uniform: true,
+        sensor_positions: vec![Default::default(); count as usize],
+        theta_offset: offset,
+        theta_separation: separation,
+        ..RangeFinder::default()
+    }
+}
+
+#[test]
+fn an_avoider_asks_for_a_stop_in_the_event_of_the_reading_that_shows_an_obstacle_on_the_way() {
+    let robot = robot(ROBOT);
+    let mut rig = Rig::new(&robot, "obstacle_avoider");
+    rig.command(&MoverGoto {
+        x: 3.0,
+        ..MoverGoto::default()
+    })
+    .unwrap();
+    rig.input("base", &mut egomotion(0.0, 0.0, 0.0), 0);
+    rig.input("laser", &mut laser_scan(5.0, 0.0), 10_000_000);
+    rig.tick(TICK_NS);
+    let calls = rig.take_calls();
+    assert_eq!(calls.len(), 1, "{calls:?}");
+    assert_eq!((calls[0].1.as_str(), calls[0].2), ("Mover", "goto"));
+    // A clear reading between ticks: nothing.
+    rig.input("laser", &mut laser_scan(5.0, 0.0), TICK_NS + 20_000_000);
+    assert!(rig.take_calls().is_empty());
+    // Something 0.6 m ahead: the stop goes out in that reading's event, before any tick.
+    rig.input("laser", &mut laser_scan(0.6, 0.1), TICK_NS + 40_000_000);
+    let calls = rig.take_calls();
+    assert_eq!(calls.len(), 1, "{calls:?}");
+    assert_eq!((calls[0].1.as_str(), calls[0].2), ("Mover", "stop"));
+    assert_eq!(rig.last_status().status, "moving", "the goal is kept");
+}
+
+#[test]
+fn a_vector_mover_sends_the_velocities_of_a_command_in_the_command_event() {
+    let robot = robot(ROBOT);
+    let mut rig = Rig::new(&robot, "vector_mover");
+    rig.command(&MoverGoto {
+        x: 3.0,
+        ..MoverGoto::default()
+    })
+    .unwrap();
+    assert!(
+        rig.take_calls().is_empty(),
+        "no pose stepped yet: the tick carries the goal out"
+    );
+    let mut last = SynchrodriveSetVelocity::default();
+    for i in 1..=8 {
+        rig.input("base", &mut egomotion(0.0, 0.0, 0.0), i * TICK_NS - 1);
+        rig.tick(i * TICK_NS);
+        for (call, _, command, message) in rig.take_calls() {
+            last = cdr::from_bytes(&message).unwrap();
+            let reply = cdr::to_vec(&SynchrodriveSetVelocityReply::default());
+            rig.reply(call, "Synchrodrive", command, Ok(&reply));
+        }
+    }
+    assert!(last.translation_velocity > 0.0, "{last:?}");
+    rig.command(&MoverStop::default()).unwrap();
+    let calls = rig.take_calls();
+    assert_eq!(calls.len(), 1, "{calls:?}");
+    assert_eq!(calls[0].2, SynchrodriveSetVelocity::NAME);
+    let braking: SynchrodriveSetVelocity = cdr::from_bytes(&calls[0].3).unwrap();
+    assert!(
+        braking.translation_velocity < last.translation_velocity,
+        "{braking:?} after {last:?}"
+    );
+}
+
 /// The drive of the end-to-end tests, in one thread on the simulator's pure models: the
 /// conference world, a B21r base starting in the lobby, a laser and a sonar ring, and the
 /// two motion services wired as the broker binds them (obstacle_avoider -> vector_mover ->

@@ -3,9 +3,17 @@
 //!
 //! Every tick it steps a [`VectorMover`] on the newest odometry pose and sends the
 //! velocities with `Synchrodrive.set_velocity` (asynchronous; at most
-//! [`MAX_CALLS_IN_FLIGHT`] unanswered), then publishes the Mover status. When the pose is
-//! older than `max_pose_age_ms` it commands zero (fail safe) and declares itself degraded
-//! until fresh odometry comes; the goal is kept. With no goal and the robot commanded to
+//! [`MAX_CALLS_IN_FLIGHT`] unanswered), then publishes the Mover status. A Mover command
+//! (goto, rotate, translate, stop) is carried out at once too: in the same event it does
+//! the last step again for the new goal ([`VectorMover::restep`]) and sends those
+//! velocities, so a stop or a new waypoint from the avoider's reflex reaches the base
+//! without waiting for the next tick. Doing the last step again, on its pose and from the
+//! command before it, rather than a step at the command's arrival, keeps the answer
+//! independent of when the command came: a replay carries it out at the same velocities.
+//!
+//! When the pose is older than `max_pose_age_ms` it commands zero (fail safe) and declares
+//! itself degraded until fresh odometry comes; the goal is kept (and a command waits for
+//! the next fresh step). With no goal and the robot commanded to
 //! rest it sends nothing, so that it does not fight another user of the base.
 //!
 //! ```toml
@@ -125,6 +133,9 @@ pub struct VectorMoverService {
     sent: Option<VelocityCommand>,
     last_call: Option<CallId>,
     rest_confirmed: bool,
+    /// The last tick stepped the mover on a fresh pose (a command may then be carried out
+    /// at once; after a stale one the robot is held until fresh odometry comes).
+    stepped_fresh: bool,
     stale_pose: Complaint,
     drive_failing: Complaint,
 }
@@ -166,6 +177,7 @@ impl VectorMoverService {
             sent: None,
             last_call: None,
             rest_confirmed: false,
+            stepped_fresh: false,
             stale_pose: Complaint::default(),
             drive_failing: Complaint::default(),
         })
@@ -183,8 +195,10 @@ impl VectorMoverService {
             self.stale_pose
                 .clear(ctx, "Egomotion is fresh again: driving on");
             ctx.set_health(Health::Ok);
+            self.stepped_fresh = true;
             return self.mover.step(&pose, now_ns);
         }
+        self.stepped_fresh = false;
         if self.mover.status() == MoverStatus::Moving {
             let why = match self.pose.latest() {
                 None => "no Egomotion sample yet: holding the robot still".to_owned(),
@@ -270,7 +284,16 @@ impl Service for VectorMoverService {
         command: &IncomingCommand<'_>,
     ) -> Result<Reply, CommandError> {
         let mover = &mut self.mover;
-        answer_mover(ctx, command, |c| mover.handle(c))
+        let reply = answer_mover(ctx, command, |c| mover.handle(c))?;
+        // At once, not at the next tick: a stop or a new waypoint from the avoider's reflex
+        // reaches the wheels within the same event.
+        if self.stepped_fresh
+            && let Some(velocities) = self.mover.restep()
+            && self.must_send(velocities)
+        {
+            self.send(ctx, velocities);
+        }
+        Ok(reply)
     }
 
     fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
