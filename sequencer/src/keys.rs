@@ -117,7 +117,7 @@ impl KeyTerminal {
     }
 }
 
-/// Stops the input (it returns the end within [`POLL`]) and restores the settings.
+/// Stops the input (it returns the end within its 100 ms poll) and restores the settings.
 impl Drop for KeyTerminal {
     fn drop(&mut self) {
         let mut stopped = self.stopped.lock().unwrap_or_else(PoisonError::into_inner);
