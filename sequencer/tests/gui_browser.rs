@@ -14,7 +14,7 @@
 use crate::common;
 
 use std::net::{Ipv4Addr, SocketAddr};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
@@ -28,6 +28,7 @@ use lewis_sequencer::gui::{
 use lewis_sequencer::live::{RunOptions, control_channel, run_mission};
 use lewis_sequencer::record::{ChannelSink, Entry, Tee};
 use lewis_sequencer::{Decision, GuiServer, Supervision};
+use lewis_tests::browser::{browser_tools, gui_test_dir};
 
 const SCRIPT: &str = "\
 start door
@@ -50,32 +51,6 @@ state register {P} exit:0
 state oops {P} print:recovering,exit:0
   action 0 trans stop
 ";
-
-fn gui_test_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("gui-test")
-}
-
-/// The browser and the driver script's tools, or a message saying how to get them.
-fn tools() -> PathBuf {
-    let chromium = std::env::var_os("LEWIS_CHROMIUM")
-        .map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
-    assert!(
-        chromium.is_file(),
-        "the GUI test needs Chromium at {}: install it with `apt-get install -y chromium` \
-         (or set LEWIS_CHROMIUM to its path)",
-        chromium.display()
-    );
-    let node = Command::new("node").arg("--version").output();
-    assert!(
-        node.is_ok_and(|o| o.status.success()),
-        "the GUI test needs `node` in PATH: install it with `apt-get install -y nodejs npm`"
-    );
-    assert!(
-        gui_test_dir().join("node_modules/playwright-core").is_dir(),
-        "the GUI test needs playwright-core: run `npm ci --prefix sequencer/gui-test`"
-    );
-    chromium
-}
 
 /// Feeds the page a robot driving east along the corridor, every 200 ms until `done`.
 fn feed_robot(feed: &RobotFeed, done: &AtomicBool) {
@@ -149,7 +124,7 @@ fn feed_robot(feed: &RobotFeed, done: &AtomicBool) {
 
 #[test]
 fn the_supervisor_resumes_the_mission_from_the_page_in_a_real_browser() {
-    let chromium = tools();
+    let chromium = browser_tools();
     let dir = tempfile::tempdir().unwrap();
     let (script, mission) = write_script(dir.path(), SCRIPT);
     let shots = std::env::temp_dir().join("lewis-seq-gui");

@@ -21,7 +21,7 @@
 
 use std::io::{BufRead, BufReader, Read};
 use std::os::fd::OwnedFd;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::time::{Duration, Instant};
@@ -30,6 +30,7 @@ use lewis_runtime::ipc::Namespace;
 use lewis_sequencer::fsm::{Decision, Event};
 use lewis_sequencer::record::{Entry, Record};
 use lewis_sequencer::verdict::Verdict;
+use lewis_tests::browser::{browser_tools, gui_test_dir};
 use lewis_tests::{lewis_exe, repo_root};
 
 /// Where `robots/sim.toml` starts the robot (in the lobby, facing the entrance door).
@@ -44,7 +45,7 @@ const SIGN_RUNS: usize = 4;
 
 #[test]
 fn a_crashing_sign_follower_recovers_with_the_red_cap_and_resumes_from_the_page() {
-    let chromium = tools();
+    let chromium = browser_tools();
     let began = Instant::now();
     let dir = tempfile::tempdir().unwrap();
     let robot = dir.path().join("robot.toml");
@@ -206,32 +207,6 @@ fn script_text() -> String {
         " ./bin/",
         &format!(" {}/robots/missions/bin/", repo_root().display()),
     )
-}
-
-fn gui_test_dir() -> PathBuf {
-    repo_root().join("sequencer/gui-test")
-}
-
-/// The browser and the driver script's tools, or a message saying how to get them.
-fn tools() -> PathBuf {
-    let chromium = std::env::var_os("LEWIS_CHROMIUM")
-        .map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
-    assert!(
-        chromium.is_file(),
-        "the test needs Chromium at {}: install it with `apt-get install -y chromium` \
-         (or set LEWIS_CHROMIUM to its path)",
-        chromium.display()
-    );
-    let node = Command::new("node").arg("--version").output();
-    assert!(
-        node.is_ok_and(|o| o.status.success()),
-        "the test needs `node` in PATH: install it with `apt-get install -y nodejs npm`"
-    );
-    assert!(
-        gui_test_dir().join("node_modules/playwright-core").is_dir(),
-        "the test needs playwright-core: run `npm ci --prefix sequencer/gui-test`"
-    );
-    chromium
 }
 
 /// The lines of a child's pipe, as they come.
