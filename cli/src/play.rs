@@ -16,7 +16,7 @@ use lewis_replay::play::{
 };
 use lewis_runtime::ipc::Ipc;
 use lewis_runtime::live::StopSignals;
-use nix::sys::termios::{self, LocalFlags, SetArg, SpecialCharacterIndices, Termios};
+use nix::sys::termios::{self, SetArg, Termios};
 
 use lewis_runtime::ipc::Namespace;
 
@@ -182,11 +182,7 @@ impl Keyboard {
     fn new() -> anyhow::Result<Self> {
         let stdin = std::io::stdin();
         let saved = termios::tcgetattr(stdin.as_fd()).context("cannot read the terminal's mode")?;
-        let mut keys = saved.clone();
-        keys.local_flags
-            .remove(LocalFlags::ICANON | LocalFlags::ECHO);
-        keys.control_chars[SpecialCharacterIndices::VMIN as usize] = 0;
-        keys.control_chars[SpecialCharacterIndices::VTIME as usize] = 0;
+        let keys = lewis_sequencer::keys::single_key_mode(&saved, false);
         termios::tcsetattr(stdin.as_fd(), SetArg::TCSANOW, &keys)
             .context("cannot set the terminal to read single keys")?;
         Ok(Self { stdin, saved })

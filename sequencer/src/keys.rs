@@ -100,11 +100,7 @@ impl KeyTerminal {
     /// When `fd` is no terminal.
     pub fn open(fd: OwnedFd) -> io::Result<(Self, KeyInput)> {
         let saved = termios::tcgetattr(&fd)?;
-        let mut keys = saved.clone();
-        keys.local_flags
-            .remove(LocalFlags::ICANON | LocalFlags::ECHO);
-        keys.control_chars[SpecialCharacterIndices::VMIN as usize] = 1;
-        keys.control_chars[SpecialCharacterIndices::VTIME as usize] = 0;
+        let keys = single_key_mode(&saved, true);
         let stopped = Arc::new(Mutex::new(false));
         let input = KeyInput {
             fd: fd.try_clone()?,
@@ -115,6 +111,19 @@ impl KeyTerminal {
         };
         Ok((Self { fd, saved, stopped }, input))
     }
+}
+
+/// The terminal settings `saved` with line editing and echo off, so that each key comes as
+/// it is pressed, unseen; signals (Ctrl-C) still work. With `wait`, a read waits for a key;
+/// without, it returns at once with what is there.
+#[must_use]
+pub fn single_key_mode(saved: &Termios, wait: bool) -> Termios {
+    let mut keys = saved.clone();
+    keys.local_flags
+        .remove(LocalFlags::ICANON | LocalFlags::ECHO);
+    keys.control_chars[SpecialCharacterIndices::VMIN as usize] = u8::from(wait);
+    keys.control_chars[SpecialCharacterIndices::VTIME as usize] = 0;
+    keys
 }
 
 /// Stops the input (it returns the end within its 100 ms poll) and restores the settings.
