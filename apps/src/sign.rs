@@ -2,14 +2,17 @@
 //! next sign.
 //!
 //! Signs are tracked in the odometry frame; a sign's arrow is the majority of its last
-//! three readings. The program goes 1.3 m in front of the nearest sign it reads, turns as
-//! the arrow says (up: straight on, left: +90 degrees, right: -90, down: back), and goes on.
+//! three readings. With no sign in view when it starts (after a recovery, say), the
+//! program looks around in 45 degree turns, and goes on along the heading it started with
+//! only if a whole turn shows none. It goes 1.3 m in front of the nearest sign it reads,
+//! turns as the arrow says (up: straight on, left: +90 degrees, right: -90, down: back),
+//! and goes on.
 //! It finishes with 0 once it reads another direction sign (more than 1.5 m from the one
 //! it followed: the next state follows that one), with 1 when it reads the registration
 //! desk's sign, and with 4 after a minute without a new sign.
 
 use std::collections::{BTreeSet, VecDeque};
-use std::f64::consts::{FRAC_PI_2, PI};
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use lewis_geometry::{Vec2, wrap_angle};
 use lewis_interfaces::msg::{Distance, SignArrow, Signs};
@@ -44,6 +47,11 @@ const REACHED_M: f64 = 0.3;
 const SNAP_RAD: f64 = 0.45;
 /// Votes of the last readings of a sign.
 const VOTES: usize = 3;
+/// How long the robot stands and looks before (and after each turn of) its look around,
+/// in ns: time for a sign in view to be read three times.
+const LOOK_NS: i64 = 1_500_000_000;
+/// Turns of 45 degrees in a look around: one whole turn.
+const LOOK_TURNS: u32 = 8;
 
 /// SignFollower's settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -235,8 +243,11 @@ const PASS_M: f64 = 1.4;
 /// Where the program is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
-    /// Looking for the first sign; going on ahead meanwhile.
-    Look,
+    /// Looking for the first sign, standing: `turns` turns of the look around made, the
+    /// last one finished at `still_from` (`None` while it turns).
+    Look { turns: u32, still_from: Option<i64> },
+    /// No sign all around: going on along the heading it started with.
+    Ahead,
     /// To the point in front of sign `track`.
     Approach { track: usize, spot: Vec2 },
     /// Turning as the sign says, then on along `heading`.
@@ -263,7 +274,10 @@ impl SignFollower {
             driver: Driver::new(&["Signs", "Egomotion", "Distance"], config.stale_ns),
             config,
             book: SignBook::default(),
-            phase: Phase::Look,
+            phase: Phase::Look {
+                turns: 0,
+                still_from: None,
+            },
             start_heading: None,
         }
     }
@@ -305,7 +319,7 @@ impl SignFollower {
             return;
         }
         let followed = match self.phase {
-            Phase::Look => None,
+            Phase::Look { .. } | Phase::Ahead => None,
             // Before the sign taken, others wait: it is the nearest.
             Phase::Approach { .. } => return,
             Phase::Turn { track, .. } | Phase::GoOn { track, .. } => Some(track),
@@ -373,12 +387,40 @@ impl SignFollower {
         };
         let here = pose.position();
         match self.phase {
-            Phase::Look => {
-                // Nothing read yet: on along the heading it started with, after a look.
-                let heading = *self.start_heading.get_or_insert(pose.heading_rad);
-                if now - since > 1_500_000_000 {
-                    self.go_on(ctx, here, heading);
+            Phase::Look { turns, still_from } => {
+                self.start_heading.get_or_insert(pose.heading_rad);
+                let still_from = match still_from {
+                    Some(at) => at,
+                    None if turns == 0 => since,
+                    None if self.driver.mover.arrived() => {
+                        self.phase = Phase::Look {
+                            turns,
+                            still_from: Some(now),
+                        };
+                        now
+                    }
+                    None => return,
+                };
+                if now - still_from < LOOK_NS {
+                    return;
                 }
+                if turns == 0 {
+                    ctx.info("no sign in view: looking around");
+                }
+                if turns < LOOK_TURNS {
+                    self.phase = Phase::Look {
+                        turns: turns + 1,
+                        still_from: None,
+                    };
+                    self.driver.mover.rotate(ctx, FRAC_PI_4);
+                } else {
+                    ctx.info("no sign all around: going on the way it faced");
+                    self.phase = Phase::Ahead;
+                }
+            }
+            Phase::Ahead => {
+                let heading = *self.start_heading.get_or_insert(pose.heading_rad);
+                self.go_on(ctx, here, heading);
             }
             Phase::Approach { track, spot } => {
                 let position = self.book.track(track).position;
@@ -432,7 +474,9 @@ impl SignFollower {
                 Phase::Turn { track, .. } | Phase::GoOn { track, .. } => {
                     go_on_goal(here, heading, self.book.track(track).position)
                 }
-                Phase::Look | Phase::Approach { .. } => here + Vec2::from_angle(heading) * GO_ON_M,
+                Phase::Look { .. } | Phase::Ahead | Phase::Approach { .. } => {
+                    here + Vec2::from_angle(heading) * GO_ON_M
+                }
             };
             self.driver.mover.goto(ctx, goal);
         }
@@ -506,7 +550,7 @@ mod tests {
         let diagonal = Vec2::new(1.0, 1.0);
         assert!(close(
             heading_after(before, diagonal, ArrowWord::Up),
-            std::f64::consts::FRAC_PI_4
+            FRAC_PI_4
         ));
     }
 }

@@ -57,7 +57,28 @@ fn sign_follower_reads_the_corridor_signs_and_turns_as_they_say() {
             "{name} read {arrow}: {said:#?}"
         );
         assert_eq!(t.collisions, 0, "{name}");
+        // Each next sign is in view when the program starts: no look around.
+        assert!(
+            !said.iter().any(|line| line.contains("looking around")),
+            "{name}: {said:#?}"
+        );
     }
+}
+
+#[test]
+fn sign_follower_looks_around_for_a_sign_out_of_view_when_it_starts() {
+    // Where Recovery leaves the robot in the hall, facing west-south-west: the desk's sign
+    // (15.03, 22.1) is 40 degrees to the right, out of the camera's view, and nothing is
+    // ahead but the hall's wall. Looking around finds the desk's sign (exit 1).
+    let robot = sim_robot((20.5, 18.9, 190.0), (320, 240));
+    let mut scene = scene(&robot, SERVICES, "recovery", Box::new(Idle), &[]);
+    let (exit, said) = visit(&mut scene, "sign", 70);
+    assert_eq!(exit, Some(1), "{said:#?}");
+    assert!(
+        said.iter().any(|line| line.contains("looking around")),
+        "{said:#?}"
+    );
+    assert_eq!(truth(&scene).collisions, 0);
 }
 
 fn capitalised(word: &str) -> String {
