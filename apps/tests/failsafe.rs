@@ -2,6 +2,7 @@
 //! with 3.
 
 use lewis_apps::common::exit;
+use lewis_apps::common::watch::DEFAULT_STALE_NS;
 use lewis_apps::door::{DoorConfig, DoorNavigator, REQUIRES};
 use lewis_interfaces::msg::MoverStop;
 use lewis_testkit::scene::calls_of;
@@ -23,12 +24,14 @@ fn without_its_range_finder_door_navigator_stops_the_robot_and_exits_3() {
     );
     scene.fail("laser");
     let failed_at = scene.now_ns();
-    scene.run_until(10 * S, |s| s.exit_code("door").is_some());
+    scene.run_until(failed_at + DEFAULT_STALE_NS + 3 * S, |s| {
+        s.exit_code("door").is_some()
+    });
     assert_eq!(scene.exit_code("door"), Some(exit::INPUT_LOST));
     let waited = scene.now_ns() - failed_at;
     assert!(
-        (2 * S..3 * S).contains(&waited),
-        "it gave the laser its 2 s, no more: {waited} ns"
+        (DEFAULT_STALE_NS..DEFAULT_STALE_NS + S).contains(&waited),
+        "it gave the laser its {DEFAULT_STALE_NS} ns, no more: {waited} ns"
     );
     let stops: Vec<_> = calls_of::<MoverStop>(&scene)
         .into_iter()

@@ -31,7 +31,7 @@ pub struct AppArgs {
     pub clock: Option<ClockSource>,
     /// How long a required input may be silent before the program stops the robot and
     /// exits with 3.
-    #[arg(long, default_value = "2s", value_parser = duration_ns, global = true)]
+    #[arg(long, default_value = "5s", value_parser = duration_ns, global = true)]
     pub stale: i64,
 }
 
@@ -135,6 +135,67 @@ impl AppArgs {
     }
 }
 
+/// The programs of a mission lived again by `lewis replay --all`: a state's program is one
+/// of these when its file runs `lewis app NAME` (the wrappers of `robots/missions/bin/`);
+/// its arguments are read as `lewis app NAME` reads them.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct AppPrograms;
+
+impl lewis_replay::lockstep::Programs for AppPrograms {
+    fn build(
+        &self,
+        program: &std::path::Path,
+        args: &[String],
+    ) -> Result<lewis_replay::lockstep::Program, String> {
+        use clap::Parser as _;
+
+        #[derive(Debug, clap::Parser)]
+        struct Line {
+            #[command(flatten)]
+            args: AppArgs,
+        }
+
+        let text = std::fs::read_to_string(program)
+            .map_err(|e| format!("cannot read {}: {e}", program.display()))?;
+        let name = app_named_in(&text).ok_or_else(|| {
+            format!(
+                "{} does not run `lewis app`: only lewis's own programs can be lived again",
+                program.display()
+            )
+        })?;
+        let argv = ["lewis-app", name.as_str()]
+            .into_iter()
+            .map(str::to_owned)
+            .chain(args.iter().cloned());
+        let line = Line::try_parse_from(argv).map_err(|e| {
+            let text = e.to_string();
+            format!(
+                "{}: {}",
+                program.display(),
+                text.lines().next().unwrap_or_default()
+            )
+        })?;
+        let app = line.args.app().map_err(|e| e.to_string())?;
+        Ok(lewis_replay::lockstep::Program {
+            name: app.name().to_owned(),
+            requires: app.requires().iter().map(|s| (*s).to_owned()).collect(),
+            service: app.program(),
+        })
+    }
+}
+
+/// The NAME of the first `... app NAME` in a wrapper script's lines (comments skipped).
+fn app_named_in(text: &str) -> Option<String> {
+    text.lines()
+        .map(str::trim)
+        .filter(|line| !line.starts_with('#'))
+        .find_map(|line| {
+            let mut words = line.split_whitespace().map(|w| w.trim_matches(['"', '\'']));
+            words.find(|w| *w == "app")?;
+            words.next().map(str::to_owned)
+        })
+}
+
 /// Runs `lewis app`: the program's exit code.
 pub fn run(args: &AppArgs) -> anyhow::Result<ExitCode> {
     let app = args.app()?;
@@ -154,6 +215,13 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         args: AppArgs,
+    }
+
+    #[test]
+    fn a_wrapper_names_its_program() {
+        let wrapper = "#!/bin/sh\n# runs `lewis app sign-follower`\nexec \"${LEWIS_EXE:-lewis}\" app sign-follower \"$@\"\n";
+        assert_eq!(app_named_in(wrapper).as_deref(), Some("sign-follower"));
+        assert_eq!(app_named_in("#!/bin/sh\nexec other-tool \"$@\"\n"), None);
     }
 
     fn app(line: &[&str]) -> App {

@@ -6,8 +6,12 @@
 
 use std::collections::BTreeMap;
 
-/// How long a required input may be silent once it has spoken, in ns (`--stale`).
-pub const DEFAULT_STALE_NS: i64 = 2_000_000_000;
+/// How long a required input may be silent once it has spoken, in ns (`--stale`): longer
+/// than the broker takes to fail a crashing provider over to another one (its restarts
+/// with their backoff, then the other's start; 2.3 s when the demo kills the laser), so
+/// that a failover is not an input lost. Lived again (`lewis replay --all`), a 2 s limit
+/// failed the mission whenever a program held a sample of the laser's last second.
+pub const DEFAULT_STALE_NS: i64 = 5_000_000_000;
 
 /// How long a required input may take to give its first sample, in ns: the broker starts an
 /// on-demand provider when the program asks for it, which takes a process start.
