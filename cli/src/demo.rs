@@ -77,8 +77,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         namespace: Namespace::from_arg(args.namespace.as_deref())?,
         lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
         source_kinds: crate::replay::source_kinds(),
+        simulated_kinds: crate::replay::simulated_kinds(),
     };
-    let report = lewis_demo::run_demo(&options, &crate::service::registry())?;
+    let report = lewis_demo::run_demo(
+        &options,
+        &crate::service::registry(),
+        &crate::app::AppPrograms,
+    )?;
     let mut out = std::io::stdout().lock();
     writeln!(out)?;
     write!(out, "{}", report.summary())?;

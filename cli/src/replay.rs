@@ -11,7 +11,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lewis_replay::fault::FaultSpec;
 use lewis_replay::resim::edit::{EditError, ParamEdit};
 use lewis_replay::resim::{
-    DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay,
+    DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay_with,
 };
 
 use crate::service::registry;
@@ -45,7 +45,10 @@ pub struct ReplayArgs {
         value_name = "A,B"
     )]
     pub services: Option<Vec<String>>,
-    /// Re-simulate every service this lewis can build, sources included.
+    /// Live the run again whole (closed loop): the simulated devices re-run from the
+    /// recorded world, the services, the broker, and the recorded mission's sequencer and
+    /// programs; the report ends with the mission's verdict beside the recorded one. A
+    /// recording whose sources are real devices is replayed open loop, and says so.
     #[arg(long)]
     pub all: bool,
     /// Inject a fault (repeat for several).
@@ -82,6 +85,15 @@ pub(crate) fn source_kinds() -> std::collections::BTreeSet<String> {
         .collect()
 }
 
+/// The source kinds that are simulated devices ([`lewis_services::SIMULATED_KINDS`]), which
+/// `--all` re-runs.
+pub(crate) fn simulated_kinds() -> std::collections::BTreeSet<String> {
+    lewis_services::SIMULATED_KINDS
+        .iter()
+        .map(|k| (*k).to_owned())
+        .collect()
+}
+
 fn parse_set(text: &str) -> Result<ParamEdit, String> {
     text.parse().map_err(|e: EditError| e.to_string())
 }
@@ -109,6 +121,7 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     options.set.clone_from(&args.set);
     options.tolerance = args.tolerance;
     options.source_kinds = source_kinds();
+    options.simulated_kinds = simulated_kinds();
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(
@@ -135,7 +148,8 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
             ));
         }
     };
-    let report = replay(&options, &registry(), &mut on_progress);
+    let programs = crate::app::AppPrograms;
+    let report = replay_with(&options, &registry(), Some(&programs), &mut on_progress);
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }

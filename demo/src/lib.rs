@@ -16,9 +16,11 @@ use std::path::{Path, PathBuf};
 
 use lewis_launch::{Launch, LaunchError, LaunchOptions, MissionPlan};
 use lewis_replay::fault::FaultSpec;
+use lewis_replay::lockstep::Programs;
+use lewis_replay::outcome::LoopKind;
 use lewis_replay::recording::RecordingFiles;
 use lewis_replay::report::Report;
-use lewis_replay::resim::{ReplayOptions, replay};
+use lewis_replay::resim::{ReplayOptions, ServiceSelection, replay_with};
 use lewis_runtime::broker::live::UpOptions;
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
@@ -63,6 +65,9 @@ pub struct DemoOptions {
     pub lewis_exe: PathBuf,
     /// The kinds that replay feeds from the recording (`lewis_services::SOURCE_KINDS`).
     pub source_kinds: BTreeSet<String>,
+    /// The source kinds the replay re-runs to live the mission again
+    /// (`lewis_services::SIMULATED_KINDS`).
+    pub simulated_kinds: BTreeSet<String>,
 }
 
 /// The files a demo writes, in its output folder.
@@ -196,10 +201,38 @@ impl DemoReport {
 /// What the replay says, in a few lines: the fault, who took over, what diverged.
 fn replay_lines(fault: &str, report: &Report) -> String {
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "replay: what if {fault} had happened instead? (open loop: the recorded robot moves as it did)"
-    );
+    let lived_again = report.mission.as_ref().and_then(|m| {
+        (m.loop_kind == LoopKind::Closed)
+            .then_some(m.replayed.as_ref())
+            .flatten()
+    });
+    match lived_again {
+        Some(mission) => {
+            let _ = writeln!(
+                s,
+                "replay: what if {fault} had happened as well? (closed loop: the mission lived again)"
+            );
+            let _ = writeln!(
+                s,
+                "  the mission would have {}: {} ({})",
+                if mission.succeeded {
+                    "succeeded"
+                } else {
+                    "FAILED"
+                },
+                mission.course().join(", "),
+                mission
+                    .time_to_finish_ns
+                    .map_or_else(|| "unfinished".to_owned(), |t| format!("{:.1} s", secs(t)))
+            );
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "replay: what if {fault} had happened instead? (open loop: the recorded robot moves as it did)"
+            );
+        }
+    }
     let takeovers: Vec<String> = report
         .faults
         .iter()
@@ -291,13 +324,15 @@ pub enum DemoError {
 /// Runs the demo: the robot and the mission with the recorder and the live fault, then the
 /// replay with a fault in the middle of the `sign` states (half-way when there were none).
 /// The files of an earlier demo in the same folder are replaced.
-/// `registry` builds the services in the replay and checks the robot's kinds.
+/// `registry` builds the services in the replay and checks the robot's kinds; `programs`
+/// builds the mission's programs, for the replay to live the mission again.
 ///
 /// # Errors
 /// When the robot or the mission cannot run; a failed mission or replay is in the report.
 pub fn run_demo(
     options: &DemoOptions,
     registry: &ServiceRegistry,
+    programs: &dyn Programs,
 ) -> Result<DemoReport, DemoError> {
     for path in [&options.robot, &options.script] {
         if !path.exists() {
@@ -388,7 +423,7 @@ pub fn run_demo(
     let mission = launched?.mission.ok_or(DemoError::NoMission)?;
 
     let replay_fault = replay_fault(&options.fault.provider, &mission.verdict, &files.run);
-    let replayed = re_simulate(options, registry, &files, &replay_fault);
+    let replayed = re_simulate(options, registry, programs, &files, &replay_fault);
     Ok(DemoReport {
         mission,
         fault,
@@ -460,11 +495,13 @@ fn replay_fault(provider: &str, verdict: &Verdict, recording: &Path) -> String {
     }
 }
 
-/// Re-simulates the recording with `fault` (open loop: the recorded sensors, the services
-/// that depend on them re-run) and writes its report as JSON.
+/// Lives the recorded mission again with `fault` (the closed loop of `lewis replay --all`:
+/// the simulated world, the services and the mission re-run, the live fault applied again
+/// at its recorded time) and writes its report as JSON.
 fn re_simulate(
     options: &DemoOptions,
     registry: &ServiceRegistry,
+    programs: &dyn Programs,
     files: &DemoFiles,
     fault: &str,
 ) -> Result<Report, String> {
@@ -472,10 +509,15 @@ fn re_simulate(
     let mut replay_options = ReplayOptions::new(vec![files.run.clone()]);
     replay_options.output = Some(files.replay.clone());
     replay_options.faults = vec![spec];
+    replay_options.services = ServiceSelection::All;
     replay_options
         .source_kinds
         .clone_from(&options.source_kinds);
-    let report = replay(&replay_options, registry, &mut |_| {}).map_err(|e| format!("{e}"))?;
+    replay_options
+        .simulated_kinds
+        .clone_from(&options.simulated_kinds);
+    let report = replay_with(&replay_options, registry, Some(programs), &mut |_| {})
+        .map_err(|e| format!("{e}"))?;
     let json = serde_json::to_string_pretty(&report).map_err(|e| format!("{e}"))?;
     std::fs::write(&files.replay_report, json + "\n").map_err(|e| {
         format!(

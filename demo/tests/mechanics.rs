@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use lewis_demo::{DemoOptions, LiveFault, run_demo};
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::Broker;
+use lewis_replay::lockstep::{Program, Programs};
+use lewis_replay::outcome::LoopKind;
 use lewis_runtime::ipc::Namespace;
 use lewis_tests::{lewis_exe, repo_root};
 
@@ -32,6 +34,16 @@ state sign /bin/sleep 6
 state oops /bin/true
   action 0 trans stop
 ";
+
+/// The script's programs are `/bin/sleep`s, which no replay can run: the demo's replay
+/// says the loop stays open.
+struct SleepsOnly;
+
+impl Programs for SleepsOnly {
+    fn build(&self, program: &Path, _args: &[String]) -> Result<Program, String> {
+        Err(format!("{} is not a lewis program", program.display()))
+    }
+}
 
 fn robot_with_absolute_paths(dir: &Path) -> PathBuf {
     let text = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
@@ -73,8 +85,12 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
             .iter()
             .map(|k| (*k).to_owned())
             .collect::<BTreeSet<_>>(),
+        simulated_kinds: lewis_services::SIMULATED_KINDS
+            .iter()
+            .map(|k| (*k).to_owned())
+            .collect::<BTreeSet<_>>(),
     };
-    let report = run_demo(&options, &lewis_services::registry()).unwrap();
+    let report = run_demo(&options, &lewis_services::registry(), &SleepsOnly).unwrap();
     let summary = report.summary();
 
     assert!(report.succeeded(), "{summary}");
@@ -120,6 +136,13 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
         "{decisions:#?}"
     );
     assert!(report.replay.is_ok(), "{summary}");
+    // `/bin/sleep` cannot be lived again: the replay is open loop, and says why.
+    let mission = report.replay.as_ref().unwrap().mission.as_ref().unwrap();
+    match &mission.loop_kind {
+        LoopKind::Open { because: Some(why) } => assert!(why.contains("/bin/sleep"), "{why}"),
+        other => panic!("the loop should stay open: {other:?}\n{summary}"),
+    }
+    assert!(summary.contains("open loop"), "{summary}");
     assert!(summary.contains("mission succeeded"), "{summary}");
     assert!(summary.contains("moved: "), "{summary}");
 }

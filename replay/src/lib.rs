@@ -23,6 +23,7 @@ pub mod json;
 pub mod lockstep;
 pub mod mission_log;
 pub mod mission_replay;
+pub mod outcome;
 pub mod play;
 pub mod recording;
 pub mod report;

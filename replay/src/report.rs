@@ -60,6 +60,9 @@ pub struct Report {
     pub harness: HarnessStats,
     /// The regression check.
     pub check: CheckOutcome,
+    /// The mission: the recorded verdict and, in a closed loop, the replayed one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mission: Option<crate::outcome::MissionReport>,
 }
 
 /// A parameter of a re-simulated service that differs from the recorded robot description.
@@ -142,6 +145,9 @@ pub struct CheckOutcome {
     pub passed: bool,
     /// The channels that are not.
     pub failing: Vec<String>,
+    /// How the replayed mission went otherwise than the recorded one, if it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mission: Option<String>,
 }
 
 impl CheckOutcome {
@@ -157,6 +163,7 @@ impl CheckOutcome {
             tolerance,
             passed: failing.is_empty(),
             failing,
+            mission: None,
         }
     }
 }
@@ -412,6 +419,23 @@ impl fmt::Display for Report {
         }
         for d in &self.divergence {
             write_divergence(f, d)?;
+        }
+        if let Some(mission) = &self.mission {
+            write!(f, "{mission}")?;
+        }
+        if let Some(why) = &self.check.mission {
+            return write!(f, "check: {why}");
+        }
+        let lived_again = self.mission.as_ref().is_some_and(|m| {
+            m.loop_kind == crate::outcome::LoopKind::Closed
+                && m.recorded.is_some()
+                && m.replayed.is_some()
+        });
+        if lived_again {
+            return write!(
+                f,
+                "check: the mission went as recorded (the same states in the same order, the same outcome)"
+            );
         }
         if self.check.passed {
             write!(

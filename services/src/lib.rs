@@ -62,6 +62,19 @@ pub const SOURCE_KINDS: &[&str] = &[
     lewis_emulators::camera::KIND,
 ];
 
+/// The source kinds that are simulated devices: `lewis replay --all` re-runs them
+/// from the recorded world and seeds, so the world reacts to what the robot does (the
+/// others talk to hardware, or to an emulator of it, and are fed from the recording).
+pub const SIMULATED_KINDS: &[&str] = &[
+    lewis_sim::service::base::KIND,
+    lewis_sim::service::laser::KIND,
+    lewis_sim::service::sonar::KIND,
+    lewis_sim::service::camera::KIND,
+    lewis_sim::service::speech::KIND,
+    // Synthetic ranges of a room from a seed: as re-runnable as the simulator.
+    lewis_emulators::testing::range::KIND,
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;

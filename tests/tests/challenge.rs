@@ -4,8 +4,11 @@
 //! its restart limit and the broker moves its clients to the sonar; the mission must still
 //! succeed through door, sign (at least twice), queue and register (`register` exits 0),
 //! within about 3 minutes of simulated time. The recording must read in independent
-//! readers, and a replay of it with a fault must give the same bytes whatever the output
-//! file is called. The demo's picture and Rerun file must be written.
+//! readers, and a closed-loop replay of it with a fault (`--all`: the mission lived again)
+//! must give the same bytes whatever the output file is called. Lived again without a new
+//! fault, the mission goes as it went live; with the laser and the sonar dead before the
+//! door it fails; with the sonar dead at the registration desk it still succeeds. The
+//! demo's picture and Rerun file must be written.
 //!
 //! Its own test binary: the one live mission of CI, a closed loop in real time that should
 //! not share the machine with other end-to-end tests.
@@ -131,7 +134,7 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         .current_dir(repo_root())
         .arg("replay")
         .arg(&run_mcap)
-        .args(["--inject-fault", &fault, "-o"])
+        .args(["--all", "--inject-fault", &fault, "-o"])
         .arg(&again)
         .output()
         .expect("lewis replay runs");
@@ -144,6 +147,118 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         std::fs::read(out.join("replay.mcap")).unwrap() == std::fs::read(&again).unwrap(),
         "two replays of the same recording with the same fault ({fault}) differ"
     );
+    // The demo's replay lived the mission again (closed loop), the live fault applied again.
+    let mission = &report["mission"];
+    assert_eq!(mission["loop"], "closed", "{mission:#}");
+    assert!(mission["replayed"]["succeeded"].is_boolean(), "{mission:#}");
+    assert!(
+        mission["recorded_faults"][0]
+            .as_str()
+            .is_some_and(|f| f.starts_with("laser@")),
+        "{mission:#}"
+    );
+
+    closed_loop_verdicts(&run_mcap, dir.path(), &verdict);
+}
+
+/// `lewis replay RUN --all ARGS -o OUT --report OUT.json`: its report as JSON and its text.
+fn replay_all(run: &Path, args: &[&str], out: &Path) -> (serde_json::Value, String) {
+    let json = out.with_extension("json");
+    let replay = Command::new(lewis_exe())
+        .current_dir(repo_root())
+        .arg("replay")
+        .arg(run)
+        .arg("--all")
+        .args(args)
+        .arg("-o")
+        .arg(out)
+        .arg("--report")
+        .arg(&json)
+        .output()
+        .expect("lewis replay runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&replay.stdout),
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    assert!(
+        replay.status.code().is_some_and(|c| c < 2),
+        "lewis replay {args:?}: {}\n{text}",
+        replay.status
+    );
+    let report = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    (report, text)
+}
+
+/// The states a mission report visited.
+fn course(mission: &serde_json::Value) -> Vec<String> {
+    mission["states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["state"].as_str().unwrap().to_owned())
+        .collect()
+}
+
+/// The mission lived again from the recording (closed loop): without a new fault it goes as
+/// live (the live laser crash applied again at its recorded time); with the laser and the
+/// sonar gone before the door it fails there; with the sonar gone at the registration desk
+/// (the laser is long dead by then) it still succeeds.
+fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) {
+    let (same, text) = replay_all(run, &["--check"], &dir.join("same.mcap"));
+    let mission = &same["mission"];
+    assert_eq!(mission["loop"], "closed", "{text}");
+    let live_course: Vec<String> = live
+        .states_visited
+        .iter()
+        .map(|v| v.state.clone())
+        .collect();
+    assert_eq!(course(&mission["replayed"]), live_course, "{text}");
+    assert_eq!(mission["replayed"]["succeeded"], true, "{text}");
+    assert_eq!(same["check"]["passed"], true, "{text}");
+    eprintln!(
+        "closed loop without a new fault: the final poses are {} m apart",
+        mission["final_pose_distance_m"]
+    );
+
+    let (blind, text) = replay_all(
+        run,
+        &[
+            "--inject-fault",
+            "laser@1s:crash",
+            "--inject-fault",
+            "sonar@1s:crash",
+        ],
+        &dir.join("blind.mcap"),
+    );
+    let replayed = &blind["mission"]["replayed"];
+    assert_eq!(replayed["succeeded"], false, "{text}");
+    assert_eq!(
+        course(replayed).first().map(String::as_str),
+        Some("door"),
+        "{text}"
+    );
+    assert!(text.contains("FAILED"), "{text}");
+
+    let register = live
+        .visits_of("register")
+        .next()
+        .expect("register was visited");
+    let start = recording_start_ns(run);
+    let at_s = (register.started_ns - start) as f64 / 1e9 + 0.5;
+    let sonar = format!("sonar@{at_s:.3}s:crash");
+    let (late, text) = replay_all(run, &["--inject-fault", &sonar], &dir.join("late.mcap"));
+    assert_eq!(
+        late["mission"]["replayed"]["succeeded"], true,
+        "{sonar}: {text}"
+    );
+}
+
+/// The log time of a recording's first message.
+fn recording_start_ns(path: &Path) -> i64 {
+    let bytes = std::fs::read(path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    summary.stats.unwrap().message_start_time as i64
 }
 
 /// Every decision on `/lewis/broker` in a recording.

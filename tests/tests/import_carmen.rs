@@ -272,6 +272,32 @@ fn replaying_freiburg_079_the_avoider_runs_on_the_laser_and_after_a_laser_fault_
     assert!(distance["differing"].as_u64().unwrap() > 0);
     assert!(distance["first_divergence_ns"].as_i64().unwrap() >= fault_ns);
     assert_eq!(faulted["check"]["passed"], false);
+
+    // `--all` cannot live a real robot's log again: it says so and replays open loop, the
+    // logged laser and odometry fed as they were.
+    let all = replay(
+        dir.path(),
+        &["f.mcap"],
+        "all.mcap",
+        &["--all", "--inject-fault", "laser"],
+    );
+    let mission = &all["mission"];
+    assert_eq!(mission["loop"], "open", "{mission:#}");
+    let because = mission["because"].as_str().unwrap();
+    assert!(because.contains("not simulated"), "{because}");
+    assert!(mission["replayed"].is_null(), "{mission:#}");
+    let fed: Vec<&str> = all["fed"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s.as_str().unwrap())
+        .collect();
+    assert!(fed.contains(&"laser"), "{fed:?}");
+    let text = lewis_ok(
+        dir.path(),
+        &["replay", "f.mcap", "--all", "-o", "all-again.mcap"],
+    );
+    assert!(text.contains("open loop: not a prediction"), "{text}");
 }
 
 #[test]

@@ -104,7 +104,7 @@ pub fn measure(
     }
     let messages = report.map_or(0, |r| r.messages_read);
 
-    let prepared = prepare(&recording, &options.replay, registry)?;
+    let prepared = prepare(&recording, &options.replay, registry, None)?;
     let robot = &prepared.replayed.robot;
     let stored: Vec<RecordedMessage> = recording.messages()?.collect::<Result<_, _>>()?;
     let mut best_harness = f64::INFINITY;

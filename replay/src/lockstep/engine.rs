@@ -61,6 +61,18 @@ pub(super) enum Timer {
     FaultEnds(usize),
     /// Work due later: a call taken up at its recorded time, a timeout.
     Work(Box<Work>),
+    /// The recorded mission started: the sequencer starts ([`super::mission`]).
+    MissionStarts,
+    /// A mission program comes up (live, a process takes a while to start).
+    ProgramComesUp {
+        program: String,
+        generation: u64,
+    },
+    /// A mission state's timeout for its program's run `generation`.
+    ProgramTimeout {
+        program: String,
+        generation: u64,
+    },
 }
 
 /// Something to do now, in order.
@@ -95,6 +107,14 @@ pub(super) enum Work {
         interface: String,
         command: String,
         result: Result<Vec<u8>, CallFailure>,
+    },
+    /// An event for the mission's sequencer.
+    Mission(lewis_sequencer::Event),
+    /// A mission program's run ends: its `on_stop`, then `event` for the sequencer.
+    ProgramEnded {
+        program: String,
+        generation: u64,
+        event: lewis_sequencer::Event,
     },
 }
 
@@ -233,6 +253,15 @@ impl Lockstep<'_> {
             Timer::FaultStarts(i) => self.fault_starts(i, sink),
             Timer::FaultEnds(i) => self.fault_ends(i, sink),
             Timer::Work(work) => self.work.push_back(*work),
+            Timer::MissionStarts => self.mission_starts(sink),
+            Timer::ProgramComesUp {
+                program,
+                generation,
+            } => self.program_comes_up(&program, generation),
+            Timer::ProgramTimeout {
+                program,
+                generation,
+            } => self.program_timed_out(&program, generation),
         }
     }
 
@@ -292,6 +321,12 @@ impl Lockstep<'_> {
                 };
                 self.dispatch(&caller, Vec::new(), sink, |s, ctx| s.on_reply(ctx, &event));
             }
+            Work::Mission(event) => self.mission_event(event, sink),
+            Work::ProgramEnded {
+                program,
+                generation,
+                event,
+            } => self.program_ended(&program, generation, event, sink),
         }
     }
 
@@ -553,7 +588,6 @@ impl Lockstep<'_> {
         };
         if let Err(reason) = outcome {
             sim.instance = None;
-            sim.generation += 1;
             let text = format!("{service} could not start: {reason}");
             sink.emit(Emitted::Log {
                 service,
@@ -561,6 +595,14 @@ impl Lockstep<'_> {
                 level: Level::Error,
                 text: &text,
             });
+            if self.robot.service(service).is_none() {
+                // A mission's program: the sequencer hears of it, not the broker.
+                self.program_failed_to_start(service, generation);
+                return;
+            }
+            if let Some(sim) = self.sims.get_mut(service) {
+                sim.generation += 1;
+            }
             self.work.push_back(Work::Broker(Event::ProcessExited {
                 service: service.to_owned(),
                 status: ExitStatus::Code(1),
@@ -581,13 +623,16 @@ impl Lockstep<'_> {
                 },
             );
         }
-        self.schedule(
-            now.saturating_add(period),
-            Timer::Heartbeat {
-                service: service.to_owned(),
-                generation,
-            },
-        );
+        // Services heartbeat to the broker; a mission's programs are only its clients.
+        if self.robot.service(service).is_some() {
+            self.schedule(
+                now.saturating_add(period),
+                Timer::Heartbeat {
+                    service: service.to_owned(),
+                    generation,
+                },
+            );
+        }
     }
 
     fn stop_service(&mut self, service: &str, sink: &mut dyn Sink) {
@@ -646,6 +691,7 @@ impl Lockstep<'_> {
         for effect in effects {
             self.carry_effect(name, generation, effect, sink);
         }
+        self.check_program_exit(name);
     }
 
     fn carry_effect(&mut self, name: &str, generation: u64, effect: Effect, sink: &mut dyn Sink) {

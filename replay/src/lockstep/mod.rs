@@ -78,6 +78,7 @@ pub mod book;
 mod calls;
 mod engine;
 mod faults;
+pub mod mission;
 pub mod route;
 pub mod script;
 
@@ -96,6 +97,8 @@ use crate::fault::{Fault, FaultKind};
 use crate::recording::RecordedMessage;
 pub use book::{CommandBook, default_reply, header_provider};
 use engine::{Sim, Timer, Work, backend_for};
+use mission::MissionRun;
+pub use mission::{Answer, AnswerSource, MissionPlan, Program, Programs};
 pub use route::{Route, route};
 use script::Script;
 
@@ -146,6 +149,8 @@ pub enum Emitted<'a> {
         /// The text.
         text: &'a str,
     },
+    /// The mission's sequencer made a record ([`mission`]).
+    Mission(&'a lewis_sequencer::Record),
     /// A fault started or ended.
     Fault {
         /// The fault.
@@ -285,6 +290,7 @@ pub struct Lockstep<'a> {
     last_input: BTreeMap<(String, String), i64>,
     longest_gap: Option<Gap>,
     feeds: BTreeMap<(String, String, String), Feed>,
+    mission: Option<MissionRun<'a>>,
 }
 
 impl std::fmt::Debug for Lockstep<'_> {
@@ -374,6 +380,7 @@ impl<'a> Lockstep<'a> {
             last_input: BTreeMap::new(),
             longest_gap: None,
             feeds: BTreeMap::new(),
+            mission: None,
         };
         for i in 0..harness.faults.len() {
             let (at, until) = (harness.faults[i].at_ns, harness.faults[i].until_ns);
@@ -478,8 +485,10 @@ impl<'a> Lockstep<'a> {
                     self.stats.undecodable += 1;
                     return;
                 };
-                // A re-simulated caller makes its call again by itself.
-                if self.sims.contains_key(&header_provider(&log.request)) {
+                // A re-simulated caller makes its call again by itself, and so do the
+                // programs of a mission run in the harness.
+                let caller = header_provider(&log.request);
+                if self.sims.contains_key(&caller) || self.is_mission_client(&caller) {
                     return;
                 }
                 self.stats.external_commands_fed += 1;
@@ -503,6 +512,7 @@ impl<'a> Lockstep<'a> {
                 if is_request
                     && !decision.client.is_empty()
                     && !self.sims.contains_key(&decision.client)
+                    && !self.is_mission_client(&decision.client)
                     && self
                         .requested
                         .insert((decision.client.clone(), decision.interface.clone()))

@@ -64,6 +64,11 @@ impl Script {
         }
     }
 
+    /// Follows nothing any more (the recording is over); returns who followed it.
+    pub fn unfollow_all(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.services).into_keys().collect()
+    }
+
     /// Whether `service` follows the recording.
     pub fn follows(&self, service: &str) -> bool {
         self.services.contains_key(service)

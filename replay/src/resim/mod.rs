@@ -30,6 +30,7 @@
 //!   as log time; nothing on the way reads a clock, iterates a hash map or uses a thread,
 //!   so the same recording, code and options give the same bytes.
 
+pub mod closure;
 pub mod edit;
 pub mod lookahead;
 mod sink;
@@ -44,7 +45,8 @@ use lewis_runtime::service::{ServiceConfig, ServiceRegistry};
 
 use crate::compare::Comparator;
 use crate::fault::{Fault, FaultError, FaultSpec};
-use crate::lockstep::{Feed, Lockstep, LockstepError, Plan, Route, route};
+use crate::lockstep::{Feed, Lockstep, LockstepError, Plan, Programs, Route, route};
+use crate::outcome::{LoopKind, MissionOutcome, MissionReport};
 use crate::recording::{Recording, RecordingError};
 use crate::report::{CheckOutcome, FaultWatch, Report};
 use edit::{EditError, ParamEdit, ReplayedRobot, replayed_robot};
@@ -89,10 +91,15 @@ pub struct ReplayOptions {
     pub compression: Compression,
     /// The kinds of service that are sources even though they require something.
     pub source_kinds: BTreeSet<String>,
+    /// The source kinds that are simulated devices, which `--all` can re-run from the
+    /// recorded world (the others talk to hardware: their data is fed).
+    pub simulated_kinds: BTreeSet<String>,
     /// Another robot description to replay with (`--robot`).
     pub robot: Option<PathBuf>,
     /// Parameter changes (`--set`).
     pub set: Vec<ParamEdit>,
+    /// Whether the output recording is written (a fault sweep needs only the reports).
+    pub write_output: bool,
 }
 
 impl ReplayOptions {
@@ -108,8 +115,10 @@ impl ReplayOptions {
             tolerance: DEFAULT_TOLERANCE,
             compression: Compression::Zstd,
             source_kinds: BTreeSet::new(),
+            simulated_kinds: BTreeSet::new(),
             robot: None,
             set: Vec::new(),
+            write_output: true,
         }
     }
 }
@@ -288,9 +297,13 @@ pub struct Prepared {
     pub published: BTreeSet<String>,
     /// The harness's plan.
     pub plan: Plan,
+    /// With `--all`: whether the loop closes, and the mission to live again; without it,
+    /// the recorded mission only (for its verdict).
+    pub closure: closure::Closure,
 }
 
-/// Works out what a replay of `recording` with `options` runs.
+/// Works out what a replay of `recording` with `options` runs; `programs` builds the
+/// programs of a recorded mission, to live it again with `--all`.
 ///
 /// # Errors
 /// When an option does not fit the recording, or the recording cannot be read.
@@ -298,6 +311,7 @@ pub fn prepare(
     recording: &Recording,
     options: &ReplayOptions,
     registry: &ServiceRegistry,
+    programs: Option<&dyn Programs>,
 ) -> Result<Prepared, ReplayError> {
     let (file_name, toml) = recording.robot_toml();
     let replayed = replayed_robot(
@@ -313,21 +327,44 @@ pub fn prepare(
         .iter()
         .map(|spec| spec.resolve(robot, recording.start_ns(), recording.end_ns()))
         .collect::<Result<Vec<Fault>, _>>()?;
+    let mut selection = options.services.clone();
+    let closure = if selection == ServiceSelection::All {
+        let closure = closure::close(
+            recording,
+            robot,
+            &options.source_kinds,
+            &options.simulated_kinds,
+            programs,
+        );
+        if closure.open_because.is_some() {
+            // Open loop: the recorded sources are fed as they were.
+            selection = ServiceSelection::NonSources;
+        }
+        closure
+    } else {
+        closure::Closure {
+            recorded: closure::recorded_mission(recording),
+            ..closure::Closure::default()
+        }
+    };
     let resimulated = select_services(
         robot,
         recording,
         registry,
-        &options.services,
+        &selection,
         &options.source_kinds,
     )?;
     edit::check_edits_resimulated(&options.set, &resimulated)?;
     let published = services_with_outputs(recording, robot);
     let followed = followed_services(recording, robot, registry, &resimulated, &published);
+    // The live run's own faults act in the harness; the report watches the injected ones.
+    let mut acting = faults.clone();
+    acting.extend(closure.recorded_faults.iter().cloned());
     let plan = Plan {
         resimulated: resimulated.clone(),
         ready_at: first_heartbeats(recording, robot, &followed)?,
         followed,
-        faults: faults.clone(),
+        faults: acting,
     };
     Ok(Prepared {
         replayed,
@@ -335,10 +372,12 @@ pub fn prepare(
         resimulated,
         published,
         plan,
+        closure,
     })
 }
 
-/// Replays a recording (see the module documentation) and returns the report.
+/// Replays a recording (see the module documentation) and returns the report; a recorded
+/// mission is not lived again (see [`replay_with`]).
 ///
 /// # Errors
 /// When the recording cannot be read, an option does not fit it, a service cannot be
@@ -348,6 +387,27 @@ pub fn replay(
     registry: &ServiceRegistry,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Report, ReplayError> {
+    replay_with(options, registry, None, progress)
+}
+
+/// How long a replay goes on after the mission lived again is over (its last outputs).
+const AFTER_MISSION_NS: i64 = 2_000_000_000;
+
+/// How long a mission lived again may go on past the end of the recording, as a multiple
+/// of the recording's length: a fault may make it slower, not endless.
+const OVERTIME: i64 = 1;
+
+/// Replays a recording as [`replay`] does; with `--all` and `programs`, a recorded
+/// mission is lived again in the closed loop ([`closure`]).
+///
+/// # Errors
+/// As [`replay`].
+pub fn replay_with(
+    options: &ReplayOptions,
+    registry: &ServiceRegistry,
+    programs: Option<&dyn Programs>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Report, ReplayError> {
     let recording = Recording::open(&options.inputs)?;
     let Prepared {
         replayed,
@@ -355,7 +415,8 @@ pub fn replay(
         resimulated,
         published,
         plan,
-    } = prepare(&recording, options, registry)?;
+        closure,
+    } = prepare(&recording, options, registry, programs)?;
     let robot = &replayed.robot;
     let (start_ns, end_ns) = (recording.start_ns(), recording.end_ns());
     let followed = plan.followed.clone();
@@ -365,7 +426,9 @@ pub fn replay(
         .unwrap_or_else(|| default_output(&options.inputs[0]));
     // The files read, parts indexes expanded: none of them may be replaced.
     let read: Vec<PathBuf> = recording.paths().map(Path::to_path_buf).collect();
-    prepare_output(&output, &read)?;
+    if options.write_output {
+        prepare_output(&output, &read)?;
+    }
 
     let mut recorder_options = RecorderOptions::new(&output);
     recorder_options.compression = options.compression;
@@ -378,7 +441,11 @@ pub fn replay(
     REPLAY_PROVIDER.clone_into(&mut recorder_options.recorder_name);
     // The output's name stays out of its bytes: two replays to different names are one file.
     recorder_options.file_label = Some("replay".to_owned());
-    let recorder = Recorder::create(recorder_options)?;
+    let recorder = if options.write_output {
+        Some(Recorder::create(recorder_options)?)
+    } else {
+        None
+    };
     let comparator = comparator(
         &recording,
         robot,
@@ -391,6 +458,9 @@ pub fn replay(
     let mut sink = OutputSink::new(recorder, comparator, watches);
 
     let mut harness = Lockstep::new(robot, registry, plan)?;
+    if let (Some(mission), Some(programs)) = (closure.mission.clone(), programs) {
+        harness.with_mission(mission, programs);
+    }
     let mut window = Lookahead::new(recording.messages()?);
     // The broker comes up with the first message, once the window shows what lies ahead.
     let first = window
@@ -402,9 +472,18 @@ pub fn replay(
     while let Some((at_ns, message)) = window.next(&mut |m, t| harness.preview(m, t))? {
         read += 1;
         last_ns = last_ns.max(at_ns);
-        harness.advance_to(at_ns, &mut sink);
+        // A mission lived again is over: live, `lewis up --script` would stop the robot. The
+        // rest of the recording is only copied.
+        let lived_on = harness
+            .mission_over_at()
+            .is_none_or(|over| at_ns <= over.saturating_add(AFTER_MISSION_NS));
+        if lived_on {
+            harness.advance_to(at_ns, &mut sink);
+        }
         sink.recorded(recording.topics().get(&message.topic), &message, at_ns);
-        harness.feed(&message, at_ns, &mut sink);
+        if lived_on {
+            harness.feed(&message, at_ns, &mut sink);
+        }
         if let Some(e) = sink.error.take() {
             return Err(e.into());
         }
@@ -416,7 +495,15 @@ pub fn replay(
             });
         }
     }
-    harness.finish(end_ns.max(last_ns), &mut sink);
+    let limit_ns = end_ns.saturating_add((end_ns - start_ns).saturating_mul(OVERTIME));
+    harness.finish_mission(limit_ns, &mut sink);
+    let end_of_run = harness
+        .mission_over_at()
+        .map_or(end_ns.max(last_ns), |over| {
+            over.saturating_add(AFTER_MISSION_NS)
+        })
+        .max(harness.now_ns());
+    harness.finish(end_of_run, &mut sink);
     if let Some(e) = sink.error.take() {
         return Err(e.into());
     }
@@ -439,6 +526,15 @@ pub fn replay(
         g.to_ns -= start_ns;
         g
     });
+    let replayed_records = harness.mission_records().to_vec();
+    let answers = harness
+        .mission_answers()
+        .iter()
+        .map(|a| crate::lockstep::Answer {
+            time_ns: a.time_ns - start_ns,
+            ..a.clone()
+        })
+        .collect();
     drop(harness);
     let OutputSink {
         recorder,
@@ -446,11 +542,36 @@ pub fn replay(
         watches,
         decisions,
         written,
+        truth,
         ..
     } = sink;
-    recorder.close()?;
+    if let Some(recorder) = recorder {
+        recorder.close()?;
+    }
     let divergence = comparator.finish();
-    let check = CheckOutcome::of(options.tolerance, &divergence);
+    let mission = mission_report(
+        &closure,
+        &replayed_records,
+        answers,
+        &truth,
+        longest_gap.clone(),
+        start_ns,
+    );
+    let mut check = CheckOutcome::of(options.tolerance, &divergence);
+    // Lived again, the outputs differ from the live ones by the noise of live timing (live
+    // ticks land a little late, replayed ones on time), and the closed loop amplifies it:
+    // the check of a mission is its course and outcome.
+    match mission.as_ref().and_then(MissionReport::same_course) {
+        Some(Err(why)) => {
+            check.passed = false;
+            check.mission = Some(why);
+        }
+        Some(Ok(())) if closure.is_closed() => {
+            check.passed = true;
+            check.failing.clear();
+        }
+        _ => {}
+    }
     Ok(Report {
         inputs: options
             .inputs
@@ -485,6 +606,46 @@ pub fn replay(
         divergence,
         harness: stats,
         check,
+        mission,
+    })
+}
+
+/// The mission part of the report: the recorded verdict, and the replayed one when the
+/// loop was closed.
+fn mission_report(
+    closure: &closure::Closure,
+    replayed_records: &[lewis_sequencer::Record],
+    answers: Vec<crate::lockstep::Answer>,
+    truth: &sink::Truth,
+    longest_blind: Option<crate::lockstep::Gap>,
+    start_ns: i64,
+) -> Option<MissionReport> {
+    let loop_kind = closure.loop_kind();
+    let closed = loop_kind == LoopKind::Closed;
+    // Without `--all` and without a recorded mission there is nothing to say.
+    if closure.recorded.is_empty() && !closure.asked {
+        return None;
+    }
+    let recorded = (!closure.recorded.is_empty())
+        .then(|| MissionOutcome::of(&closure.recorded, start_ns, truth.recorded(), None));
+    let replayed = (closed && !replayed_records.is_empty())
+        .then(|| MissionOutcome::of(replayed_records, start_ns, truth.replayed(), longest_blind));
+    let final_pose_distance_m = recorded
+        .as_ref()
+        .and_then(|r| r.final_pose)
+        .zip(replayed.as_ref().and_then(|r| r.final_pose))
+        .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]));
+    Some(MissionReport {
+        loop_kind,
+        recorded,
+        replayed,
+        answers,
+        recorded_faults: closure
+            .recorded_faults
+            .iter()
+            .map(|f| f.spec.clone())
+            .collect(),
+        final_pose_distance_m,
     })
 }
 

@@ -6,7 +6,8 @@
 use std::collections::BTreeMap;
 
 use lewis_interfaces::msg::{
-    Broker as BrokerMessage, Health as HealthMessage, LogLine, LogLineLevel, LogLineStream,
+    Broker as BrokerMessage, GroundTruth, Health as HealthMessage, LogLine, LogLineLevel,
+    LogLineStream,
 };
 use lewis_interfaces::{Interface, cdr};
 use lewis_recorder::{ChannelId, ChannelSpec, RecordError, Recorder, STATS_TOPIC, Sample};
@@ -22,8 +23,27 @@ use crate::report::FaultWatch;
 
 /// Writes everything into the output recording, feeds the comparator and the fault
 /// watches.
+/// The simulator's last GroundTruth, recorded and re-simulated: where the robot ended.
+#[derive(Debug, Default)]
+pub(super) struct Truth {
+    recorded: Option<GroundTruth>,
+    replayed: Option<GroundTruth>,
+}
+
+impl Truth {
+    pub(super) fn recorded(&self) -> Option<&GroundTruth> {
+        self.recorded.as_ref()
+    }
+
+    pub(super) fn replayed(&self) -> Option<&GroundTruth> {
+        self.replayed.as_ref()
+    }
+}
+
 pub(super) struct OutputSink {
-    pub(super) recorder: Recorder,
+    /// `None`: nothing is written (a sweep wants the report only).
+    pub(super) recorder: Option<Recorder>,
+    pub(super) truth: Truth,
     pub(super) comparator: Comparator,
     pub(super) watches: Vec<FaultWatch>,
     pub(super) decisions: u64,
@@ -35,7 +55,7 @@ pub(super) struct OutputSink {
 
 impl OutputSink {
     pub(super) fn new(
-        recorder: Recorder,
+        recorder: Option<Recorder>,
         comparator: Comparator,
         watches: Vec<FaultWatch>,
     ) -> Self {
@@ -43,6 +63,7 @@ impl OutputSink {
             recorder,
             comparator,
             watches,
+            truth: Truth::default(),
             decisions: 0,
             written: 0,
             error: None,
@@ -55,7 +76,8 @@ impl OutputSink {
         if let Some(id) = self.channels.get(topic) {
             return Some(*id);
         }
-        match self.recorder.add_channel(spec()) {
+        let recorder = self.recorder.as_mut()?;
+        match recorder.add_channel(spec()) {
             Ok(id) => {
                 self.channels.insert(topic.to_owned(), id);
                 Some(id)
@@ -78,7 +100,10 @@ impl OutputSink {
             log_time_ns: log_ns,
             data,
         };
-        match self.recorder.write(&sample) {
+        let Some(recorder) = self.recorder.as_mut() else {
+            return;
+        };
+        match recorder.write(&sample) {
             Ok(()) => self.written += 1,
             Err(e) => self.error = Some(e),
         }
@@ -119,6 +144,11 @@ impl OutputSink {
         }
         if self.comparator.has_channel(name) {
             self.comparator.recorded(name, at_ns, &message.data);
+        }
+        if topic.and_then(|t| t.interface.as_deref()) == Some(GroundTruth::NAME)
+            && let Ok(truth) = cdr::from_bytes(&message.data)
+        {
+            self.truth.recorded = Some(truth);
         }
     }
 
@@ -193,6 +223,11 @@ impl Sink for OutputSink {
                     self.write(id, seq, time_ns, time_ns, bytes);
                 }
                 self.comparator.resimulated(&recorded_topic, time_ns, bytes);
+                if interface == GroundTruth::NAME
+                    && let Ok(truth) = cdr::from_bytes(bytes)
+                {
+                    self.truth.replayed = Some(truth);
+                }
             }
             Emitted::Decision(decision) => {
                 self.decisions += 1;
@@ -244,6 +279,11 @@ impl Sink for OutputSink {
                     ..LogLine::default()
                 };
                 self.own(&topic, REPLAY_PROVIDER, time_ns, message);
+            }
+            Emitted::Mission(record) => {
+                let topic = format!("{REPLAY_PREFIX}{}", names::SEQUENCER_CHANNEL);
+                let message = lewis_sequencer::to_message(record);
+                self.own(&topic, names::SEQUENCER_NODE, record.time_ns, message);
             }
             Emitted::Fault {
                 fault,
