@@ -8,6 +8,8 @@
 //!   virtual clock, fed from a recording.
 //! - [`resim`]: `lewis replay`, the re-simulation of a recording into a new one with a
 //!   report ([`report`], [`compare`]) and injected faults ([`fault`]).
+//! - [`sweep`]: `lewis replay --sweep-fault`, a fault injected at many times and the
+//!   mission's fate at each, as a table, JSON and a PNG plot.
 //! - [`play`]: `lewis play`, a recording published into live IPC at its recorded pace.
 //! - [`mission_log`]: the sequencer's records read back from a recording;
 //!   [`mission_replay`]: `lewis seq replay`, a recorded mission replayed on a script.
@@ -28,6 +30,7 @@ pub mod play;
 pub mod recording;
 pub mod report;
 pub mod resim;
+pub mod sweep;
 
 pub use info::{InfoError, InfoOptions, InfoReport, inspect};
 pub use json::JsonValue;

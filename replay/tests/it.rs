@@ -9,4 +9,5 @@ mod lockstep;
 mod play;
 mod ros2_recordings;
 mod same_bytes;
+mod sweep;
 mod versions;

@@ -19,7 +19,7 @@ fn repo_root() -> PathBuf {
 
 /// The reference robot with its world named from the root, so that the sonar the fault
 /// starts finds it whatever the test's current directory.
-fn robot_with_absolute_world(dir: &Path) -> PathBuf {
+pub(crate) fn robot_with_absolute_world(dir: &Path) -> PathBuf {
     let root = repo_root();
     let text = std::fs::read_to_string(root.join("robots/sim-reference.toml")).unwrap();
     let world = root.join("robots/worlds/conference");
