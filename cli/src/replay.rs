@@ -8,11 +8,12 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lewis_replay::fault::FaultSpec;
+use lewis_replay::fault::{FaultKind, FaultSpec};
 use lewis_replay::resim::edit::{EditError, ParamEdit};
 use lewis_replay::resim::{
     DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay_with,
 };
+use lewis_replay::sweep::{SweepSpec, sweep};
 
 use crate::service::registry;
 
@@ -74,6 +75,31 @@ pub struct ReplayArgs {
     /// Print the report as JSON on stdout instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Sweep a fault across the run: these providers fail together at --steps times, one
+    /// closed-loop replay each; the table is printed and written as JSON (--report, else
+    /// RUN.sweep.json) and as a plot (the same name, .png).
+    #[arg(
+        long = "sweep-fault",
+        value_delimiter = ',',
+        value_name = "A,B",
+        requires = "all",
+        conflicts_with_all = ["check", "output", "json"]
+    )]
+    pub sweep_fault: Option<Vec<String>>,
+    /// How many fault times a sweep tries, spread evenly across the run.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..), requires = "sweep_fault")]
+    pub steps: u32,
+    /// How a sweep's providers fail: crash, stall, garbage or out-of-service.
+    #[arg(long, default_value = "crash", value_parser = parse_kind, requires = "sweep_fault")]
+    pub kind: FaultKind,
+    /// Replays a sweep runs at once (default: one per core).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..), requires = "sweep_fault")]
+    pub jobs: Option<u32>,
+}
+
+fn parse_kind(text: &str) -> Result<FaultKind, String> {
+    FaultKind::from_name(text)
+        .ok_or_else(|| format!("`{text}` is no fault kind: give {}", FaultKind::NAMES))
 }
 
 /// The kinds that are sources ([`lewis_services::SOURCE_KINDS`]), as the replay options
@@ -149,6 +175,9 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let programs = crate::app::AppPrograms;
+    if let Some(providers) = &args.sweep_fault {
+        return run_sweep(args, &options, providers);
+    }
     let report = replay_with(&options, &registry(), Some(&programs), &mut on_progress);
     if let Some(bar) = &bar {
         bar.finish_and_clear();
@@ -171,6 +200,64 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// `--sweep-fault`: the sweep, its table on stdout, its JSON and its plot.
+fn run_sweep(
+    args: &ReplayArgs,
+    options: &ReplayOptions,
+    providers: &[String],
+) -> anyhow::Result<ExitCode> {
+    let jobs = args.jobs.map_or_else(
+        || std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
+        |n| n as usize,
+    );
+    let spec = SweepSpec {
+        providers: providers.to_vec(),
+        kind: args.kind,
+        steps: args.steps,
+        jobs,
+    };
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let bar = ProgressBar::new(u64::from(args.steps));
+        bar.set_style(
+            ProgressStyle::with_template(
+                "sweeping {bar:40} {pos}/{len} replays ({elapsed} elapsed, {eta} left)",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    });
+    let done = |count: usize| {
+        if let Some(bar) = &bar {
+            bar.set_position(count as u64);
+        }
+    };
+    let result = sweep(options, &registry(), &crate::app::AppPrograms, &spec, &done);
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let swept = result?;
+    let json = args
+        .report
+        .clone()
+        .unwrap_or_else(|| sweep_output(&args.inputs[0], "json"));
+    std::fs::write(&json, swept.to_json())
+        .with_context(|| format!("cannot write the sweep to {}", json.display()))?;
+    let png = json.with_extension("png");
+    swept.write_png(&png)?;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{swept}")?;
+    writeln!(out, "written: {} and {}", json.display(), png.display())?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `RUN.sweep.EXT` beside `RUN.mcap`.
+fn sweep_output(input: &std::path::Path, extension: &str) -> PathBuf {
+    let stem = input
+        .file_stem()
+        .map_or_else(|| "run".to_owned(), |s| s.to_string_lossy().into_owned());
+    input.with_file_name(format!("{stem}.sweep.{extension}"))
 }
 
 // For display only.

@@ -37,6 +37,14 @@ impl FaultKind {
     /// Every kind's name, as written in a SPEC.
     pub const NAMES: &'static str = "crash, stall, garbage, out-of-service";
 
+    /// The kind of `name`, as written in a SPEC.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Stall, Self::Crash, Self::Garbage, Self::OutOfService]
+            .into_iter()
+            .find(|k| k.name() == name)
+    }
+
     /// The name as written in a SPEC.
     #[must_use]
     pub fn name(self) -> &'static str {
@@ -142,13 +150,8 @@ impl FromStr for FaultSpec {
         let (rest, kind) = match text.split_once(':') {
             Some((rest, kind)) => (
                 rest,
-                match kind {
-                    "crash" => FaultKind::Crash,
-                    "stall" => FaultKind::Stall,
-                    "garbage" => FaultKind::Garbage,
-                    "out-of-service" => FaultKind::OutOfService,
-                    other => return Err(syntax(&format!("unknown kind `{other}`"))),
-                },
+                FaultKind::from_name(kind)
+                    .ok_or_else(|| syntax(&format!("unknown kind `{kind}`")))?,
             ),
             None => (text, FaultKind::Stall),
         };

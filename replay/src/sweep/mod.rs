@@ -11,6 +11,7 @@
 
 mod jobs;
 mod plot;
+mod run;
 mod table;
 
 use std::path::PathBuf;
@@ -20,6 +21,7 @@ use serde::Serialize;
 use crate::fault::FaultKind;
 
 pub use jobs::run_jobs;
+pub use run::{SweepRunError, SweepSpec, sweep};
 
 /// A fault time is a whole number of these from the start when the run is long enough,
 /// so that the time printed in the table (to the millisecond) can be typed back as

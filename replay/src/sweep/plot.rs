@@ -229,10 +229,7 @@ impl Sweep {
             };
             items.push((
                 Marker::Dashed,
-                format!(
-                    "recorded run, no fault: {verdict} in {}",
-                    format_seconds(recorded)
-                ),
+                format!("recorded run: {verdict} in {}", format_seconds(recorded)),
             ));
         }
         items.push((Marker::Dot, "succeeded (at its time to finish)".to_owned()));
