@@ -159,6 +159,51 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
     );
 
     closed_loop_verdicts(&run_mcap, dir.path(), &verdict);
+    sweep_on_one_and_two_threads(&run_mcap, dir.path());
+}
+
+/// `--sweep-fault laser --steps 3`: the same JSON and plot on one thread as on two.
+fn sweep_on_one_and_two_threads(run: &Path, dir: &Path) {
+    let sweep = |jobs: &str| {
+        let json = dir.join(format!("sweep-{jobs}.json"));
+        let output = Command::new(lewis_exe())
+            .current_dir(repo_root())
+            .arg("replay")
+            .arg(run)
+            .args([
+                "--all",
+                "--sweep-fault",
+                "laser",
+                "--steps",
+                "3",
+                "--jobs",
+                jobs,
+            ])
+            .arg("--report")
+            .arg(&json)
+            .output()
+            .expect("lewis replay runs");
+        let text = String::from_utf8_lossy(&output.stdout).into_owned();
+        assert!(
+            output.status.success(),
+            "{text}{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let png = std::fs::read(json.with_extension("png")).unwrap();
+        (std::fs::read_to_string(&json).unwrap(), png, text)
+    };
+    let (one, one_png, text) = sweep("1");
+    let (two, two_png, _) = sweep("2");
+    assert_eq!(
+        one, two,
+        "the sweep on two threads differs from one:\n{text}"
+    );
+    assert!(one_png == two_png, "the plots differ");
+    assert!(one_png.starts_with(b"\x89PNG"), "not a PNG");
+    let swept: serde_json::Value = serde_json::from_str(&one).unwrap();
+    assert_eq!(swept["points"].as_array().unwrap().len(), 3, "{text}");
+    assert!(text.contains("the mission"), "{text}");
+    eprintln!("{text}");
 }
 
 /// `lewis replay RUN --all ARGS -o OUT --report OUT.json`: its report as JSON and its text.
