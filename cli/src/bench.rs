@@ -5,6 +5,9 @@
 //! - `lewis bench long-recording REF.mcap -o LONG.mcap [--size-mb N]`: a long recording made
 //!   of laps of a short one, to measure a replay's peak memory (`/usr/bin/time -v lewis
 //!   replay LONG.mcap`).
+//! - `lewis bench closed-loop RUN.mcap [--sweep-fault P --steps N --jobs J]`: a mission
+//!   lived again as a multiple of real time, beside its handlers' own time, its peak
+//!   memory and a sweep's time.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -12,9 +15,12 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args, Subcommand};
+use lewis_replay::bench::closed::measure_closed;
 use lewis_replay::bench::long::write_long;
 use lewis_replay::bench::speed::{SpeedOptions, measure};
-use lewis_replay::resim::ReplayOptions;
+use lewis_replay::fault::FaultKind;
+use lewis_replay::resim::{ReplayOptions, ServiceSelection};
+use lewis_replay::sweep::SweepSpec;
 
 use crate::service::registry;
 
@@ -26,6 +32,29 @@ pub enum BenchCommand {
     Replay(ReplayBenchArgs),
     /// Write a long recording made of laps of a short one (for the memory of a long replay).
     LongRecording(LongArgs),
+    /// How fast a whole mission is lived again (`lewis replay --all`), beside its handlers'
+    /// own time, its peak memory, and a fault sweep.
+    ClosedLoop(ClosedLoopArgs),
+}
+
+/// Arguments of `lewis bench closed-loop`.
+#[derive(Debug, Args)]
+pub struct ClosedLoopArgs {
+    /// A recording of the simulated robot on a mission (`lewis demo` writes one).
+    #[arg(value_name = "RUN.mcap")]
+    pub input: PathBuf,
+    /// The provider the sweep fails (none: no sweep).
+    #[arg(long, value_name = "PROVIDER")]
+    pub sweep_fault: Option<String>,
+    /// The sweep's fault times.
+    #[arg(long, default_value_t = 20)]
+    pub steps: u32,
+    /// The sweep's threads (default: one per core).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `lewis bench replay`.
@@ -56,6 +85,40 @@ pub struct LongArgs {
     pub size_mb: u64,
 }
 
+fn closed_loop(args: &ClosedLoopArgs) -> anyhow::Result<ExitCode> {
+    let scratch =
+        std::env::temp_dir().join(format!("lewis-bench-closed-{}.mcap", std::process::id()));
+    let mut replay = ReplayOptions::new(vec![args.input.clone()]);
+    replay.output = Some(scratch.clone());
+    replay.services = ServiceSelection::All;
+    replay.source_kinds = crate::replay::source_kinds();
+    replay.simulated_kinds = crate::replay::simulated_kinds();
+    let sweep = args.sweep_fault.as_ref().map(|provider| SweepSpec {
+        providers: vec![provider.clone()],
+        kind: FaultKind::Crash,
+        steps: args.steps,
+        jobs: args.jobs.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+        }),
+    });
+    let report = measure_closed(
+        &replay,
+        &std::sync::Arc::new(registry()),
+        &crate::app::AppPrograms,
+        sweep.as_ref(),
+    );
+    // The scratch output is not wanted, whatever happened.
+    let _ = std::fs::remove_file(&scratch);
+    let report = report?;
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
+    } else {
+        write!(out, "{report}")?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Runs `lewis bench`.
 pub fn run(command: &BenchCommand) -> anyhow::Result<ExitCode> {
     match command {
@@ -81,6 +144,7 @@ pub fn run(command: &BenchCommand) -> anyhow::Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
+        BenchCommand::ClosedLoop(args) => closed_loop(args),
         BenchCommand::LongRecording(args) => {
             let mut last = 0;
             let report = write_long(

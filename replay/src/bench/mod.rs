@@ -5,6 +5,9 @@
 //!   same inputs (the harness's overhead).
 //! - [`long`]: a long recording made by looping a short one, to measure the memory of a
 //!   replay of a gigabyte.
+//! - [`closed`]: a whole mission lived again (`lewis replay --all`) as a multiple of real
+//!   time, beside its services' and programs' own handlers, its peak memory, and a sweep.
 
+pub mod closed;
 pub mod long;
 pub mod speed;
