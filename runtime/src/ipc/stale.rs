@@ -1,0 +1,139 @@
+//! A namespace's leftovers from runs that died: removed before a robot starts in it.
+//!
+//! A process killed while it creates a channel (the demo kills the laser again after every
+//! restart, sometimes in the middle of its start) leaves that channel half made; iceoryx2
+//! then refuses it to every later process (`HangsInCreation`), and cleaning the dead nodes
+//! does not remove it. So when no process of the namespace is alive, everything under its
+//! prefix is left over and is removed: iceoryx2's files (`/tmp/iceoryx2`) and its shared
+//! memory (`/dev/shm`). While any node of the namespace lives, nothing is touched.
+
+use std::path::{Path, PathBuf};
+
+use iceoryx2::node::{Node, NodeState};
+use iceoryx2::prelude::{CallbackProgression, ipc};
+
+use super::Namespace;
+
+/// Where iceoryx2 keeps its files and its shared memory on Linux.
+const ROOTS: [&str; 2] = ["/tmp/iceoryx2", "/dev/shm"];
+
+/// What [`wipe_stale`] did.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct WipeReport {
+    /// Files and folders of the namespace removed.
+    pub removed: usize,
+    /// Whether a live process of the namespace kept it untouched.
+    pub in_use: bool,
+}
+
+/// Removes what dead runs left in `namespace`, unless one of its processes lives.
+#[must_use]
+pub fn wipe_stale(namespace: &Namespace) -> WipeReport {
+    wipe_stale_under(namespace, &ROOTS.map(PathBuf::from))
+}
+
+fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
+    let Ok(config) = namespace.iceoryx2_config() else {
+        return WipeReport::default();
+    };
+    let mut in_use = false;
+    let listed = Node::<ipc::Service>::list(&config, |state| {
+        // Only a live process holds its node's lock. A node whose files are incomplete was
+        // most likely killed while it was made (and stays so): it does not count.
+        in_use |= matches!(state, NodeState::Alive(_));
+        CallbackProgression::Continue
+    });
+    if in_use || listed.is_err() {
+        return WipeReport {
+            removed: 0,
+            in_use: true,
+        };
+    }
+    let prefix = namespace.iceoryx2_prefix();
+    let removed = roots
+        .iter()
+        .map(|root| remove_prefixed(root, &prefix))
+        .sum();
+    WipeReport {
+        removed,
+        in_use: false,
+    }
+}
+
+/// Removes every entry under `dir` whose name starts with `prefix`, and every folder left
+/// empty by that; returns how many entries went.
+fn remove_prefixed(dir: &Path, prefix: &str) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let name = entry.file_name();
+        let ours = name.to_string_lossy().starts_with(prefix);
+        let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
+        if ours {
+            let gone = if is_dir {
+                std::fs::remove_dir_all(&path)
+            } else {
+                std::fs::remove_file(&path)
+            };
+            removed += usize::from(gone.is_ok());
+        } else if is_dir {
+            let inner = remove_prefixed(&path, prefix);
+            removed += inner;
+            // A node's folder holds only that node's files: gone with them.
+            if inner > 0 && std::fs::read_dir(&path).is_ok_and(|mut d| d.next().is_none()) {
+                let _ = std::fs::remove_dir(&path);
+            }
+        }
+    }
+    removed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leftovers_of_a_dead_namespace_go_and_other_namespaces_stay() {
+        let namespace = Namespace::unique("wipe");
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let prefix = namespace.iceoryx2_prefix();
+        let node = dir.path().join("nodes").join("1234");
+        std::fs::create_dir_all(&node).unwrap_or_else(|e| panic!("{e}"));
+        let ours = [
+            dir.path().join(format!("{prefix}abc.event")),
+            node.join(format!("{prefix}def.service_tag")),
+        ];
+        let theirs = dir.path().join("lewis.other.abc.event");
+        for file in ours.iter().chain([&theirs]) {
+            std::fs::write(file, b"").unwrap_or_else(|e| panic!("{e}"));
+        }
+        let report = wipe_stale_under(&namespace, &[dir.path().to_path_buf()]);
+        assert_eq!(
+            report,
+            WipeReport {
+                removed: 2,
+                in_use: false
+            }
+        );
+        assert!(ours.iter().all(|f| !f.exists()));
+        assert!(!node.exists(), "the emptied node folder goes too");
+        assert!(theirs.exists());
+    }
+
+    #[test]
+    fn a_namespace_with_a_live_process_is_left_alone() {
+        let namespace = Namespace::unique("wipe-live");
+        let _ipc = super::super::Ipc::open(&namespace, "alive").unwrap_or_else(|e| panic!("{e}"));
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let file = dir
+            .path()
+            .join(format!("{}abc.event", namespace.iceoryx2_prefix()));
+        std::fs::write(&file, b"").unwrap_or_else(|e| panic!("{e}"));
+        let report = wipe_stale_under(&namespace, &[dir.path().to_path_buf()]);
+        assert!(report.in_use);
+        assert!(file.exists());
+    }
+}
