@@ -167,7 +167,7 @@ impl DemoReport {
         let run = files.run.display();
         let _ = writeln!(
             s,
-            "next: `lewis view {run}` (Rerun), `lewis info {run}`, `lewis replay {run} --inject-fault sonar@60s`"
+            "next: `lewis view {run}` (Rerun), `lewis info {run}`, `lewis replay {run} --all --inject-fault sonar@60s`"
         );
         s
     }
@@ -256,33 +256,47 @@ fn replay_lines(fault: &str, report: &Report) -> String {
             takeovers.join(", ")
         }
     );
-    let diverged: Vec<String> = report
+    let mut diverged: Vec<(i64, String)> = report
         .divergence
         .iter()
         .filter(|d| d.differing > 0)
         .filter_map(|d| {
             d.first_divergence_ns.map(|first| {
-                format!(
+                let text = format!(
                     "{} from {:.1} s ({} of {})",
                     d.channel,
                     secs(first),
                     d.differing,
                     d.compared
-                )
+                );
+                (first, text)
             })
         })
         .collect();
+    // The earliest first: where the replay left the recording.
+    diverged.sort();
+    let diverged: Vec<String> = diverged.into_iter().map(|(_, text)| text).collect();
+    // Lived again, the robot drives otherwise and nearly every output changes: the first
+    // few say when, the report has them all.
+    let shown = diverged.len().min(OUTPUTS_SHOWN);
+    let more = match diverged.len() - shown {
+        0 => String::new(),
+        n => format!(" and {n} more (replay.json)"),
+    };
     let _ = writeln!(
         s,
-        "  outputs that changed: {}",
+        "  outputs that changed: {}{more}",
         if diverged.is_empty() {
             "none".to_owned()
         } else {
-            diverged.join(", ")
+            diverged[..shown].join(", ")
         }
     );
     s
 }
+
+/// Outputs named in the summary's line of changed outputs.
+const OUTPUTS_SHOWN: usize = 3;
 
 /// Why the demo could not run.
 #[derive(Debug, thiserror::Error)]
@@ -392,6 +406,16 @@ pub fn run_demo(
     let robot = load_robot(&robot_path, registry)?;
     let mission = load_mission(&options.script)?;
 
+    // The fault thread opens the namespace before the launch does: what killed runs left
+    // in it goes first (the launch would find this process's node alive and leave it).
+    let wiped = lewis_runtime::ipc::wipe_stale(&options.namespace);
+    if wiped.removed > 0 {
+        tracing::info!(
+            "removed {} leftovers of earlier runs in namespace {}",
+            wiped.removed,
+            options.namespace
+        );
+    }
     let fault = fault::FaultThread::start(&options.namespace, options.fault.clone())
         .map_err(DemoError::Fault)?;
     let launch_options = LaunchOptions {
@@ -422,7 +446,7 @@ pub fn run_demo(
     let fault = fault.finish();
     let mission = launched?.mission.ok_or(DemoError::NoMission)?;
 
-    let replay_fault = replay_fault(&options.fault.provider, &mission.verdict, &files.run);
+    let replay_fault = replay_fault(&options.fault, &mission.verdict, &files.run);
     let replayed = re_simulate(options, registry, programs, &files, &replay_fault);
     Ok(DemoReport {
         mission,
@@ -475,23 +499,24 @@ pub fn with_seed(text: &str, seed: u64) -> Result<String, String> {
     toml::to_string(&table).map_err(|e| format!("{e}"))
 }
 
-/// The replay's fault: `PROVIDER@T` with T the middle of the mission's first visit (the
-/// door, before the live fault struck: "what if it had died there instead?"), from the
-/// recording's start; `PROVIDER` (half-way) when the mission has no visit.
-fn replay_fault(provider: &str, verdict: &Verdict, recording: &Path) -> String {
+/// The replay's fault: the live fault's provider and kind at T, the middle of the
+/// mission's first visit (the door, before the live fault struck: "what if it had died
+/// there as well?"), from the recording's start; half-way when the mission has no visit.
+fn replay_fault(live: &LiveFault, verdict: &Verdict, recording: &Path) -> String {
+    let (provider, kind) = (&live.provider, live.kind);
     let Some(first) = verdict.states_visited.first() else {
-        return provider.to_owned();
+        return format!("{provider}:{kind}");
     };
     let end = first.ended_ns.unwrap_or(first.started_ns);
     let middle_ns = first.started_ns + (end - first.started_ns) / 2;
     match RecordingFiles::open(&[recording.to_path_buf()]) {
         Ok(files) if middle_ns > files.start_ns() => {
             format!(
-                "{provider}@{}ms",
+                "{provider}@{}ms:{kind}",
                 (middle_ns - files.start_ns()) / 1_000_000
             )
         }
-        _ => provider.to_owned(),
+        _ => format!("{provider}:{kind}"),
     }
 }
 
