@@ -21,6 +21,10 @@ use super::faults::{SIGABRT, injected_out_of_service};
 use super::{Emitted, Feed, Gap, Lockstep, Sink};
 use crate::fault::FaultKind;
 
+/// The longest a start is held back to when the service came up live: a process's start
+/// (a debug build's takes most of a second) with room to spare.
+const MAX_READY_WAIT_NS: i64 = 2_000_000_000;
+
 /// SIGKILL: how a stalled process is stopped.
 const SIGKILL: i32 = 9;
 /// SIGTERM: how the broker stops a process.
@@ -459,8 +463,16 @@ impl Lockstep<'_> {
     fn carry_out(&mut self, action: &Action, sink: &mut dyn Sink) {
         match action {
             Action::Start { service } => {
-                // The first start of a followed service waits until it came up live.
-                let later = self.ready_at.remove(service).filter(|at| *at > self.now_ns);
+                // The first start of a followed service waits until it came up live; not
+                // one much earlier than live (a fault in the replay failed a provider over
+                // to it sooner): that one is a start the live run never made.
+                let came_up = self.ready_at.remove(service);
+                let later = came_up
+                    .filter(|at| *at > self.now_ns && *at - self.now_ns <= MAX_READY_WAIT_NS);
+                if came_up.is_some_and(|at| at - self.now_ns > MAX_READY_WAIT_NS) {
+                    // Its recorded ticks are of a later life: it runs free.
+                    self.script.unfollow(service);
+                }
                 match (later, self.sims.get(service)) {
                     (Some(at), Some(sim)) => {
                         let generation = sim.generation;

@@ -64,6 +64,11 @@ impl Script {
         }
     }
 
+    /// Stops following `service` (it lives otherwise than it did live).
+    pub fn unfollow(&mut self, service: &str) {
+        self.services.remove(service);
+    }
+
     /// Follows nothing any more (the recording is over); returns who followed it.
     pub fn unfollow_all(&mut self) -> Vec<String> {
         std::mem::take(&mut self.services).into_keys().collect()
