@@ -107,14 +107,25 @@ fn closed_loop(args: &ClosedLoopArgs) -> anyhow::Result<ExitCode> {
         &crate::app::AppPrograms,
         sweep.as_ref(),
     );
+    if report.is_err() {
+        let _ = std::fs::remove_file(&scratch);
+    }
+    print_figures(report?, &scratch, args.json)
+}
+
+/// Removes the measure's scratch output, then prints its figures as text or JSON.
+fn print_figures(
+    report: impl std::fmt::Display + serde::Serialize,
+    scratch: &std::path::Path,
+    json: bool,
+) -> anyhow::Result<ExitCode> {
     // The scratch output is not wanted, whatever happened.
-    let _ = std::fs::remove_file(&scratch);
-    let report = report?;
+    let _ = std::fs::remove_file(scratch);
     let mut out = std::io::stdout().lock();
-    if args.json {
+    if json {
         writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        write!(out, "{report}")?;
+        writeln!(out, "{}", report.to_string().trim_end())?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -133,16 +144,10 @@ pub fn run(command: &BenchCommand) -> anyhow::Result<ExitCode> {
                 runs: args.runs,
             };
             let report = measure(&options, &registry());
-            // The scratch output is not wanted, whatever happened.
-            let _ = std::fs::remove_file(&scratch);
-            let report = report?;
-            let mut out = std::io::stdout().lock();
-            if args.json {
-                writeln!(out, "{}", serde_json::to_string_pretty(&report)?)?;
-            } else {
-                writeln!(out, "{report}")?;
+            if report.is_err() {
+                let _ = std::fs::remove_file(&scratch);
             }
-            Ok(ExitCode::SUCCESS)
+            print_figures(report?, &scratch, args.json)
         }
         BenchCommand::ClosedLoop(args) => closed_loop(args),
         BenchCommand::LongRecording(args) => {
