@@ -408,14 +408,7 @@ pub fn run_demo(
 
     // The fault thread opens the namespace before the launch does: what killed runs left
     // in it goes first (the launch would find this process's node alive and leave it).
-    let wiped = lewis_runtime::ipc::wipe_stale(&options.namespace);
-    if wiped.removed > 0 {
-        tracing::info!(
-            "removed {} leftovers of earlier runs in namespace {}",
-            wiped.removed,
-            options.namespace
-        );
-    }
+    let _ = lewis_runtime::ipc::wipe_stale(&options.namespace);
     let fault = fault::FaultThread::start(&options.namespace, options.fault.clone())
         .map_err(DemoError::Fault)?;
     let launch_options = LaunchOptions {

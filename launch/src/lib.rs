@@ -137,13 +137,7 @@ impl Launch {
         let namespace = &options.up.namespace;
         // Before anything of this run opens a channel: what killed runs left half made
         // would be refused to it.
-        let wiped = lewis_runtime::ipc::wipe_stale(namespace);
-        if wiped.removed > 0 {
-            tracing::info!(
-                "removed {} leftovers of earlier runs in namespace {namespace}",
-                wiped.removed
-            );
-        }
+        let _ = lewis_runtime::ipc::wipe_stale(namespace);
         let mut recorder = match &options.record {
             Some(output) => RecorderChild::start(&ChildOptions {
                 lewis_exe: options.up.lewis_exe.clone(),

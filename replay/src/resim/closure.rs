@@ -16,16 +16,16 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction};
+use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, Sequencer as SequencerMessage};
 use lewis_runtime::names;
 use lewis_runtime::robot::{Launch, Robot};
 use lewis_sequencer::{
-    Decision, Entry, Event, FileSystem, Record, Supervision, TrustingResolver, check_with,
+    Decision, Entry, Event, FileSystem, Record, Recording as MissionSteps, TrustingResolver,
+    check_with, from_message,
 };
 
 use crate::fault::{Fault, FaultKind, format_seconds};
 use crate::lockstep::{MissionPlan, Programs};
-use crate::mission_log;
 use crate::outcome::LoopKind;
 use crate::recording::Recording;
 
@@ -65,22 +65,25 @@ impl Closure {
 }
 
 /// The recorded mission's records, from every file of the run (the last mission when there
-/// are several); empty when none was recorded or the files cannot be read for it.
+/// are several); empty when none was recorded or the files cannot be read for it. Only the
+/// chunks that hold `/lewis/sequencer` records are read (through the message indexes).
 #[must_use]
 pub fn recorded_mission(recording: &Recording) -> Vec<Record> {
-    let mut records = Vec::new();
     let recorded = recording
         .topics()
         .get(names::SEQUENCER_CHANNEL)
         .is_some_and(|t| t.message_count > 0);
-    if !recorded {
-        return records;
-    }
-    for path in recording.paths() {
-        if let Ok(found) = mission_log::read_mcap(path) {
-            records.extend(found.records);
-        }
-    }
+    let Some(messages) = recorded
+        .then(|| recording.messages_on(&[names::SEQUENCER_CHANNEL]).ok())
+        .flatten()
+    else {
+        return Vec::new();
+    };
+    let mut records: Vec<Record> = messages
+        .flatten()
+        .filter_map(|m| cdr::from_bytes::<SequencerMessage>(&m.data).ok())
+        .filter_map(|m| from_message(&m).ok())
+        .collect();
     let last = records
         .iter()
         .rposition(|r| matches!(r.entry, Entry::MissionStarted { .. }))
@@ -158,22 +161,13 @@ fn mission_plan(
     programs: Option<&dyn Programs>,
     history: &BrokerHistory,
 ) -> Result<Option<MissionPlan>, String> {
-    let Some(first) = records.first() else {
-        return Ok(None);
-    };
-    let Entry::MissionStarted {
-        script,
-        use_gui,
-        supervision,
-        ..
-    } = &first.entry
-    else {
+    let (Some(first), Ok(started)) = (records.first(), MissionSteps::from_records(records)) else {
         return Ok(None);
     };
     let Some(programs) = programs else {
         return Err("this binary cannot run the mission's programs".to_owned());
     };
-    let path = find_script(script, recording);
+    let path = find_script(&started.script, recording);
     let checked = check_with(&path, &FileSystem, &TrustingResolver).map_err(|d| {
         format!(
             "the recorded mission's script {} cannot be checked: {}",
@@ -200,8 +194,8 @@ fn mission_plan(
         .collect();
     Ok(Some(MissionPlan {
         mission: checked.mission,
-        supervision: supervision.unwrap_or_else(|| Supervision::before_recorded(*use_gui)),
-        script: script.clone(),
+        supervision: started.supervision,
+        script: started.script,
         start_ns: first.time_ns,
         recorded_answers,
         start_delays: start_delays(records, history),

@@ -26,7 +26,8 @@ pub struct WipeReport {
     pub in_use: bool,
 }
 
-/// Removes what dead runs left in `namespace`, unless one of its processes lives.
+/// Removes what dead runs left in `namespace`, unless one of its processes lives, and says
+/// how much it removed when it removed anything.
 #[must_use]
 pub fn wipe_stale(namespace: &Namespace) -> WipeReport {
     wipe_stale_under(namespace, &ROOTS.map(PathBuf::from))
@@ -54,6 +55,9 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
         .iter()
         .map(|root| remove_prefixed(root, &prefix))
         .sum();
+    if removed > 0 {
+        tracing::info!("removed {removed} leftovers of earlier runs in namespace {namespace}");
+    }
     WipeReport {
         removed,
         in_use: false,
