@@ -193,6 +193,10 @@ fn first_record(file: &mut File, file_size: u64) -> io::Result<Result<Header, Mc
     Ok(Err(McapError::UnexpectedEof))
 }
 
+/// The largest chunk, uncompressed, that Lewis reads: a bound for damaged sizes, far
+/// above what any recorder writes (Lewis's own chunks are a few MiB).
+pub(crate) const MAX_CHUNK_BYTES: u64 = 1 << 30;
+
 /// No record is longer than the file: a chunk whose header still has the writer's
 /// placeholder length (all ones) is then damage, not an allocation of exabytes.
 pub(crate) fn length_limit(file_size: u64) -> usize {

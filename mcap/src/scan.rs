@@ -1,15 +1,14 @@
 //! Reading a file from its start, record by record, as far as it can be read.
 
 use std::fmt;
-use std::io::{self, Seek, SeekFrom};
+use std::io::{self, Read, Seek, SeekFrom};
 
 use mcap::McapError;
-use mcap::read::ChunkReader;
-use mcap::records::Record;
+use mcap::records::{ChunkHeader, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use crate::READ_BYTES;
-use crate::file::{McapFile, RECORD_PREFIX_BYTES, length_limit, read_retrying};
+use crate::file::{MAX_CHUNK_BYTES, McapFile, RECORD_PREFIX_BYTES, length_limit, read_retrying};
 
 /// What a [`Visitor`] wants next.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -199,7 +198,9 @@ impl McapFile {
                     let at = offset;
                     let next = at + RECORD_PREFIX_BYTES + data.len() as u64;
                     let visited = match mcap::parse_record(opcode, data) {
-                        Ok(record) => visit(visitor, at, record).map_err(ScanError::Visitor)?,
+                        Ok(record) => {
+                            visit(visitor, at, record, data).map_err(ScanError::Visitor)?
+                        }
                         Err(error) => Visited::Damaged(DamageKind::BadRecord, error),
                     };
                     match visited {
@@ -226,12 +227,13 @@ impl McapFile {
     }
 }
 
-/// Hands one top-level record out: a chunk is decoded whole first, so that a chunk that
-/// turns out damaged gives nothing.
+/// Hands one top-level record out (`body` is its bytes after opcode and length): a chunk
+/// is decoded whole first, so that a chunk that turns out damaged gives nothing.
 fn visit<V: Visitor>(
     visitor: &mut V,
     offset: u64,
     record: Record<'_>,
+    body: &[u8],
 ) -> Result<Visited, V::Error> {
     let Record::Chunk { header, data } = record else {
         let at = At {
@@ -240,17 +242,11 @@ fn visit<V: Visitor>(
         };
         return visitor.record(at, record).map(Visited::Flow);
     };
-    let bytes: &[u8] = &data;
-    let records: Result<Vec<Record<'_>>, McapError> =
-        ChunkReader::new(header.clone(), bytes).and_then(Iterator::collect);
-    let records = match records {
+    let records = match chunk_records(&header, body) {
         Ok(records) => records,
         Err(error) => return Ok(Visited::Damaged(DamageKind::BadChunk, error)),
     };
-    let chunk = Record::Chunk {
-        header,
-        data: std::borrow::Cow::Borrowed(bytes),
-    };
+    let chunk = Record::Chunk { header, data };
     let outside = At {
         offset,
         in_chunk: false,
@@ -268,4 +264,41 @@ fn visit<V: Visitor>(
         }
     }
     visitor.chunk_end(offset).map(Visited::Flow)
+}
+
+/// The records of the chunk whose record body is `body`, decompressed whole and checked against its CRC before any is
+/// parsed. Nothing in a damaged chunk may size an allocation: its uncompressed size must
+/// be at most [`MAX_CHUNK_BYTES`], and no record in it may be longer than that size
+/// (`mcap`'s own chunk reader trusts both, and one changed byte then asks for exabytes).
+fn chunk_records(header: &ChunkHeader, body: &[u8]) -> Result<Vec<Record<'static>>, McapError> {
+    if header.uncompressed_size > MAX_CHUNK_BYTES {
+        return Err(McapError::ChunkTooLarge(header.uncompressed_size));
+    }
+    let length = u64::try_from(body.len()).unwrap_or(u64::MAX);
+    let limit = usize::try_from(header.uncompressed_size.max(length)).unwrap_or(usize::MAX);
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_skip_start_magic(true)
+            .with_skip_end_magic(true)
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(limit),
+    );
+    // The reader reads a stream of records: this chunk's record, framed again.
+    let mut framed = [0_u8; RECORD_PREFIX_BYTES as usize];
+    framed[0] = mcap::records::op::CHUNK;
+    framed[1..].copy_from_slice(&length.to_le_bytes());
+    let mut input = framed.as_slice().chain(body);
+    let mut records = Vec::new();
+    while let Some(event) = reader.next_event() {
+        match event? {
+            LinearReadEvent::ReadRequest(wanted) => {
+                let read = input.read(reader.insert(wanted))?;
+                reader.notify_read(read);
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                records.push(mcap::parse_record(opcode, data)?.into_owned());
+            }
+        }
+    }
+    Ok(records)
 }

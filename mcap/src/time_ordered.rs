@@ -8,7 +8,7 @@ use mcap::Summary;
 use mcap::records::MessageHeader;
 use mcap::sans_io::indexed_reader::{IndexedReadEvent, IndexedReader, IndexedReaderOptions};
 
-use crate::file::ReadError;
+use crate::file::{MAX_CHUNK_BYTES, ReadError};
 
 /// One message, copied out of its chunk.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -46,7 +46,9 @@ impl TimeOrdered {
         summary: &Summary,
         topics: Option<&[&str]>,
     ) -> Result<Self, ReadError> {
-        let mut options = IndexedReaderOptions::new();
+        // A damaged chunk index must not size an allocation of exabytes.
+        let limit = usize::try_from(MAX_CHUNK_BYTES).unwrap_or(usize::MAX);
+        let mut options = IndexedReaderOptions::new().with_record_length_limit(limit);
         if let Some(topics) = topics {
             options = options.include_topics(topics.iter().map(|t| (*t).to_owned()));
         }
