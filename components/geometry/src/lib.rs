@@ -20,5 +20,5 @@ pub use distance::{
     RangeReading, SectorLayout, distance_from_range_finder, distance_from_readings, range_readings,
 };
 pub use mount::{B21R_RING_SIZE, RFLEX_BANK_SIZE, SensorMount, b21r_sonar_ring};
-pub use pose::{Pose2, odom_to_robot, pose_is_finite, position, robot_to_odom};
+pub use pose::{Pose2, RobotToOdom, odom_to_robot, pose_is_finite, position, robot_to_odom};
 pub use vec2::Vec2;

@@ -78,7 +78,36 @@ pub fn pose_is_finite(pose: &Pose2D) -> bool {
 /// `robot_in_odom`.
 #[must_use]
 pub fn robot_to_odom(robot_in_odom: &Pose2D, point_in_robot: Vec2) -> Vec2 {
-    position(robot_in_odom) + point_in_robot.rotated(robot_in_odom.theta)
+    RobotToOdom::new(robot_in_odom).apply(point_in_robot)
+}
+
+/// [`robot_to_odom`] at one pose, for the many points of one reading: the heading's sine and
+/// cosine are computed once rather than once a point (the same bits as `robot_to_odom`).
+#[derive(Debug, Clone, Copy)]
+pub struct RobotToOdom {
+    origin: Vec2,
+    sin: f64,
+    cos: f64,
+}
+
+impl RobotToOdom {
+    /// The transform with the robot at `robot_in_odom`.
+    #[must_use]
+    pub fn new(robot_in_odom: &Pose2D) -> Self {
+        let (sin, cos) = robot_in_odom.theta.sin_cos();
+        Self {
+            origin: position(robot_in_odom),
+            sin,
+            cos,
+        }
+    }
+
+    /// A point of the robot frame in the odometry frame.
+    #[inline]
+    #[must_use]
+    pub fn apply(&self, point_in_robot: Vec2) -> Vec2 {
+        self.origin + point_in_robot.rotated_by(self.sin, self.cos)
+    }
 }
 
 /// A point of the odometry frame expressed in the robot frame, the robot being at

@@ -22,6 +22,7 @@ impl Vec2 {
 
     /// The unit vector at `angle_rad` from the x axis.
     #[must_use]
+    #[inline]
     pub fn from_angle(angle_rad: f64) -> Self {
         // `sin_cos` is `(sin, cos)`, bit for bit: the simulator's rays and the motion
         // services' directions, which used one or the other, stay the same.
@@ -31,36 +32,42 @@ impl Vec2 {
 
     /// Euclidean length.
     #[must_use]
+    #[inline]
     pub fn norm(self) -> f64 {
         self.x.hypot(self.y)
     }
 
     /// Dot product.
     #[must_use]
+    #[inline]
     pub fn dot(self, other: Self) -> f64 {
         self.x * other.x + self.y * other.y
     }
 
     /// The z component of the cross product: positive when `other` is counter-clockwise.
     #[must_use]
+    #[inline]
     pub fn cross(self, other: Self) -> f64 {
         self.x * other.y - self.y * other.x
     }
 
     /// Its angle from the x axis, in (-pi, pi].
     #[must_use]
+    #[inline]
     pub fn angle(self) -> f64 {
         self.y.atan2(self.x)
     }
 
     /// This vector turned a quarter turn counter-clockwise.
     #[must_use]
+    #[inline]
     pub fn perpendicular(self) -> Self {
         Self::new(-self.y, self.x)
     }
 
     /// Distance to another point.
     #[must_use]
+    #[inline]
     pub fn distance(self, other: Self) -> f64 {
         (self - other).norm()
     }
@@ -71,6 +78,7 @@ impl Vec2 {
     /// so outside it the comparison cannot go the other way; inside it, and where squares
     /// would overflow or underflow, `hypot` decides.
     #[must_use]
+    #[inline]
     pub fn norm_at_most(self, radius_m: f64) -> bool {
         match self.compare_norm(radius_m) {
             Some(ordering) => ordering.is_le(),
@@ -81,6 +89,7 @@ impl Vec2 {
     /// Whether the length is less than `radius_m`: the same answer as `self.norm() <
     /// radius_m` (see [`Self::norm_at_most`]).
     #[must_use]
+    #[inline]
     pub fn norm_below(self, radius_m: f64) -> bool {
         match self.compare_norm(radius_m) {
             Some(ordering) => ordering.is_lt(),
@@ -89,6 +98,7 @@ impl Vec2 {
     }
 
     /// The length against `radius_m` from squares, when they settle it.
+    #[inline]
     fn compare_norm(self, radius_m: f64) -> Option<std::cmp::Ordering> {
         const BAND: f64 = 1e-9;
         let squared = self.x * self.x + self.y * self.y;
@@ -107,20 +117,30 @@ impl Vec2 {
 
     /// Both components are finite.
     #[must_use]
+    #[inline]
     pub fn is_finite(self) -> bool {
         self.x.is_finite() && self.y.is_finite()
     }
 
     /// The vector rotated counter-clockwise by `angle_rad`.
     #[must_use]
+    #[inline]
     pub fn rotated(self, angle_rad: f64) -> Self {
-        let (s, c) = angle_rad.sin_cos();
-        Self::new(c * self.x - s * self.y, s * self.x + c * self.y)
+        let (sin, cos) = angle_rad.sin_cos();
+        self.rotated_by(sin, cos)
+    }
+
+    /// The vector rotated counter-clockwise by the angle whose sine and cosine are given.
+    #[inline]
+    #[must_use]
+    pub fn rotated_by(self, sin: f64, cos: f64) -> Self {
+        Self::new(cos * self.x - sin * self.y, sin * self.x + cos * self.y)
     }
 }
 
 impl Add for Vec2 {
     type Output = Self;
+    #[inline]
     fn add(self, rhs: Self) -> Self {
         Self::new(self.x + rhs.x, self.y + rhs.y)
     }
@@ -128,6 +148,7 @@ impl Add for Vec2 {
 
 impl Sub for Vec2 {
     type Output = Self;
+    #[inline]
     fn sub(self, rhs: Self) -> Self {
         Self::new(self.x - rhs.x, self.y - rhs.y)
     }
@@ -135,6 +156,7 @@ impl Sub for Vec2 {
 
 impl Mul<f64> for Vec2 {
     type Output = Self;
+    #[inline]
     fn mul(self, rhs: f64) -> Self {
         Self::new(self.x * rhs, self.y * rhs)
     }
@@ -142,6 +164,7 @@ impl Mul<f64> for Vec2 {
 
 impl Neg for Vec2 {
     type Output = Self;
+    #[inline]
     fn neg(self) -> Self {
         Self::new(-self.x, -self.y)
     }

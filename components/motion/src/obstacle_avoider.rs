@@ -23,7 +23,7 @@ use super::mover::{
     require_non_negative, require_positive,
 };
 use super::scan::{RangeScan, ScanError};
-use lewis_geometry::{Vec2, pose_is_finite, position, robot_to_odom, wrap_angle};
+use lewis_geometry::{RobotToOdom, Vec2, pose_is_finite, position, wrap_angle};
 use lewis_interfaces::msg::{
     Distance, Mover, MoverCommand, MoverReply, Point2D, Pose2D, RangeFinder,
 };
@@ -477,6 +477,7 @@ impl ObstacleAvoider {
         let serial = self.next_serial;
         self.next_serial += 1;
         let cell_m = config.arc_point_spacing_m / 2.0;
+        let to_odom = RobotToOdom::new(pose_in_odom);
         let mut cells = Vec::new();
         for p in scan
             .beams()
@@ -484,7 +485,7 @@ impl ObstacleAvoider {
             .flat_map(|beam| {
                 beam.obstacle_points(config.arc_point_spacing_m, config.max_points_per_beam)
             })
-            .map(|p| robot_to_odom(pose_in_odom, p))
+            .map(|p| to_odom.apply(p))
         {
             let cell = cell_of(p, cell_m);
             cells.push(cell);
@@ -499,7 +500,7 @@ impl ObstacleAvoider {
             .iter()
             .map(|beam| {
                 let end = beam.origin + Vec2::from_angle(beam.bearing_rad) * beam.range_m;
-                (robot_to_odom(pose_in_odom, end), beam.half_width_rad)
+                (to_odom.apply(end), beam.half_width_rad)
             })
             .collect();
         let coverage = Coverage {
@@ -638,13 +639,14 @@ impl ObstacleAvoider {
         let length_m = distance_m.min(lookahead_m);
         let radius_m = self.config.reflex_radius_m();
         let config = &self.config;
+        let to_odom = RobotToOdom::new(pose_in_odom);
         let blocked = scan
             .beams()
             .iter()
             .flat_map(|beam| {
                 beam.obstacle_points(config.arc_point_spacing_m, config.max_points_per_beam)
             })
-            .map(|p| robot_to_odom(pose_in_odom, p))
+            .map(|p| to_odom.apply(p))
             .any(|p| disc_hit_distance(here, direction, radius_m, p) < length_m);
         if !blocked {
             return None;
@@ -1014,6 +1016,7 @@ fn cell_of(p: Vec2, cell_m: f64) -> Cell {
 mod tests {
     use super::*;
     use crate::scan::RangeScan;
+    use lewis_geometry::robot_to_odom;
     use std::f64::consts::PI;
 
     /// The remembered points as they were once worked out at every step: every point of
