@@ -84,7 +84,8 @@ pub struct RecorderOptions {
     /// Chunk compression.
     pub compression: Compression,
     /// A chunk is closed (written, indexed and flushed to the system) when its
-    /// uncompressed size reaches this.
+    /// uncompressed size reaches this. A message of a quarter of it or more (a camera
+    /// frame) is written in a chunk of its own, so that readers of other topics skip it.
     pub chunk_size_bytes: u64,
     /// A chunk is also closed, and the file synced, when this much receive time has
     /// passed since the last flush; crash safety is bounded by it.

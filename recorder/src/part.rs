@@ -160,6 +160,11 @@ impl Part {
         self.pending_bytes >= chunk_size_bytes
     }
 
+    /// Whether anything (the recorder's stats included) is in the open chunk.
+    pub(crate) fn chunk_has_data(&self) -> bool {
+        self.pending_bytes > 0
+    }
+
     /// Whether messages wait in an open chunk.
     pub(crate) fn has_pending(&self) -> bool {
         self.messages > self.durable_messages

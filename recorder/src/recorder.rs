@@ -167,6 +167,10 @@ impl Recorder {
             });
         }
         self.rotate_if_due(sample.log_time_ns)?;
+        let own_chunk = is_large(sample.data.len(), self.options.chunk_size_bytes);
+        if own_chunk {
+            self.close_open_chunk()?;
+        }
         let channel = &mut self.channels[index];
         let observation = channel.tracker.observe(sample.seq);
         channel.part.add(observation);
@@ -183,14 +187,24 @@ impl Recorder {
             None => Ok(()),
         };
         self.guard(result)?;
-        if self
-            .part
-            .as_ref()
-            .is_some_and(|p| p.chunk_full(self.options.chunk_size_bytes))
+        if own_chunk
+            || self
+                .part
+                .as_ref()
+                .is_some_and(|p| p.chunk_full(self.options.chunk_size_bytes))
         {
             self.flush_part(false)?;
         }
         self.timers(sample.log_time_ns)
+    }
+
+    /// Closes the open chunk if anything is in it, so that what comes next starts a chunk.
+    fn close_open_chunk(&mut self) -> Result<(), RecordError> {
+        let result = match &mut self.part {
+            Some(part) if part.chunk_has_data() => part.flush(false),
+            _ => Ok(()),
+        };
+        self.guard(result)
     }
 
     /// Counts `count` messages of `channel` that the queue in front of the recorder
@@ -567,4 +581,12 @@ fn write_index(path: &Path, index: &PartsIndex) -> Result<(), RecordError> {
     index
         .write(path)
         .map_err(|source| RecordError::opening(path, source))
+}
+
+/// A message of at least a quarter of a chunk (a camera frame) is written in a chunk of its
+/// own. MCAP readers pick the chunks to decompress by the channels in them (the chunk
+/// indexes list them), so a reader of the other topics (the replay's recorded mission, a
+/// plot of odometry) then never decompresses a frame; mixed in, every chunk held one.
+fn is_large(bytes: usize, chunk_size_bytes: u64) -> bool {
+    u64::try_from(bytes).unwrap_or(u64::MAX) >= chunk_size_bytes / 4 && chunk_size_bytes > 0
 }

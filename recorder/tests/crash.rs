@@ -27,13 +27,17 @@ use nix::unistd::Pid;
 /// The parent kills the child once this many messages are durable, in the middle of the
 /// next chunk.
 const KILL_AFTER_DURABLE: u64 = 40_000;
-/// Message bytes into a chunk that count as its middle (chunks close at 2 MiB).
-const MID_CHUNK_BYTES: usize = 1536 * 1024;
+/// Chunks close at 8 MiB: large enough that a camera frame (0.9 MB) is not a message of
+/// its own chunk (a quarter of one), so chunks hold frames and small messages mixed and
+/// take long enough to fill to be killed in the middle of.
+const CHUNK_BYTES: u64 = 8 * 1024 * 1024;
+/// Message bytes into a chunk that count as its middle.
+const MID_CHUNK_BYTES: usize = 6 * 1024 * 1024;
 
 fn child(path: &Path, compression: &str) {
     let mut options = options(path);
     options.compression = compression.parse().unwrap();
-    options.chunk_size_bytes = 2 * 1024 * 1024;
+    options.chunk_size_bytes = CHUNK_BYTES;
     let mut recorder = Recorder::create(options).unwrap();
     let channels = traffic::stress_channels();
     let ids: Vec<_> = channels

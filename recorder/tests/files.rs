@@ -203,3 +203,47 @@ fn chunks_are_closed_at_least_every_flush_period_of_receive_time() {
     doctor(&path);
     assert_eq!(python_read(&[path]).digests(), digests.finish());
 }
+
+/// A camera frame is written in a chunk of its own, so that a reader of the other topics
+/// decompresses no frame; everything still reads back whole.
+#[test]
+fn large_messages_get_chunks_of_their_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.mcap");
+    let mut recorder = Recorder::create(options(&path)).unwrap();
+    let channels = traffic::stress_channels();
+    let ids: Vec<_> = channels
+        .iter()
+        .map(|c| recorder.add_channel(c.clone()).unwrap())
+        .collect();
+    let mut digests = Digests::default();
+    for m in traffic::stress_mix(2 * SECOND_NS) {
+        recorder.write(&sample(ids[m.channel], &m)).unwrap();
+        digests.add(&channels[m.channel].topic, m.seq, &m.data);
+    }
+    recorder.close().unwrap();
+    doctor(&path);
+    assert_eq!(
+        python_read(std::slice::from_ref(&path)).digests(),
+        digests.finish()
+    );
+
+    let summary = mcap::Summary::read(&std::fs::read(&path).unwrap())
+        .unwrap()
+        .unwrap();
+    let topic = |id: &u16| summary.channels[id].topic.clone();
+    let (mut frames, mut others) = (0, 0);
+    for chunk in &summary.chunk_indexes {
+        let topics: Vec<String> = chunk.message_index_offsets.keys().map(topic).collect();
+        if topics.iter().any(|t| t == "/camera/ImageSource") {
+            assert_eq!(topics, ["/camera/ImageSource"], "a frame shares its chunk");
+            frames += 1;
+        } else {
+            others += 1;
+        }
+    }
+    assert!(
+        frames > 1 && others > 1,
+        "{frames} frame chunks, {others} others"
+    );
+}

@@ -58,8 +58,15 @@ pub fn run_ok(command: &mut Command) -> String {
 /// When either tool reports a problem, or cannot run.
 pub fn doctor(file: &Path) {
     let out = run_ok(python_tool("pymcap-cli").arg("doctor").arg(file));
+    // Its summary counts errors ("0 errors, 15 warnings"); a warning (an incompressible
+    // chunk of camera noise stored compressed) is advice, not a problem of the file.
+    let errors = out
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .collect::<Vec<_>>()
+        .windows(2)
+        .any(|w| w[1].starts_with("error") && w[0] != "0");
     assert!(
-        !out.contains("rror"),
+        !errors && !out.contains("Error"),
         "pymcap-cli doctor reports a problem in {}:\n{out}",
         file.display()
     );
