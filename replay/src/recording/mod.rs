@@ -13,6 +13,7 @@
 //! messages that share one log time are held at once. A file without a summary (a recorder
 //! that was killed) is refused with the command that repairs it.
 
+mod read_ahead;
 mod stream;
 
 use std::collections::BTreeMap;
@@ -24,6 +25,7 @@ use lewis_mcap::{McapFile, OpenError, ReadError, Summary};
 use lewis_recorder::index::{IndexError, PartsIndex};
 use lewis_runtime::robot::{self, Robot, RobotError};
 
+pub use read_ahead::ReadAhead;
 pub use stream::{Messages, RecordedMessage};
 
 /// The metadata record holding the robot description (written by the recorder).

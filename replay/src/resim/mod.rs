@@ -47,7 +47,7 @@ use crate::compare::Comparator;
 use crate::fault::{Fault, FaultError, FaultSpec};
 use crate::lockstep::{Feed, Lockstep, LockstepError, Plan, Programs, Route, route};
 use crate::outcome::{LoopKind, MissionOutcome, MissionReport};
-use crate::recording::{Recording, RecordingError};
+use crate::recording::{ReadAhead, Recording, RecordingError};
 use crate::report::{CheckOutcome, FaultWatch, Report};
 use edit::{EditError, ParamEdit, ReplayedRobot, replayed_robot};
 use lookahead::Lookahead;
@@ -152,6 +152,9 @@ pub enum ReplayError {
     /// The output cannot be written.
     #[error("writing the replay: {0}")]
     Record(#[from] RecordError),
+    /// The thread that reads the recording ahead could not be started.
+    #[error("starting the thread that reads the recording: {0}")]
+    ReadThread(std::io::Error),
     /// `--services` names a service the robot does not have.
     #[error(
         "--services names `{service}`, which the recorded robot does not have; it has: {known}"
@@ -461,7 +464,8 @@ pub fn replay_with(
     if let (Some(mission), Some(programs)) = (closure.mission.clone(), programs) {
         harness.with_mission(mission, programs);
     }
-    let mut window = Lookahead::new(recording.messages()?);
+    let messages = ReadAhead::new(recording.messages()?).map_err(ReplayError::ReadThread)?;
+    let mut window = Lookahead::new(messages);
     // The broker comes up with the first message, once the window shows what lies ahead.
     let first = window
         .peek_time(&mut |m, t| harness.preview(m, t))?
