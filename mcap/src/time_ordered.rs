@@ -3,6 +3,7 @@
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
+use std::sync::Arc;
 
 use mcap::Summary;
 use mcap::records::MessageHeader;
@@ -15,8 +16,8 @@ use crate::file::{MAX_CHUNK_BYTES, ReadError};
 pub struct IndexedMessage {
     /// Its channel, sequence number, log and publish times.
     pub header: MessageHeader,
-    /// The encoded message.
-    pub data: Vec<u8>,
+    /// The encoded message, shared: a replay hands one message to several readers.
+    pub data: Arc<[u8]>,
 }
 
 /// The messages of one file in log-time order, read chunk by chunk through the summary's
@@ -71,7 +72,7 @@ impl TimeOrdered {
                 Some(Ok(IndexedReadEvent::Message { header, data })) => {
                     return Ok(Some(IndexedMessage {
                         header,
-                        data: data.to_vec(),
+                        data: Arc::from(data),
                     }));
                 }
             };

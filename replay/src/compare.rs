@@ -161,14 +161,17 @@ impl Comparator {
         self.channels.contains_key(channel)
     }
 
-    /// A recorded message of an output channel.
-    pub fn recorded(&mut self, channel: &str, time_ns: i64, bytes: &[u8]) {
+    /// A recorded message of an output channel (shared, not copied: camera frames are
+    /// large).
+    pub fn recorded(&mut self, channel: &str, time_ns: i64, bytes: &Arc<[u8]>) {
         self.push(channel, time_ns, bytes, true);
     }
 
     /// A re-simulated message of an output channel (named as recorded).
     pub fn resimulated(&mut self, channel: &str, time_ns: i64, bytes: &[u8]) {
-        self.push(channel, time_ns, bytes, false);
+        if self.channels.contains_key(channel) {
+            self.push(channel, time_ns, &Arc::from(bytes), false);
+        }
     }
 
     /// Counts what is left unpaired and returns the divergence of every channel.
@@ -190,7 +193,7 @@ impl Comparator {
             .collect()
     }
 
-    fn push(&mut self, channel: &str, time_ns: i64, bytes: &[u8], recorded: bool) {
+    fn push(&mut self, channel: &str, time_ns: i64, bytes: &Arc<[u8]>, recorded: bool) {
         let (tolerance, start_ns) = (self.tolerance, self.start_ns);
         let Some(c) = self.channels.get_mut(channel) else {
             return;
@@ -205,7 +208,7 @@ impl Comparator {
         let pending = Pending {
             time_ns,
             key,
-            bytes: Arc::from(bytes),
+            bytes: bytes.clone(),
         };
         if recorded {
             c.divergence.recorded += 1;
@@ -496,7 +499,11 @@ mod tests {
         comparator.add_channel("/d/Distance", Distance::SCHEMA_NAME, Distance::SCHEMA_TEXT);
         for (i, (input, m)) in recorded.iter().enumerate() {
             let t = i64::try_from(*input).unwrap() * 100;
-            comparator.recorded("/d/Distance", t, &distance(i as u64 + 1, *input, *m));
+            comparator.recorded(
+                "/d/Distance",
+                t,
+                &Arc::from(distance(i as u64 + 1, *input, *m)),
+            );
         }
         for (i, (input, m)) in resimulated.iter().enumerate() {
             let t = i64::try_from(*input).unwrap() * 100;
@@ -586,8 +593,8 @@ mod tests {
         };
         let mut comparator = Comparator::new(1e-6, 0);
         comparator.add_command_channel("/lewis/commands/mover");
-        comparator.recorded("/lewis/commands/mover", 10, &log(1, 1.0, 1));
-        comparator.recorded("/lewis/commands/mover", 20, &log(2, 3.0, 2));
+        comparator.recorded("/lewis/commands/mover", 10, &Arc::from(log(1, 1.0, 1)));
+        comparator.recorded("/lewis/commands/mover", 20, &Arc::from(log(2, 3.0, 2)));
         comparator.resimulated("/lewis/commands/mover", 10, &log(1, 1.0, 1));
         comparator.resimulated("/lewis/commands/mover", 20, &log(2, 3.25, 2));
         let d = comparator.finish().remove(0);

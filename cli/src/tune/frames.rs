@@ -111,7 +111,7 @@ impl Input {
                         topic: message.topic,
                         log_time_ns: message.log_time_ns,
                         publish_time_ns: message.publish_time_ns,
-                        bytes: message.data,
+                        bytes: message.data.to_vec(),
                         image,
                     })
                 })))

@@ -127,7 +127,7 @@ pub fn write_long(
             let Some(channel) = channels.get(&*message.topic) else {
                 continue;
             };
-            let mut data = message.data;
+            let mut data = message.data.to_vec();
             shift_header_time(&mut data, shift);
             let shifted = |t: i64| if t > 0 { t.saturating_add(shift) } else { t };
             recorder

@@ -119,7 +119,7 @@ mod tests {
             log_time_ns: i64::try_from(n).unwrap(),
             publish_time_ns: 0,
             seq: n,
-            data: vec![0; len],
+            data: vec![0; len].into(),
         }
     }
 

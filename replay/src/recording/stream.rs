@@ -20,8 +20,8 @@ pub struct RecordedMessage {
     pub publish_time_ns: i64,
     /// The header's sequence number (0 when the bytes have no valid header).
     pub seq: u64,
-    /// The CDR bytes.
-    pub data: Vec<u8>,
+    /// The CDR bytes (shared with the comparator and the output).
+    pub data: Arc<[u8]>,
 }
 
 /// The order key of a message: log time, topic, sequence number, then file and position.

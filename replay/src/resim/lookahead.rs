@@ -149,7 +149,7 @@ mod tests {
             log_time_ns: log,
             publish_time_ns: publish,
             seq: 0,
-            data: Vec::new(),
+            data: Arc::from([]),
         }
     }
 
