@@ -212,21 +212,10 @@ fn large_messages_get_chunks_of_their_own() {
     let path = dir.path().join("run.mcap");
     let mut recorder = Recorder::create(options(&path)).unwrap();
     let channels = traffic::stress_channels();
-    let ids: Vec<_> = channels
-        .iter()
-        .map(|c| recorder.add_channel(c.clone()).unwrap())
-        .collect();
-    let mut digests = Digests::default();
-    for m in traffic::stress_mix(2 * SECOND_NS) {
-        recorder.write(&sample(ids[m.channel], &m)).unwrap();
-        digests.add(&channels[m.channel].topic, m.seq, &m.data);
-    }
+    let written = write_all(&mut recorder, &channels, traffic::stress_mix(2 * SECOND_NS));
     recorder.close().unwrap();
     doctor(&path);
-    assert_eq!(
-        python_read(std::slice::from_ref(&path)).digests(),
-        digests.finish()
-    );
+    assert_eq!(python_read(std::slice::from_ref(&path)).digests(), written);
 
     let summary = mcap::Summary::read(&std::fs::read(&path).unwrap())
         .unwrap()
