@@ -28,6 +28,9 @@ pub struct TestRobot<'a> {
     pub heartbeat_deadline_ms: u64,
     /// Scans per second of each service.
     pub rate_hz: f64,
+    /// Whether each provision declares its `data_rate_hz` (the service's rate), which turns
+    /// the broker's rate check on for RangeFinder.
+    pub declare_rate: bool,
     /// Extra TOML appended (more services).
     pub extra: &'a str,
 }
@@ -44,6 +47,7 @@ impl Default for TestRobot<'_> {
             laser_start_delay_ms: 0,
             heartbeat_deadline_ms: 1000,
             rate_hz: 50.0,
+            declare_rate: false,
             extra: "",
         }
     }
@@ -71,8 +75,8 @@ start = "{laser_start}"
 heartbeat_deadline_ms = {deadline}
 restart = {{ max_restarts = {max_restarts}, window_ms = 60000, backoff_initial_ms = 20, backoff_max_ms = 100 }}
 provides = [
-    {{ interface = "RangeFinder", quality = 10, cost = 2 }},
-    {{ interface = "Distance", quality = 10, cost = 2 }},
+    {{ interface = "RangeFinder", quality = 10, cost = 2{declared} }},
+    {{ interface = "Distance", quality = 10, cost = 2{declared} }},
 ]
 
 [services.parameters]
@@ -87,6 +91,7 @@ start_delay_ms = {start_delay}
         max_restarts = robot.laser_max_restarts,
         rate = robot.rate_hz,
         start_delay = robot.laser_start_delay_ms,
+        declared = declared_rate(robot),
     );
     if let Some(fault) = robot.laser_fault_file {
         let _ = writeln!(text, "fault_file = {:?}", fault.display().to_string());
@@ -101,8 +106,8 @@ start = "{sonar_start}"
 heartbeat_deadline_ms = {deadline}
 restart = {{ max_restarts = {sonar_max_restarts}, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
 provides = [
-    {{ interface = "RangeFinder", quality = 5, cost = 1 }},
-    {{ interface = "Distance", quality = 5, cost = 1 }},
+    {{ interface = "RangeFinder", quality = 5, cost = 1{declared} }},
+    {{ interface = "Distance", quality = 5, cost = 1{declared} }},
 ]
 
 [services.parameters]
@@ -117,9 +122,19 @@ seed = 2
         rate = robot.rate_hz,
         sonar_start = robot.sonar_start,
         sonar_max_restarts = robot.sonar_max_restarts,
+        declared = declared_rate(robot),
     );
     text.push_str(robot.extra);
     text
+}
+
+/// The `data_rate_hz` entry of a provision, when the robot declares rates.
+fn declared_rate(robot: &TestRobot<'_>) -> String {
+    if robot.declare_rate {
+        format!(", data_rate_hz = {:?}", robot.rate_hz)
+    } else {
+        String::new()
+    }
 }
 
 /// Writes a fault word into a fault file atomically (a reader never sees half a word).

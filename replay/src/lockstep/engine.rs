@@ -513,7 +513,8 @@ impl Lockstep<'_> {
             Action::Reject { .. }
             | Action::AskForHelp { .. }
             | Action::RestartScheduled { .. }
-            | Action::ServiceFailed { .. } => {}
+            | Action::ServiceFailed { .. }
+            | Action::ServiceDegraded { .. } => {}
         }
     }
 

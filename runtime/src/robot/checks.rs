@@ -4,9 +4,11 @@
 //!
 //! The checks themselves run in the broker's health module; this is only what they are
 //! told. Why these defaults:
-//! - rate: half the declared `data_rate_hz` over a second catches a sensor at a third of its
-//!   rate (the replay's `:slow` fault) and no scheduling hiccup on a loaded machine; it
-//!   applies only to providers that declare a rate.
+//! - rate: half the declared `data_rate_hz` over a second (at least four periods) catches a
+//!   sensor at a third of its rate (the replay's `:slow` fault) and no scheduling hiccup on a
+//!   loaded machine; it applies only to providers that declare a rate, and by default only
+//!   to the streams a device produces on its own clock (scans, odometry, frames, power),
+//!   not to data computed from other data, which stops when its input does.
 //! - freshness: a sample published more than 500 ms before the broker sees it is stale (a
 //!   clock that is a few milliseconds off between two processes is not).
 //! - values: every interface's data must decode as its message; the numbers must be finite.
@@ -61,8 +63,21 @@ impl DataChecks {
             "RangeFinder" => Some(5),
             _ => None,
         };
+        // Streams a device produces on its own clock. Data computed from other data (a blob
+        // list, a Distance from a scan, a Mover's status) stops when its input does: that is
+        // the input's provider's failure, not the computing service's.
+        let sensor_stream = matches!(
+            interface,
+            "RangeFinder"
+                | "Egomotion"
+                | "Synchrodrive"
+                | "GroundTruth"
+                | "WorldState"
+                | "ImageSource"
+                | "Power"
+        );
         Self {
-            min_rate_fraction: 0.5,
+            min_rate_fraction: if sensor_stream { 0.5 } else { 0.0 },
             window_ms: 1_000,
             freshness_ms: Some(500),
             values: true,

@@ -112,12 +112,18 @@ impl DataMonitor {
         data_rate_hz: Option<f64>,
         now_ns: i64,
     ) -> Self {
-        let window_ns =
-            i64::try_from(checks.window_ms.saturating_mul(1_000_000)).unwrap_or(i64::MAX);
         let rate_hz = data_rate_hz
             .filter(|hz| hz.is_finite() && *hz > 0.0)
             .unwrap_or(0.0);
-        let expected = rate_hz * checks.min_rate_fraction * (checks.window_ms as f64 / 1000.0);
+        // At least four periods: a 1 Hz battery reading is not judged on one sample's jitter.
+        let periods_ms = if rate_hz > 0.0 {
+            (4_000.0 / rate_hz).ceil() as u64
+        } else {
+            0
+        };
+        let window_ms = checks.window_ms.max(periods_ms);
+        let window_ns = i64::try_from(window_ms.saturating_mul(1_000_000)).unwrap_or(i64::MAX);
+        let expected = rate_hz * checks.min_rate_fraction * (window_ms as f64 / 1000.0);
         // At least one sample once on; bounded, so the window's queue is too.
         let needed = if expected > 0.0 {
             (expected.ceil() as usize).clamp(1, 1 << 16)
@@ -159,7 +165,10 @@ impl DataMonitor {
             if self.arrivals.len() == self.needed {
                 self.arrivals.pop_front();
             }
-            self.arrivals.push_back(now_ns);
+            // Counted when it was published (no later than now, never before the last one):
+            // a watcher that reads late, its loop held up, still counts the samples in time.
+            let last = self.arrivals.back().copied().unwrap_or(i64::MIN);
+            self.arrivals.push_back(publish_ns.min(now_ns).max(last));
         }
         if let Some(limit_ms) = self.checks.freshness_ms {
             let age_ns = now_ns.saturating_sub(publish_ns);
@@ -203,7 +212,7 @@ impl DataMonitor {
     pub fn poll(&mut self, now_ns: i64) -> Result<(), CheckFailure> {
         match self.deadline() {
             Some(due) if now_ns >= due => {
-                let window_ms = self.checks.window_ms;
+                let window_ms = self.window_ns / 1_000_000;
                 let seen = self
                     .arrivals
                     .iter()
@@ -219,6 +228,14 @@ impl DataMonitor {
             }
             _ => Ok(()),
         }
+    }
+
+    /// Judges the rate afresh from `now_ns`, a window later: what the watcher could not
+    /// read meanwhile (its own loop held up, its buffer overflowed) is not the provider's
+    /// fault.
+    pub fn restart_rate(&mut self, now_ns: i64) {
+        self.started_ns = now_ns;
+        self.arrivals.clear();
     }
 
     /// When the rate check fails if no sample comes before: `None` when it is off.
