@@ -37,6 +37,7 @@ description = "a laser, a sonar and a consumer"
 [broker]
 heartbeat_period_ms = 10
 heartbeat_deadline_ms = 50
+data_checks = true
 restart = { max_restarts = 2, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }
 
 [[services]]

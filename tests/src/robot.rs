@@ -28,6 +28,8 @@ pub struct TestRobot<'a> {
     pub heartbeat_deadline_ms: u64,
     /// Scans per second of each service.
     pub rate_hz: f64,
+    /// Whether the broker checks the providers' data (`[broker] data_checks`).
+    pub data_checks: bool,
     /// Whether each provision declares its `data_rate_hz` (the service's rate), which turns
     /// the broker's rate check on for RangeFinder.
     pub declare_rate: bool,
@@ -47,6 +49,7 @@ impl Default for TestRobot<'_> {
             laser_start_delay_ms: 0,
             heartbeat_deadline_ms: 1000,
             rate_hz: 50.0,
+            data_checks: false,
             declare_rate: false,
             extra: "",
         }
@@ -66,6 +69,7 @@ heartbeat_period_ms = 10
 heartbeat_deadline_ms = {deadline}
 startup_deadline_ms = 10000
 fail_back = {fail_back}
+data_checks = {data_checks}
 restart = {{ max_restarts = 3, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
 
 [[services]]
@@ -87,6 +91,7 @@ start_delay_ms = {start_delay}
 "#,
         deadline = robot.heartbeat_deadline_ms,
         fail_back = robot.fail_back,
+        data_checks = robot.data_checks,
         laser_start = robot.laser_start,
         max_restarts = robot.laser_max_restarts,
         rate = robot.rate_hz,

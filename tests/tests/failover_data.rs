@@ -17,6 +17,7 @@ fn running(tag: &str) -> (Up, RangeApp, Decisions, std::path::PathBuf) {
     let fault = dir.path().join("laser.fault");
     let robot = test_robot(&TestRobot {
         laser_fault_file: Some(&fault),
+        data_checks: true,
         declare_rate: true,
         rate_hz: 20.0,
         ..TestRobot::default()

@@ -486,6 +486,9 @@ fn data_checks_take_the_interface_defaults_and_the_file_overrides() {
 [robot]
 name = "r"
 
+[broker]
+data_checks = true
+
 [broker.interfaces.RangeFinder]
 checks = { rate = 0.25, window_ms = 2000, freshness_ms = 0, frozen = 3, on_failure = "degraded" }
 
@@ -526,12 +529,8 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
     assert_eq!(b.checks_for("Blobs").frozen_count, None);
     assert_eq!(DataChecks::default_for("RangeFinder").frozen_count, Some(5));
 
-    let off = parse(
-        "[robot]\nname = \"r\"\n[broker]\ndata_checks = false\n",
-        Path::new("robot.toml"),
-        KNOWN,
-    )
-    .unwrap();
+    // Off unless the robot file turns them on.
+    let off = parse("[robot]\nname = \"r\"\n", Path::new("robot.toml"), KNOWN).unwrap();
     assert!(!off.broker.checks_for("RangeFinder").any());
 }
 

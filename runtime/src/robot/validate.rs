@@ -150,7 +150,7 @@ impl Checker<'_> {
             fail_back_per_interface,
             restart,
             retry_failed_after_ms,
-            data_checks: raw.data_checks.unwrap_or(true),
+            data_checks: raw.data_checks.unwrap_or(false),
             checks_per_interface,
         }
     }

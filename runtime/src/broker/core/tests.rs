@@ -1190,11 +1190,13 @@ fn a_failed_data_check_fails_the_provider_and_rebinds_at_once() {
 
 #[test]
 fn a_data_check_the_robot_file_degrades_keeps_the_clients() {
-    let robot = LASER_SONAR.replacen(
-        "[[services]]",
-        "[broker.interfaces.RangeFinder]\nchecks = { on_failure = \"degraded\" }\n[[services]]",
-        1,
-    );
+    let robot = LASER_SONAR
+        .replacen("[broker]", "[broker]\ndata_checks = true", 1)
+        .replacen(
+            "[[services]]",
+            "[broker.interfaces.RangeFinder]\nchecks = { on_failure = \"degraded\" }\n[[services]]",
+            1,
+        );
     check(
         &robot,
         &with(
