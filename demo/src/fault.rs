@@ -63,17 +63,13 @@ impl LiveFault {
     /// mission's start, none: after the first state).
     ///
     /// # Errors
-    /// For `garbage`, `frozen` and `slow` (only a replay can make any service publish bad
-    /// data)
+    /// For `garbage` (only a replay can make a service publish bytes that do not decode)
     /// and for a time window (a live fault is not cleared).
     pub fn from_spec(spec: &FaultSpec) -> Result<Self, String> {
-        if matches!(
-            spec.kind,
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow
-        ) {
+        if spec.kind == FaultKind::Garbage {
             return Err(format!(
-                "--fault {}: `{}` can only be injected in a replay; use crash, stall or out-of-service",
-                spec.text, spec.kind
+                "--fault {}: `garbage` can only be injected in a replay; use crash, stall or out-of-service",
+                spec.text
             ));
         }
         if spec.until_ns.is_some() {
@@ -234,9 +230,8 @@ impl Watch {
                     self.log.error = Some(e.to_string());
                 }
             }
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {
-                let kind = self.fault.kind;
-                self.log.error = Some(format!("{kind} cannot be injected live"));
+            FaultKind::Garbage => {
+                self.log.error = Some("garbage cannot be injected live".to_owned());
             }
         }
         // What the broker does next (the rebinds), until the run ends.
