@@ -6,8 +6,14 @@
 //! does not remove it. So when no process of the namespace is alive, everything under its
 //! prefix is left over and is removed: iceoryx2's files (`/tmp/iceoryx2`) and its shared
 //! memory (`/dev/shm`). While any node of the namespace lives, nothing is touched.
+//!
+//! A process may be joining the namespace at the moment it is looked at (a test or a tool
+//! opening its node while `lewis up` starts): its node is not yet alive, so it is not seen,
+//! yet its files are being written. Entries changed in the last [`JOINING`] are therefore
+//! left alone: a leftover is older than that.
 
 use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
 
 use iceoryx2::node::{Node, NodeState};
 use iceoryx2::prelude::{CallbackProgression, ipc};
@@ -16,6 +22,9 @@ use super::Namespace;
 
 /// Where iceoryx2 keeps its files and its shared memory on Linux.
 const ROOTS: [&str; 2] = ["/tmp/iceoryx2", "/dev/shm"];
+
+/// How recently changed an entry must be to belong to a process joining right now.
+const JOINING: Duration = Duration::from_secs(1);
 
 /// What [`wipe_stale`] did.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -37,6 +46,11 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
     let Ok(config) = namespace.iceoryx2_config() else {
         return WipeReport::default();
     };
+    // Taken before the nodes are listed: a node made after this is never mistaken for a
+    // leftover, whether or not the listing saw it.
+    let young_from = SystemTime::now()
+        .checked_sub(JOINING)
+        .unwrap_or(SystemTime::UNIX_EPOCH);
     let mut in_use = false;
     let listed = Node::<ipc::Service>::list(&config, |state| {
         // Only a live process holds its node's lock. A node whose files are incomplete was
@@ -53,7 +67,7 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
     let prefix = namespace.iceoryx2_prefix();
     let removed = roots
         .iter()
-        .map(|root| remove_prefixed(root, &prefix))
+        .map(|root| remove_prefixed(root, &prefix, young_from))
         .sum();
     if removed > 0 {
         tracing::info!("removed {removed} leftovers of earlier runs in namespace {namespace}");
@@ -64,9 +78,10 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
     }
 }
 
-/// Removes every entry under `dir` whose name starts with `prefix`, and every folder left
-/// empty by that; returns how many entries went.
-fn remove_prefixed(dir: &Path, prefix: &str) -> usize {
+/// Removes every entry under `dir` whose name starts with `prefix` and which was last
+/// changed before `young_from`, and every folder left empty by that; returns how many
+/// entries went.
+fn remove_prefixed(dir: &Path, prefix: &str, young_from: SystemTime) -> usize {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return 0;
     };
@@ -76,6 +91,15 @@ fn remove_prefixed(dir: &Path, prefix: &str) -> usize {
         let name = entry.file_name();
         let ours = name.to_string_lossy().starts_with(prefix);
         let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
+        // An entry whose age cannot be read counts as young: keeping a leftover is the
+        // safe mistake.
+        let old = entry
+            .metadata()
+            .and_then(|m| m.modified())
+            .is_ok_and(|changed| changed < young_from);
+        if ours && !old {
+            continue;
+        }
         if ours {
             let gone = if is_dir {
                 std::fs::remove_dir_all(&path)
@@ -84,7 +108,7 @@ fn remove_prefixed(dir: &Path, prefix: &str) -> usize {
             };
             removed += usize::from(gone.is_ok());
         } else if is_dir {
-            let inner = remove_prefixed(&path, prefix);
+            let inner = remove_prefixed(&path, prefix, young_from);
             removed += inner;
             // A node's folder holds only that node's files: gone with them.
             if inner > 0 && std::fs::read_dir(&path).is_ok_and(|mut d| d.next().is_none()) {
@@ -112,7 +136,7 @@ mod tests {
         ];
         let theirs = dir.path().join("lewis.other.abc.event");
         for file in ours.iter().chain([&theirs]) {
-            std::fs::write(file, b"").unwrap_or_else(|e| panic!("{e}"));
+            write_old(file);
         }
         let report = wipe_stale_under(&namespace, &[dir.path().to_path_buf()]);
         assert_eq!(
@@ -125,6 +149,32 @@ mod tests {
         assert!(ours.iter().all(|f| !f.exists()));
         assert!(!node.exists(), "the emptied node folder goes too");
         assert!(theirs.exists());
+    }
+
+    /// Writes an empty file last changed a minute ago: a leftover of a run that died.
+    fn write_old(path: &Path) {
+        let file = std::fs::File::create(path).unwrap_or_else(|e| panic!("{e}"));
+        let minute_ago = SystemTime::now() - Duration::from_secs(60);
+        file.set_modified(minute_ago)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+
+    #[test]
+    fn files_of_a_process_joining_now_stay_while_old_ones_go() {
+        let namespace = Namespace::unique("wipe-joining");
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let prefix = namespace.iceoryx2_prefix();
+        let old = dir.path().join(format!("{prefix}old.event"));
+        let joining = dir.path().join(format!("{prefix}new.event"));
+        write_old(&old);
+        std::fs::write(&joining, b"").unwrap_or_else(|e| panic!("{e}"));
+        let report = wipe_stale_under(&namespace, &[dir.path().to_path_buf()]);
+        assert_eq!(report.removed, 1);
+        assert!(!old.exists());
+        assert!(
+            joining.exists(),
+            "a file just written belongs to a live process"
+        );
     }
 
     #[test]
