@@ -9,7 +9,7 @@
 use std::sync::Arc;
 
 use super::error::{DecodeError, DecodeErrorKind};
-use super::plan::{Decoder, Element, Length, StructPlan};
+use super::plan::{Decoder, Element, FieldPlan, Length, StructPlan};
 use super::types::Primitive;
 use super::value::Value;
 
@@ -17,7 +17,7 @@ const HEADER_LEN: usize = 4;
 
 /// A failure deep in the message; the path is collected in reverse while unwinding, so the
 /// happy path builds no strings.
-struct Failure {
+pub(super) struct Failure {
     offset: usize,
     kind: DecodeErrorKind,
     reversed_path: Vec<Segment>,
@@ -28,50 +28,18 @@ enum Segment {
     Index(usize),
 }
 
-type Decoded<T> = Result<T, Box<Failure>>;
+pub(super) type Decoded<T> = Result<T, Box<Failure>>;
 
 pub(super) fn decode(decoder: &Decoder, root: usize, message: &[u8]) -> Result<Value, DecodeError> {
-    let header_error = |kind| DecodeError {
-        path: String::new(),
-        offset: 0,
-        kind,
-    };
-    let (header, payload) = message
-        .split_first_chunk::<HEADER_LEN>()
-        .ok_or_else(|| header_error(DecodeErrorKind::MissingHeader(message.len())))?;
-    let big_endian = match header {
-        [0, 0, _, _] => true,
-        [0, 1, _, _] => false,
-        [a, b, _, _] => {
-            return Err(header_error(DecodeErrorKind::UnsupportedEncapsulation(
-                *a, *b,
-            )));
-        }
-    };
-    let mut walker = Walker {
-        decoder,
-        cursor: Cursor {
-            data: payload,
-            pos: 0,
-            big_endian,
-        },
-    };
+    let mut walker = Walker::new(decoder, message)?;
     let value = walker
         .structure(root)
-        .and_then(|value| {
-            let left = walker.cursor.remaining();
-            let padding = (4 - walker.cursor.pos % 4) % 4;
-            if left > padding {
-                Err(walker.cursor.fail(DecodeErrorKind::TrailingBytes(left)))
-            } else {
-                Ok(value)
-            }
-        })
+        .and_then(|value| walker.finish().map(|()| value))
         .map_err(|failure| into_error(*failure))?;
     Ok(value)
 }
 
-fn into_error(failure: Failure) -> DecodeError {
+pub(super) fn into_error(failure: Failure) -> DecodeError {
     let mut path = String::new();
     for segment in failure.reversed_path.iter().rev() {
         match segment {
@@ -102,7 +70,7 @@ fn at(segment: Segment) -> impl FnOnce(Box<Failure>) -> Box<Failure> {
     }
 }
 
-struct Cursor<'a> {
+pub(super) struct Cursor<'a> {
     /// The bytes after the encapsulation header; alignment is relative to their start.
     data: &'a [u8],
     pos: usize,
@@ -121,7 +89,7 @@ macro_rules! read_number {
 }
 
 impl<'a> Cursor<'a> {
-    fn remaining(&self) -> usize {
+    pub(super) fn remaining(&self) -> usize {
         self.data.len().saturating_sub(self.pos)
     }
 
@@ -140,7 +108,7 @@ impl<'a> Cursor<'a> {
         })
     }
 
-    fn align(&mut self, size: usize) -> Decoded<()> {
+    pub(super) fn align(&mut self, size: usize) -> Decoded<()> {
         let padding = (size - self.pos % size) % size;
         if padding > self.remaining() {
             return Err(self.end(padding));
@@ -149,7 +117,7 @@ impl<'a> Cursor<'a> {
         Ok(())
     }
 
-    fn take(&mut self, len: usize) -> Decoded<&'a [u8]> {
+    pub(super) fn take(&mut self, len: usize) -> Decoded<&'a [u8]> {
         let data: &'a [u8] = self.data;
         let bytes = data
             .get(self.pos..)
@@ -166,7 +134,7 @@ impl<'a> Cursor<'a> {
     }
 
     /// A u32 length, checked to fit in the remaining bytes at `element_size` bytes each.
-    fn length(&mut self, element_size: usize, bound: Option<usize>) -> Decoded<usize> {
+    pub(super) fn length(&mut self, element_size: usize, bound: Option<usize>) -> Decoded<usize> {
         self.align(4)?;
         let start = self.pos;
         let count = read_number!(self, u32);
@@ -197,7 +165,7 @@ impl<'a> Cursor<'a> {
         Ok(count)
     }
 
-    fn primitive(&mut self, primitive: Primitive) -> Decoded<Value> {
+    pub(super) fn primitive(&mut self, primitive: Primitive) -> Decoded<Value> {
         self.align(primitive.size_bytes())?;
         Ok(match primitive {
             Primitive::Bool => {
@@ -226,7 +194,7 @@ impl<'a> Cursor<'a> {
         })
     }
 
-    fn string(&mut self, bound: Option<usize>) -> Decoded<Value> {
+    pub(super) fn string(&mut self, bound: Option<usize>) -> Decoded<Value> {
         let len = self.length(1, None)?;
         let start = self.pos;
         let bytes = self.take(len)?;
@@ -256,7 +224,7 @@ impl<'a> Cursor<'a> {
         }
     }
 
-    fn wstring(&mut self, bound: Option<usize>) -> Decoded<Value> {
+    pub(super) fn wstring(&mut self, bound: Option<usize>) -> Decoded<Value> {
         let len = self.length(4, bound)?;
         let mut text = String::with_capacity(len);
         for _ in 0..len {
@@ -272,13 +240,43 @@ impl<'a> Cursor<'a> {
     }
 }
 
-struct Walker<'d, 'a> {
-    decoder: &'d Decoder,
-    cursor: Cursor<'a>,
+/// A walk through one message with a compiled plan.
+pub(super) struct Walker<'d, 'a> {
+    pub(super) decoder: &'d Decoder,
+    pub(super) cursor: Cursor<'a>,
 }
 
-impl Walker<'_, '_> {
-    fn structure(&mut self, index: usize) -> Decoded<Value> {
+impl<'d, 'a> Walker<'d, 'a> {
+    /// A walker at the start of `message`'s fields, after its encapsulation header.
+    pub(super) fn new(decoder: &'d Decoder, message: &'a [u8]) -> Result<Self, DecodeError> {
+        let header_error = |kind| DecodeError {
+            path: String::new(),
+            offset: 0,
+            kind,
+        };
+        let (header, payload) = message
+            .split_first_chunk::<HEADER_LEN>()
+            .ok_or_else(|| header_error(DecodeErrorKind::MissingHeader(message.len())))?;
+        let big_endian = match header {
+            [0, 0, _, _] => true,
+            [0, 1, _, _] => false,
+            [a, b, _, _] => {
+                return Err(header_error(DecodeErrorKind::UnsupportedEncapsulation(
+                    *a, *b,
+                )));
+            }
+        };
+        Ok(Self {
+            decoder,
+            cursor: Cursor {
+                data: payload,
+                pos: 0,
+                big_endian,
+            },
+        })
+    }
+
+    pub(super) fn structure(&mut self, index: usize) -> Decoded<Value> {
         let decoder = self.decoder;
         let Some(StructPlan {
             fields,
@@ -290,17 +288,7 @@ impl Walker<'_, '_> {
         };
         let mut values = Vec::with_capacity(fields.len());
         for field in fields {
-            let value = match field.length {
-                Length::Single => self.element(field.element),
-                Length::Fixed(len) => self.array(field.element, len),
-                Length::Sequence { bound } => {
-                    let minimum = minimum_size(field.element);
-                    self.cursor
-                        .length(minimum, bound)
-                        .and_then(|len| self.array(field.element, len))
-                }
-            }
-            .map_err(at(Segment::Field(field.name.clone())))?;
+            let value = self.field(field)?;
             values.push((field.name.clone(), value));
         }
         if *placeholder_only {
@@ -309,7 +297,21 @@ impl Walker<'_, '_> {
         Ok(Value::Struct(values))
     }
 
-    fn element(&mut self, element: Element) -> Decoded<Value> {
+    pub(super) fn field(&mut self, field: &FieldPlan) -> Decoded<Value> {
+        match field.length {
+            Length::Single => self.element(field.element),
+            Length::Fixed(len) => self.array(field.element, len),
+            Length::Sequence { bound } => {
+                let minimum = minimum_size(field.element);
+                self.cursor
+                    .length(minimum, bound)
+                    .and_then(|len| self.array(field.element, len))
+            }
+        }
+        .map_err(at(Segment::Field(field.name.clone())))
+    }
+
+    pub(super) fn element(&mut self, element: Element) -> Decoded<Value> {
         match element {
             Element::Primitive(primitive) => self.cursor.primitive(primitive),
             Element::String { bound } => self.cursor.string(bound),
@@ -318,22 +320,14 @@ impl Walker<'_, '_> {
         }
     }
 
-    fn array(&mut self, element: Element, len: usize) -> Decoded<Value> {
+    pub(super) fn array(&mut self, element: Element, len: usize) -> Decoded<Value> {
         if len == 0 {
             return Ok(match element {
                 Element::Primitive(Primitive::UInt8 | Primitive::Byte) => Value::Bytes(Vec::new()),
                 _ => Value::Array(Vec::new()),
             });
         }
-        if let Element::Primitive(primitive) = element {
-            self.cursor.align(primitive.size_bytes())?;
-        }
-        // Checked before allocating: a length from the schema or the bytes cannot make us
-        // reserve more than the message could hold.
-        let needed = len.saturating_mul(minimum_size(element));
-        if needed > self.cursor.remaining() {
-            return Err(self.cursor.end(needed));
-        }
+        self.array_start(element, len)?;
         if let Element::Primitive(Primitive::UInt8 | Primitive::Byte) = element {
             return Ok(Value::Bytes(self.cursor.take(len)?.to_vec()));
         }
@@ -345,9 +339,37 @@ impl Walker<'_, '_> {
     }
 }
 
+impl Walker<'_, '_> {
+    /// Aligns for an array of `len` (at least one) `element`s, and checks that they can fit
+    /// in what is left before anything is allocated for them: a length from the schema or
+    /// the bytes cannot make us reserve more than the message could hold.
+    pub(super) fn array_start(&mut self, element: Element, len: usize) -> Decoded<()> {
+        if let Element::Primitive(primitive) = element {
+            self.cursor.align(primitive.size_bytes())?;
+        }
+        let needed = len.saturating_mul(minimum_size(element));
+        if needed > self.cursor.remaining() {
+            return Err(self.cursor.end(needed));
+        }
+        Ok(())
+    }
+
+    /// Checks that the message ends here, but for the padding that rounds it up to a
+    /// multiple of 4 bytes.
+    pub(super) fn finish(&self) -> Decoded<()> {
+        let left = self.cursor.remaining();
+        let padding = (4 - self.cursor.pos % 4) % 4;
+        if left > padding {
+            Err(self.cursor.fail(DecodeErrorKind::TrailingBytes(left)))
+        } else {
+            Ok(())
+        }
+    }
+}
+
 /// The fewest bytes an element can take after its alignment (a struct takes at least one:
 /// empty ones carry a placeholder byte).
-fn minimum_size(element: Element) -> usize {
+pub(super) fn minimum_size(element: Element) -> usize {
     match element {
         Element::Primitive(primitive) => primitive.size_bytes(),
         Element::String { .. } | Element::WString { .. } => 4,

@@ -25,6 +25,7 @@
 
 mod builtin;
 mod cdr;
+mod diff;
 mod error;
 mod literal;
 mod plan;
@@ -35,6 +36,7 @@ mod value;
 #[cfg(test)]
 mod tests;
 
+pub use diff::{CompareOptions, LargestDifference};
 pub use error::{DecodeError, DecodeErrorKind, SchemaError, SchemaErrorKind};
 pub use plan::{Decoder, MAX_NESTING_DEPTH};
 pub use schema::MessageSchema;

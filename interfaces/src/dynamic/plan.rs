@@ -19,7 +19,7 @@ pub const MAX_NESTING_DEPTH: usize = 64;
 #[derive(Debug, Clone)]
 pub struct Decoder {
     type_name: TypeName,
-    root: usize,
+    pub(super) root: usize,
     pub(super) structs: Vec<StructPlan>,
 }
 
