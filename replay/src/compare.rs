@@ -17,7 +17,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::dynamic::{Decoder, Value};
+use lewis_interfaces::dynamic::{CompareOptions, Decoder, LargestDifference};
 use lewis_interfaces::msg::{CommandLog, InputRef};
 use lewis_runtime::service::Input;
 use serde::Serialize;
@@ -268,12 +268,9 @@ impl Channel {
                 break;
             };
             self.divergence.compared += 1;
-            let mut max = Largest::default();
-            let same = r.bytes == s.bytes
-                || match (self.kind.value(&r.bytes), self.kind.value(&s.bytes)) {
-                    (Some(a), Some(b)) => same_value(&a, &b, tolerance, &mut max, &mut Vec::new()),
-                    _ => false,
-                };
+            let mut max = LargestDifference::default();
+            let same =
+                r.bytes == s.bytes || self.kind.same(&r.bytes, &s.bytes, tolerance, &mut max);
             if max.difference > self.divergence.max_numeric_difference {
                 self.divergence.max_numeric_difference = max.difference;
                 self.divergence.max_difference_field = max.field;
@@ -297,43 +294,48 @@ impl Channel {
 }
 
 impl Kind {
-    /// The value compared: the message without its header, or for a command log, its
-    /// command, status, error, request and reply (without their headers).
-    fn value(&mut self, bytes: &[u8]) -> Option<Value> {
+    /// Whether two messages of the channel are the same within `tolerance`, headers left
+    /// out (a replay re-numbers and re-stamps what it re-simulates); a command log by its
+    /// command, status, error, request and reply. `max` gets the largest numeric
+    /// difference. Messages that do not decode are the same only when equal.
+    fn same(&mut self, a: &[u8], b: &[u8], tolerance: f64, max: &mut LargestDifference) -> bool {
+        let options = |path_prefix| CompareOptions {
+            tolerance,
+            skip_field: Some("header"),
+            path_prefix,
+        };
         match self {
             Self::Data(decoder) => decoder
                 .as_ref()
-                .and_then(|d| d.decode(bytes).ok())
-                .map(without_header),
+                .and_then(|d| d.compare(a, b, &options(""), max).ok())
+                .unwrap_or(false),
             Self::Commands(decoders) => {
-                let log: CommandLog = cdr::from_bytes(bytes).ok()?;
-                let (request, reply) = decoders
-                    .entry((log.interface.clone(), log.command.clone()))
-                    .or_insert_with(|| command_decoders(&log.interface, &log.command))
-                    .as_ref()?;
-                let decoded = |decoder: &Decoder, bytes: &[u8]| {
-                    decoder
-                        .decode(bytes)
-                        .map_or_else(|_| Value::Bytes(bytes.to_vec()), without_header)
+                let (Ok(a), Ok(b)) = (
+                    cdr::from_bytes::<CommandLog>(a),
+                    cdr::from_bytes::<CommandLog>(b),
+                ) else {
+                    return false;
                 };
-                let field = |name: &str, value| (Arc::from(name), value);
-                Some(Value::Struct(vec![
-                    field(
-                        "command",
-                        Value::String(format!("{}.{}", log.interface, log.command)),
-                    ),
-                    field("status", Value::String(log.status)),
-                    field("error", Value::String(log.error)),
-                    field("request", decoded(request, &log.request)),
-                    field(
-                        "reply",
-                        if log.reply.is_empty() {
-                            Value::Bytes(Vec::new())
-                        } else {
-                            decoded(reply, &log.reply)
-                        },
-                    ),
-                ]))
+                if (&a.interface, &a.command) != (&b.interface, &b.command) {
+                    return false;
+                }
+                let Some((request, reply)) = decoders
+                    .entry((a.interface.clone(), a.command.clone()))
+                    .or_insert_with(|| command_decoders(&a.interface, &a.command))
+                    .as_ref()
+                else {
+                    return false;
+                };
+                // A part that does not decode (an empty reply: the call failed) is the
+                // same only when its bytes are.
+                let mut part = |decoder: &Decoder, x: &[u8], y: &[u8], name| {
+                    decoder
+                        .compare(x, y, &options(name), max)
+                        .unwrap_or_else(|_| x == y)
+                };
+                let same_request = part(request, &a.request, &b.request, "request");
+                let same_reply = part(reply, &a.reply, &b.reply, "reply");
+                a.status == b.status && a.error == b.error && same_request && same_reply
             }
         }
     }
@@ -346,19 +348,6 @@ fn command_decoders(interface: &str, command: &str) -> Option<(Decoder, Decoder)
         Decoder::new(command.request.name, command.request.text).ok()?,
         Decoder::new(command.reply.name, command.reply.text).ok()?,
     ))
-}
-
-/// A message value without its `header` field (a replay re-stamps what it re-simulates).
-fn without_header(value: Value) -> Value {
-    match value {
-        Value::Struct(fields) => Value::Struct(
-            fields
-                .into_iter()
-                .filter(|(name, _)| &**name != "header")
-                .collect(),
-        ),
-        other => other,
-    }
 }
 
 /// The inputs a publication names in its provenance.
@@ -394,95 +383,6 @@ fn unmatched(divergence: &mut ChannelDivergence, at_ns: i64) {
     divergence.differing += 1;
     if divergence.first_divergence_ns.is_none_or(|t| at_ns < t) {
         divergence.first_divergence_ns = Some(at_ns);
-    }
-}
-
-/// The largest numeric difference seen in a pair, and where.
-#[derive(Default)]
-struct Largest {
-    difference: f64,
-    field: Option<String>,
-}
-
-impl Largest {
-    fn see(&mut self, difference: f64, path: &[Segment<'_>]) {
-        if difference > self.difference {
-            self.difference = difference;
-            let names: Vec<String> = path.iter().map(ToString::to_string).collect();
-            self.field = Some(names.join("."));
-        }
-    }
-}
-
-/// One step of the path to a value: a field, or an element (`[3]`). Kept as it is and
-/// written out only for a new largest difference: formatting every element's index of
-/// every array compared was most of the comparator's time.
-#[derive(Debug, Clone, Copy)]
-enum Segment<'v> {
-    Field(&'v str),
-    Index(usize),
-}
-
-impl std::fmt::Display for Segment<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Field(name) => f.write_str(name),
-            Self::Index(index) => write!(f, "[{index}]"),
-        }
-    }
-}
-
-/// Whether two values are the same within `tolerance`; `max` gets the largest numeric
-/// difference seen and its field (`path` is where the values are).
-fn same_value<'v>(
-    a: &'v Value,
-    b: &'v Value,
-    tolerance: f64,
-    max: &mut Largest,
-    path: &mut Vec<Segment<'v>>,
-) -> bool {
-    if let (Some(x), Some(y)) = (number(a), number(b)) {
-        if x.is_nan() && y.is_nan() {
-            return true;
-        }
-        let difference = (x - y).abs();
-        if difference.is_finite() {
-            max.see(difference, path);
-        } else if x != y {
-            max.see(f64::INFINITY, path);
-        }
-        return x == y || difference <= tolerance;
-    }
-    match (a, b) {
-        (Value::Array(x), Value::Array(y)) => {
-            let mut same = x.len() == y.len();
-            for (i, (x, y)) in x.iter().zip(y).enumerate() {
-                path.push(Segment::Index(i));
-                same &= same_value(x, y, tolerance, max, path);
-                path.pop();
-            }
-            same
-        }
-        (Value::Struct(x), Value::Struct(y)) => {
-            let mut same = x.len() == y.len();
-            for ((name_x, x), (name_y, y)) in x.iter().zip(y) {
-                path.push(Segment::Field(name_x));
-                same &= name_x == name_y && same_value(x, y, tolerance, max, path);
-                path.pop();
-            }
-            same
-        }
-        _ => a == b,
-    }
-}
-
-/// A value as a number, when it is one.
-fn number(value: &Value) -> Option<f64> {
-    match value {
-        Value::Int(i) => Some(*i as f64),
-        Value::UInt(u) => Some(*u as f64),
-        Value::Float(f) => Some(*f),
-        _ => None,
     }
 }
 
