@@ -21,7 +21,7 @@ use crate::service::registry;
 #[derive(Debug, Args)]
 #[command(
     after_help = "Fault SPECs: PROVIDER[@START[-END]][:KIND], KIND one of \
-    crash, stall (the default), garbage, out-of-service; times from the start of the \
+    crash, stall (the default), garbage, frozen, slow, out-of-service; times from the start of the \
     recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser half-way \
     through; `laser@12.5s-20s:crash` crashes it for a window, then lets it recover.\n\n\
     Regression check of a change: `lewis replay RUN.mcap --check` replays the services as \
@@ -89,7 +89,7 @@ pub struct ReplayArgs {
     /// How many fault times a sweep tries, spread evenly across the run.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..), requires = "sweep_fault")]
     pub steps: u32,
-    /// How a sweep's providers fail: crash, stall, garbage or out-of-service.
+    /// How a sweep's providers fail: crash, stall, garbage, frozen, slow or out-of-service.
     #[arg(long, default_value = "crash", value_parser = parse_kind, requires = "sweep_fault")]
     pub kind: FaultKind,
     /// Replays a sweep runs at once (default: one per core).

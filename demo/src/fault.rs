@@ -63,13 +63,17 @@ impl LiveFault {
     /// mission's start, none: after the first state).
     ///
     /// # Errors
-    /// For `garbage` (only a replay can make a service publish bytes that do not decode)
+    /// For `garbage`, `frozen` and `slow` (only a replay can make any service publish bad
+    /// data)
     /// and for a time window (a live fault is not cleared).
     pub fn from_spec(spec: &FaultSpec) -> Result<Self, String> {
-        if spec.kind == FaultKind::Garbage {
+        if matches!(
+            spec.kind,
+            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow
+        ) {
             return Err(format!(
-                "--fault {}: `garbage` can only be injected in a replay; use crash, stall or out-of-service",
-                spec.text
+                "--fault {}: `{}` can only be injected in a replay; use crash, stall or out-of-service",
+                spec.text, spec.kind
             ));
         }
         if spec.until_ns.is_some() {
@@ -230,8 +234,9 @@ impl Watch {
                     self.log.error = Some(e.to_string());
                 }
             }
-            FaultKind::Garbage => {
-                self.log.error = Some("garbage cannot be injected live".to_owned());
+            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {
+                let kind = self.fault.kind;
+                self.log.error = Some(format!("{kind} cannot be injected live"));
             }
         }
         // What the broker does next (the rebinds), until the run ends.

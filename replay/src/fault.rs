@@ -10,8 +10,13 @@
 //! |---|---|---|
 //! | `stall` (default) | no data, no heartbeat | a missed heartbeat deadline |
 //! | `crash` | its process exits (SIGABRT), again at every restart until END | exits, restarts, then failure |
-//! | `garbage` | publishes bytes that do not decode, same sizes | nothing (heartbeats go on) |
+//! | `garbage` | publishes bytes that do not decode, same sizes | its values check fails |
+//! | `frozen` | publishes its last good payload again (new headers) | its frozen check fails |
+//! | `slow` | drops two samples of three | its rate check fails |
 //! | `out-of-service` | no data; heartbeats declare it out of service | clients moved away at once |
+//!
+//! Heartbeats go on under `garbage`, `frozen` and `slow`: only the broker's checks of the
+//! data see them (where the robot file has them on for the interface).
 
 use std::fmt;
 use std::str::FromStr;
@@ -29,20 +34,31 @@ pub enum FaultKind {
     Crash,
     /// Data that does not decode, heartbeats as usual.
     Garbage,
+    /// The last good payload again and again (new headers), heartbeats as usual.
+    Frozen,
+    /// Two samples of three dropped, heartbeats as usual.
+    Slow,
     /// No data; the heartbeats declare the provider out of service.
     OutOfService,
 }
 
 impl FaultKind {
     /// Every kind's name, as written in a SPEC.
-    pub const NAMES: &'static str = "crash, stall, garbage, out-of-service";
+    pub const NAMES: &'static str = "crash, stall, garbage, frozen, slow, out-of-service";
 
     /// The kind of `name`, as written in a SPEC.
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Stall, Self::Crash, Self::Garbage, Self::OutOfService]
-            .into_iter()
-            .find(|k| k.name() == name)
+        [
+            Self::Stall,
+            Self::Crash,
+            Self::Garbage,
+            Self::Frozen,
+            Self::Slow,
+            Self::OutOfService,
+        ]
+        .into_iter()
+        .find(|k| k.name() == name)
     }
 
     /// The name as written in a SPEC.
@@ -52,6 +68,8 @@ impl FaultKind {
             Self::Stall => "stall",
             Self::Crash => "crash",
             Self::Garbage => "garbage",
+            Self::Frozen => "frozen",
+            Self::Slow => "slow",
             Self::OutOfService => "out-of-service",
         }
     }

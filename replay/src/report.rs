@@ -204,7 +204,8 @@ impl FaultWatch {
             Action::Start { service }
             | Action::Stop { service }
             | Action::RestartScheduled { service, .. }
-            | Action::ServiceFailed { service } => service == provider,
+            | Action::ServiceFailed { service }
+            | Action::ServiceDegraded { service } => service == provider,
             Action::Rebind {
                 client,
                 interface,

@@ -37,6 +37,7 @@ description = "a laser, a sonar and a consumer"
 [broker]
 heartbeat_period_ms = 10
 heartbeat_deadline_ms = 50
+data_checks = true
 restart = { max_restarts = 2, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }
 
 [[services]]
@@ -416,14 +417,60 @@ fn a_crash_window_restarts_the_laser_and_the_client_stays_with_it() {
     );
 }
 
-#[test]
-fn garbage_reaches_the_client_which_stops_publishing() {
+/// The laser's data goes bad at 1 s (heartbeats go on): the check named `check` fails it
+/// and the consumer moves to the sonar, with the check in the reason.
+fn bad_data_fails_over(fault: &str, check: &str) -> Report {
     let dir = tempfile::tempdir().unwrap();
-    let report = replay_default(dir.path(), &["laser@1s-1.5s:garbage"]);
-    assert!(report.faults[0].reactions.is_empty(), "{report}");
-    let distance = &report.divergence[0];
-    assert_eq!(distance.resimulated, 14, "{report}");
-    assert!(report.harness.faulted_publications >= 5, "{report}");
+    let report = replay_default(dir.path(), &[fault]);
+    let fault = &report.faults[0];
+    let takeover = fault
+        .takeovers
+        .first()
+        .unwrap_or_else(|| panic!("{report}"));
+    assert_eq!(
+        (takeover.client.as_str(), takeover.provider.as_str()),
+        ("consumer", "sonar"),
+        "{report}"
+    );
+    assert!(
+        fault.reactions.iter().any(|r| r.action == "laser failed"
+            && r.reason
+                .contains(&format!("laser failed its {check} check on RangeFinder"))),
+        "{report}"
+    );
+    assert!(
+        report
+            .to_string()
+            .contains(&format!("failed its {check} check")),
+        "the report names the check: {report}"
+    );
+    report
+}
+
+#[test]
+fn garbage_fails_the_laser_over_on_its_values_check() {
+    // Garbage used to make no decision; the broker's values check fails the laser on its
+    // first bad sample, the scan 7 ms after the fault starts.
+    let report = bad_data_fails_over("laser@1s-1.5s:garbage", "values");
+    assert_eq!(report.faults[0].takeovers[0].latency_ns, 7 * MS, "{report}");
+    assert!(report.harness.faulted_publications >= 1, "{report}");
+}
+
+#[test]
+fn a_frozen_laser_fails_over_on_its_frozen_check() {
+    let report = bad_data_fails_over("laser@1s:frozen", "frozen");
+    // The last good scan (0.907 s) and four repeats of it from 1.007 s: the fifth identical
+    // payload comes 307 ms after the fault starts.
+    assert_eq!(
+        report.faults[0].takeovers[0].latency_ns,
+        307 * MS,
+        "{report}"
+    );
+}
+
+#[test]
+fn a_slow_laser_fails_over_on_its_rate_check() {
+    bad_data_fails_over("laser@1s:slow", "rate");
 }
 
 #[test]
@@ -462,6 +509,8 @@ fn the_same_replay_gives_the_same_bytes_with_and_without_faults() {
     for faults in [
         &[][..],
         &["laser@0.7s:crash", "laser@1.2s-1.6s:garbage"][..],
+        &["laser@1s:frozen"][..],
+        &["laser@0.8s:slow"][..],
     ] {
         // The file name is in the recorder's stats: same name, two folders.
         std::fs::create_dir_all(dir.path().join("a")).unwrap();

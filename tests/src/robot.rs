@@ -28,6 +28,11 @@ pub struct TestRobot<'a> {
     pub heartbeat_deadline_ms: u64,
     /// Scans per second of each service.
     pub rate_hz: f64,
+    /// Whether the broker checks the providers' data (`[broker] data_checks`).
+    pub data_checks: bool,
+    /// Whether each provision declares its `data_rate_hz` (the service's rate), which turns
+    /// the broker's rate check on for RangeFinder.
+    pub declare_rate: bool,
     /// Extra TOML appended (more services).
     pub extra: &'a str,
 }
@@ -44,6 +49,8 @@ impl Default for TestRobot<'_> {
             laser_start_delay_ms: 0,
             heartbeat_deadline_ms: 1000,
             rate_hz: 50.0,
+            data_checks: false,
+            declare_rate: false,
             extra: "",
         }
     }
@@ -62,6 +69,7 @@ heartbeat_period_ms = 10
 heartbeat_deadline_ms = {deadline}
 startup_deadline_ms = 10000
 fail_back = {fail_back}
+data_checks = {data_checks}
 restart = {{ max_restarts = 3, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
 
 [[services]]
@@ -71,8 +79,8 @@ start = "{laser_start}"
 heartbeat_deadline_ms = {deadline}
 restart = {{ max_restarts = {max_restarts}, window_ms = 60000, backoff_initial_ms = 20, backoff_max_ms = 100 }}
 provides = [
-    {{ interface = "RangeFinder", quality = 10, cost = 2 }},
-    {{ interface = "Distance", quality = 10, cost = 2 }},
+    {{ interface = "RangeFinder", quality = 10, cost = 2{declared} }},
+    {{ interface = "Distance", quality = 10, cost = 2{declared} }},
 ]
 
 [services.parameters]
@@ -83,10 +91,12 @@ start_delay_ms = {start_delay}
 "#,
         deadline = robot.heartbeat_deadline_ms,
         fail_back = robot.fail_back,
+        data_checks = robot.data_checks,
         laser_start = robot.laser_start,
         max_restarts = robot.laser_max_restarts,
         rate = robot.rate_hz,
         start_delay = robot.laser_start_delay_ms,
+        declared = declared_rate(robot),
     );
     if let Some(fault) = robot.laser_fault_file {
         let _ = writeln!(text, "fault_file = {:?}", fault.display().to_string());
@@ -101,8 +111,8 @@ start = "{sonar_start}"
 heartbeat_deadline_ms = {deadline}
 restart = {{ max_restarts = {sonar_max_restarts}, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
 provides = [
-    {{ interface = "RangeFinder", quality = 5, cost = 1 }},
-    {{ interface = "Distance", quality = 5, cost = 1 }},
+    {{ interface = "RangeFinder", quality = 5, cost = 1{declared} }},
+    {{ interface = "Distance", quality = 5, cost = 1{declared} }},
 ]
 
 [services.parameters]
@@ -117,9 +127,19 @@ seed = 2
         rate = robot.rate_hz,
         sonar_start = robot.sonar_start,
         sonar_max_restarts = robot.sonar_max_restarts,
+        declared = declared_rate(robot),
     );
     text.push_str(robot.extra);
     text
+}
+
+/// The `data_rate_hz` entry of a provision, when the robot declares rates.
+fn declared_rate(robot: &TestRobot<'_>) -> String {
+    if robot.declare_rate {
+        format!(", data_rate_hz = {:?}", robot.rate_hz)
+    } else {
+        String::new()
+    }
 }
 
 /// Writes a fault word into a fault file atomically (a reader never sees half a word).

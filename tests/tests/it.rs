@@ -8,6 +8,7 @@ mod b21r_fake;
 mod bench_long;
 mod failover_cli;
 mod failover_crash;
+mod failover_data;
 mod failover_health;
 mod failover_processes;
 mod import_carmen;

@@ -138,7 +138,8 @@ impl Lockstep<'_> {
             .insert((at_ns.max(self.now_ns), self.timer_seq), timer);
     }
 
-    /// Hands a provider's sample to every re-simulated client bound to it.
+    /// Hands a provider's sample to the broker's data checks, then to every re-simulated
+    /// client bound to it.
     pub(super) fn deliver(
         &mut self,
         provider: &str,
@@ -147,6 +148,7 @@ impl Lockstep<'_> {
         seq: u64,
         bytes: &[u8],
     ) {
+        self.check_data(provider, interface, bytes);
         let clients: Vec<String> = self
             .bindings
             .iter()
@@ -513,7 +515,8 @@ impl Lockstep<'_> {
             Action::Reject { .. }
             | Action::AskForHelp { .. }
             | Action::RestartScheduled { .. }
-            | Action::ServiceFailed { .. } => {}
+            | Action::ServiceFailed { .. }
+            | Action::ServiceDegraded { .. } => {}
         }
     }
 
@@ -710,7 +713,7 @@ impl Lockstep<'_> {
         match effect {
             Effect::Publish { interface, bytes } => {
                 let seq = decode_header_seq(&bytes);
-                let garbled = match self.through_faults(name, seq, &bytes) {
+                let garbled = match self.through_faults(name, &interface, seq, &bytes) {
                     None => return,
                     Some(Cow::Owned(garbled)) => Some(garbled),
                     Some(Cow::Borrowed(_)) => None,

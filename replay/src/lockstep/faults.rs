@@ -3,7 +3,7 @@
 
 use std::borrow::Cow;
 
-use lewis_interfaces::cdr::ENCAPSULATION_LE;
+use lewis_interfaces::cdr::{self, ENCAPSULATION_LE};
 use lewis_runtime::broker::{Event, ExitStatus, Health};
 use lewis_runtime::service::Rng;
 
@@ -23,20 +23,50 @@ impl Lockstep<'_> {
             .map(|f| f.kind)
     }
 
-    /// The bytes a provider's publication has after the faults: `None` when it is lost.
+    /// The bytes a provider's publication on `interface` has after the faults: `None` when
+    /// it is lost.
     pub(super) fn through_faults<'b>(
         &mut self,
         provider: &str,
+        interface: &str,
         seq: u64,
         bytes: &'b [u8],
     ) -> Option<Cow<'b, [u8]>> {
+        let key = (provider.to_owned(), interface.to_owned());
         match self.fault_of(provider) {
-            None => Some(Cow::Borrowed(bytes)),
+            None => {
+                // Kept only for a provider a frozen fault is injected into.
+                if self
+                    .faults
+                    .iter()
+                    .any(|f| f.provider == provider && f.kind == FaultKind::Frozen)
+                {
+                    self.last_good.insert(key, bytes.to_vec());
+                }
+                Some(Cow::Borrowed(bytes))
+            }
             Some(FaultKind::Garbage) => {
                 self.stats.faulted_publications += 1;
                 Some(Cow::Owned(garble(provider, seq, bytes.len())))
             }
-            Some(_) => {
+            Some(FaultKind::Frozen) => {
+                self.stats.faulted_publications += 1;
+                let Some(last) = self.last_good.get(&key) else {
+                    // Nothing good was published before: the first sample is the one repeated.
+                    self.last_good.insert(key, bytes.to_vec());
+                    return Some(Cow::Borrowed(bytes));
+                };
+                Some(Cow::Owned(frozen(last, bytes)))
+            }
+            Some(FaultKind::Slow) => {
+                if seq.is_multiple_of(3) {
+                    Some(Cow::Borrowed(bytes))
+                } else {
+                    self.stats.faulted_publications += 1;
+                    None
+                }
+            }
+            Some(FaultKind::Stall | FaultKind::Crash | FaultKind::OutOfService) => {
                 self.stats.faulted_publications += 1;
                 None
             }
@@ -75,7 +105,7 @@ impl Lockstep<'_> {
                     health: injected_out_of_service(),
                 }));
             }
-            FaultKind::Garbage => {}
+            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
         }
     }
 
@@ -102,7 +132,7 @@ impl Lockstep<'_> {
                     health,
                 }));
             }
-            FaultKind::Crash | FaultKind::Garbage => {}
+            FaultKind::Crash | FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
         }
     }
 }
@@ -110,6 +140,17 @@ impl Lockstep<'_> {
 /// The health an out-of-service fault declares.
 pub(super) fn injected_out_of_service() -> Health {
     Health::OutOfService("injected fault: out-of-service".to_owned())
+}
+
+/// The last good payload with the header of the new one (its sequence number and publish
+/// time), as a stuck device's driver sends it; the last payload as it was when the two
+/// headers differ in length.
+fn frozen(last: &[u8], new: &[u8]) -> Vec<u8> {
+    let mut out = last.to_vec();
+    if let Ok(header) = cdr::peek_header(new) {
+        let _ = cdr::replace_header(&mut out, &header);
+    }
+    out
 }
 
 /// Bytes that do not decode, of the given length, the same for the same provider and

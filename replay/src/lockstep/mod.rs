@@ -78,6 +78,7 @@ pub mod book;
 mod calls;
 mod engine;
 mod faults;
+mod health;
 pub mod mission;
 pub mod route;
 pub mod script;
@@ -291,6 +292,11 @@ pub struct Lockstep<'a> {
     longest_gap: Option<Gap>,
     feeds: BTreeMap<(String, String, String), Feed>,
     mission: Option<MissionRun<'a>>,
+    /// The data checks of each provider's channel of each interface ([`health`]).
+    watches: BTreeMap<(String, String), health::Watch>,
+    /// The last payload of each provider's channel before a `frozen` fault, by provider
+    /// and interface: what the fault repeats.
+    last_good: BTreeMap<(String, String), Vec<u8>>,
 }
 
 impl std::fmt::Debug for Lockstep<'_> {
@@ -381,6 +387,8 @@ impl<'a> Lockstep<'a> {
             longest_gap: None,
             feeds: BTreeMap::new(),
             mission: None,
+            watches: BTreeMap::new(),
+            last_good: BTreeMap::new(),
         };
         for i in 0..harness.faults.len() {
             let (at, until) = (harness.faults[i].at_ns, harness.faults[i].until_ns);
@@ -456,7 +464,9 @@ impl<'a> Lockstep<'a> {
                     self.recorded_event(&service, sink);
                     return;
                 }
-                let Some(bytes) = self.through_faults(&service, message.seq, &message.data) else {
+                let Some(bytes) =
+                    self.through_faults(&service, &interface, message.seq, &message.data)
+                else {
                     return;
                 };
                 self.deliver(&service, &interface, &message.topic, message.seq, &bytes);

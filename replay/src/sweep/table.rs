@@ -233,6 +233,8 @@ fn fault_sentence(providers: &[String], kind: FaultKind) -> String {
         FaultKind::Crash => plural_verb(one, "crashes", "crash"),
         FaultKind::Stall => plural_verb(one, "stalls", "stall"),
         FaultKind::Garbage => plural_verb(one, "sends garbage", "send garbage"),
+        FaultKind::Frozen => plural_verb(one, "freezes", "freeze"),
+        FaultKind::Slow => plural_verb(one, "slows down", "slow down"),
         FaultKind::OutOfService => plural_verb(one, "goes out of service", "go out of service"),
     };
     let subjects: Vec<String> = providers.iter().map(|p| format!("the {p}")).collect();

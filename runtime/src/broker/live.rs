@@ -15,6 +15,10 @@
 //! - services' stdout and stderr lines are published on `/lewis/log` with their names (by a
 //!   forwarding thread, so a burst of output never delays a decision).
 //!
+//! - it reads every provider's data channels (its own subscription: every subscriber gets
+//!   every sample, so clients lose nothing) and feeds them to the [`health`](super::health)
+//!   checks while the provider is ready; a failed check is an [`Event::DataCheckFailed`].
+//!
 //! Everything waits on one [`WaitSet`]: the stop signals, the supervisor's descriptor, the
 //! command server and the health channels, with the earliest deadline.
 
@@ -33,6 +37,7 @@ use lewis_interfaces::msg::{
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
 
+use super::health::DataMonitor;
 use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need};
 use crate::clock::LiveClock;
 use crate::ipc::{
@@ -42,7 +47,7 @@ use crate::ipc::{
 use crate::live::{CLOCK_ENV, ClockSource};
 use crate::live::{StopSignals, health_from_message};
 use crate::names;
-use crate::robot::Robot;
+use crate::robot::{DataChecks, Robot};
 use crate::supervise::{
     ChildSpec, ExitStatus as ProcessExit, LogLine, SuperviseError, Supervisor, SupervisorEvent,
 };
@@ -51,6 +56,15 @@ use crate::wire;
 /// Log lines waiting to be published before new ones are dropped (and counted by the
 /// supervisor).
 const LOG_QUEUE: usize = 4096;
+
+/// The longest the broker waits between two looks at the data channels while a provider
+/// is judged (heartbeats usually wake it sooner).
+const DATA_LOOK_PERIOD: Duration = Duration::from_millis(50);
+
+/// A gap between two looks at the data channels longer than this (twice the period) means
+/// the broker's loop was held up: a data channel's buffer (8 samples) may have overflowed
+/// meanwhile, so the rate is judged afresh.
+const DATA_LOOK_HELD_UP_NS: i64 = 100_000_000;
 
 /// How often the broker looks for clients that died without a release.
 const CLIENT_SWEEP: Duration = Duration::from_millis(500);
@@ -192,6 +206,10 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
             m.service.clone_from(service);
             BrokerAction::ServiceFailed
         }
+        Action::ServiceDegraded { service } => {
+            m.service.clone_from(service);
+            BrokerAction::ServiceDegraded
+        }
     };
     m.action = action.into();
     m
@@ -260,6 +278,10 @@ struct Driver<'r> {
     decisions_out: Publisher,
     server: CommandServer,
     health: Vec<(String, Subscriber)>,
+    /// Every provision whose data is checked: its channel and the checks of its current run.
+    watches: Vec<Watch>,
+    /// When the data channels were last read.
+    last_data_look_ns: i64,
     /// Services sent SIGTERM, and when they get SIGKILL.
     kills: BTreeMap<String, Instant>,
     waits: WaitSet,
@@ -296,6 +318,32 @@ impl<'r> Driver<'r> {
                     .map(|sub| (s.name.clone(), sub))
             })
             .collect::<Result<Vec<_>, _>>()?;
+        let mut watches = Vec::new();
+        for spec in &robot.services {
+            for provision in &spec.provides {
+                let mut checks = robot.broker.checks_for(&provision.interface);
+                if options.clock == ClockSource::Played {
+                    // The services' time is a recording's, paused or played at another
+                    // rate: neither a publish time nor a rate says anything against the
+                    // broker's clock.
+                    checks.freshness_ms = None;
+                    checks.min_rate_fraction = 0.0;
+                }
+                if !checks.any() {
+                    continue;
+                }
+                let channel = names::data_channel(&spec.name, &provision.interface);
+                watches.push(Watch {
+                    service: spec.name.clone(),
+                    interface: provision.interface.clone(),
+                    checks,
+                    data_rate_hz: provision.data_rate_hz,
+                    subscriber: ipc
+                        .subscriber(&channel, &names::data_config(&provision.interface))?,
+                    run: WatchRun::Idle,
+                });
+            }
+        }
         Ok(Self {
             robot,
             options,
@@ -309,6 +357,8 @@ impl<'r> Driver<'r> {
             decisions_out,
             server,
             health,
+            watches,
+            last_data_look_ns: 0,
             kills: BTreeMap::new(),
             waits: WaitSet::new(WakeMode::Event),
             decisions: 0,
@@ -350,6 +400,7 @@ impl<'r> Driver<'r> {
             } else {
                 self.take_heartbeats(now_ns);
             }
+            self.check_data();
             self.kill_overdue(now);
             if now >= self.next_client_sweep {
                 self.sweep_dead_clients();
@@ -362,6 +413,20 @@ impl<'r> Driver<'r> {
                 .map(|ns| self.clock.to_instant(ns))
                 .into_iter()
                 .chain(self.kills.values().copied())
+                .chain(self.watches.iter().filter_map(|w| match &w.run {
+                    WatchRun::Judging(monitor) => {
+                        monitor.deadline().map(|ns| self.clock.to_instant(ns))
+                    }
+                    WatchRun::Idle | WatchRun::Failed => None,
+                }))
+                // Data is read at least this often while a provider is judged, so that a
+                // longer gap means the loop was held up.
+                .chain(
+                    self.watches
+                        .iter()
+                        .any(|w| matches!(w.run, WatchRun::Judging(_)))
+                        .then(|| now + DATA_LOOK_PERIOD),
+                )
                 .chain(sweep)
                 .chain(end)
                 .min();
@@ -439,7 +504,9 @@ impl<'r> Driver<'r> {
             Action::Unbind { .. } if client_left => {
                 tracing::debug!(subject = "broker", "{decision}");
             }
-            Action::AskForHelp { .. } | Action::ServiceFailed { .. } => {
+            Action::AskForHelp { .. }
+            | Action::ServiceFailed { .. }
+            | Action::ServiceDegraded { .. } => {
                 tracing::warn!(subject = "broker", "{decision}");
             }
             Action::Rebind { .. }
@@ -578,6 +645,71 @@ impl<'r> Driver<'r> {
         }
         for (at_ns, event) in heartbeats_in_order(beats, until_ns) {
             self.handle(at_ns, event);
+        }
+    }
+
+    /// Reads what every watched provider published since the last look and judges it; a
+    /// failed check goes to the core. A provider is judged from when it is ready (and not
+    /// out of service) until it is not, then afresh: one report per run of its process.
+    fn check_data(&mut self) {
+        let now_ns = self.clock.now_ns();
+        let last_look_ns = std::mem::replace(&mut self.last_data_look_ns, now_ns);
+        let held_up = now_ns.saturating_sub(last_look_ns) > DATA_LOOK_HELD_UP_NS;
+        let mut failures = Vec::new();
+        for watch in &mut self.watches {
+            let judged = self.core.data_is_judged(&watch.service);
+            match (&watch.run, judged) {
+                (WatchRun::Idle, true) => {
+                    watch.run = WatchRun::Judging(Box::new(DataMonitor::new(
+                        &watch.interface,
+                        watch.checks,
+                        watch.data_rate_hz,
+                        now_ns,
+                    )));
+                }
+                (WatchRun::Judging(_) | WatchRun::Failed, false) => watch.run = WatchRun::Idle,
+                _ => {}
+            }
+            if held_up && let WatchRun::Judging(monitor) = &mut watch.run {
+                // The samples of the gap beyond the channel's buffer are gone unread.
+                monitor.restart_rate(now_ns);
+            }
+            // Always drained, judged or not: samples of a provider that is not judged now
+            // must not be judged later, when they are stale.
+            while let Ok(Some(sample)) = watch.subscriber.receive() {
+                let WatchRun::Judging(monitor) = &mut watch.run else {
+                    continue;
+                };
+                let bytes = sample.bytes();
+                // No readable header: the values check says what is wrong with the bytes.
+                let publish_ns =
+                    cdr::peek_header(bytes).map_or(now_ns, |header| header.publish_time_ns);
+                // Seen at the last look if it was published before it (it should have been
+                // there then), else as it was published: a loop that reads late (a spawn, a
+                // cleanup) does not make the provider's samples stale.
+                let seen_ns = publish_ns.max(last_look_ns).min(now_ns);
+                if let Err(failure) = monitor.sample(seen_ns, publish_ns, bytes) {
+                    failures.push((watch.service.clone(), watch.interface.clone(), failure));
+                    watch.run = WatchRun::Failed;
+                }
+            }
+            if let WatchRun::Judging(monitor) = &mut watch.run
+                && let Err(failure) = monitor.poll(now_ns)
+            {
+                failures.push((watch.service.clone(), watch.interface.clone(), failure));
+                watch.run = WatchRun::Failed;
+            }
+        }
+        for (service, interface, failure) in failures {
+            self.feed_at(
+                now_ns,
+                Event::DataCheckFailed {
+                    service,
+                    interface,
+                    check: failure.check.as_str().to_owned(),
+                    reason: failure.reason,
+                },
+            );
         }
     }
 
@@ -745,6 +877,27 @@ impl<'r> Driver<'r> {
             }
         }
     }
+}
+
+/// One provider's data channel of one interface, watched by the broker.
+struct Watch {
+    service: String,
+    interface: String,
+    checks: DataChecks,
+    data_rate_hz: Option<f64>,
+    /// Open for the whole run, so that a restarted provider's first samples are seen.
+    subscriber: Subscriber,
+    run: WatchRun,
+}
+
+/// Where the watch of a provider's current process is.
+enum WatchRun {
+    /// The provider is not ready (or is out of service): its data is not judged.
+    Idle,
+    /// Ready: its samples go through the checks.
+    Judging(Box<DataMonitor>),
+    /// A check failed and was reported: nothing more until the provider's next run.
+    Failed,
 }
 
 /// The order to stop the `running` services (given in start order): a service before the

@@ -5,9 +5,11 @@
 //! I/O and reads no clock: time comes in with every event, so the same events give the same
 //! decisions live and in replay. The live driver turns processes, heartbeats and timers
 //! into [`Event`]s and carries out the [`Action`]s; every [`Decision`] (action and reason)
-//! is published on `/lewis/broker`.
+//! is published on `/lewis/broker`. The [`health`] checks judge what providers publish
+//! (rate, freshness, values, a frozen stream), as purely as the core.
 
 mod core;
+pub mod health;
 pub mod live;
 pub mod status;
 

@@ -19,8 +19,13 @@
 //! restart = { max_restarts = 3, window_ms = 10000, backoff_initial_ms = 50, backoff_max_ms = 2000 }
 //! # retry_failed_after_ms = 60000 # optional: start a failed service again after this time
 //!
+//! data_checks = true              # check what providers publish (default: false)
+//!
 //! [broker.interfaces.RangeFinder]
 //! fail_back = true                # per-interface override
+//! # The data checks of the interface's providers; what is not given keeps the
+//! # interface's default (`DataChecks::default_for`).
+//! checks = { rate = 0.5, window_ms = 1000, freshness_ms = 500, values = true, frozen = 5, on_failure = "failed" }
 //!
 //! [[services]]
 //! name = "laser"
@@ -38,6 +43,7 @@
 //! beams = 181
 //! ```
 
+mod checks;
 mod error;
 mod raw;
 mod validate;
@@ -51,6 +57,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+pub use checks::{DataChecks, MIN_FROZEN_COUNT, OnCheckFailure};
 pub use error::{Problem, RobotError};
 
 use crate::supervise::RestartPolicy;
@@ -101,7 +108,7 @@ impl Robot {
 }
 
 /// The broker's settings for the whole robot.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct BrokerSettings {
     /// How often every service sends a heartbeat, in milliseconds.
     pub heartbeat_period_ms: u64,
@@ -118,6 +125,12 @@ pub struct BrokerSettings {
     /// When set, a service that failed (gave up restarting, or stalled) is started again
     /// after this long, in milliseconds; a service that could not be started at all is not.
     pub retry_failed_after_ms: Option<u64>,
+    /// Whether the broker checks the data providers publish (`[broker] data_checks`, off
+    /// unless the robot file turns it on: the robots of this repository were tuned
+    /// without it, see ARCHITECTURE.md).
+    pub data_checks: bool,
+    /// Per-interface data checks, where the robot file overrides the interface's default.
+    pub checks_per_interface: BTreeMap<String, DataChecks>,
 }
 
 impl BrokerSettings {
@@ -128,6 +141,19 @@ impl BrokerSettings {
             .get(interface)
             .copied()
             .unwrap_or(self.fail_back)
+    }
+
+    /// The data checks of `interface`'s providers: none when the robot turns data checks
+    /// off, the robot file's where it declares them, the interface's default otherwise.
+    #[must_use]
+    pub fn checks_for(&self, interface: &str) -> DataChecks {
+        if !self.data_checks {
+            return DataChecks::none();
+        }
+        self.checks_per_interface
+            .get(interface)
+            .copied()
+            .unwrap_or_else(|| DataChecks::default_for(interface))
     }
 }
 
@@ -141,6 +167,8 @@ impl Default for BrokerSettings {
             fail_back_per_interface: BTreeMap::new(),
             restart: RestartPolicy::default(),
             retry_failed_after_ms: None,
+            data_checks: false,
+            checks_per_interface: BTreeMap::new(),
         }
     }
 }

@@ -7,6 +7,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::StartMode;
+use super::checks::OnCheckFailure;
 use crate::supervise::RestartPolicy;
 
 #[derive(Debug, Deserialize)]
@@ -39,12 +40,26 @@ pub(super) struct RawBroker {
     pub interfaces: BTreeMap<Spanned<String>, RawInterfaceSettings>,
     pub restart: Option<Spanned<RestartPolicy>>,
     pub retry_failed_after_ms: Option<Spanned<i64>>,
+    pub data_checks: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawInterfaceSettings {
     pub fail_back: Option<bool>,
+    pub checks: Option<Spanned<RawChecks>>,
+}
+
+/// Overrides of an interface's data checks; what is not given keeps the interface's default.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawChecks {
+    pub rate: Option<Spanned<f64>>,
+    pub window_ms: Option<Spanned<i64>>,
+    pub freshness_ms: Option<Spanned<i64>>,
+    pub values: Option<bool>,
+    pub frozen: Option<Spanned<i64>>,
+    pub on_failure: Option<OnCheckFailure>,
 }
 
 #[derive(Debug, Deserialize)]

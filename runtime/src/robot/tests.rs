@@ -478,3 +478,101 @@ parameters = { range_m = 8.0 }
         "#]],
     );
 }
+
+#[test]
+fn data_checks_take_the_interface_defaults_and_the_file_overrides() {
+    let robot = parse(
+        r#"
+[robot]
+name = "r"
+
+[broker]
+data_checks = true
+
+[broker.interfaces.RangeFinder]
+checks = { rate = 0.25, window_ms = 2000, freshness_ms = 0, frozen = 3, on_failure = "degraded" }
+
+[broker.interfaces.Egomotion]
+checks = { values = false }
+
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
+"#,
+        Path::new("robot.toml"),
+        KNOWN,
+    )
+    .unwrap();
+    let b = &robot.broker;
+    assert!(b.data_checks);
+    assert_eq!(
+        b.checks_for("RangeFinder"),
+        DataChecks {
+            min_rate_fraction: 0.25,
+            window_ms: 2000,
+            freshness_ms: None,
+            values: true,
+            frozen_count: Some(3),
+            on_failure: OnCheckFailure::Degraded,
+        }
+    );
+    assert_eq!(
+        b.checks_for("Egomotion"),
+        DataChecks {
+            values: false,
+            ..DataChecks::default_for("Egomotion")
+        }
+    );
+    // Not declared: the interface's own defaults (frozen never for blob lists).
+    assert_eq!(b.checks_for("Blobs"), DataChecks::default_for("Blobs"));
+    assert_eq!(b.checks_for("Blobs").frozen_count, None);
+    assert_eq!(DataChecks::default_for("RangeFinder").frozen_count, Some(5));
+
+    // Off unless the robot file turns them on.
+    let off = parse("[robot]\nname = \"r\"\n", Path::new("robot.toml"), KNOWN).unwrap();
+    assert!(!off.broker.checks_for("RangeFinder").any());
+}
+
+#[test]
+fn a_wrong_data_check_is_placed_at_its_value() {
+    check(
+        r#"
+[robot]
+name = "r"
+
+[broker.interfaces.RangeFinder]
+checks = { rate = 1.5, window_ms = 0, freshness_ms = -1, frozen = 1 }
+"#,
+        &expect![[r#"
+            robot.toml:6:19: checks of `RangeFinder`: rate 1.5 is not a fraction of the declared data_rate_hz: give a value from 0 (off) to 1
+            robot.toml:6:36: checks of `RangeFinder`: window_ms is 0: give a positive number of milliseconds
+            robot.toml:6:54: checks of `RangeFinder`: freshness_ms is -1: give how old a sample may be in milliseconds, or 0 (off)
+            robot.toml:6:67: checks of `RangeFinder`: frozen is 1: give how many identical payloads in a row make a frozen stream (at least 2), or 0 (off)
+        "#]],
+    );
+    check(
+        r#"
+[robot]
+name = "r"
+
+[broker.interfaces.Distance]
+checks = { speed = 3 }
+"#,
+        &expect![[r#"
+            robot.toml:6:12: unknown field `speed`, expected one of `rate`, `window_ms`, `freshness_ms`, `values`, `frozen`, `on_failure`
+        "#]],
+    );
+    check(
+        r#"
+[robot]
+name = "r"
+
+[broker.interfaces.Blobs]
+checks = { on_failure = "ignored" }
+"#,
+        &expect![[r#"
+            robot.toml:6:25: unknown variant `ignored`, expected `failed` or `degraded`
+        "#]],
+    );
+}

@@ -8,9 +8,10 @@ use std::path::Path;
 use toml::Spanned;
 
 use super::error::{Problem, RobotError, line_column};
-use super::raw::{RawBroker, RawProvision, RawRobot, RawService};
+use super::raw::{RawBroker, RawChecks, RawProvision, RawRobot, RawService};
 use super::{
-    BrokerSettings, Kinds, Known, Launch, Provision, Robot, SCORE_RANGE, ServiceSpec, StartMode,
+    BrokerSettings, DataChecks, Kinds, Known, Launch, MIN_FROZEN_COUNT, Provision, Robot,
+    SCORE_RANGE, ServiceSpec, StartMode,
 };
 use crate::supervise::RestartPolicy;
 
@@ -130,10 +131,15 @@ impl Checker<'_> {
             .retry_failed_after_ms
             .and_then(|v| self.positive_ms(&v, "retry_failed_after_ms"));
         let mut fail_back_per_interface = BTreeMap::new();
+        let mut checks_per_interface = BTreeMap::new();
         for (interface, settings) in raw.interfaces {
             self.interface_name(&interface, "broker settings for");
             if let Some(fail_back) = settings.fail_back {
-                fail_back_per_interface.insert(interface.into_inner(), fail_back);
+                fail_back_per_interface.insert(interface.get_ref().clone(), fail_back);
+            }
+            if let Some(checks) = settings.checks {
+                let checks = self.checks(interface.get_ref(), checks.get_ref());
+                checks_per_interface.insert(interface.into_inner(), checks);
             }
         }
         BrokerSettings {
@@ -144,7 +150,66 @@ impl Checker<'_> {
             fail_back_per_interface,
             restart,
             retry_failed_after_ms,
+            data_checks: raw.data_checks.unwrap_or(false),
+            checks_per_interface,
         }
+    }
+
+    /// An interface's data checks: its defaults with the file's overrides, each checked.
+    fn checks(&mut self, interface: &str, raw: &RawChecks) -> DataChecks {
+        let mut checks = DataChecks::default_for(interface);
+        if let Some(rate) = &raw.rate {
+            let fraction = *rate.get_ref();
+            if (0.0..=1.0).contains(&fraction) {
+                checks.min_rate_fraction = fraction;
+            } else {
+                self.report(
+                    &rate.span(),
+                    format!(
+                        "checks of `{interface}`: rate {fraction} is not a fraction of the declared data_rate_hz: give a value from 0 (off) to 1"
+                    ),
+                );
+            }
+        }
+        if let Some(window) = &raw.window_ms
+            && let Some(ms) =
+                self.positive_ms(window, &format!("checks of `{interface}`: window_ms"))
+        {
+            checks.window_ms = ms;
+        }
+        if let Some(freshness) = &raw.freshness_ms {
+            match u64::try_from(*freshness.get_ref()) {
+                Ok(0) => checks.freshness_ms = None,
+                Ok(ms) => checks.freshness_ms = Some(ms),
+                Err(_) => self.report(
+                    &freshness.span(),
+                    format!(
+                        "checks of `{interface}`: freshness_ms is {}: give how old a sample may be in milliseconds, or 0 (off)",
+                        freshness.get_ref()
+                    ),
+                ),
+            }
+        }
+        if let Some(values) = raw.values {
+            checks.values = values;
+        }
+        if let Some(frozen) = &raw.frozen {
+            match u32::try_from(*frozen.get_ref()) {
+                Ok(0) => checks.frozen_count = None,
+                Ok(count) if count >= MIN_FROZEN_COUNT => checks.frozen_count = Some(count),
+                _ => self.report(
+                    &frozen.span(),
+                    format!(
+                        "checks of `{interface}`: frozen is {}: give how many identical payloads in a row make a frozen stream (at least {MIN_FROZEN_COUNT}), or 0 (off)",
+                        frozen.get_ref()
+                    ),
+                ),
+            }
+        }
+        if let Some(on_failure) = raw.on_failure {
+            checks.on_failure = on_failure;
+        }
+        checks
     }
 
     /// The service, and the places of its required interfaces.

@@ -15,6 +15,13 @@
 //! | `out-of-service` | stops publishing; declares itself out of service (keeps its heartbeat) |
 //! | `stall` | hangs for ever inside its tick: no data, no heartbeat, no reaction to SIGTERM |
 //! | `crash` | aborts (SIGABRT), at once and again after every restart |
+//! | `garbage` | publishes scans of junk: readings beyond the maximum range, negative ones |
+//! | `nan` | publishes scans with NaN readings |
+//! | `frozen` | publishes the same readings again and again (new headers, no noise) |
+//! | `slow` | publishes one tick in three (heartbeats go on) |
+//!
+//! The last four keep the process healthy by every other measure (heartbeats, declared
+//! health): only the broker's checks of the data can see them.
 //!
 //! ```toml
 //! [services.parameters]
@@ -246,6 +253,14 @@ pub enum Fault {
     Stall,
     /// Abort.
     Crash,
+    /// Publish junk scans.
+    Garbage,
+    /// Publish NaN readings.
+    Nan,
+    /// Publish the same readings every tick.
+    Frozen,
+    /// Publish one tick in three.
+    Slow,
 }
 
 impl Fault {
@@ -258,6 +273,10 @@ impl Fault {
             "out-of-service" => Some(Self::OutOfService),
             "stall" => Some(Self::Stall),
             "crash" => Some(Self::Crash),
+            "garbage" => Some(Self::Garbage),
+            "nan" => Some(Self::Nan),
+            "frozen" => Some(Self::Frozen),
+            "slow" => Some(Self::Slow),
             _ => None,
         }
     }
@@ -271,6 +290,10 @@ pub struct TestRange {
     period_ns: i64,
     provides_distance: bool,
     provides_range_finder: bool,
+    /// The readings a `frozen` fault repeats, taken at its first tick.
+    frozen: Option<Vec<f64>>,
+    /// Ticks since the service started (a `slow` fault publishes on one in three).
+    ticks: u64,
 }
 
 /// Builds a `test-range` service from its robot-file entry.
@@ -301,6 +324,8 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
         provides_range_finder: provides("RangeFinder"),
         params,
         period_ns,
+        frozen: None,
+        ticks: 0,
     }))
 }
 
@@ -312,7 +337,7 @@ impl TestRange {
         match std::fs::read_to_string(path) {
             Ok(text) => Fault::parse(&text).unwrap_or_else(|| {
                 ctx.warn(&format!(
-                    "fault file {} says `{}`: expected ok, degraded, out-of-service, stall or crash",
+                    "fault file {} says `{}`: expected ok, degraded, out-of-service, stall, crash, garbage, nan, frozen or slow",
                     path.display(),
                     text.trim()
                 ));
@@ -342,7 +367,8 @@ impl Service for TestRange {
     }
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        match self.fault(ctx) {
+        let fault = self.fault(ctx);
+        match fault {
             Fault::Crash => {
                 ctx.warn("fault file says crash: aborting");
                 std::process::abort();
@@ -361,9 +387,41 @@ impl Service for TestRange {
                 return;
             }
             Fault::Degraded => ctx.set_health(Health::Degraded("fault file says degraded".into())),
-            Fault::None => ctx.set_health(Health::Ok),
+            Fault::None | Fault::Garbage | Fault::Nan | Fault::Frozen | Fault::Slow => {
+                ctx.set_health(Health::Ok);
+            }
         }
-        let ranges = self.scanner.ranges(ctx.rng());
+        self.ticks = self.ticks.wrapping_add(1);
+        let mut ranges = self.scanner.ranges(ctx.rng());
+        match fault {
+            Fault::Slow if !self.ticks.is_multiple_of(3) => return,
+            Fault::Nan => {
+                for r in ranges.iter_mut().step_by(7) {
+                    *r = f64::NAN;
+                }
+            }
+            Fault::Frozen => ranges.clone_from(self.frozen.get_or_insert(ranges.clone())),
+            _ => {}
+        }
+        if fault != Fault::Frozen {
+            self.frozen = None;
+        }
+        if fault == Fault::Garbage {
+            // Junk as a broken driver sends it, in a well-formed message (the harness
+            // refuses to publish one whose counts disagree): readings far beyond the
+            // maximum range and negative ones.
+            let junk = self.params.max_range_m * 1e6;
+            for (i, r) in ranges.iter_mut().enumerate() {
+                *r = if i % 2 == 0 { *r + junk } else { -*r - 1.0 };
+            }
+            if self.provides_range_finder {
+                let mut scan = self.scanner.range_finder(ranges);
+                if let Err(e) = ctx.publish(&mut scan) {
+                    ctx.warn(&format!("cannot publish RangeFinder: {e}"));
+                }
+            }
+            return;
+        }
         if self.provides_distance {
             let mut distance = self.scanner.distance(&ranges);
             if let Err(e) = ctx.publish(&mut distance) {
@@ -468,6 +526,10 @@ mod tests {
         check("stall", Some(Fault::Stall));
         check(" out-of-service ", Some(Fault::OutOfService));
         check("", Some(Fault::None));
+        check("garbage", Some(Fault::Garbage));
+        check("nan", Some(Fault::Nan));
+        check("frozen\n", Some(Fault::Frozen));
+        check("slow", Some(Fault::Slow));
         check("explode", None);
     }
 

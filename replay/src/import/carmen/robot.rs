@@ -114,6 +114,15 @@ fn header(t: &mut String, report: &ImportReport) {
         period_ms.max(1),
         (5 * period_ms).max(1)
     );
+    // The declared rates are the log's means; a logger's timing is irregular (gaps of a
+    // second), and no broker judged it live: a replay must not fail its sensors on it.
+    for interface in ["RangeFinder", "Egomotion"] {
+        let _ = writeln!(
+            t,
+            "# The log's rate is a mean over an irregular logger: not checked.\n\
+             [broker.interfaces.{interface}]\nchecks = {{ rate = 0.0 }}\n"
+        );
+    }
 }
 
 fn sources(t: &mut String, report: &ImportReport) {

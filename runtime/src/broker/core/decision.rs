@@ -69,6 +69,12 @@ pub enum Action {
         /// Which restart within its policy's window, from 1.
         attempt: u32,
     },
+    /// A record only: a check of the service's data failed and the robot file says to
+    /// degrade it rather than fail it; its clients stay bound.
+    ServiceDegraded {
+        /// The service.
+        service: String,
+    },
     /// A record only: the service failed for good (beyond its restart policy, stalled, or
     /// could not be started); it is not chosen again until retried or restarted.
     ServiceFailed {
@@ -92,7 +98,9 @@ impl Action {
     pub fn is_for_driver(&self) -> bool {
         !matches!(
             self,
-            Self::RestartScheduled { .. } | Self::ServiceFailed { .. }
+            Self::RestartScheduled { .. }
+                | Self::ServiceFailed { .. }
+                | Self::ServiceDegraded { .. }
         )
     }
 }
@@ -144,6 +152,7 @@ impl fmt::Display for Action {
                 service, attempt, ..
             } => write!(f, "restart {service} (attempt {attempt})"),
             Self::ServiceFailed { service } => write!(f, "{service} failed"),
+            Self::ServiceDegraded { service } => write!(f, "{service} degraded"),
         }
     }
 }

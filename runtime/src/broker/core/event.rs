@@ -104,6 +104,19 @@ pub enum Event {
         /// What the system said.
         error: String,
     },
+    /// A check of what a provider publishes on an interface failed (the broker's health
+    /// module: rate, freshness, values, frozen). The robot file says whether the provider
+    /// is then failed (its clients move, as for a stall) or degraded.
+    DataCheckFailed {
+        /// The service.
+        service: String,
+        /// The interface whose data failed the check.
+        interface: String,
+        /// The check's name (`rate`, `freshness`, `values`, `frozen`).
+        check: String,
+        /// What the check saw.
+        reason: String,
+    },
     /// Time passed; the driver sends it when [`BrokerCore::next_deadline`](super::BrokerCore::next_deadline) is reached.
     TimePassed,
     /// The operator stops a service (it is not chosen again until restarted).
@@ -131,6 +144,15 @@ impl fmt::Display for Event {
             Self::Heartbeat { service, health } => write!(f, "{service} heartbeat: {health}"),
             Self::ProcessExited { service, status } => write!(f, "{service} exited with {status}"),
             Self::StartFailed { service, error } => write!(f, "{service} could not start: {error}"),
+            Self::DataCheckFailed {
+                service,
+                interface,
+                check,
+                reason,
+            } => write!(
+                f,
+                "{service} failed its {check} check on {interface}: {reason}"
+            ),
             Self::TimePassed => write!(f, "time passed"),
             Self::StopService { service } => write!(f, "operator stops {service}"),
             Self::RestartService { service } => write!(f, "operator restarts {service}"),

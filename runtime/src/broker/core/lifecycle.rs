@@ -4,7 +4,7 @@
 use super::decision::fmt_time;
 use super::service::{AfterStop, ServiceState};
 use super::{Action, BrokerCore, ExitStatus, Health, Need};
-use crate::robot::StartMode;
+use crate::robot::{OnCheckFailure, StartMode};
 use crate::supervise::RestartDecision;
 
 impl BrokerCore {
@@ -37,7 +37,57 @@ impl BrokerCore {
                 last_heartbeat_ns: now,
             };
             if let Some(health) = health {
-                entry.health = health.clone();
+                // A degradation the data showed stays until the process goes, whatever the
+                // service says of itself; out of service still wins.
+                entry.health = match (&entry.data_degraded, health) {
+                    (Some(cause), Health::Ok) => Health::Degraded(cause.clone()),
+                    _ => health.clone(),
+                };
+            }
+        }
+    }
+
+    /// A failed check of a provider's data: failed as a stall is, or degraded.
+    pub(super) fn data_check_failed(
+        &mut self,
+        service: &str,
+        interface: &str,
+        check: &str,
+        reason: &str,
+    ) {
+        let on_failure = self
+            .on_check_failure
+            .get(interface)
+            .copied()
+            .unwrap_or_default();
+        let Some(entry) = self.services.get_mut(service) else {
+            return;
+        };
+        // Only a running process's data counts: a late report about a process that has
+        // gone since says nothing of the next one.
+        if !matches!(
+            entry.state,
+            ServiceState::Starting { .. } | ServiceState::Ready { .. }
+        ) {
+            return;
+        }
+        let cause = format!("{service} failed its {check} check on {interface}: {reason}");
+        match on_failure {
+            OnCheckFailure::Failed => self.fail(service, &cause, true, true),
+            OnCheckFailure::Degraded => {
+                if entry.data_degraded.is_some() {
+                    return;
+                }
+                entry.data_degraded = Some(cause.clone());
+                if entry.health == Health::Ok {
+                    entry.health = Health::Degraded(cause.clone());
+                }
+                self.decide(
+                    Action::ServiceDegraded {
+                        service: service.to_owned(),
+                    },
+                    format!("{cause}; the robot file says to degrade it: its clients stay"),
+                );
             }
         }
     }
@@ -177,6 +227,7 @@ impl BrokerCore {
         }
         entry.state = ServiceState::Starting { since_ns: now };
         entry.health = Health::Ok;
+        entry.data_degraded = None;
         self.decide(
             Action::Start {
                 service: service.to_owned(),

@@ -14,6 +14,10 @@
 //!   provider, started if needed.
 //! - A provider that misses its heartbeat deadline (or its startup deadline) has stalled: it
 //!   has failed, it is stopped (the driver kills it) and its clients are rebound at once.
+//! - A provider whose published data fails a check (the broker's health module: rate,
+//!   freshness, values, frozen) has failed as a stalled one has (stopped, clients rebound at
+//!   once, retried as configured), or, where the robot file says `on_failure =
+//!   "degraded"`, is degraded: recorded and shown, its clients stay.
 //! - A provider that declares itself out of service loses its clients at once, but its
 //!   process is kept: it knows best when it recovers (a blocked laser), keeps sending
 //!   heartbeats (so a stall is still seen), and becomes a candidate again when it declares
@@ -65,7 +69,7 @@ pub use snapshot::{Binding, ServiceStatus, Snapshot};
 
 use service::{Entry, ms_to_ns};
 
-use crate::robot::Robot;
+use crate::robot::{OnCheckFailure, Robot};
 
 /// The broker's decision core. Build it from a robot description with [`BrokerCore::new`],
 /// feed it [`Event`]s with [`BrokerCore::handle`], wake it at [`BrokerCore::next_deadline`].
@@ -77,6 +81,8 @@ pub struct BrokerCore {
     fail_back_default: bool,
     fail_back: BTreeMap<String, bool>,
     retry_failed_after_ns: Option<i64>,
+    /// What a failed data check does, per interface (the robot file's `checks`).
+    on_check_failure: BTreeMap<String, OnCheckFailure>,
     /// Client, then interface, then its provider (`None` while it waits for one).
     clients: BTreeMap<String, BTreeMap<String, Option<String>>>,
     /// Interfaces for which help was asked and no provider came back since.
@@ -99,6 +105,15 @@ impl BrokerCore {
             fail_back_default: robot.broker.fail_back,
             fail_back: robot.broker.fail_back_per_interface.clone(),
             retry_failed_after_ns: robot.broker.retry_failed_after_ms.map(ms_to_ns),
+            on_check_failure: robot
+                .services
+                .iter()
+                .flat_map(|s| &s.provides)
+                .map(|p| {
+                    let checks = robot.broker.checks_for(&p.interface);
+                    (p.interface.clone(), checks.on_failure)
+                })
+                .collect(),
             clients: BTreeMap::new(),
             help_asked: BTreeSet::new(),
             out: Vec::new(),
@@ -124,6 +139,15 @@ impl BrokerCore {
     #[must_use]
     pub fn next_deadline(&self) -> Option<i64> {
         self.services.values().filter_map(Entry::deadline).min()
+    }
+
+    /// Whether `service`'s published data is to be checked now: it is ready and not out of
+    /// service (a provider that says it cannot serve is expected to fall silent).
+    #[must_use]
+    pub fn data_is_judged(&self, service: &str) -> bool {
+        self.services
+            .get(service)
+            .is_some_and(Entry::ready_to_serve)
     }
 
     /// Whether the robot has a service with this name (for the operator's commands).
@@ -153,6 +177,12 @@ impl BrokerCore {
             Event::StartFailed { service, error } => self.start_failed(service, error),
             Event::StopService { service } => self.operator_stop(service),
             Event::RestartService { service } => self.operator_restart(service),
+            Event::DataCheckFailed {
+                service,
+                interface,
+                check,
+                reason,
+            } => self.data_check_failed(service, interface, check, reason),
         }
     }
 }

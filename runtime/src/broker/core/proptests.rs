@@ -96,6 +96,13 @@ fn event() -> impl Strategy<Value = Event> {
         2 => Just(Event::TimePassed),
         1 => name(SERVICES).prop_map(|service| Event::StopService { service }),
         1 => name(SERVICES).prop_map(|service| Event::RestartService { service }),
+        1 => (name(SERVICES), name(INTERFACES), name(&["rate", "values", "frozen"]), ".{0,8}")
+            .prop_map(|(service, interface, check, reason)| Event::DataCheckFailed {
+                service,
+                interface,
+                check,
+                reason,
+            }),
     ]
 }
 

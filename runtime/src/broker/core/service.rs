@@ -77,6 +77,8 @@ pub(super) struct Entry {
     pub health: Health,
     pub restarts: u32,
     pub last_failure: Option<String>,
+    /// Why a data check degraded the current process, if one did.
+    pub data_degraded: Option<String>,
 }
 
 /// Milliseconds as nanoseconds; saturating, and at least 1 ns so that every deadline is
@@ -111,6 +113,7 @@ impl Entry {
             health: Health::Ok,
             restarts: 0,
             last_failure: None,
+            data_degraded: None,
         }
     }
 

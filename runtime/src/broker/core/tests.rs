@@ -196,6 +196,15 @@ fn start_failed(service: &str, error: &str) -> Event {
         error: s(error),
     }
 }
+fn bad_data(service: &str, check: &str, reason: &str) -> Event {
+    Event::DataCheckFailed {
+        service: s(service),
+        interface: s("RangeFinder"),
+        check: s(check),
+        reason: s(reason),
+    }
+}
+
 fn tick() -> Event {
     Event::TimePassed
 }
@@ -1137,4 +1146,89 @@ fn the_same_events_give_the_same_decisions() {
             .collect::<Vec<_>>()
     };
     assert_eq!(run(), run());
+}
+
+#[test]
+fn a_failed_data_check_fails_the_provider_and_rebinds_at_once() {
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (
+                    20,
+                    bad_data("laser", "values", "`ranges[3]` is NaN, not a finite number"),
+                ),
+                (21, killed("laser")),
+                (30, ready("sonar")),
+                // A late report about a process that is gone changes nothing.
+                (31, bad_data("laser", "rate", "late")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser failed its values check on RangeFinder: `ranges[3]` is NaN, not a finite number
+              laser failed: laser failed its values check on RangeFinder: `ranges[3]` is NaN, not a finite number
+              stop laser: laser has failed: its process must go
+              start sonar: laser failed its values check on RangeFinder: `ranges[3]` is NaN, not a finite number; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser failed its values check on RangeFinder: `ranges[3]` is NaN, not a finite number; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @21 laser exited with signal 9
+            @30 sonar ready
+            @31 laser failed its rate check on RangeFinder: late
+            == state
+            service laser: failed, health ok, 0 restarts, 0 clients, last failure: laser failed its values check on RangeFinder: `ranges[3]` is NaN, not a finite number
+            service sonar: ready, last heartbeat 30 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 80 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_data_check_the_robot_file_degrades_keeps_the_clients() {
+    let robot = LASER_SONAR
+        .replacen("[broker]", "[broker]\ndata_checks = true", 1)
+        .replacen(
+            "[[services]]",
+            "[broker.interfaces.RangeFinder]\nchecks = { on_failure = \"degraded\" }\n[[services]]",
+            1,
+        );
+    check(
+        &robot,
+        &with(
+            laser_serving(),
+            &[
+                (
+                    20,
+                    bad_data("laser", "frozen", "5 identical payloads in a row"),
+                ),
+                // Once per process; the service's own "ok" does not hide it.
+                (
+                    25,
+                    bad_data("laser", "frozen", "5 identical payloads in a row"),
+                ),
+                (30, beat("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @20 laser failed its frozen check on RangeFinder: 5 identical payloads in a row
+              laser degraded: laser failed its frozen check on RangeFinder: 5 identical payloads in a row; the robot file says to degrade it: its clients stay
+            @25 laser failed its frozen check on RangeFinder: 5 identical payloads in a row
+            @30 laser heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 30 ms, health degraded (laser failed its frozen check on RangeFinder: 5 identical payloads in a row), 0 restarts, 1 clients
+            service sonar: idle, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 80 ms
+        "#]],
+    );
 }
