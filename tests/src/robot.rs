@@ -33,6 +33,8 @@ pub struct TestRobot<'a> {
     /// Whether each provision declares its `data_rate_hz` (the service's rate), which turns
     /// the broker's rate check on for RangeFinder.
     pub declare_rate: bool,
+    /// Extra `[broker]` lines (the retry of failed services).
+    pub broker_extra: &'a str,
     /// Extra TOML appended (more services).
     pub extra: &'a str,
 }
@@ -51,6 +53,7 @@ impl Default for TestRobot<'_> {
             rate_hz: 50.0,
             data_checks: false,
             declare_rate: false,
+            broker_extra: "",
             extra: "",
         }
     }
@@ -71,6 +74,7 @@ startup_deadline_ms = 10000
 fail_back = {fail_back}
 data_checks = {data_checks}
 restart = {{ max_restarts = 3, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }}
+{broker_extra}
 
 [[services]]
 name = "laser"
@@ -97,6 +101,7 @@ start_delay_ms = {start_delay}
         rate = robot.rate_hz,
         start_delay = robot.laser_start_delay_ms,
         declared = declared_rate(robot),
+        broker_extra = robot.broker_extra,
     );
     if let Some(fault) = robot.laser_fault_file {
         let _ = writeln!(text, "fault_file = {:?}", fault.display().to_string());

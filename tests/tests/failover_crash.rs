@@ -107,3 +107,50 @@ fn laser_killed_with_sigkill_beyond_its_restart_limit_rebinds_the_client_to_sona
     assert!(report.contains("service laser: failed"), "{report}");
     up.stop();
 }
+
+#[test]
+fn a_laser_given_up_is_retried_after_its_cool_down_and_gets_its_client_back_once_proven() {
+    let robot = test_robot(&TestRobot {
+        laser_max_restarts: 0,
+        fail_back: true,
+        broker_extra: "retry_failed_after_ms = 300\nretry_probation_ms = 600",
+        ..TestRobot::default()
+    });
+    let mut up = Up::start("retry", &robot);
+    up.wait_line("broker up");
+    let mut decisions = Decisions::subscribe(&up.namespace);
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut app = RangeApp::connect(&ipc);
+    app.wait_for("laser", 5);
+
+    // No restart allowed: one kill fails the laser, and the client goes to the sonar.
+    kill_laser(&up);
+    let failed = decisions.wait_for("the laser given up", is("service-failed", "laser"));
+    assert!(
+        failed.reason.contains("it will be retried at"),
+        "{}",
+        failed.reason
+    );
+    decisions.wait_for("the client moved to the sonar", |d| {
+        d.action == "rebind" && d.client == "app" && d.to_service == "sonar"
+    });
+    app.wait_for("sonar", 5);
+
+    // After the cool-down the laser runs again, on trial: the client stays on the sonar
+    // until the laser has stayed up through its probation, then fails back.
+    let retried = decisions.wait_for("the laser retried", is("start", "laser"));
+    assert!(retried.reason.contains("retry laser"), "{}", retried.reason);
+    assert!(retried.at_ns - failed.at_ns >= 300_000_000);
+    let back = decisions.wait_for("the client back on the laser", |d| {
+        d.action == "rebind" && d.client == "app" && d.to_service == "laser"
+    });
+    assert!(back.reason.starts_with("fail back"), "{}", back.reason);
+    assert!(
+        back.at_ns - retried.at_ns >= 600_000_000,
+        "the client failed back before the laser's probation was over:\n{}",
+        decisions.describe()
+    );
+    app.wait_for("laser", 5);
+    assert!(up.status().contains("client app RangeFinder -> laser"));
+    up.stop();
+}

@@ -26,7 +26,7 @@ pub fn status_reply(
             ServiceReport {
                 name: s.name.clone(),
                 state: state_word(&s.state).to_string(),
-                state_detail: s.state.to_string(),
+                state_detail: s.detail(),
                 health: health.to_string(),
                 health_reason: health_reason.to_owned(),
                 restarts: s.restarts,
@@ -137,6 +137,7 @@ mod tests {
                     restarts: 3,
                     last_failure: Some("crashed 3 times".into()),
                     clients: 0,
+                    probation_until_ns: None,
                 },
                 ServiceStatus {
                     name: "sonar".into(),
@@ -145,6 +146,7 @@ mod tests {
                     restarts: 0,
                     last_failure: None,
                     clients: 1,
+                    probation_until_ns: None,
                 },
             ],
             bindings: vec![

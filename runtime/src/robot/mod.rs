@@ -17,7 +17,9 @@
 //! startup_deadline_ms = 5000      # default: time from start to the first heartbeat
 //! fail_back = false               # default for every interface
 //! restart = { max_restarts = 3, window_ms = 10000, backoff_initial_ms = 50, backoff_max_ms = 2000 }
-//! # retry_failed_after_ms = 60000 # optional: start a failed service again after this time
+//! # retry_failed_after_ms = 10000 # optional: try a failed service again after this cool-down,
+//! # retry_failed_max_ms = 160000   # doubled each time a retry fails again, up to this (16x)
+//! # retry_probation_ms = 5000      # a retried service proves itself: clients fail back after
 //!
 //! data_checks = true              # check what providers publish (default: false)
 //!
@@ -122,15 +124,44 @@ pub struct BrokerSettings {
     pub fail_back_per_interface: BTreeMap<String, bool>,
     /// The default restart policy of a service.
     pub restart: RestartPolicy,
-    /// When set, a service that failed (gave up restarting, or stalled) is started again
-    /// after this long, in milliseconds; a service that could not be started at all is not.
-    pub retry_failed_after_ms: Option<u64>,
+    /// When set, a service that failed (gave up restarting, or stalled) is tried again
+    /// after a cool-down; a service that could not be started at all is not.
+    pub retry: Option<RetryPolicy>,
     /// Whether the broker checks the data providers publish (`[broker] data_checks`, off
     /// unless the robot file turns it on: the robots of this repository were tuned
     /// without it, see ARCHITECTURE.md).
     pub data_checks: bool,
     /// Per-interface data checks, where the robot file overrides the interface's default.
     pub checks_per_interface: BTreeMap<String, DataChecks>,
+}
+
+/// When and how a failed service gets another chance (`[broker]`'s `retry_failed_after_ms`,
+/// `retry_failed_max_ms` and `retry_probation_ms`): as systemd's `StartLimitIntervalSec`
+/// lets a unit start again once its interval is over, and an OTP supervisor escalates, the
+/// cool-down doubles each time a retried service fails again before it has proven itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RetryPolicy {
+    /// The first cool-down, from the failure to the retry, in milliseconds.
+    pub after_ms: u64,
+    /// The longest cool-down, however often the retries failed, in milliseconds.
+    pub max_ms: u64,
+    /// How long a retried service must stay up before clients fail back to it and its
+    /// cool-down starts again from `after_ms`, in milliseconds.
+    pub probation_ms: u64,
+}
+
+impl RetryPolicy {
+    /// The longest cool-down when the robot file gives only the first: four doublings.
+    pub const DEFAULT_MAX_FACTOR: u64 = 16;
+    /// The probation when the robot file gives none, in milliseconds.
+    pub const DEFAULT_PROBATION_MS: u64 = 5000;
+
+    /// The cool-down before retry number `retries + 1` (`retries` retries failed before it).
+    #[must_use]
+    pub fn cool_down_ms(&self, retries: u32) -> u64 {
+        let factor = 1u64.checked_shl(retries.min(32)).unwrap_or(u64::MAX);
+        self.after_ms.saturating_mul(factor).min(self.max_ms)
+    }
 }
 
 impl BrokerSettings {
@@ -166,7 +197,7 @@ impl Default for BrokerSettings {
             fail_back: false,
             fail_back_per_interface: BTreeMap::new(),
             restart: RestartPolicy::default(),
-            retry_failed_after_ms: None,
+            retry: None,
             data_checks: false,
             checks_per_interface: BTreeMap::new(),
         }

@@ -40,6 +40,8 @@ pub(super) struct RawBroker {
     pub interfaces: BTreeMap<Spanned<String>, RawInterfaceSettings>,
     pub restart: Option<Spanned<RestartPolicy>>,
     pub retry_failed_after_ms: Option<Spanned<i64>>,
+    pub retry_failed_max_ms: Option<Spanned<i64>>,
+    pub retry_probation_ms: Option<Spanned<i64>>,
     pub data_checks: Option<bool>,
 }
 

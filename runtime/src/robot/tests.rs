@@ -41,7 +41,7 @@ fn summary(robot: &Robot) -> String {
         b.startup_deadline_ms,
         b.fail_back,
         b.fail_back_per_interface,
-        b.retry_failed_after_ms,
+        b.retry,
         b.restart,
     );
     for s in &robot.services {
@@ -132,7 +132,7 @@ parameters = { speed_m_s = 0.3 }
 "#,
         &expect![[r#"
             robot mini ()
-            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back true {"RangeFinder": false}, retry Some(60000), restart RestartPolicy { max_restarts: 5, window_ms: 1000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back true {"RangeFinder": false}, retry Some(RetryPolicy { after_ms: 60000, max_ms: 960000, probation_ms: 5000 }), restart RestartPolicy { max_restarts: 5, window_ms: 1000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
             service laser Command(["/usr/bin/laserd", "--port", "/dev/ttyS0"]) start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 5, window_ms: 1000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
               provides RangeFinder quality 10 cost 0 rate None
               environment {"RUST_LOG": "debug"}
@@ -195,6 +195,36 @@ heartbeat_deadline = 50
 "#,
         &expect![[r#"
             robot.toml:8:1: unknown field `heartbeat_deadline`, expected one of `name`, `description`, `kind`, `command`, `parameters`, `provides`, `requires`, `restart`, `heartbeat_deadline_ms`, `startup_deadline_ms`, `start`, `environment`
+        "#]],
+    );
+}
+
+#[test]
+fn the_retry_of_failed_services_is_checked_where_it_is_written() {
+    let robot = |broker: &str| {
+        format!(
+            "[robot]\nname = \"x\"\n[broker]\n{broker}\n[[services]]\nname = \"laser\"\nkind = \"test-range\"\nstart = \"always\"\nprovides = []\n"
+        )
+    };
+    check(
+        &robot("retry_failed_after_ms = 2000\nretry_failed_max_ms = 1000\nretry_probation_ms = 0"),
+        &expect![[r#"
+            robot.toml:5:23: retry_failed_max_ms 1000 is shorter than retry_failed_after_ms 2000: the longest cool-down cannot be shorter than the first
+            robot.toml:6:22: retry_probation_ms is 0: give a positive number of milliseconds
+        "#]],
+    );
+    check(
+        &robot("retry_probation_ms = 3000"),
+        &expect![[r#"
+            robot.toml:4:22: retry_probation_ms means nothing without retry_failed_after_ms, the first cool-down: give it too, or remove retry_probation_ms
+        "#]],
+    );
+    check(
+        &robot("retry_failed_after_ms = 2000"),
+        &expect![[r#"
+            robot x ()
+            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back false {}, retry Some(RetryPolicy { after_ms: 2000, max_ms: 32000, probation_ms: 5000 }), restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+            service laser Kind("test-range") start Always: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
         "#]],
     );
 }

@@ -10,8 +10,8 @@ use toml::Spanned;
 use super::error::{Problem, RobotError, line_column};
 use super::raw::{RawBroker, RawChecks, RawProvision, RawRobot, RawService};
 use super::{
-    BrokerSettings, DataChecks, Kinds, Known, Launch, MIN_FROZEN_COUNT, Provision, Robot,
-    SCORE_RANGE, ServiceSpec, StartMode,
+    BrokerSettings, DataChecks, Kinds, Known, Launch, MIN_FROZEN_COUNT, Provision, RetryPolicy,
+    Robot, SCORE_RANGE, ServiceSpec, StartMode,
 };
 use crate::supervise::RestartPolicy;
 
@@ -110,6 +110,7 @@ impl Checker<'_> {
     }
 
     fn broker(&mut self, raw: RawBroker) -> BrokerSettings {
+        let retry = self.retry(&raw);
         let heartbeat_period_ms = raw
             .heartbeat_period_ms
             .and_then(|v| self.positive_ms(&v, "heartbeat_period_ms"))
@@ -127,9 +128,6 @@ impl Checker<'_> {
             Some(policy) => self.restart_policy(&policy),
             None => RestartPolicy::default(),
         };
-        let retry_failed_after_ms = raw
-            .retry_failed_after_ms
-            .and_then(|v| self.positive_ms(&v, "retry_failed_after_ms"));
         let mut fail_back_per_interface = BTreeMap::new();
         let mut checks_per_interface = BTreeMap::new();
         for (interface, settings) in raw.interfaces {
@@ -149,10 +147,58 @@ impl Checker<'_> {
             fail_back: raw.fail_back,
             fail_back_per_interface,
             restart,
-            retry_failed_after_ms,
+            retry,
             data_checks: raw.data_checks.unwrap_or(false),
             checks_per_interface,
         }
+    }
+
+    /// The retry of failed services: none unless the file gives its first cool-down.
+    fn retry(&mut self, raw: &RawBroker) -> Option<RetryPolicy> {
+        let max_ms = raw
+            .retry_failed_max_ms
+            .as_ref()
+            .map(|v| (v, self.positive_ms(v, "retry_failed_max_ms")));
+        let probation_ms = raw
+            .retry_probation_ms
+            .as_ref()
+            .map(|v| self.positive_ms(v, "retry_probation_ms"));
+        let Some(after) = &raw.retry_failed_after_ms else {
+            for (key, value) in [
+                ("retry_failed_max_ms", &raw.retry_failed_max_ms),
+                ("retry_probation_ms", &raw.retry_probation_ms),
+            ] {
+                if let Some(value) = value {
+                    self.report(
+                        &value.span(),
+                        format!("{key} means nothing without retry_failed_after_ms, the first cool-down: give it too, or remove {key}"),
+                    );
+                }
+            }
+            return None;
+        };
+        let after_ms = self.positive_ms(after, "retry_failed_after_ms")?;
+        let max_ms = match max_ms {
+            None => after_ms.saturating_mul(RetryPolicy::DEFAULT_MAX_FACTOR),
+            Some((_, None)) => return None,
+            Some((value, Some(max_ms))) if max_ms < after_ms => {
+                self.report(
+                    &value.span(),
+                    format!("retry_failed_max_ms {max_ms} is shorter than retry_failed_after_ms {after_ms}: the longest cool-down cannot be shorter than the first"),
+                );
+                return None;
+            }
+            Some((_, Some(max_ms))) => max_ms,
+        };
+        let probation_ms = match probation_ms {
+            None => RetryPolicy::DEFAULT_PROBATION_MS,
+            Some(ms) => ms?,
+        };
+        Some(RetryPolicy {
+            after_ms,
+            max_ms,
+            probation_ms,
+        })
     }
 
     /// An interface's data checks: its defaults with the file's overrides, each checked.

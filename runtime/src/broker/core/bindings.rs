@@ -157,7 +157,7 @@ impl BrokerCore {
         else {
             return;
         };
-        let Some((best, offer)) = self.best(client, interface, Entry::ready_to_serve) else {
+        let Some((best, offer)) = self.best(client, interface, Entry::proven) else {
             return;
         };
         let better = offer.quality > current_offer.quality

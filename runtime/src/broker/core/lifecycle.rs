@@ -2,7 +2,7 @@
 //! restarted by the operator, and the deadlines that drive it.
 
 use super::decision::fmt_time;
-use super::service::{AfterStop, ServiceState};
+use super::service::{AfterStop, Probation, ServiceState, ms_to_ns};
 use super::{Action, BrokerCore, ExitStatus, Health, Need};
 use crate::robot::{OnCheckFailure, StartMode};
 use crate::supervise::RestartDecision;
@@ -33,6 +33,13 @@ impl BrokerCore {
             entry.state,
             ServiceState::Starting { .. } | ServiceState::Ready { .. }
         ) {
+            if entry.probation == Probation::Retried
+                && let Some(retry) = self.retry
+            {
+                entry.probation = Probation::Until {
+                    until_ns: now.saturating_add(ms_to_ns(retry.probation_ms)),
+                };
+            }
             entry.state = ServiceState::Ready {
                 last_heartbeat_ns: now,
             };
@@ -122,6 +129,10 @@ impl BrokerCore {
         let Some(entry) = self.services.get_mut(service) else {
             return;
         };
+        // A process restarted during its trial is on trial again from its start.
+        if entry.probation != Probation::Passed {
+            entry.probation = Probation::Retried;
+        }
         match entry.tracker.on_failure(now) {
             RestartDecision::RestartAt { at_ns, attempt } => {
                 entry.state = ServiceState::Restarting { at_ns, attempt };
@@ -169,14 +180,19 @@ impl BrokerCore {
     /// (`process_alive`: it stalled, rather than exited or never started).
     pub(super) fn fail(&mut self, service: &str, cause: &str, retry: bool, process_alive: bool) {
         let now = self.now_ns;
-        let retry_at_ns = if retry {
-            self.retry_failed_after_ns.map(|d| now.saturating_add(d))
-        } else {
-            None
-        };
+        let policy = self.retry;
         let Some(entry) = self.services.get_mut(service) else {
             return;
         };
+        // A retry that failed on trial doubles the next cool-down.
+        if entry.probation != Probation::Passed {
+            entry.retries = entry.retries.saturating_add(1);
+            entry.probation = Probation::Passed;
+        }
+        let cool_down_ms = policy
+            .filter(|_| retry)
+            .map(|p| p.cool_down_ms(entry.retries));
+        let retry_at_ns = cool_down_ms.map(|ms| now.saturating_add(ms_to_ns(ms)));
         entry.state = if process_alive {
             ServiceState::Stopping {
                 then: AfterStop::Failed { retry_at_ns },
@@ -186,12 +202,17 @@ impl BrokerCore {
         };
         entry.last_failure = Some(cause.to_owned());
         let always = entry.start == StartMode::Always;
-        let retry_note = match retry_at_ns {
-            Some(at) => format!("; it will be retried at {}", fmt_time(at)),
-            None if !retry => {
+        let retries = entry.retries;
+        let retry_note = match (retry_at_ns, cool_down_ms) {
+            (Some(at), Some(ms)) if retries > 0 => format!(
+                "; it will be retried at {} (a cool-down of {ms} ms; retries that failed on trial: {retries})",
+                fmt_time(at)
+            ),
+            (Some(at), _) => format!("; it will be retried at {}", fmt_time(at)),
+            (None, _) if !retry => {
                 "; not retried, it would fail the same way: fix it, then restart it".to_owned()
             }
-            None => String::new(),
+            (None, _) => String::new(),
         };
         self.decide(
             Action::ServiceFailed {
@@ -268,7 +289,10 @@ impl BrokerCore {
         let Some(entry) = self.services.get_mut(service) else {
             return;
         };
+        // The operator vouches for it: no trial, no escalated cool-down.
         entry.tracker.reset();
+        entry.probation = Probation::Passed;
+        entry.retries = 0;
         match entry.state {
             ServiceState::Starting { .. } | ServiceState::Ready { .. } => {
                 entry.state = ServiceState::Stopping {
@@ -325,7 +349,16 @@ impl BrokerCore {
                     true,
                 );
             }
-            ServiceState::Ready { .. } => {
+            ServiceState::Ready { last_heartbeat_ns } => {
+                let stalled =
+                    last_heartbeat_ns.saturating_add(entry.heartbeat_deadline_ns) <= self.now_ns;
+                if !stalled {
+                    // Its probation is over and it stayed up: clients may fail back to it
+                    // (`reconcile`), and its next failure starts the cool-downs afresh.
+                    entry.probation = Probation::Passed;
+                    entry.retries = 0;
+                    return;
+                }
                 let ms = entry.heartbeat_deadline_ns / 1_000_000;
                 self.fail(
                     service,
@@ -342,7 +375,17 @@ impl BrokerCore {
             }
             ServiceState::Failed { .. } => {
                 entry.tracker.reset();
-                self.start(service, format!("retry {service}, failed long enough ago"));
+                entry.probation = Probation::Retried;
+                let note = self.retry.map_or_else(String::new, |p| {
+                    format!(
+                        "; clients fail back to it once it has stayed up {} ms",
+                        p.probation_ms
+                    )
+                });
+                self.start(
+                    service,
+                    format!("retry {service}, failed long enough ago{note}"),
+                );
             }
             ServiceState::Idle | ServiceState::Stopping { .. } | ServiceState::Stopped => {}
         }

@@ -32,7 +32,11 @@
 //!   asks for help, once per outage; the client stays waiting and is bound as soon as a
 //!   provider can serve again (operator restart, retry, recovery from out of service).
 //! - When `retry_failed_after_ms` is set, a service that failed by crashing or stalling is
-//!   started again after that time, with its failure history forgotten.
+//!   started again after that cool-down, with its restart history forgotten. It is then on
+//!   probation (`retry_probation_ms`): it serves clients that have no provider at once,
+//!   but clients fail back to it only once it has stayed up through its probation. Each
+//!   retry that fails again before that doubles the next cool-down, up to
+//!   `retry_failed_max_ms`; a probation passed starts it again from the first.
 //! - `standby` and `always` services start with the broker; an `always` service that fails
 //!   for good also asks for help. Services started on demand keep running when their
 //!   clients leave, as warm standbys, until the operator stops them.
@@ -67,9 +71,9 @@ pub use event::{Event, ExitStatus, Health};
 pub use service::{AfterStop, ServiceState};
 pub use snapshot::{Binding, ServiceStatus, Snapshot};
 
-use service::{Entry, ms_to_ns};
+use service::Entry;
 
-use crate::robot::{OnCheckFailure, Robot};
+use crate::robot::{OnCheckFailure, RetryPolicy, Robot};
 
 /// The broker's decision core. Build it from a robot description with [`BrokerCore::new`],
 /// feed it [`Event`]s with [`BrokerCore::handle`], wake it at [`BrokerCore::next_deadline`].
@@ -80,7 +84,7 @@ pub struct BrokerCore {
     boot_order: Vec<String>,
     fail_back_default: bool,
     fail_back: BTreeMap<String, bool>,
-    retry_failed_after_ns: Option<i64>,
+    retry: Option<RetryPolicy>,
     /// What a failed data check does, per interface (the robot file's `checks`).
     on_check_failure: BTreeMap<String, OnCheckFailure>,
     /// Client, then interface, then its provider (`None` while it waits for one).
@@ -104,7 +108,7 @@ impl BrokerCore {
             boot_order: robot.services.iter().map(|s| s.name.clone()).collect(),
             fail_back_default: robot.broker.fail_back,
             fail_back: robot.broker.fail_back_per_interface.clone(),
-            retry_failed_after_ns: robot.broker.retry_failed_after_ms.map(ms_to_ns),
+            retry: robot.broker.retry,
             on_check_failure: robot
                 .services
                 .iter()

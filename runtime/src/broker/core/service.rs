@@ -79,6 +79,24 @@ pub(super) struct Entry {
     pub last_failure: Option<String>,
     /// Why a data check degraded the current process, if one did.
     pub data_degraded: Option<String>,
+    /// Retries that failed again before passing their probation: the cool-down's doubling.
+    pub retries: u32,
+    /// Whether a retried service has yet to prove itself.
+    pub probation: Probation,
+}
+
+/// A retried service's trial: clients fail back to it only once it has stayed up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Probation {
+    /// Not on trial: an ordinary service, or one that passed.
+    Passed,
+    /// Retried; its process has not reported ready yet (or crashed and is restarted).
+    Retried,
+    /// Ready; on trial until `until_ns`.
+    Until {
+        /// When it has stayed up long enough.
+        until_ns: i64,
+    },
 }
 
 /// Milliseconds as nanoseconds; saturating, and at least 1 ns so that every deadline is
@@ -114,6 +132,8 @@ impl Entry {
             restarts: 0,
             last_failure: None,
             data_degraded: None,
+            retries: 0,
+            probation: Probation::Passed,
         }
     }
 
@@ -152,9 +172,22 @@ impl Entry {
         self.serves() || (self.state == ServiceState::Idle && !self.health.is_out_of_service())
     }
 
-    /// Whether it is ready now, healthy enough to take clients over (for fail back).
+    /// Whether it is ready now and not out of service.
     pub fn ready_to_serve(&self) -> bool {
         matches!(self.state, ServiceState::Ready { .. }) && !self.health.is_out_of_service()
+    }
+
+    /// Whether clients may fail back to it: ready, and not a retried service on trial.
+    pub fn proven(&self) -> bool {
+        self.ready_to_serve() && self.probation == Probation::Passed
+    }
+
+    /// When a retried service's probation ends, while it is on trial.
+    pub fn probation_until_ns(&self) -> Option<i64> {
+        match self.probation {
+            Probation::Until { until_ns } => Some(until_ns),
+            Probation::Passed | Probation::Retried => None,
+        }
     }
 
     /// When the core must next look at this service without being told.
@@ -164,7 +197,11 @@ impl Entry {
                 Some(since_ns.saturating_add(self.startup_deadline_ns))
             }
             ServiceState::Ready { last_heartbeat_ns } => {
-                Some(last_heartbeat_ns.saturating_add(self.heartbeat_deadline_ns))
+                let stall = last_heartbeat_ns.saturating_add(self.heartbeat_deadline_ns);
+                Some(
+                    self.probation_until_ns()
+                        .map_or(stall, |end| end.min(stall)),
+                )
             }
             ServiceState::Restarting { at_ns, .. } => Some(at_ns),
             ServiceState::Failed { retry_at_ns } => retry_at_ns,

@@ -35,6 +35,9 @@ pub struct ServiceStatus {
     pub last_failure: Option<String>,
     /// How many client bindings it has.
     pub clients: usize,
+    /// When a retried service's probation ends, while it is on trial (clients fail back
+    /// to it only after).
+    pub probation_until_ns: Option<i64>,
 }
 
 /// One client's interface in a [`Snapshot`].
@@ -76,12 +79,24 @@ impl BrokerCore {
                     .iter()
                     .filter(|b| b.service.as_ref() == Some(name))
                     .count(),
+                probation_until_ns: e.probation_until_ns(),
             })
             .collect();
         Snapshot {
             services,
             bindings,
             help_asked: self.help_asked.iter().cloned().collect(),
+        }
+    }
+}
+
+impl ServiceStatus {
+    /// Its state in words, with its probation while it is on trial.
+    #[must_use]
+    pub fn detail(&self) -> String {
+        match self.probation_until_ns {
+            Some(end) => format!("{}, on probation until {}", self.state, fmt_time(end)),
+            None => self.state.to_string(),
         }
     }
 }
@@ -114,10 +129,11 @@ impl fmt::Display for ServiceState {
 impl fmt::Display for Snapshot {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for s in &self.services {
+            write!(f, "service {}: {}", s.name, s.detail())?;
             write!(
                 f,
-                "service {}: {}, health {}, {} restarts, {} clients",
-                s.name, s.state, s.health, s.restarts, s.clients
+                ", health {}, {} restarts, {} clients",
+                s.health, s.restarts, s.clients
             )?;
             if let Some(why) = &s.last_failure {
                 write!(f, ", last failure: {why}")?;

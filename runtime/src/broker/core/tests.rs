@@ -995,7 +995,7 @@ fn a_service_asking_for_an_interface_it_provides_gets_another_provider() {
 }
 
 #[test]
-fn failed_services_are_retried_when_the_robot_says_so() {
+fn a_retried_service_that_dies_on_trial_gets_no_clients_back() {
     check(
         &fail_back_robot("retry_failed_after_ms = 100\nfail_back = true"),
         &with(
@@ -1027,16 +1027,170 @@ fn failed_services_are_retried_when_the_robot_says_so() {
             @100 sonar heartbeat: ok
             @140 sonar heartbeat: ok
             @160 time passed
-              start laser: retry laser, failed long enough ago
+              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 5000 ms
             @170 laser ready
-              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
             @180 laser exited with signal 9
               restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             == state
-            service laser: restarting at 200 ms (attempt 1), health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
-            service sonar: ready, last heartbeat 140 ms, health ok, 0 restarts, 0 clients
-            client app RangeFinder -> laser
+            service laser: restarting at 200 ms (attempt 1), health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: ready, last heartbeat 140 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
             next deadline: 190 ms
+        "#]],
+    );
+}
+
+/// The laser stalls at 60 ms; retried after 100 ms, on trial for 50 ms.
+const RETRY: &str = "retry_failed_after_ms = 100\nretry_probation_ms = 50\nfail_back = true";
+
+#[test]
+fn a_retried_service_that_stays_up_through_its_probation_gets_its_clients_back() {
+    check(
+        &fail_back_robot(RETRY),
+        &with(
+            laser_serving(),
+            &[
+                (60, tick()),
+                (61, killed("laser")),
+                (65, ready("sonar")),
+                (100, beat("sonar")),
+                (140, beat("sonar")),
+                (160, tick()),
+                (170, ready("laser")),
+                (180, beat("sonar")),
+                (200, beat("laser")),
+                (215, beat("sonar")),
+                // On trial until 220: the client stays on the sonar until then.
+                (220, tick()),
+                (240, beat("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @60 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 160 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @61 laser exited with signal 9
+            @65 sonar ready
+            @100 sonar heartbeat: ok
+            @140 sonar heartbeat: ok
+            @160 time passed
+              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
+            @170 laser ready
+            @180 sonar heartbeat: ok
+            @200 laser heartbeat: ok
+            @215 sonar heartbeat: ok
+            @220 time passed
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            @240 laser heartbeat: ok
+            == state
+            service laser: ready, last heartbeat 240 ms, health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: ready, last heartbeat 215 ms, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 265 ms
+        "#]],
+    );
+}
+
+#[test]
+fn the_status_says_until_when_a_retried_service_is_on_trial() {
+    let mut core = core_for(&fail_back_robot(RETRY));
+    for (at_ms, event) in with(
+        laser_serving(),
+        &[
+            (60, tick()),
+            (61, killed("laser")),
+            (160, tick()),
+            (170, ready("laser")),
+        ],
+    ) {
+        core.handle(at_ms * 1_000_000, &event);
+    }
+    let laser = core.snapshot().services.remove(0);
+    assert_eq!(
+        laser.detail(),
+        "ready, last heartbeat 170 ms, on probation until 220 ms"
+    );
+}
+
+#[test]
+fn each_retry_that_fails_on_trial_doubles_the_cool_down_and_a_passed_one_resets_it() {
+    check(
+        &fail_back_robot(&format!("{RETRY}\nretry_failed_max_ms = 300")),
+        &with(
+            laser_serving(),
+            &[
+                // Stalls: retried 100 ms later; stalls on trial: 200 ms; again: 300 (the
+                // longest), then it stays up and its next stall waits 100 ms again. (The
+                // sonar, with a startup deadline of 1 s, stays starting throughout.)
+                (60, tick()),
+                (61, killed("laser")),
+                (160, tick()),
+                (165, ready("laser")),
+                (216, tick()),
+                (217, killed("laser")),
+                (416, tick()),
+                (420, ready("laser")),
+                (471, tick()),
+                (472, killed("laser")),
+                (771, tick()),
+                (775, ready("laser")),
+                (800, beat("laser")),
+                (825, beat("laser")),
+                (826, tick()),
+                (877, tick()),
+                (878, killed("laser")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @60 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 160 ms
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @61 laser exited with signal 9
+            @160 time passed
+              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
+            @165 laser ready
+            @216 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 416 ms (a cool-down of 200 ms; retries that failed on trial: 1)
+              stop laser: laser has failed: its process must go
+            @217 laser exited with signal 9
+            @416 time passed
+              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
+            @420 laser ready
+            @471 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 771 ms (a cool-down of 300 ms; retries that failed on trial: 2)
+              stop laser: laser has failed: its process must go
+            @472 laser exited with signal 9
+            @771 time passed
+              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
+            @775 laser ready
+            @800 laser heartbeat: ok
+            @825 laser heartbeat: ok
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            @826 time passed
+            @877 time passed
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 977 ms
+              stop laser: laser has failed: its process must go
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @878 laser exited with signal 9
+            == state
+            service laser: failed, retry at 977 ms, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service sonar: starting since 60 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 977 ms
         "#]],
     );
 }
