@@ -152,5 +152,16 @@ fn a_laser_given_up_is_retried_after_its_cool_down_and_gets_its_client_back_once
     );
     app.wait_for("laser", 5);
     assert!(up.status().contains("client app RangeFinder -> laser"));
+    // The broker's messages carry a header as every publication does.
+    let seqs: Vec<u64> = decisions.seen.iter().map(|d| d.header.seq).collect();
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+    assert!(
+        decisions
+            .seen
+            .iter()
+            .all(|d| d.header.provider == "lewis-broker" && d.header.publish_time_ns > 0),
+        "{:?}",
+        decisions.seen.first().map(|d| &d.header)
+    );
     up.stop();
 }

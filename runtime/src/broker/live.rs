@@ -517,7 +517,13 @@ impl<'r> Driver<'r> {
                 tracing::debug!(subject = "broker", "{decision}");
             }
         }
-        let message = decision_message(decision);
+        let mut message = decision_message(decision);
+        // Stamped as every publication is, so that a reader sees who sent it, in which
+        // order, and when (the broker's clock); a replay stamps its own the same way.
+        let header = message.header_mut();
+        names::BROKER_NODE.clone_into(&mut header.provider);
+        header.seq = u64::try_from(self.decisions).unwrap_or(u64::MAX);
+        header.publish_time_ns = self.clock.now_ns();
         let len = cdr::encoded_len(&message);
         if let Err(e) = self.decisions_out.publish_with(len, |buf| {
             let _ = cdr::encode_into(&message, buf);
