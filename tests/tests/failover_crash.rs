@@ -127,7 +127,7 @@ fn a_laser_given_up_is_retried_after_its_cool_down_and_gets_its_client_back_once
     kill_laser(&up);
     let failed = decisions.wait_for("the laser given up", is("service-failed", "laser"));
     assert!(
-        failed.reason.contains("it will be retried at"),
+        failed.reason.contains("it will be retried in 300 ms"),
         "{}",
         failed.reason
     );

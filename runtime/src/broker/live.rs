@@ -593,6 +593,9 @@ impl<'r> Driver<'r> {
                 );
             }
         }
+        // A predecessor killed while it made its channels left them half made, refused to
+        // every later process until removed (a retry after a cool-down would fail as it did).
+        let _ = crate::ipc::remove_abandoned_channels(&self.options.namespace);
         match self.supervisor.start(child) {
             Ok(pid) => {
                 tracing::debug!(service, "started (pid {pid})");
@@ -841,6 +844,7 @@ impl<'r> Driver<'r> {
                     &self.robot.name,
                     self.options.namespace.as_str(),
                     &self.core.snapshot(),
+                    self.clock.now_ns(),
                     |name| {
                         self.supervisor
                             .pid(name)

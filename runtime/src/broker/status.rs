@@ -9,13 +9,14 @@ use lewis_interfaces::msg::{BindingReport, BrokerStatusReply, ServiceReport, Ser
 use super::{ServiceState, Snapshot};
 use crate::live::{health_fields, health_from_fields};
 
-/// The status reply for `snapshot` of robot `robot` in `namespace`; `pid` gives the process
-/// of a service that runs one.
+/// The status reply for `snapshot` of robot `robot` in `namespace` at `now_ns` (the
+/// broker's clock); `pid` gives the process of a service that runs one.
 #[must_use]
 pub fn status_reply(
     robot: &str,
     namespace: &str,
     snapshot: &Snapshot,
+    now_ns: i64,
     pid: impl Fn(&str) -> Option<i32>,
 ) -> BrokerStatusReply {
     let services: Vec<ServiceReport> = snapshot
@@ -26,7 +27,7 @@ pub fn status_reply(
             ServiceReport {
                 name: s.name.clone(),
                 state: state_word(&s.state).to_string(),
-                state_detail: s.detail(),
+                state_detail: s.detail_at(now_ns),
                 health: health.to_string(),
                 health_reason: health_reason.to_owned(),
                 restarts: s.restarts,
@@ -167,7 +168,7 @@ mod tests {
 
     #[test]
     fn the_reply_carries_states_and_pids_as_fields() {
-        let reply = status_reply("b21r", "test", &snapshot(), |name| {
+        let reply = status_reply("b21r", "test", &snapshot(), 0, |name| {
             (name == "sonar").then_some(4242)
         });
         assert_eq!(pid_of(&reply, "sonar"), Some(4242));
@@ -184,7 +185,7 @@ mod tests {
 
     #[test]
     fn the_text_for_people_says_what_the_snapshot_says() {
-        let reply = status_reply("b21r", "test", &snapshot(), |name| {
+        let reply = status_reply("b21r", "test", &snapshot(), 0, |name| {
             (name == "sonar").then_some(4242)
         });
         // The reply survives the wire.

@@ -78,6 +78,80 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
     }
 }
 
+/// Where iceoryx2 keeps the static configuration of each service (channel).
+const SERVICES: &str = "/tmp/iceoryx2/services";
+
+/// How long a channel may stay half made before it counts as abandoned: its maker writes
+/// and finalises it within milliseconds.
+const ABANDONED: Duration = Duration::from_secs(1);
+
+/// Removes the channels of `namespace` that a process killed while it made them left
+/// half made, and returns how many went.
+///
+/// iceoryx2 writes a channel's static configuration with its owner's write permission
+/// and drops that permission once the channel is whole; a file still writable long after
+/// it was last changed was abandoned, and iceoryx2 refuses the channel to every later
+/// process (`HangsInCreation`) until it goes. The broker calls this before it starts a
+/// service, so that a service killed during its start (by a fault, or the demo) can be
+/// started again later; the channel's shared memory goes with it.
+#[must_use]
+pub fn remove_abandoned_channels(namespace: &Namespace) -> usize {
+    let before = SystemTime::now()
+        .checked_sub(ABANDONED)
+        .unwrap_or(SystemTime::UNIX_EPOCH);
+    remove_abandoned_under(
+        namespace,
+        Path::new(SERVICES),
+        &ROOTS.map(PathBuf::from),
+        before,
+    )
+}
+
+fn remove_abandoned_under(
+    namespace: &Namespace,
+    services: &Path,
+    roots: &[PathBuf],
+    before: SystemTime,
+) -> usize {
+    use std::os::unix::fs::PermissionsExt as _;
+
+    let Ok(entries) = std::fs::read_dir(services) else {
+        return 0;
+    };
+    let prefix = namespace.iceoryx2_prefix();
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let Some(stem) = name
+            .strip_prefix(&prefix)
+            .and_then(|rest| rest.strip_suffix(".service"))
+        else {
+            continue;
+        };
+        let Ok(metadata) = entry.metadata() else {
+            continue;
+        };
+        let unfinished = metadata.permissions().mode() & 0o222 != 0;
+        let abandoned = metadata.modified().is_ok_and(|changed| changed < before);
+        if !(metadata.is_file() && unfinished && abandoned) {
+            continue;
+        }
+        if std::fs::remove_file(entry.path()).is_ok() {
+            removed += 1;
+            tracing::info!(
+                "removed channel {stem} of namespace {namespace}, left half made by a killed process"
+            );
+            let own = format!("{prefix}{stem}");
+            removed += roots
+                .iter()
+                .map(|root| remove_prefixed(root, &own, before))
+                .sum::<usize>();
+        }
+    }
+    removed
+}
+
 /// Removes every entry under `dir` whose name starts with `prefix` and which was last
 /// changed before `young_from`, and every folder left empty by that; returns how many
 /// entries went.
@@ -175,6 +249,51 @@ mod tests {
             joining.exists(),
             "a file just written belongs to a live process"
         );
+    }
+
+    /// Writes a channel's static configuration, whole (read-only) or half made, last
+    /// changed a minute ago unless `young`.
+    fn write_channel(path: &Path, whole: bool, young: bool) {
+        use std::os::unix::fs::PermissionsExt as _;
+        if young {
+            std::fs::write(path, b"config").unwrap_or_else(|e| panic!("{e}"));
+        } else {
+            write_old(path);
+        }
+        let mode = if whole { 0o400 } else { 0o600 };
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+
+    #[test]
+    fn only_channels_abandoned_half_made_are_removed_with_their_memory() {
+        let namespace = Namespace::unique("abandoned");
+        let other = Namespace::unique("abandoned-other");
+        let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let services = dir.path().join("services");
+        let shm = dir.path().join("shm");
+        for folder in [&services, &shm] {
+            std::fs::create_dir_all(folder).unwrap_or_else(|e| panic!("{e}"));
+        }
+        let prefix = namespace.iceoryx2_prefix();
+        let abandoned = services.join(format!("{prefix}aaaa.service"));
+        let memory = shm.join(format!("{prefix}aaaa.dynamic"));
+        let whole = services.join(format!("{prefix}bbbb.service"));
+        let being_made = services.join(format!("{prefix}cccc.service"));
+        let theirs = services.join(format!("{}dddd.service", other.iceoryx2_prefix()));
+        write_channel(&abandoned, false, false);
+        write_old(&memory);
+        write_channel(&whole, true, false);
+        write_channel(&being_made, false, true);
+        write_channel(&theirs, false, false);
+        let before = SystemTime::now() - JOINING;
+        let removed =
+            remove_abandoned_under(&namespace, &services, std::slice::from_ref(&shm), before);
+        assert_eq!(removed, 2);
+        assert!(!abandoned.exists() && !memory.exists());
+        assert!(whole.exists(), "a whole channel stays");
+        assert!(being_made.exists(), "a channel being made now stays");
+        assert!(theirs.exists(), "another namespace's channel stays");
     }
 
     #[test]

@@ -203,16 +203,17 @@ impl BrokerCore {
         entry.last_failure = Some(cause.to_owned());
         let always = entry.start == StartMode::Always;
         let retries = entry.retries;
-        let retry_note = match (retry_at_ns, cool_down_ms) {
-            (Some(at), Some(ms)) if retries > 0 => format!(
-                "; it will be retried at {} (a cool-down of {ms} ms; retries that failed on trial: {retries})",
-                fmt_time(at)
+        // In how long, not at what time: a live broker's clock reads nanoseconds since 1970.
+        let retry_note = match cool_down_ms {
+            Some(ms) if retries > 0 => format!(
+                "; it will be retried in {} (longer each time a retry fails on trial: {retries} so far)",
+                fmt_ms(ms)
             ),
-            (Some(at), _) => format!("; it will be retried at {}", fmt_time(at)),
-            (None, _) if !retry => {
+            Some(ms) => format!("; it will be retried in {}", fmt_ms(ms)),
+            None if !retry => {
                 "; not retried, it would fail the same way: fix it, then restart it".to_owned()
             }
-            (None, _) => String::new(),
+            None => String::new(),
         };
         self.decide(
             Action::ServiceFailed {
@@ -378,8 +379,8 @@ impl BrokerCore {
                 entry.probation = Probation::Retried;
                 let note = self.retry.map_or_else(String::new, |p| {
                     format!(
-                        "; clients fail back to it once it has stayed up {} ms",
-                        p.probation_ms
+                        "; clients fail back to it once it has stayed up {}",
+                        fmt_ms(p.probation_ms)
                     )
                 });
                 self.start(
@@ -389,5 +390,16 @@ impl BrokerCore {
             }
             ServiceState::Idle | ServiceState::Stopping { .. } | ServiceState::Stopped => {}
         }
+    }
+}
+
+/// A duration in milliseconds as a person reads it: `20 s`, `1.5 s`, `300 ms`.
+fn fmt_ms(ms: u64) -> String {
+    if ms < 1000 {
+        format!("{ms} ms")
+    } else if ms.is_multiple_of(1000) {
+        format!("{} s", ms / 1000)
+    } else {
+        format!("{:.1} s", ms as f64 / 1000.0)
     }
 }

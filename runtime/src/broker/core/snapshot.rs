@@ -91,13 +91,51 @@ impl BrokerCore {
 }
 
 impl ServiceStatus {
-    /// Its state in words, with its probation while it is on trial.
+    /// Its state in words, with its probation while it is on trial, its times as the core
+    /// keeps them (a test's virtual clock).
     #[must_use]
     pub fn detail(&self) -> String {
         match self.probation_until_ns {
             Some(end) => format!("{}, on probation until {}", self.state, fmt_time(end)),
             None => self.state.to_string(),
         }
+    }
+
+    /// Its state in words for a person at `now_ns` (what `lewis status` prints): times as
+    /// how long ago or how soon, since a live clock reads nanoseconds since 1970.
+    #[must_use]
+    pub fn detail_at(&self, now_ns: i64) -> String {
+        let ago = |at: i64| fmt_span(now_ns.saturating_sub(at));
+        let until = |at: i64| fmt_span(at.saturating_sub(now_ns));
+        let mut text = match self.state {
+            ServiceState::Starting { since_ns } => format!("starting for {}", ago(since_ns)),
+            ServiceState::Ready { last_heartbeat_ns } => {
+                format!("ready, last heartbeat {} ago", ago(last_heartbeat_ns))
+            }
+            ServiceState::Restarting { at_ns, attempt } => {
+                format!("restarting in {} (attempt {attempt})", until(at_ns))
+            }
+            ServiceState::Failed {
+                retry_at_ns: Some(at),
+            } => format!("failed, retry in {}", until(at)),
+            state => state.to_string(),
+        };
+        if let Some(end) = self.probation_until_ns {
+            text.push_str(&format!(", on probation for {} more", until(end)));
+        }
+        text
+    }
+}
+
+/// A span of nanoseconds as a person reads it: `120 ms`, `4.2 s`, `3 min 20 s`.
+fn fmt_span(ns: i64) -> String {
+    let ms = ns.max(0) / 1_000_000;
+    if ms < 1000 {
+        format!("{ms} ms")
+    } else if ms < 60_000 {
+        format!("{:.1} s", ms as f64 / 1000.0)
+    } else {
+        format!("{} min {} s", ms / 60_000, (ms % 60_000) / 1000)
     }
 }
 

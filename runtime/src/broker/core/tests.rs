@@ -1018,7 +1018,7 @@ fn a_retried_service_that_dies_on_trial_gets_no_clients_back() {
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 160 ms
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
               stop laser: laser has failed: its process must go
               start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
               rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
@@ -1027,7 +1027,7 @@ fn a_retried_service_that_dies_on_trial_gets_no_clients_back() {
             @100 sonar heartbeat: ok
             @140 sonar heartbeat: ok
             @160 time passed
-              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 5000 ms
+              start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 5 s
             @170 laser ready
             @180 laser exited with signal 9
               restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
@@ -1072,7 +1072,7 @@ fn a_retried_service_that_stays_up_through_its_probation_gets_its_clients_back()
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 160 ms
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
               stop laser: laser has failed: its process must go
               start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
               rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
@@ -1155,7 +1155,7 @@ fn each_retry_that_fails_on_trial_doubles_the_cool_down_and_a_passed_one_resets_
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 160 ms
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
               stop laser: laser has failed: its process must go
               start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
               rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
@@ -1164,14 +1164,14 @@ fn each_retry_that_fails_on_trial_doubles_the_cool_down_and_a_passed_one_resets_
               start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
             @165 laser ready
             @216 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 416 ms (a cool-down of 200 ms; retries that failed on trial: 1)
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 200 ms (longer each time a retry fails on trial: 1 so far)
               stop laser: laser has failed: its process must go
             @217 laser exited with signal 9
             @416 time passed
               start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
             @420 laser ready
             @471 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 771 ms (a cool-down of 300 ms; retries that failed on trial: 2)
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 300 ms (longer each time a retry fails on trial: 2 so far)
               stop laser: laser has failed: its process must go
             @472 laser exited with signal 9
             @771 time passed
@@ -1182,7 +1182,7 @@ fn each_retry_that_fails_on_trial_doubles_the_cool_down_and_a_passed_one_resets_
               rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
             @826 time passed
             @877 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried at 977 ms
+              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
               stop laser: laser has failed: its process must go
               rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @878 laser exited with signal 9
