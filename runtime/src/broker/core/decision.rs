@@ -171,3 +171,18 @@ pub(super) fn fmt_time(ns: i64) -> String {
         format!("{ns} ns")
     }
 }
+
+/// A span of nanoseconds as a person reads it, for a live clock's times as how long ago
+/// or how soon: `300 ms`, `20 s`, `4.2 s`, `3 min 20 s`.
+pub(super) fn fmt_span(ns: i64) -> String {
+    let ms = ns.max(0) / 1_000_000;
+    if ms < 1000 {
+        format!("{ms} ms")
+    } else if ms < 60_000 && ms % 1000 == 0 {
+        format!("{} s", ms / 1000)
+    } else if ms < 60_000 {
+        format!("{:.1} s", ms as f64 / 1000.0)
+    } else {
+        format!("{} min {} s", ms / 60_000, (ms % 60_000) / 1000)
+    }
+}

@@ -1,7 +1,7 @@
 //! How services live: started, ready, crashed and restarted, stalled, failed, stopped and
 //! restarted by the operator, and the deadlines that drive it.
 
-use super::decision::fmt_time;
+use super::decision::{fmt_span, fmt_time};
 use super::service::{AfterStop, Probation, ServiceState, ms_to_ns};
 use super::{Action, BrokerCore, ExitStatus, Health, Need};
 use crate::robot::{OnCheckFailure, StartMode};
@@ -207,9 +207,9 @@ impl BrokerCore {
         let retry_note = match cool_down_ms {
             Some(ms) if retries > 0 => format!(
                 "; it will be retried in {} (longer each time a retry fails on trial: {retries} so far)",
-                fmt_ms(ms)
+                fmt_span(ms_to_ns(ms))
             ),
-            Some(ms) => format!("; it will be retried in {}", fmt_ms(ms)),
+            Some(ms) => format!("; it will be retried in {}", fmt_span(ms_to_ns(ms))),
             None if !retry => {
                 "; not retried, it would fail the same way: fix it, then restart it".to_owned()
             }
@@ -380,7 +380,7 @@ impl BrokerCore {
                 let note = self.retry.map_or_else(String::new, |p| {
                     format!(
                         "; clients fail back to it once it has stayed up {}",
-                        fmt_ms(p.probation_ms)
+                        fmt_span(ms_to_ns(p.probation_ms))
                     )
                 });
                 self.start(
@@ -390,16 +390,5 @@ impl BrokerCore {
             }
             ServiceState::Idle | ServiceState::Stopping { .. } | ServiceState::Stopped => {}
         }
-    }
-}
-
-/// A duration in milliseconds as a person reads it: `20 s`, `1.5 s`, `300 ms`.
-fn fmt_ms(ms: u64) -> String {
-    if ms < 1000 {
-        format!("{ms} ms")
-    } else if ms.is_multiple_of(1000) {
-        format!("{} s", ms / 1000)
-    } else {
-        format!("{:.1} s", ms as f64 / 1000.0)
     }
 }

@@ -5,7 +5,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use super::BrokerCore;
-use super::decision::fmt_time;
+use super::decision::{fmt_span, fmt_time};
 use super::event::Health;
 use super::service::{AfterStop, ServiceState};
 
@@ -124,18 +124,6 @@ impl ServiceStatus {
             text.push_str(&format!(", on probation for {} more", until(end)));
         }
         text
-    }
-}
-
-/// A span of nanoseconds as a person reads it: `120 ms`, `4.2 s`, `3 min 20 s`.
-fn fmt_span(ns: i64) -> String {
-    let ms = ns.max(0) / 1_000_000;
-    if ms < 1000 {
-        format!("{ms} ms")
-    } else if ms < 60_000 {
-        format!("{:.1} s", ms as f64 / 1000.0)
-    } else {
-        format!("{} min {} s", ms / 60_000, (ms % 60_000) / 1000)
     }
 }
 

@@ -1386,3 +1386,14 @@ fn a_data_check_the_robot_file_degrades_keeps_the_clients() {
         "#]],
     );
 }
+
+#[test]
+fn spans_read_as_a_person_reads_them() {
+    use super::decision::fmt_span;
+    let ms = |ms: i64| fmt_span(ms * 1_000_000);
+    assert_eq!(ms(-5), "0 ms");
+    assert_eq!(ms(300), "300 ms");
+    assert_eq!(ms(20_000), "20 s");
+    assert_eq!(ms(4_250), "4.2 s");
+    assert_eq!(ms(200_000), "3 min 20 s");
+}
