@@ -35,7 +35,10 @@ impl Lockstep<'_> {
         let Some(spec) = self.robot.service(provider) else {
             return;
         };
-        let mut checks = self.robot.broker.checks_for(interface);
+        let Some(provision) = spec.provision(interface) else {
+            return;
+        };
+        let mut checks = self.robot.broker.checks_of(provision);
         // A recording's times are the publisher's and the recorder's (or an import's), not
         // the live broker's: they say nothing of how late the broker saw a sample.
         checks.freshness_ms = None;
@@ -44,7 +47,7 @@ impl Lockstep<'_> {
         }
         let now_ns = self.now_ns;
         let watch = self.watches.entry(key).or_insert_with(|| {
-            let rate = spec.provision(interface).and_then(|p| p.data_rate_hz);
+            let rate = provision.data_rate_hz;
             Watch::Judging(Box::new(DataMonitor::new(interface, checks, rate, now_ns)))
         });
         let Watch::Judging(monitor) = watch else {

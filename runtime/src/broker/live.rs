@@ -321,7 +321,7 @@ impl<'r> Driver<'r> {
         let mut watches = Vec::new();
         for spec in &robot.services {
             for provision in &spec.provides {
-                let mut checks = robot.broker.checks_for(&provision.interface);
+                let mut checks = robot.broker.checks_of(provision);
                 if options.clock == ClockSource::Played {
                     // The services' time is a recording's, paused or played at another
                     // rate: neither a publish time nor a rate says anything against the

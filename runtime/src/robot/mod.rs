@@ -28,6 +28,8 @@
 //! # The data checks of the interface's providers; what is not given keeps the
 //! # interface's default (`DataChecks::default_for`).
 //! checks = { rate = 0.5, window_ms = 1000, freshness_ms = 500, values = true, frozen = 5, on_failure = "failed" }
+//! # A provision may have checks of its own, over its interface's:
+//! # provides = [{ interface = "RangeFinder", quality = 5, cost = 1, checks = { frozen = 0 } }]
 //!
 //! [[services]]
 //! name = "laser"
@@ -181,6 +183,21 @@ impl BrokerSettings {
         if !self.data_checks {
             return DataChecks::none();
         }
+        self.interface_checks(interface)
+    }
+
+    /// The data checks of one provider: its provision's own where the robot file gives
+    /// them, else its interface's ([`BrokerSettings::checks_for`]).
+    #[must_use]
+    pub fn checks_of(&self, provision: &Provision) -> DataChecks {
+        match provision.checks {
+            Some(checks) if self.data_checks => checks,
+            _ => self.checks_for(&provision.interface),
+        }
+    }
+
+    /// The checks of `interface` when data checks are on: the file's or the default.
+    pub(crate) fn interface_checks(&self, interface: &str) -> DataChecks {
         self.checks_per_interface
             .get(interface)
             .copied()
@@ -275,6 +292,10 @@ pub struct Provision {
     pub cost: u32,
     /// The rate it publishes at, in hertz, when known.
     pub data_rate_hz: Option<f64>,
+    /// The data checks of this provider where the robot file gives them on the provision
+    /// (`checks = { ... }`, over its interface's): a sonar ring's still readings are not a
+    /// frozen laser's.
+    pub checks: Option<DataChecks>,
 }
 
 /// When the broker starts a service.

@@ -93,4 +93,5 @@ pub(super) struct RawProvision {
     pub quality: Spanned<i64>,
     pub cost: Spanned<i64>,
     pub data_rate_hz: Option<Spanned<f64>>,
+    pub checks: Option<Spanned<RawChecks>>,
 }

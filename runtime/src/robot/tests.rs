@@ -565,6 +565,52 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
 }
 
 #[test]
+fn a_provision_has_checks_of_its_own_over_its_interfaces() {
+    let text = |data_checks: bool| {
+        format!(
+            r#"
+[robot]
+name = "r"
+[broker]
+data_checks = {data_checks}
+[broker.interfaces.RangeFinder]
+checks = {{ rate = 0.25, frozen = 3 }}
+
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{{ interface = "RangeFinder", quality = 10, cost = 1 }}]
+
+[[services]]
+name = "sonar"
+kind = "test-range"
+provides = [{{ interface = "RangeFinder", quality = 5, cost = 1, checks = {{ frozen = 0, on_failure = "degraded" }} }}]
+"#
+        )
+    };
+    let robot = parse(&text(true), Path::new("robot.toml"), KNOWN).unwrap();
+    let of = |service: &str| {
+        let spec = robot.service(service).unwrap();
+        robot.broker.checks_of(&spec.provides[0])
+    };
+    // The laser has its interface's checks; the sonar those, but not frozen.
+    assert_eq!(of("laser"), robot.broker.checks_for("RangeFinder"));
+    assert_eq!(
+        of("sonar"),
+        DataChecks {
+            frozen_count: None,
+            on_failure: OnCheckFailure::Degraded,
+            ..robot.broker.checks_for("RangeFinder")
+        }
+    );
+    assert_eq!(of("sonar").min_rate_fraction, 0.25);
+    // Off for the whole robot: off for every provision too.
+    let off = parse(&text(false), Path::new("robot.toml"), KNOWN).unwrap();
+    let sonar = off.service("sonar").unwrap();
+    assert!(!off.broker.checks_of(&sonar.provides[0]).any());
+}
+
+#[test]
 fn a_wrong_data_check_is_placed_at_its_value() {
     check(
         r#"

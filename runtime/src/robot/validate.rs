@@ -136,7 +136,8 @@ impl Checker<'_> {
                 fail_back_per_interface.insert(interface.get_ref().clone(), fail_back);
             }
             if let Some(checks) = settings.checks {
-                let checks = self.checks(interface.get_ref(), checks.get_ref());
+                let base = DataChecks::default_for(interface.get_ref());
+                let checks = self.checks(base, interface.get_ref(), checks.get_ref());
                 checks_per_interface.insert(interface.into_inner(), checks);
             }
         }
@@ -202,8 +203,9 @@ impl Checker<'_> {
     }
 
     /// An interface's data checks: its defaults with the file's overrides, each checked.
-    fn checks(&mut self, interface: &str, raw: &RawChecks) -> DataChecks {
-        let mut checks = DataChecks::default_for(interface);
+    /// `base` with the file's overrides `raw` of `interface`'s checks, each checked.
+    fn checks(&mut self, base: DataChecks, interface: &str, raw: &RawChecks) -> DataChecks {
+        let mut checks = base;
         if let Some(rate) = &raw.rate {
             let fraction = *rate.get_ref();
             if (0.0..=1.0).contains(&fraction) {
@@ -288,7 +290,7 @@ impl Checker<'_> {
                     ),
                 );
             }
-            provides.push(self.provision(&name, provision.into_inner()));
+            provides.push(self.provision(&name, provision.into_inner(), broker));
         }
         let mut requires = Vec::with_capacity(raw.requires.len());
         let mut required: BTreeSet<String> = BTreeSet::new();
@@ -471,7 +473,12 @@ impl Checker<'_> {
         );
     }
 
-    fn provision(&mut self, service: &str, raw: RawProvision) -> Provision {
+    fn provision(
+        &mut self,
+        service: &str,
+        raw: RawProvision,
+        broker: &BrokerSettings,
+    ) -> Provision {
         self.interface_name(&raw.interface, &format!("service `{service}` provides"));
         let quality = self.score(&raw.quality, "quality", service);
         let cost = self.score(&raw.cost, "cost", service);
@@ -488,11 +495,17 @@ impl Checker<'_> {
             }
             hz
         });
+        // Over the interface's checks as the robot file gives them, field by field.
+        let checks = raw.checks.map(|c| {
+            let base = broker.interface_checks(raw.interface.get_ref());
+            self.checks(base, raw.interface.get_ref(), c.get_ref())
+        });
         Provision {
             interface: raw.interface.into_inner(),
             quality,
             cost,
             data_rate_hz,
+            checks,
         }
     }
 

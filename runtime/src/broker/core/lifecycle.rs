@@ -64,7 +64,7 @@ impl BrokerCore {
     ) {
         let on_failure = self
             .on_check_failure
-            .get(interface)
+            .get(&(service.to_owned(), interface.to_owned()))
             .copied()
             .unwrap_or_default();
         let Some(entry) = self.services.get_mut(service) else {

@@ -85,8 +85,9 @@ pub struct BrokerCore {
     fail_back_default: bool,
     fail_back: BTreeMap<String, bool>,
     retry: Option<RetryPolicy>,
-    /// What a failed data check does, per interface (the robot file's `checks`).
-    on_check_failure: BTreeMap<String, OnCheckFailure>,
+    /// What a failed data check does, per provider and interface (the robot file's
+    /// `checks`).
+    on_check_failure: BTreeMap<(String, String), OnCheckFailure>,
     /// Client, then interface, then its provider (`None` while it waits for one).
     clients: BTreeMap<String, BTreeMap<String, Option<String>>>,
     /// Interfaces for which help was asked and no provider came back since.
@@ -112,10 +113,10 @@ impl BrokerCore {
             on_check_failure: robot
                 .services
                 .iter()
-                .flat_map(|s| &s.provides)
-                .map(|p| {
-                    let checks = robot.broker.checks_for(&p.interface);
-                    (p.interface.clone(), checks.on_failure)
+                .flat_map(|s| s.provides.iter().map(move |p| (s, p)))
+                .map(|(s, p)| {
+                    let checks = robot.broker.checks_of(p);
+                    ((s.name.clone(), p.interface.clone()), checks.on_failure)
                 })
                 .collect(),
             clients: BTreeMap::new(),
