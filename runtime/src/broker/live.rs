@@ -595,7 +595,11 @@ impl<'r> Driver<'r> {
         }
         // A predecessor killed while it made its channels left them half made, refused to
         // every later process until removed (a retry after a cool-down would fail as it did).
-        let _ = crate::ipc::remove_abandoned_channels(&self.options.namespace);
+        // Only a service that ran before has a predecessor: a first start meets what the
+        // launch's wipe left, nothing, and skips the scan of the namespace's channels.
+        if self.exit_cleanups.contains_key(service) {
+            let _ = crate::ipc::remove_abandoned_channels(&self.options.namespace);
+        }
         match self.supervisor.start(child) {
             Ok(pid) => {
                 tracing::debug!(service, "started (pid {pid})");

@@ -48,9 +48,7 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
     };
     // Taken before the nodes are listed: a node made after this is never mistaken for a
     // leftover, whether or not the listing saw it.
-    let young_from = SystemTime::now()
-        .checked_sub(JOINING)
-        .unwrap_or(SystemTime::UNIX_EPOCH);
+    let young_from = ago(JOINING);
     let mut in_use = false;
     let listed = Node::<ipc::Service>::list(&config, |state| {
         // Only a live process holds its node's lock. A node whose files are incomplete was
@@ -96,15 +94,19 @@ const ABANDONED: Duration = Duration::from_secs(1);
 /// started again later; the channel's shared memory goes with it.
 #[must_use]
 pub fn remove_abandoned_channels(namespace: &Namespace) -> usize {
-    let before = SystemTime::now()
-        .checked_sub(ABANDONED)
-        .unwrap_or(SystemTime::UNIX_EPOCH);
     remove_abandoned_under(
         namespace,
         Path::new(SERVICES),
         &ROOTS.map(PathBuf::from),
-        before,
+        ago(ABANDONED),
     )
+}
+
+/// The moment `age` ago: entries changed since are taken as a live process's.
+fn ago(age: Duration) -> SystemTime {
+    SystemTime::now()
+        .checked_sub(age)
+        .unwrap_or(SystemTime::UNIX_EPOCH)
 }
 
 fn remove_abandoned_under(
