@@ -19,6 +19,7 @@ mod tests {
     use crate::msg::{
         BrokerAction, BrokerRequestReplyStatus, CommandLogStatus, HealthState, LogLineLevel,
         LogLineStream, MoverStatus, SequencerEntry, SequencerKind, SequencerSupervision,
+        UnansweredCallStatus,
     };
 
     /// Every value of a vocabulary goes to its word and back, by `parse`, `FromStr` and
@@ -51,7 +52,8 @@ mod tests {
             MoverStatus,
             SequencerEntry,
             SequencerKind,
-            SequencerSupervision
+            SequencerSupervision,
+            UnansweredCallStatus
         );
     }
 

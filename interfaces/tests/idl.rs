@@ -58,6 +58,7 @@ fn every_interface_of_the_paper_is_defined() {
             "Signs",
             "Speech",
             "Synchrodrive",
+            "UnansweredCall",
             "WorldState"
         ]
     );
@@ -71,6 +72,7 @@ fn every_interface_of_the_paper_is_defined() {
         "LogLine",
         "RecorderStats",
         "Sequencer",
+        "UnansweredCall",
         "WorldState",
     ];
     for interface in idl

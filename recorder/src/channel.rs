@@ -17,6 +17,15 @@ pub const MESSAGE_ENCODING: &str = "cdr";
 /// The MCAP schema encoding of every schema: ROS 2 `.msg` text.
 pub const SCHEMA_ENCODING: &str = "ros2msg";
 
+/// Channel metadata key saying how a channel's sequence numbers run: absent, one provider
+/// numbers the channel's messages 1, 2, 3, ... (a gap is a loss); [`NUMBERED_PER_PUBLISHER`],
+/// many processes publish on it, each numbering its own, interleaved (`/lewis/calls`), so
+/// the numbers prove no loss.
+pub const META_NUMBERING: &str = "numbering";
+
+/// [`META_NUMBERING`]'s value for a channel of many publishers.
+pub const NUMBERED_PER_PUBLISHER: &str = "per-publisher";
+
 /// One channel to record: one provider's publications (or commands, or replies) of one
 /// interface, on one topic.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -63,6 +72,13 @@ impl ChannelSpec {
             interface_version: interface.version.to_owned(),
             extra_metadata: BTreeMap::new(),
         }
+    }
+
+    /// Whether a gap in the sequence numbers on this channel is a loss (see
+    /// [`META_NUMBERING`]).
+    #[must_use]
+    pub fn gaps_are_losses(&self) -> bool {
+        self.extra_metadata.get(META_NUMBERING).map(String::as_str) != Some(NUMBERED_PER_PUBLISHER)
     }
 
     /// The MCAP channel metadata: the extra entries, then provider, interface and version.

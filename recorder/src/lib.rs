@@ -47,7 +47,7 @@ mod syncer;
 
 pub use channel::{
     ChannelId, ChannelSpec, MESSAGE_ENCODING, META_INTERFACE, META_INTERFACE_VERSION,
-    META_PROVIDER, SCHEMA_ENCODING, Sample,
+    META_NUMBERING, META_PROVIDER, NUMBERED_PER_PUBLISHER, SCHEMA_ENCODING, Sample,
 };
 pub use error::RecordError;
 pub use loss::ChannelCounts;

@@ -14,7 +14,7 @@ use mcap::records::Metadata;
 use crate::channel::{ChannelId, ChannelSpec, Sample};
 use crate::error::RecordError;
 use crate::index::{self, PartEntry, PartsIndex};
-use crate::loss::{ChannelCounts, SequenceTracker};
+use crate::loss::{ChannelCounts, Observation, SequenceTracker};
 use crate::options::{RecorderOptions, RobotDescription};
 use crate::part::{Part, metadata};
 
@@ -172,7 +172,11 @@ impl Recorder {
             self.close_open_chunk()?;
         }
         let channel = &mut self.channels[index];
-        let observation = channel.tracker.observe(sample.seq);
+        let observation = if channel.spec.gaps_are_losses() {
+            channel.tracker.observe(sample.seq)
+        } else {
+            Observation::Next
+        };
         channel.part.add(observation);
         channel.total.add(observation);
         let result = match &mut self.part {

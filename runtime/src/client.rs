@@ -11,6 +11,8 @@
 //! [`RawClient`] is the untyped core (interface given by name), used by the live harness
 //! for a service's required interfaces; [`Client`] wraps it for applications.
 
+mod unanswered;
+
 use std::marker::PhantomData;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
@@ -18,7 +20,7 @@ use std::time::{Duration, Instant};
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
     Broker, BrokerAction, BrokerRelease, BrokerRequest, BrokerRequestReply,
-    BrokerRequestReplyStatus,
+    BrokerRequestReplyStatus, UnansweredCallStatus,
 };
 use lewis_interfaces::{Command, Interface};
 
@@ -29,6 +31,7 @@ use crate::ipc::{
 use crate::ipc::{CallId as IpcCallId, Ipc, SPINS_PER_CLOCK_READ};
 use crate::names;
 use crate::wire;
+use unanswered::{Caller, UnansweredCalls};
 
 /// While the broker cannot be reached, a client asks again this often.
 const RETRY_REQUEST: Duration = Duration::from_millis(50);
@@ -121,6 +124,8 @@ pub struct RawClient {
     data: Option<Subscriber>,
     data_channel: String,
     commands: Option<CommandClient>,
+    /// Calls in flight, and the record of those never answered (`/lewis/calls`).
+    unanswered: UnansweredCalls,
     released: bool,
 }
 
@@ -147,6 +152,7 @@ impl RawClient {
             data: None,
             data_channel: String::new(),
             commands: None,
+            unanswered: UnansweredCalls::new(),
             released: false,
         };
         raw.send_request();
@@ -314,11 +320,39 @@ impl RawClient {
         }
     }
 
-    /// Sends a command frame ([`wire`]) to the current provider.
+    /// Sends a command frame ([`wire`]) to the current provider. A call that is never
+    /// answered (not sent, timed out, its provider gone) is recorded on `/lewis/calls`.
     ///
     /// # Errors
     /// When unbound, or when the call cannot be sent.
     pub fn call(&mut self, frame: &[u8], timeout: Duration) -> Result<IpcCallId, ClientError> {
+        let sent = self.send(frame, timeout);
+        let caller = Caller {
+            ipc: &self.ipc,
+            client: &self.client,
+            interface: &self.interface,
+        };
+        let provider = self.provider.as_deref();
+        match &sent {
+            Ok(call) => self
+                .unanswered
+                .sent(*call, frame, provider.unwrap_or_default(), timeout),
+            Err(e) => {
+                let status = match e {
+                    ClientError::Unbound { .. } => UnansweredCallStatus::NoProvider,
+                    ClientError::Call(CallError::NoServer { .. }) => {
+                        UnansweredCallStatus::ProviderGone
+                    }
+                    _ => UnansweredCallStatus::Failed,
+                };
+                self.unanswered
+                    .not_sent(&caller, frame, provider, timeout, status, &e.to_string());
+            }
+        }
+        sent
+    }
+
+    fn send(&mut self, frame: &[u8], timeout: Duration) -> Result<IpcCallId, ClientError> {
         let Some(provider) = &self.provider else {
             return Err(ClientError::Unbound {
                 client: self.client.clone(),
@@ -341,7 +375,22 @@ impl RawClient {
 
     /// The outcome of a finished call, if one is ready.
     pub fn take_call_outcome(&mut self) -> Option<CallOutcome> {
-        self.commands.as_mut()?.take_outcome()
+        let outcome = self.commands.as_mut()?.take_outcome()?;
+        let unanswered = match &outcome.result {
+            Ok(_) => None,
+            Err(CallError::Timeout { .. }) => Some((UnansweredCallStatus::TimedOut, String::new())),
+            Err(CallError::NoServer { .. }) => {
+                Some((UnansweredCallStatus::ProviderGone, String::new()))
+            }
+            Err(e) => Some((UnansweredCallStatus::Failed, e.to_string())),
+        };
+        let caller = Caller {
+            ipc: &self.ipc,
+            client: &self.client,
+            interface: &self.interface,
+        };
+        self.unanswered.ended(&caller, outcome.call, unanswered);
+        Some(outcome)
     }
 
     /// Tells the broker this client needs nothing any more (done on drop too).
@@ -452,6 +501,13 @@ impl RawClient {
         if self.provider.as_deref() == provider {
             return Ok(());
         }
+        // The calls to the provider left behind will never be answered.
+        let caller = Caller {
+            ipc: &self.ipc,
+            client: &self.client,
+            interface: &self.interface,
+        };
+        self.unanswered.provider_gone(&caller);
         self.commands = None;
         self.data = None;
         self.data_channel.clear();

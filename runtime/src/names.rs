@@ -8,6 +8,7 @@
 //! | a provider's commands | `/<service>/<Interface>/cmd` | [`wire`](crate::wire) frames |
 //! | heartbeats and declared health | `/lewis/health/<service>` | `Health` |
 //! | commands a service answered | `/lewis/commands/<service>` | `CommandLog` |
+//! | calls a client sent that got no answer | `/lewis/calls` | `UnansweredCall` |
 //! | broker decisions | `/lewis/broker` | `Broker` |
 //! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
 //! | services' output lines | `/lewis/log` | `LogLine` |
@@ -34,6 +35,10 @@ pub const LOG_CHANNEL: &str = "/lewis/log";
 
 /// The channel of the sequencer's records (events, decisions, program starts).
 pub const SEQUENCER_CHANNEL: &str = "/lewis/sequencer";
+
+/// The channel on which every client records a call that got no answer (timed out, no
+/// provider, provider gone): the answering side logged nothing.
+pub const CALLS_CHANNEL: &str = "/lewis/calls";
 
 /// The channel of the time of a recording played into live IPC (`lewis play`).
 pub const CLOCK_CHANNEL: &str = "/lewis/clock";
@@ -180,6 +185,22 @@ pub fn command_log_config() -> ChannelConfig {
     }
 }
 
+/// The settings of `/lewis/calls`: any client of the robot (a service, a program, a tool)
+/// may publish an unanswered call, each with its own publisher, opened at its first; the
+/// caller must never wait for the recorder, so a deep buffer, the oldest dropped.
+#[must_use]
+pub fn calls_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 64,
+        overflow: OverflowPolicy::DropOldest,
+        history: 0,
+        max_held: 4,
+        max_subscribers: 8,
+        max_publishers: 64,
+        ..ChannelConfig::sensor(512)
+    }
+}
+
 /// The settings of `/lewis/sequencer`. A mission makes a few records a second at most and
 /// every one is owed to the recorder (replay needs them all): a deep buffer, the publisher
 /// waits up to 100 ms for a slow reader before dropping (counted by both sides), and the
@@ -218,6 +239,7 @@ pub fn channel_config(channel: &str) -> ChannelConfig {
         LOG_CHANNEL => log_config(),
         SEQUENCER_CHANNEL => sequencer_config(),
         CLOCK_CHANNEL => clock_config(),
+        CALLS_CHANNEL => calls_config(),
         _ if channel.starts_with("/lewis/health/") => health_config(),
         _ if channel.starts_with("/lewis/commands/") => command_log_config(),
         // A provider's data channel is `/<provider>/<Interface>`.
@@ -282,6 +304,7 @@ mod tests {
         check(LOG_CHANNEL, &log_config());
         check(SEQUENCER_CHANNEL, &sequencer_config());
         check(CLOCK_CHANNEL, &clock_config());
+        check(CALLS_CHANNEL, &calls_config());
     }
 
     #[test]

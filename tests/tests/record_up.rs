@@ -9,10 +9,12 @@ use crate::record_common;
 use std::ffi::OsStr;
 use std::path::PathBuf;
 
-use lewis_interfaces::msg::{Broker, CommandLog, LogLine, RangeFinder, RangeFinderGetGeometry};
+use lewis_interfaces::msg::{
+    Broker, CommandLog, LogLine, RangeFinder, RangeFinderGetGeometry, UnansweredCall,
+};
 use lewis_interfaces::{Message, cdr};
 use lewis_runtime::client::Client;
-use lewis_runtime::ipc::Namespace;
+use lewis_runtime::ipc::{Namespace, WaitSet, WakeMode};
 use lewis_tests::{Up, WATCHDOG, doctor, open_ipc};
 use record_common::{
     RecordProcess, Recording, assert_every_run_complete, assert_python_agrees, decode,
@@ -176,6 +178,89 @@ fn lewis_up_and_lewis_record_write_files_every_reader_decodes_with_every_sample(
         laser_counts.windows(2).all(|w| w[0] == w[1]),
         "{laser_counts:?}"
     );
+}
+
+/// The answering side logs nothing of a call its provider never answered: the caller records
+/// it on `/lewis/calls`, with its request, provider, timeout and why.
+#[test]
+fn a_call_its_provider_never_answers_is_recorded_by_the_caller() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("calls.mcap");
+    let mut up = Up::start_with(
+        tempfile::tempdir().unwrap(),
+        Namespace::unique("record-calls"),
+        &test_robot_file(),
+        &[OsStr::new("-o"), output.as_os_str()],
+    );
+    up.wait_line("broker up");
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut client = Client::<RangeFinder>::connect(&ipc, "app").unwrap();
+    receive(&mut client, 2);
+    // Stalled, the laser answers nothing; killed while the call waits, it never will.
+    let lewis = |args: &[&str]| {
+        let output = std::process::Command::new(lewis_tests::lewis_exe())
+            .args(args)
+            .args(["--namespace", up.namespace.as_str(), "--timeout", "10"])
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{args:?}: {output:?}");
+    };
+    lewis(&["fault", "laser", "--stall"]);
+    let timeout = std::time::Duration::from_millis(800);
+    let command = RangeFinderGetGeometry::default();
+    let frame = lewis_runtime::wire::request_to_vec("get_geometry", &cdr::to_vec(&command));
+    let raw = client.raw_mut();
+    let call = raw.call(&frame, timeout).unwrap();
+    lewis(&["fault", "laser", "--kill"]);
+    let waits = WaitSet::new(WakeMode::Event);
+    let outcome = loop {
+        if let Some(outcome) = raw.take_call_outcome() {
+            break outcome;
+        }
+        waits
+            .wait(&raw.waitables(), Some(std::time::Instant::now() + WATCHDOG))
+            .unwrap();
+    };
+    assert_eq!(outcome.call, call);
+    let Err(err) = outcome.result else {
+        panic!("a dead provider never answers")
+    };
+    assert!(err.to_string().contains("no reply"), "{err}");
+    drop(client);
+    assert!(up.stop().success(), "{}", up.log());
+
+    let recording = Recording::read(std::slice::from_ref(&output));
+    let calls: Vec<UnansweredCall> = recording.of("/lewis/calls").iter().map(decode).collect();
+    let [call] = &calls[..] else {
+        panic!("one unanswered call expected: {calls:?}");
+    };
+    assert_eq!(
+        (
+            call.client.as_str(),
+            call.interface.as_str(),
+            call.command.as_str(),
+            call.provider.as_str(),
+            call.status.as_str(),
+            call.timeout_ns,
+        ),
+        (
+            "app",
+            "RangeFinder",
+            "get_geometry",
+            "laser",
+            "timed-out",
+            800_000_000
+        )
+    );
+    assert_eq!(call.request, cdr::to_vec(&command));
+    assert_eq!(call.header().provider, "app");
+    assert!(
+        call.header().publish_time_ns >= call.sent_ns + call.timeout_ns,
+        "{call:?}"
+    );
+    assert_eq!(recording.channels["/lewis/calls"]["kind"], "calls");
+    // The laser answered none: its own log has nothing of it.
+    assert!(recording.of("/lewis/commands/laser").is_empty());
 }
 
 /// A service that only talks: its output lines go to `/lewis/log`.

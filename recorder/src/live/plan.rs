@@ -3,7 +3,7 @@
 
 use globset::{GlobBuilder, GlobSet, GlobSetBuilder};
 use lewis_interfaces::Interface;
-use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Sequencer};
+use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Sequencer, UnansweredCall};
 use lewis_runtime::ipc::ChannelConfig;
 use lewis_runtime::names;
 use lewis_runtime::robot::Robot;
@@ -12,7 +12,7 @@ use thiserror::Error;
 use crate::channel::ChannelSpec;
 
 /// Channel metadata key saying what a channel carries: `data`, `health`, `commands`,
-/// `broker`, `sequencer` or `log`.
+/// `broker`, `calls`, `sequencer` or `log`.
 pub const META_KIND: &str = "kind";
 
 /// One channel to tap: its IPC name and settings, and the MCAP channel it is written to.
@@ -60,7 +60,8 @@ impl TapChannel {
 /// Every channel of `robot` worth recording, in a stable order: each provider's data
 /// channel `/<service>/<Interface>` (all of them, started or not, so that a provider
 /// started later by a failover is recorded from its first sample), then per service its
-/// health and its command log, then `/lewis/broker`, `/lewis/sequencer` and `/lewis/log`.
+/// health and its command log, then `/lewis/broker`, `/lewis/calls` (the calls clients sent
+/// that got no answer), `/lewis/sequencer` and `/lewis/log`.
 /// Without a robot, only the channels that do not depend on it.
 #[must_use]
 pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
@@ -99,6 +100,19 @@ pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
         "broker",
         &names::broker_config(),
     ));
+    // Any client publishes here, each numbering its own records: the provider is `*`, and
+    // each record's header names its caller.
+    let mut calls = TapChannel::of::<UnansweredCall>(
+        "*",
+        names::CALLS_CHANNEL,
+        "calls",
+        &names::calls_config(),
+    );
+    calls.spec.extra_metadata.insert(
+        crate::channel::META_NUMBERING.to_owned(),
+        crate::channel::NUMBERED_PER_PUBLISHER.to_owned(),
+    );
+    channels.push(calls);
     channels.push(TapChannel::of::<Sequencer>(
         names::SEQUENCER_NODE,
         names::SEQUENCER_CHANNEL,
@@ -222,6 +236,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
                 "/lewis/health/sonar",
                 "/lewis/commands/sonar",
                 "/lewis/broker",
+                "/lewis/calls",
                 "/lewis/sequencer",
                 "/lewis/log",
             ]
@@ -250,6 +265,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
         check("/lewis/health/laser", ["laser", "Health", "health"]);
         check("/lewis/commands/sonar", ["sonar", "CommandLog", "commands"]);
         check("/lewis/broker", ["lewis-broker", "Broker", "broker"]);
+        check("/lewis/calls", ["*", "UnansweredCall", "calls"]);
         check(
             "/lewis/sequencer",
             ["lewis-sequencer", "Sequencer", "sequencer"],
@@ -263,7 +279,15 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
             .iter()
             .map(|c| c.topic().to_owned())
             .collect();
-        assert_eq!(topics, ["/lewis/broker", "/lewis/sequencer", "/lewis/log"]);
+        assert_eq!(
+            topics,
+            [
+                "/lewis/broker",
+                "/lewis/calls",
+                "/lewis/sequencer",
+                "/lewis/log"
+            ]
+        );
     }
 
     #[test]

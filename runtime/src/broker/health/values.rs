@@ -76,6 +76,7 @@ fn typed(interface: &str, bytes: &[u8]) -> Result<(), String> {
         Signs,
         Speech,
         Synchrodrive,
+        UnansweredCall,
         WorldState,
     )
 }

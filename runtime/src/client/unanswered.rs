@@ -1,0 +1,199 @@
+//! The caller's side of a command that got no answer, recorded on `/lewis/calls`.
+//!
+//! The answering service logs every command it answers on `/lewis/commands/<service>`; a
+//! call that times out, finds no provider, or whose provider dies or is replaced before
+//! answering leaves nothing there. So every [`RawClient`](super::RawClient) keeps the calls
+//! it has in flight (the frame, when, to whom) and publishes an
+//! [`UnansweredCall`] when one ends without a reply. Nothing is published and no channel is
+//! opened while every call is answered.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use lewis_interfaces::msg::{UnansweredCall, UnansweredCallStatus};
+use lewis_interfaces::{Message, cdr};
+
+use crate::clock::LiveClock;
+use crate::ipc::{CallId as IpcCallId, Ipc, Publisher};
+use crate::names;
+use crate::wire;
+
+/// Numbers the records of this process: its clients may each have a publisher, and a
+/// reader orders them by the header's sequence.
+static SEQ: AtomicU64 = AtomicU64::new(0);
+
+/// A call sent and not yet answered.
+#[derive(Debug)]
+struct InFlight {
+    frame: Vec<u8>,
+    provider: String,
+    timeout: Duration,
+    sent_ns: i64,
+}
+
+/// The calls of one client in flight, and the publisher of its unanswered ones.
+pub(super) struct UnansweredCalls {
+    clock: LiveClock,
+    in_flight: BTreeMap<IpcCallId, InFlight>,
+    /// Opened at the first unanswered call.
+    publisher: Option<Publisher>,
+    /// The channel could not be opened: said once, not tried again.
+    unavailable: bool,
+}
+
+impl std::fmt::Debug for UnansweredCalls {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("UnansweredCalls")
+            .field("in_flight", &self.in_flight)
+            .field("publishing", &self.publisher.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+/// What the record is about: the client and its interface.
+pub(super) struct Caller<'a> {
+    pub ipc: &'a Ipc,
+    pub client: &'a str,
+    pub interface: &'a str,
+}
+
+impl UnansweredCalls {
+    pub(super) fn new() -> Self {
+        Self {
+            clock: LiveClock::new(),
+            in_flight: BTreeMap::new(),
+            publisher: None,
+            unavailable: false,
+        }
+    }
+
+    /// A call was sent to `provider`.
+    pub(super) fn sent(
+        &mut self,
+        call: IpcCallId,
+        frame: &[u8],
+        provider: &str,
+        timeout: Duration,
+    ) {
+        self.in_flight.insert(
+            call,
+            InFlight {
+                frame: frame.to_vec(),
+                provider: provider.to_owned(),
+                timeout,
+                sent_ns: self.clock.now_ns(),
+            },
+        );
+    }
+
+    /// A call ended: answered (`None`), or not, and why.
+    pub(super) fn ended(
+        &mut self,
+        caller: &Caller<'_>,
+        call: IpcCallId,
+        unanswered: Option<(UnansweredCallStatus, String)>,
+    ) {
+        let Some(call) = self.in_flight.remove(&call) else {
+            return;
+        };
+        if let Some((status, error)) = unanswered {
+            self.record(caller, &call, status, &error);
+        }
+    }
+
+    /// The client left its provider: no call in flight will be answered.
+    pub(super) fn provider_gone(&mut self, caller: &Caller<'_>) {
+        for call in std::mem::take(&mut self.in_flight).into_values() {
+            self.record(caller, &call, UnansweredCallStatus::ProviderGone, "");
+        }
+    }
+
+    /// A call that could not be sent at all.
+    pub(super) fn not_sent(
+        &mut self,
+        caller: &Caller<'_>,
+        frame: &[u8],
+        provider: Option<&str>,
+        timeout: Duration,
+        status: UnansweredCallStatus,
+        error: &str,
+    ) {
+        let call = InFlight {
+            frame: frame.to_vec(),
+            provider: provider.unwrap_or_default().to_owned(),
+            timeout,
+            sent_ns: self.clock.now_ns(),
+        };
+        self.record(caller, &call, status, error);
+    }
+
+    fn record(
+        &mut self,
+        caller: &Caller<'_>,
+        call: &InFlight,
+        status: UnansweredCallStatus,
+        error: &str,
+    ) {
+        let (command, request) = wire::read_request(&call.frame).unwrap_or(("", &[]));
+        tracing::debug!(
+            client = caller.client,
+            "{}.{command} to {} unanswered: {status}",
+            caller.interface,
+            if call.provider.is_empty() {
+                "no provider"
+            } else {
+                &call.provider
+            }
+        );
+        let mut message = UnansweredCall {
+            client: caller.client.to_owned(),
+            interface: caller.interface.to_owned(),
+            command: command.to_owned(),
+            request: request.to_vec(),
+            provider: call.provider.clone(),
+            status: status.into(),
+            error: error.to_owned(),
+            timeout_ns: i64::try_from(call.timeout.as_nanos()).unwrap_or(i64::MAX),
+            sent_ns: call.sent_ns,
+            ..UnansweredCall::default()
+        };
+        let header = message.header_mut();
+        caller.client.clone_into(&mut header.provider);
+        header.seq = SEQ.fetch_add(1, Ordering::Relaxed) + 1;
+        header.publish_time_ns = self.clock.now_ns();
+        let Some(publisher) = self.publisher(caller) else {
+            return;
+        };
+        let len = cdr::encoded_len(&message);
+        if let Err(e) = publisher.publish_with(len, |buf| {
+            let _ = cdr::encode_into(&message, buf);
+        }) {
+            tracing::warn!(
+                client = caller.client,
+                "cannot record an unanswered call: {e}"
+            );
+        }
+    }
+
+    fn publisher(&mut self, caller: &Caller<'_>) -> Option<&mut Publisher> {
+        if self.publisher.is_none() && !self.unavailable {
+            match caller
+                .ipc
+                .publisher(names::CALLS_CHANNEL, &names::calls_config())
+            {
+                Ok(publisher) => self.publisher = Some(publisher),
+                Err(e) => {
+                    self.unavailable = true;
+                    tracing::warn!(
+                        client = caller.client,
+                        "cannot open {}: unanswered calls of {} are not recorded: {e}",
+                        names::CALLS_CHANNEL,
+                        caller.interface
+                    );
+                }
+            }
+        }
+        self.publisher.as_mut()
+    }
+}
