@@ -135,6 +135,16 @@ impl Launch {
             signals,
         } = self;
         let namespace = &options.up.namespace;
+        // First, so that every process and thread of the run inherits it.
+        if let Some(nice) = robot.broker.nice {
+            match lewis_runtime::supervise::set_nice(nice) {
+                Ok(()) => tracing::info!("the robot runs at nice {nice}, ahead of other work"),
+                Err(e) => tracing::warn!(
+                    "{e}; the robot runs at the priority it was started with, and a loaded \
+                     machine may delay its heartbeats"
+                ),
+            }
+        }
         // Before anything of this run opens a channel: what killed runs left half made
         // would be refused to it.
         let _ = lewis_runtime::ipc::wipe_stale(namespace);

@@ -22,6 +22,7 @@
 //! # retry_probation_ms = 5000      # a retried service proves itself: clients fail back after
 //!
 //! data_checks = true              # check what providers publish (default: false)
+//! nice = -10                      # run the robot ahead of other work (default: as started)
 //!
 //! [broker.interfaces.RangeFinder]
 //! fail_back = true                # per-interface override
@@ -135,6 +136,9 @@ pub struct BrokerSettings {
     pub data_checks: bool,
     /// Per-interface data checks, where the robot file overrides the interface's default.
     pub checks_per_interface: BTreeMap<String, DataChecks>,
+    /// The nice value `lewis up` runs the robot at (broker, recorder, services and programs
+    /// inherit it), from -20 (first) to 19 (last); `None` leaves the one it was started with.
+    pub nice: Option<i32>,
 }
 
 /// When and how a failed service gets another chance (`[broker]`'s `retry_failed_after_ms`,
@@ -217,6 +221,7 @@ impl Default for BrokerSettings {
             retry: None,
             data_checks: false,
             checks_per_interface: BTreeMap::new(),
+            nice: None,
         }
     }
 }

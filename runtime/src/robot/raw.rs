@@ -43,6 +43,7 @@ pub(super) struct RawBroker {
     pub retry_failed_max_ms: Option<Spanned<i64>>,
     pub retry_probation_ms: Option<Spanned<i64>>,
     pub data_checks: Option<bool>,
+    pub nice: Option<Spanned<i64>>,
 }
 
 #[derive(Debug, Deserialize)]

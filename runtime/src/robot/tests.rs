@@ -230,6 +230,29 @@ fn the_retry_of_failed_services_is_checked_where_it_is_written() {
 }
 
 #[test]
+fn a_nice_value_out_of_range_is_placed() {
+    let robot = |broker: &str| {
+        format!(
+            "[robot]\nname = \"x\"\n[broker]\n{broker}\n[[services]]\nname = \"laser\"\nkind = \"test-range\"\nstart = \"always\"\nprovides = []\n"
+        )
+    };
+    check(
+        &robot("nice = -21"),
+        &expect![[r#"
+            robot.toml:4:8: nice -21 is out of range: nice values run from -20 (first) to 19 (last)
+        "#]],
+    );
+    check(
+        &robot("nice = 99999999999"),
+        &expect![[r#"
+            robot.toml:4:8: nice 99999999999 is out of range: nice values run from -20 (first) to 19 (last)
+        "#]],
+    );
+    let robot = parse(&robot("nice = -10"), Path::new("robot.toml"), &[]).unwrap();
+    assert_eq!(robot.broker.nice, Some(-10));
+}
+
+#[test]
 fn a_wrong_type_and_an_unknown_start_mode_are_placed() {
     check(
         "[robot]\nname = \"x\"\n[[services]]\nname = \"a\"\nkind = \"k\"\nstart = \"sometimes\"\nprovides = []\n",

@@ -151,6 +151,24 @@ impl Checker<'_> {
             retry,
             data_checks: raw.data_checks.unwrap_or(false),
             checks_per_interface,
+            nice: raw.nice.and_then(|nice| self.nice(&nice)),
+        }
+    }
+
+    /// A nice value, -20 to 19.
+    fn nice(&mut self, value: &Spanned<i64>) -> Option<i32> {
+        match i32::try_from(*value.get_ref()) {
+            Ok(nice) if (-20..=19).contains(&nice) => Some(nice),
+            _ => {
+                self.report(
+                    &value.span(),
+                    format!(
+                        "nice {} is out of range: nice values run from -20 (first) to 19 (last)",
+                        value.get_ref()
+                    ),
+                );
+                None
+            }
         }
     }
 

@@ -1,0 +1,97 @@
+//! `[broker] nice`: `lewis up` runs the robot at the robot file's nice value, its services
+//! inherit it, and where the machine does not allow it the run goes on and says why.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::process::Command;
+
+use lewis_runtime::ipc::Namespace;
+use lewis_tests::{Up, lewis_exe};
+
+fn robot(nice: i32) -> String {
+    format!(
+        r#"
+[robot]
+name = "nice"
+
+[broker]
+heartbeat_period_ms = 20
+heartbeat_deadline_ms = 1000
+nice = {nice}
+
+[[services]]
+name = "laser"
+kind = "test-range"
+start = "always"
+provides = [{{ interface = "RangeFinder", quality = 10, cost = 1 }}]
+"#
+    )
+}
+
+/// The nice value of process `pid` (field 19 of /proc/PID/stat, after the command name).
+fn nice_of(pid: u32) -> i32 {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    let (_, after_name) = stat.rsplit_once(')').unwrap();
+    after_name
+        .split_whitespace()
+        .nth(16)
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn the_broker_and_its_services_run_at_the_robot_files_nice_value() {
+    // Lowering a priority needs no privilege, so this holds on any machine.
+    let mut up = Up::start("nice", &robot(7));
+    up.wait_line("the robot runs at nice 7");
+    up.wait_line("laser: started");
+    assert_eq!(nice_of(up.pid()), 7);
+    assert_eq!(nice_of(up.pid_of("laser")), 7);
+    assert!(up.stop().success(), "{}", up.log());
+}
+
+#[test]
+fn a_robot_not_allowed_its_priority_runs_and_says_why() {
+    // Without CAP_SYS_NICE (dropped by setpriv where the test runs as root) no process
+    // may raise its priority.
+    let Ok(setpriv) = which_setpriv() else {
+        eprintln!("skipped: setpriv (util-linux) is not installed");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = dir.path().join("robot.toml");
+    std::fs::write(&robot_path, robot(-5)).unwrap();
+    let namespace = Namespace::unique("nice-denied");
+    let output = Command::new(setpriv)
+        .args(["--bounding-set=-sys_nice", "--inh-caps=-sys_nice"])
+        .arg(lewis_exe())
+        .arg("up")
+        .arg(&robot_path)
+        .args(["--namespace", namespace.as_str(), "--no-record"])
+        .args(["--duration", "1s"])
+        .current_dir(dir.path())
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(
+            "not allowed to raise the robot's priority to nice -5: give lewis CAP_SYS_NICE"
+        ),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("laser: started") || stderr.contains("broker up"),
+        "{stderr}"
+    );
+}
+
+fn which_setpriv() -> Result<std::path::PathBuf, ()> {
+    ["/usr/bin/setpriv", "/bin/setpriv"]
+        .into_iter()
+        .map(std::path::PathBuf::from)
+        .find(|p| p.exists())
+        .ok_or(())
+}
