@@ -10,7 +10,9 @@
 //! signals. SIGTERM or SIGINT end it cleanly: `on_stop` runs, the process exits with 0.
 //!
 //! Heartbeats come from this event loop, between events, never from a thread of their own:
-//! a heartbeat means "this service is responsive". So the first heartbeat (the service is
+//! a heartbeat means "this service is responsive". One is sent after any handler once it is
+//! due, so a service working through a backlog (camera frames queued while the machine was
+//! busy) keeps beating between them. So the first heartbeat (the service is
 //! ready) goes once `on_start` has returned: `on_start` may block (open a device, probe its
 //! baud rate) for up to the startup deadline. After that every handler must return well
 //! within the heartbeat deadline: a service stuck in a handler sends no heartbeat, and that
@@ -296,9 +298,11 @@ fn run_one(
         waits: WaitSet::new(WakeMode::Event),
         tick_period_ns: None,
         overruns,
+        heartbeat_period,
+        next_heartbeat: heartbeat_period.map(|period| Instant::now() + period),
     };
     harness.tick_period_ns = harness.service.tick_period_ns().filter(|ns| *ns > 0);
-    let finished = harness.run(&signals, heartbeat_period)?;
+    let finished = harness.run(&signals)?;
     if finished.is_some() {
         // A program that finished leaves while the broker runs on: it says goodbye and
         // waits to be heard, so that its bindings end as released, not as a death.
@@ -323,17 +327,14 @@ struct Harness<'s> {
     /// On the service's clock.
     tick_period_ns: Option<i64>,
     overruns: overrun::OverrunWatch,
+    /// `None` for a program: no heartbeats.
+    heartbeat_period: Option<Duration>,
+    next_heartbeat: Option<Instant>,
 }
 
 impl Harness<'_> {
     /// Runs until a stop signal (`None`) or until the service finishes (its exit code).
-    fn run(
-        &mut self,
-        signals: &StopSignals,
-        heartbeat_period: Option<Duration>,
-    ) -> Result<Option<i32>, LiveError> {
-        let start = Instant::now();
-        let mut next_heartbeat = heartbeat_period.map(|period| start + period);
+    fn run(&mut self, signals: &StopSignals) -> Result<Option<i32>, LiveError> {
         // On the service's clock: a played clock's ticks follow the recording's time.
         let mut next_tick: Option<i64> = None;
         let mut device_ready = false;
@@ -349,13 +350,7 @@ impl Harness<'_> {
                 self.wait_stalled(signals)?;
                 continue;
             }
-            let now = Instant::now();
-            if let (Some(at), Some(period)) = (next_heartbeat, heartbeat_period)
-                && now >= at
-            {
-                self.backend.heartbeat();
-                next_heartbeat = Some(advance(at, period, now));
-            }
+            self.beat_if_due();
             if let Some(period_ns) = self.tick_period_ns {
                 let now_ns = self.backend.time.now_ns();
                 match next_tick {
@@ -368,7 +363,7 @@ impl Harness<'_> {
                         let started = Instant::now();
                         self.service
                             .on_tick(&mut event_context(&mut self.state, &mut self.backend));
-                        self.overruns.ran("on_tick", started);
+                        self.handled("on_tick", started);
                         next_tick = Some(advance_ns(at, period_ns, now_ns));
                     }
                     // A played clock that went back (the player started again).
@@ -384,10 +379,10 @@ impl Harness<'_> {
                 let started = Instant::now();
                 self.service
                     .on_device(&mut event_context(&mut self.state, &mut self.backend));
-                self.overruns.ran("on_device", started);
+                self.handled("on_device", started);
             }
             let tick_due = next_tick.and_then(|at| self.backend.time.instant_at(at));
-            let deadline = [next_heartbeat, tick_due]
+            let deadline = [self.next_heartbeat, tick_due]
                 .into_iter()
                 .flatten()
                 .chain(
@@ -407,6 +402,24 @@ impl Harness<'_> {
         self.service
             .on_stop(&mut event_context(&mut self.state, &mut self.backend));
         Ok(finished)
+    }
+
+    /// Sends the heartbeat when it is due.
+    fn beat_if_due(&mut self) {
+        beat_if_due(
+            &mut self.backend,
+            &mut self.next_heartbeat,
+            self.heartbeat_period,
+        );
+    }
+
+    /// After each handler that `started` then: its overrun is watched, and the heartbeat
+    /// goes out if due. A service working through a backlog (four camera frames waiting, a
+    /// burst of commands) is responsive, and says so between handlers; one stuck in a
+    /// handler sends nothing until it returns, and the broker sees the stall.
+    fn handled(&mut self, handler: &'static str, started: Instant) {
+        self.overruns.ran(handler, started);
+        self.beat_if_due();
     }
 
     /// Waits for anything to do; returns whether the device is readable.
@@ -464,6 +477,11 @@ impl Harness<'_> {
                 let (command, request) = logged;
                 self.backend
                     .log_command(interface, command, request, answer, received_ns);
+                beat_if_due(
+                    &mut self.backend,
+                    &mut self.next_heartbeat,
+                    self.heartbeat_period,
+                );
             }
         }
     }
@@ -499,7 +517,7 @@ impl Harness<'_> {
                     &mut event_context(&mut self.state, &mut self.backend),
                     &input,
                 );
-                self.overruns.ran("on_input", started);
+                self.handled("on_input", started);
             }
             self.state.set_inputs(Vec::new());
             while let Some(outcome) = self
@@ -536,10 +554,12 @@ impl Harness<'_> {
                     command,
                     result,
                 };
+                let started = Instant::now();
                 self.service.on_reply(
                     &mut event_context(&mut self.state, &mut self.backend),
                     &event,
                 );
+                self.handled("on_reply", started);
             }
         }
         Ok(())
@@ -580,6 +600,17 @@ impl Harness<'_> {
 fn event_context<'a>(state: &'a mut ContextState, backend: &'a mut LiveBackend) -> Context<'a> {
     backend.event_ns = backend.time.now_ns();
     state.context(backend)
+}
+
+/// Sends `backend`'s heartbeat when `next` is due, and schedules the one after.
+fn beat_if_due(backend: &mut LiveBackend, next: &mut Option<Instant>, period: Option<Duration>) {
+    let now = Instant::now();
+    if let (Some(at), Some(period)) = (*next, period)
+        && now >= at
+    {
+        backend.heartbeat();
+        *next = Some(advance(at, period, now));
+    }
 }
 
 /// The next time of a periodic event after `at`: one period later, or one period from now
