@@ -2,17 +2,22 @@
 //! to the first sonar sample at an application bound to RangeFinder, measured at the
 //! application, with the sonar started on demand and as a hot standby:
 //!
-//! - **stall**: the laser stops (no data, no heartbeat; 50 ms heartbeat deadline);
+//! - **stall**: the laser stops (no data, no heartbeat; a 100 ms heartbeat deadline, as on
+//!   the shipped robots, with heartbeats every 10 ms);
 //! - **crash**: the laser aborts with no restart left (the crash beyond its limit);
 //! - **crash loop**: the laser aborts, and again at once after each of its 2 restarts
-//!   (backoff 20 ms then 40 ms), until it is beyond its limit: the whole episode.
+//!   (backoff 20 ms then 40 ms), until it is beyond its limit: the whole episode;
+//! - **garbage**, **frozen**, **slow**: the laser keeps running but publishes NaN ranges,
+//!   the same scan again and again, or at a third of its rate; the broker's data checks
+//!   (on for these) fail it.
 //!
 //! Each trial also splits the gap in two: until the broker's rebind decision (detection and
 //! decision), and from it to the first sonar sample (starting the sonar if needed, the
 //! client's switch of subscription, the sonar's first scan). Times across processes are
 //! each process's clock; the split is good to a fraction of a millisecond.
 //!
-//! `cargo bench --workspace --bench failover` (`-- --trials N`, default 10).
+//! `cargo bench --workspace --bench failover` (`-- --trials N`, default 10; `-- --stress`
+//! runs `stress-ng --cpu 2` beside it all, so that every core is busy with other work).
 
 #![allow(
     clippy::unwrap_used,
@@ -44,23 +49,46 @@ struct Scenario {
     name: &'static str,
     fault: &'static str,
     laser_max_restarts: u32,
+    /// Whether the broker checks the data (`[broker] data_checks`).
+    data_checks: bool,
 }
 
-const SCENARIOS: [Scenario; 3] = [
+const SCENARIOS: [Scenario; 6] = [
     Scenario {
         name: "stall",
         fault: "stall",
         laser_max_restarts: 2,
+        data_checks: false,
     },
     Scenario {
         name: "crash",
         fault: "crash",
         laser_max_restarts: 0,
+        data_checks: false,
     },
     Scenario {
         name: "crash loop",
         fault: "crash",
         laser_max_restarts: 2,
+        data_checks: false,
+    },
+    Scenario {
+        name: "garbage",
+        fault: "garbage",
+        laser_max_restarts: 2,
+        data_checks: true,
+    },
+    Scenario {
+        name: "frozen",
+        fault: "frozen",
+        laser_max_restarts: 2,
+        data_checks: true,
+    },
+    Scenario {
+        name: "slow",
+        fault: "slow",
+        laser_max_restarts: 2,
+        data_checks: true,
     },
 ];
 
@@ -79,9 +107,18 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|n| n.parse().ok())
         .unwrap_or(10_usize);
+    let stress = args
+        .iter()
+        .any(|a| a == "--stress")
+        .then(|| lewis_tests::stress::Stress::cpus(2));
     println!(
         "failover latency, last laser sample -> first sonar sample at the application, \
-         {trials} trials each, milliseconds"
+         {trials} trials each, milliseconds{}",
+        if stress.is_some() {
+            ", beside stress-ng --cpu 2"
+        } else {
+            ""
+        }
     );
     println!(
         "{:<11} {:<10} | {:>7} {:>7} {:>7} | {:>16} {:>16} | failed",
@@ -134,16 +171,18 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 /// One `lewis up`, one application; the fault is injected once the application receives
 /// laser data, and the gap is measured at the application. A trial fails (and is counted,
 /// not measured) when no sonar sample comes in time, or when the broker gives up the sonar
-/// too: on a loaded machine a fresh sonar can miss its 50 ms heartbeat deadline.
+/// too: on a loaded machine a fresh sonar can miss its 100 ms heartbeat deadline.
 fn trial(scenario: Scenario, sonar_start: &str, index: usize) -> Result<Trial, String> {
     let dir = tempfile::tempdir().unwrap();
     let fault_file = dir.path().join("laser.fault");
     let robot = test_robot(&TestRobot {
         laser_fault_file: Some(&fault_file),
         sonar_start,
-        heartbeat_deadline_ms: 50,
+        heartbeat_deadline_ms: 100,
         laser_max_restarts: scenario.laser_max_restarts,
         rate_hz: 100.0,
+        data_checks: scenario.data_checks,
+        declare_rate: scenario.data_checks,
         ..TestRobot::default()
     });
     let namespace = lewis_runtime::ipc::Namespace::unique(&format!(

@@ -83,6 +83,7 @@ pub mod browser;
 pub mod fake_device;
 pub mod robot;
 pub mod small_disk;
+pub mod stress;
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Stdio};
@@ -243,7 +244,16 @@ impl Up {
     /// # Panics
     /// When no such line comes, printing everything seen.
     pub fn wait_line(&mut self, needle: &str) -> String {
-        let deadline = Instant::now() + WATCHDOG;
+        self.wait_line_within(needle, WATCHDOG)
+    }
+
+    /// [`Up::wait_line`] with a watchdog of `limit` (a run meant to last longer than
+    /// [`WATCHDOG`]).
+    ///
+    /// # Panics
+    /// When no such line comes, printing everything seen.
+    pub fn wait_line_within(&mut self, needle: &str, limit: Duration) -> String {
+        let deadline = Instant::now() + limit;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.lines.recv_timeout(left) {

@@ -156,3 +156,24 @@ pub fn set_fault(path: &Path, word: &str) {
     std::fs::write(&tmp, word).expect("the fault file can be written");
     std::fs::rename(&tmp, path).expect("the fault file can be renamed into place");
 }
+
+/// The text of the shipped robot file `robots/NAME` with every `= "robots/..."` path (the
+/// world, colour files) made absolute: the tests run `lewis up` in a temporary directory.
+///
+/// # Panics
+/// When the file is not in the repository.
+#[must_use]
+pub fn shipped_robot(name: &str) -> String {
+    let text = std::fs::read_to_string(crate::repo_root().join("robots").join(name))
+        .unwrap_or_else(|e| panic!("robots/{name} is in the repository: {e}"));
+    with_absolute_paths(&text)
+}
+
+/// A robot file's text with every `= "robots/..."` path made absolute.
+#[must_use]
+pub fn with_absolute_paths(text: &str) -> String {
+    text.replace(
+        "= \"robots/",
+        &format!("= \"{}/robots/", crate::repo_root().display()),
+    )
+}

@@ -188,15 +188,12 @@ fn a_crashing_sign_follower_recovers_with_the_red_cap_and_resumes_from_the_page(
 /// `robots/sim.toml` with the robot past the corridor's turn and every `robots/...` path
 /// absolute (`lewis up` runs in a temporary directory).
 fn robot_text() -> String {
-    let text = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
+    let text = lewis_tests::robot::shipped_robot("sim.toml");
     assert!(
         text.contains(LOBBY_START),
         "robots/sim.toml starts the robot with `{LOBBY_START}`"
     );
-    text.replace(LOBBY_START, TURN_START).replace(
-        "= \"robots/",
-        &format!("= \"{}/robots/", repo_root().display()),
-    )
+    text.replace(LOBBY_START, TURN_START)
 }
 
 /// `robots/missions/challenge.seq` started at `sign`, its programs by absolute path.

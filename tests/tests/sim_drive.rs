@@ -20,7 +20,8 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker, GroundTruth, Mover};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
 use lewis_runtime::names;
-use lewis_tests::{RangeApp, Up, lewis_exe, open_ipc, repo_root, wait_child_within};
+use lewis_tests::robot::with_absolute_paths;
+use lewis_tests::{RangeApp, Up, lewis_exe, open_ipc, wait_child_within};
 
 /// The goal in the world frame: from the lobby (3, 12.5) through the entrance door (x 8)
 /// into the corridor, about 9 m.
@@ -42,29 +43,15 @@ const GOAL_TIMEOUT_SECS: u64 = 50;
 /// `robots/sim.toml` with its paths (the world, the colour file) made absolute, written
 /// into `dir`.
 fn sim_robot(dir: &std::path::Path) -> PathBuf {
-    let text = std::fs::read_to_string(repo_root().join("robots/sim.toml"))
-        .expect("robots/sim.toml is in the repository");
-    write_robot(dir, &text)
-}
-
-/// A robot file's text with every `= "robots/..."` path made absolute, written into `dir`.
-fn write_robot(dir: &std::path::Path, text: &str) -> PathBuf {
-    let path = dir.join("sim.toml");
-    std::fs::write(&path, absolute_paths(text)).expect("the robot file can be written");
-    path
+    write_robot(dir, &lewis_tests::robot::shipped_robot("sim.toml"))
 }
 
 /// A robot file's text with every `= "robots/..."` path made absolute (the tests run
-/// `lewis up` in a temporary directory).
-fn absolute_paths(text: &str) -> String {
-    assert!(
-        text.contains("world = \"robots/worlds/conference\""),
-        "the robot names its world as robots/worlds/conference"
-    );
-    text.replace(
-        "= \"robots/",
-        &format!("= \"{}/robots/", repo_root().display()),
-    )
+/// `lewis up` in a temporary directory), written into `dir`.
+fn write_robot(dir: &std::path::Path, text: &str) -> PathBuf {
+    let path = dir.join("sim.toml");
+    std::fs::write(&path, with_absolute_paths(text)).expect("the robot file can be written");
+    path
 }
 
 /// A running `lewis up ... --goal`, its stderr collected line by line.
@@ -509,7 +496,7 @@ fn the_simulated_sensors_honour_out_of_service_clear_and_stall() {
     let _one = ONE_ROBOT
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
-    let mut up = Up::start("sim-faults", &absolute_paths(SIM_SENSORS));
+    let mut up = Up::start("sim-faults", &with_absolute_paths(SIM_SENSORS));
     up.wait_line("broker up");
     let ipc = open_ipc(&up.namespace, "test-app");
     let mut laser_data = ipc
