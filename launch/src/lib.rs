@@ -136,15 +136,29 @@ impl Launch {
         } = self;
         let namespace = &options.up.namespace;
         // First, so that every process and thread of the run inherits it.
-        if let Some(nice) = robot.broker.nice {
-            match lewis_runtime::supervise::set_nice(nice) {
-                Ok(()) => tracing::info!("the robot runs at nice {nice}, ahead of other work"),
-                Err(e) => tracing::warn!(
-                    "{e}; the robot runs at the priority it was started with, and a loaded \
-                     machine may delay its heartbeats"
-                ),
-            }
-        }
+        let priority = robot
+            .broker
+            .nice
+            .and_then(|nice| match lewis_runtime::supervise::set_nice(nice) {
+                Ok(set) => {
+                    tracing::info!(
+                        "the robot runs at nice {nice}{}, ahead of other work",
+                        if set.session_group_before.is_some() {
+                            " (its session's group too)"
+                        } else {
+                            ""
+                        }
+                    );
+                    Some(set)
+                }
+                Err(e) => {
+                    tracing::warn!(
+                        "{e}; the robot runs at the priority it was started with, and a \
+                         loaded machine may delay its heartbeats"
+                    );
+                    None
+                }
+            });
         // Before anything of this run opens a channel: what killed runs left half made
         // would be refused to it.
         let _ = lewis_runtime::ipc::wipe_stale(namespace);
@@ -200,6 +214,9 @@ impl Launch {
         // When the broker could not run, `finish` has not run yet.
         finish();
         let goal = goal.map(GoalRun::finish).transpose();
+        if let Some(priority) = priority {
+            priority.restore();
+        }
         let up = up?;
         tracing::info!("broker down ({}), {} decisions", up.ended_by, up.decisions);
         Ok(LaunchReport {

@@ -185,9 +185,40 @@ impl Up {
         robot: &str,
         args: &[&std::ffi::OsStr],
     ) -> Self {
+        Self::spawn(dir, namespace, robot, args, Command::new(lewis_exe()))
+    }
+
+    /// As [`Up::start`], in a session of its own: what it sets for its session (the
+    /// scheduler's session group, by `[broker] nice`) stays its own, not the test's.
+    ///
+    /// # Panics
+    /// When the robot file or the process cannot be made.
+    #[must_use]
+    pub fn start_in_own_session(tag: &str, robot: &str) -> Self {
+        use std::os::unix::process::CommandExt as _;
+        let mut command = Command::new(lewis_exe());
+        // SAFETY: setsid is async-signal-safe and touches nothing of the parent.
+        unsafe {
+            command.pre_exec(|| {
+                nix::unistd::setsid()
+                    .map(drop)
+                    .map_err(std::io::Error::from)
+            });
+        }
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        Self::spawn(dir, Namespace::unique(tag), robot, &[], command)
+    }
+
+    fn spawn(
+        dir: tempfile::TempDir,
+        namespace: Namespace,
+        robot: &str,
+        args: &[&std::ffi::OsStr],
+        mut command: Command,
+    ) -> Self {
         let robot_path = dir.path().join("robot.toml");
         std::fs::write(&robot_path, robot).expect("the robot file can be written");
-        let mut child = Command::new(lewis_exe())
+        let mut child = command
             .arg("up")
             .arg(&robot_path)
             .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "300"])

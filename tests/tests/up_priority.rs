@@ -42,8 +42,10 @@ fn nice_of(pid: u32) -> i32 {
 
 #[test]
 fn the_broker_and_its_services_run_at_the_robot_files_nice_value() {
-    // Lowering a priority needs no privilege, so this holds on any machine.
-    let mut up = Up::start("nice", &robot(7));
+    // Lowering a priority needs no privilege, so this holds on any machine. Its own
+    // session: where the kernel groups processes by session, lewis up lowers its session's
+    // group too, which must not be the test's.
+    let mut up = Up::start_in_own_session("nice", &robot(7));
     up.wait_line("the robot runs at nice 7");
     up.wait_line("laser: started");
     assert_eq!(nice_of(up.pid()), 7);

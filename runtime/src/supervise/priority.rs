@@ -4,6 +4,14 @@
 //!
 //! Every thread of this process gets the value (Linux keeps one per thread), and every
 //! thread and process started later inherits it from its parent.
+//!
+//! Where the kernel groups processes by session (`kernel.sched_autogroup_enabled`, on in
+//! most desktop and many server kernels), a nice value only orders the processes of one
+//! session: the CPU is first shared evenly between sessions, so a compiler started from
+//! another terminal gets as much as the whole robot whatever its processes' nice values.
+//! The robot's session group gets the same nice value then (`/proc/self/autogroup`), for
+//! as long as the robot runs: the session may be a person's terminal, which gets its own
+//! value back at the end ([`PrioritySet::restore`]).
 
 use rustix::process::{Pid, setpriority_process};
 
@@ -31,12 +39,70 @@ pub enum PriorityError {
     },
 }
 
+/// What [`set_nice`] set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PrioritySet {
+    /// The session group's nice value before, when it got the new one too (the kernel
+    /// groups by session).
+    pub session_group_before: Option<i32>,
+}
+
+impl PrioritySet {
+    /// Gives the session's group its nice value back (the threads keep theirs: this
+    /// process is ending).
+    pub fn restore(&self) {
+        if let Some(before) = self.session_group_before {
+            // Best effort: a session whose value cannot be set back keeps the robot's.
+            let _ = std::fs::write(AUTOGROUP, before.to_string());
+        }
+    }
+}
+
+/// This process's session group and its nice value: `/autogroup-42 nice 0`.
+const AUTOGROUP: &str = "/proc/self/autogroup";
+
 /// Sets the nice value of every thread of this process to `nice` (-20, first, to 19,
-/// last); what they start afterwards inherits it.
+/// last), and of its session's group where the kernel groups by session; what they start
+/// afterwards inherits it.
 ///
 /// # Errors
 /// [`PriorityError::NotAllowed`] when the process may not raise its priority that far.
-pub fn set_nice(nice: i32) -> Result<(), PriorityError> {
+pub fn set_nice(nice: i32) -> Result<PrioritySet, PriorityError> {
+    set_threads_nice(nice)?;
+    let session_group_before = set_session_group_nice(nice)?;
+    Ok(PrioritySet {
+        session_group_before,
+    })
+}
+
+/// The session group's nice value, where the kernel groups processes by session; its value
+/// before, when it did.
+fn set_session_group_nice(nice: i32) -> Result<Option<i32>, PriorityError> {
+    let enabled = std::fs::read_to_string("/proc/sys/kernel/sched_autogroup_enabled")
+        .is_ok_and(|v| v.trim() == "1");
+    // No group to set (off, or a kernel built without it): the threads' value is all.
+    let Some(before) = enabled
+        .then(|| std::fs::read_to_string(AUTOGROUP).ok())
+        .flatten()
+        .and_then(|text| autogroup_nice(&text))
+    else {
+        return Ok(None);
+    };
+    match std::fs::write(AUTOGROUP, nice.to_string()) {
+        Ok(()) => Ok(Some(before)),
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+            Err(PriorityError::NotAllowed { nice })
+        }
+        Err(source) => Err(PriorityError::System { nice, source }),
+    }
+}
+
+/// The nice value in `/proc/self/autogroup`'s text.
+fn autogroup_nice(text: &str) -> Option<i32> {
+    text.split_whitespace().last()?.parse().ok()
+}
+
+fn set_threads_nice(nice: i32) -> Result<(), PriorityError> {
     let system = |source: std::io::Error| PriorityError::System { nice, source };
     let tasks = std::fs::read_dir("/proc/self/task").map_err(system)?;
     for task in tasks {
@@ -59,4 +125,17 @@ pub fn set_nice(nice: i32) -> Result<(), PriorityError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_session_groups_nice_value_is_read_from_its_line() {
+        assert_eq!(autogroup_nice("/autogroup-449 nice 0\n"), Some(0));
+        assert_eq!(autogroup_nice("/autogroup-7 nice -10"), Some(-10));
+        assert_eq!(autogroup_nice(""), None);
+        assert_eq!(autogroup_nice("/autogroup-7 nice x"), None);
+    }
 }
