@@ -136,16 +136,20 @@ impl UnansweredCalls {
         error: &str,
     ) {
         let (command, request) = wire::read_request(&call.frame).unwrap_or(("", &[]));
-        tracing::debug!(
-            client = caller.client,
-            "{}.{command} to {} unanswered: {status}",
-            caller.interface,
-            if call.provider.is_empty() {
-                "no provider"
-            } else {
-                &call.provider
-            }
-        );
+        if call.provider.is_empty() {
+            tracing::debug!(
+                client = caller.client,
+                "{}.{command} got no answer: {status}",
+                caller.interface
+            );
+        } else {
+            tracing::debug!(
+                client = caller.client,
+                "{}.{command} to {} got no answer: {status}",
+                caller.interface,
+                call.provider
+            );
+        }
         let mut message = UnansweredCall {
             client: caller.client.to_owned(),
             interface: caller.interface.to_owned(),
