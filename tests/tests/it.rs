@@ -25,3 +25,4 @@ mod record_up;
 mod replay_reference;
 mod replay_ros2;
 mod tune;
+mod tune_labels;
