@@ -138,7 +138,13 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
         let before = fitting::score(&start, &images, held_out.min_area_px)?;
         let after = fitting::score(&fit.config, &images, held_out.min_area_px)?;
         let what = format!("{} held-out frames ({})", images.len(), path.display());
-        compare(&mut report, &what, &before, &after, &fitted_names);
+        // Judged on the fitted classes that the held-out frames label: a class with no
+        // truth there has no recall to gain.
+        let judged: Vec<String> = labelled_classes(&start, held_out)
+            .into_iter()
+            .filter(|c| fitted_names.contains(c))
+            .collect();
+        compare(&mut report, &what, &before, &after, &judged);
     }
     let comment = format!(
         "Fitted by `lewis tune fit` from {} on the frames of {} labelled in {}\n(classes fitted: {})",
@@ -154,7 +160,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Appends the before and after lines of each fitted class and their mean F1.
+/// Appends the mean F1 of `classes` before and after, and each one's before and after.
 fn compare(report: &mut String, what: &str, before: &Score, after: &Score, classes: &[String]) {
     let mean = |score: &Score| {
         let f1: f64 = classes
