@@ -121,11 +121,7 @@ fn record_sim(dir: &Path) -> PathBuf {
         let mut state = WorldState::default();
         state.people.push(PersonState {
             name: "red-cap".into(),
-            position: Point2D {
-                x: g.x,
-                y: g.y,
-                ..Point2D::default()
-            },
+            position: Point2D { x: g.x, y: g.y },
             present: !shot.guide_gone,
             ..PersonState::default()
         });
