@@ -29,6 +29,8 @@
 //! - A frame listed with no objects is a frame where no class has anything: every blob
 //!   there is a false positive. Frames not listed are not scored.
 //! - Blobs smaller than `min_area_px` (default 1) are not scored.
+//! - A class that no object anywhere in the file is labelled with is not scored by
+//!   `lewis tune check` and `lewis tune fit`: there is no truth to judge it by.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
