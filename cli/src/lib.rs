@@ -103,7 +103,7 @@ pub enum Command {
     /// Ctrl-C.
     FakeDevice(fake_device::FakeDeviceArgs),
     /// Tune colour classes offline: re-run the blob finder over recorded or saved images,
-    /// or pick a colour from an image.
+    /// pick a colour from an image, score and fit a colour file on labelled frames.
     #[command(subcommand)]
     Tune(tune::TuneCommand),
     /// Publish the recorder's stress mix (a test and measurement tool).

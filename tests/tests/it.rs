@@ -25,4 +25,5 @@ mod record_up;
 mod replay_reference;
 mod replay_ros2;
 mod tune;
+mod tune_labels;
 mod up_priority;

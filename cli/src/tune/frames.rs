@@ -107,7 +107,7 @@ impl Input {
                             )
                         })?;
                     Ok(Frame {
-                        name: format!("{}-{:06}", file_name_of(&message.topic), message.seq),
+                        name: frame_name(&message.topic, message.seq),
                         topic: message.topic,
                         log_time_ns: message.log_time_ns,
                         publish_time_ns: message.publish_time_ns,
@@ -157,6 +157,12 @@ fn image_topics(
         names()
     );
     Ok(chosen)
+}
+
+/// The name of the recorded frame `seq` of `topic` (`camera_ImageSource-000012`): its
+/// pictures' file name, and how a labels file names it.
+pub fn frame_name(topic: &str, seq: u64) -> String {
+    format!("{}-{seq:06}", file_name_of(topic))
 }
 
 /// A topic as part of a file name (`/camera/ImageSource` -> `camera_ImageSource`).

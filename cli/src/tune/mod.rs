@@ -12,11 +12,21 @@
 //! - `lewis tune pick IMAGE|RUN.mcap@T [X,Y] [--rect X,Y,W,H]` prints the YUV ranges of a
 //!   patch of pixels of an image file, or of the recorded image shown at T seconds into a
 //!   recording, as the two lines of a Player colour file.
+//! - `lewis tune check RUN.mcap|IMAGES --colors FILE --labels FILE.json` scores the colour
+//!   file's blobs against labelled frames (precision and recall per class) and exits 1
+//!   below `--min-precision`/`--min-recall` (`check.rs`).
+//! - `lewis tune fit RUN.mcap|IMAGES --colors START --labels FILE.json -o OUT` fits the
+//!   labelled classes' ranges to the labels (`fit.rs`).
+//! - `lewis tune label-sim RUN.mcap -o FILE.json` labels a simulator recording's frames
+//!   from the simulator's ground truth (`label_sim.rs`).
 //!
 //! The perception work is done by `lewis_perception::tuning`; recordings are read
 //! with `lewis_replay::recording` and written with `lewis_recorder`. This module wires them.
 
+mod check;
+mod fit;
 mod frames;
+mod label_sim;
 mod output;
 mod pick;
 
@@ -31,6 +41,9 @@ use lewis_perception::ColorConfig;
 use lewis_perception::sign_detector::{self, SignDetector};
 use lewis_perception::tuning::{Tuner, save_png};
 
+pub use check::CheckArgs;
+pub use fit::FitArgs;
+pub use label_sim::LabelSimArgs;
 pub use pick::PickArgs;
 
 /// `lewis tune ...`
@@ -41,6 +54,13 @@ pub enum TuneCommand {
     Blobfinder(BlobfinderArgs),
     /// Print the YUV ranges of a patch of pixels as the lines of a colour file.
     Pick(PickArgs),
+    /// Score a colour file's blobs against labelled frames: precision and recall per class;
+    /// exit 1 below the given thresholds.
+    Check(CheckArgs),
+    /// Fit the labelled classes' YUV ranges to labelled frames, from a colour file.
+    Fit(FitArgs),
+    /// Label the camera frames of a simulator recording from the simulator's ground truth.
+    LabelSim(LabelSimArgs),
 }
 
 /// Arguments of `lewis tune blobfinder`.
@@ -73,6 +93,9 @@ pub fn run(command: TuneCommand) -> anyhow::Result<ExitCode> {
     match command {
         TuneCommand::Blobfinder(args) => blobfinder(&args),
         TuneCommand::Pick(args) => pick::run(&args),
+        TuneCommand::Check(args) => check::run(&args),
+        TuneCommand::Fit(args) => fit::run(&args),
+        TuneCommand::LabelSim(args) => label_sim::run(&args),
     }
 }
 

@@ -9,6 +9,9 @@
 //! - [`range_distance`] (`range_distance`): RangeFinder in, Distance out.
 //! - [`tuning`]: the offline tools behind `lewis tune` (annotated frames, per-colour
 //!   statistics, a threshold line from a patch of pixels).
+//! - [`labels`] and [`scoring`]: labelled frames (a box per true object and class) and the
+//!   precision and recall of a colour file's blobs against them; [`fitting`], the ranges
+//!   that score best on them.
 //!
 //! Every algorithm is a plain struct with methods; the services only adapt them to the
 //! runtime. This crate knows no device and no simulator: its services take any provider of
@@ -19,8 +22,11 @@ pub mod blobfinder;
 pub mod blobfinder3d;
 pub mod camera_model;
 pub mod cmvision;
+pub mod fitting;
 pub mod image_view;
+pub mod labels;
 pub mod range_distance;
+pub mod scoring;
 pub mod sign_detector;
 pub mod signs;
 pub mod tuning;

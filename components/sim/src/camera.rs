@@ -314,16 +314,35 @@ impl SimCamera {
     /// written, whatever it held (a shared-memory loan holds an earlier frame). `rgb` must be
     /// [`SimCamera::frame_len`] bytes long; a buffer of another length is left as it is.
     pub fn render_into(&mut self, world: &World, robot_pose: Pose2, rgb: &mut [u8]) {
-        let width = self.config.width_px as usize;
-        let height = self.config.height_px as usize;
         if rgb.len() != self.frame_len() {
             return;
         }
         let k = self.intrinsics();
+        self.paint_floor_and_ceiling(world, &k, rgb);
+        self.paint_columns(world, robot_pose, &mut RgbCanvas(rgb));
+        self.add_noise(rgb);
+    }
+
+    /// What each pixel of the view from `robot_pose` shows, rows top first: the same
+    /// rendering as [`SimCamera::render_into`] (without its noise), but naming the surface
+    /// of each pixel rather than its colour. This is the simulator's ground truth of an
+    /// image: which object is seen where, behind what.
+    #[must_use]
+    pub fn render_sources(&mut self, world: &World, robot_pose: Pose2) -> Vec<PixelSource> {
+        let pixels = self.config.width_px as usize * self.config.height_px as usize;
+        let mut sources = vec![PixelSource::Background; pixels];
+        self.paint_columns(world, robot_pose, &mut SourceCanvas(&mut sources));
+        sources
+    }
+
+    /// Paints the walls and the objects of every column over what `canvas` holds.
+    fn paint_columns(&mut self, world: &World, robot_pose: Pose2, canvas: &mut impl Canvas) {
+        let width = self.config.width_px as usize;
+        let height = self.config.height_px as usize;
+        let k = self.intrinsics();
         let cam = self.camera_pose(robot_pose);
         let origin = cam.position();
         let mut hits = std::mem::take(&mut self.hits);
-        self.paint_floor_and_ceiling(world, &k, rgb);
         for column in 0..width {
             let x = column as f64;
             let relative = ((k.principal_x_px - x) / k.focal_length_px).atan();
@@ -344,14 +363,13 @@ impl SimCamera {
                 height,
             };
             if let Some(wall) = wall {
-                column_view.paint(&wall, rgb);
+                column_view.paint(&wall, canvas);
             }
             for hit in &hits {
-                column_view.paint(hit, rgb);
+                column_view.paint(hit, canvas);
             }
         }
         self.hits = hits;
-        self.add_noise(rgb);
     }
 
     fn paint_floor_and_ceiling(&self, world: &World, k: &Intrinsics, rgb: &mut [u8]) {
@@ -420,7 +438,7 @@ struct Column<'a> {
 }
 
 impl Column<'_> {
-    fn paint(&self, hit: &Hit, rgb: &mut [u8]) {
+    fn paint(&self, hit: &Hit, canvas: &mut impl Canvas) {
         let (bottom_m, top_m, material) = match hit.surface {
             Surface::Map => (
                 0.0,
@@ -449,8 +467,15 @@ impl Column<'_> {
         match material {
             Material::Solid(colour) => {
                 let c = colour.scaled(shade);
+                let source = match hit.surface {
+                    Surface::Map => PixelSource::Wall,
+                    Surface::Primitive(index) => PixelSource::Primitive {
+                        index,
+                        part: PrimitivePart::Solid,
+                    },
+                };
                 for row in first_row..=last_row {
-                    self.put(rgb, row, c);
+                    canvas.put(self.index(row), c, source);
                 }
             }
             Material::SignBoard(sign) => {
@@ -461,16 +486,21 @@ impl Column<'_> {
                 for row in first_row..=last_row {
                     let z = self.camera.height_of_row(depth, row as f64, self.k);
                     let v = (z - bottom) / sign.height_m;
-                    let colour = sign_colour(&sign, printed_side, u, v).scaled(shade);
-                    self.put(rgb, row, colour);
+                    let part = sign_part(&sign, printed_side, u, v);
+                    let colour = part_colour(part).scaled(shade);
+                    let source = match hit.surface {
+                        Surface::Primitive(index) => PixelSource::Primitive { index, part },
+                        Surface::Map => PixelSource::Wall,
+                    };
+                    canvas.put(self.index(row), colour, source);
                 }
             }
         }
     }
 
-    fn put(&self, rgb: &mut [u8], row: usize, c: Rgb) {
-        let i = (row * self.width + self.column) * 3;
-        rgb[i..i + 3].copy_from_slice(&[c.r, c.g, c.b]);
+    /// The index of the pixel at `row` of this column.
+    fn index(&self, row: usize) -> usize {
+        row * self.width + self.column
     }
 }
 
@@ -479,14 +509,78 @@ pub const SIGN_WHITE: Rgb = Rgb::new(245, 245, 245);
 /// Black of a sign's arrow.
 pub const SIGN_BLACK: Rgb = Rgb::new(15, 15, 15);
 
-fn sign_colour(sign: &Sign, printed_side: bool, u: f64, v: f64) -> Rgb {
+fn sign_part(sign: &Sign, printed_side: bool, u: f64, v: f64) -> PrimitivePart {
     if !printed_side {
-        return SIGN_BACK;
+        return PrimitivePart::SignBack;
     }
     if arrow_covers(sign.arrow, u, v, sign.width_m, sign.height_m) {
-        SIGN_BLACK
+        PrimitivePart::SignArrow
     } else {
-        SIGN_WHITE
+        PrimitivePart::SignBoard
+    }
+}
+
+/// The colour of a part of a sign (a solid primitive has its own).
+fn part_colour(part: PrimitivePart) -> Rgb {
+    match part {
+        PrimitivePart::SignBack | PrimitivePart::Solid => SIGN_BACK,
+        PrimitivePart::SignArrow => SIGN_BLACK,
+        PrimitivePart::SignBoard => SIGN_WHITE,
+    }
+}
+
+/// What a pixel of a rendering shows ([`SimCamera::render_sources`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PixelSource {
+    /// The floor or the ceiling.
+    Background,
+    /// A wall of the map.
+    Wall,
+    /// A primitive of an object.
+    Primitive {
+        /// Its index in [`World::primitives`].
+        index: usize,
+        /// Which part of it.
+        part: PrimitivePart,
+    },
+}
+
+/// Which part of a primitive a pixel shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PrimitivePart {
+    /// A primitive of one colour all over.
+    Solid,
+    /// The white of a sign's printed side.
+    SignBoard,
+    /// The black arrow (or disc) of a sign's printed side.
+    SignArrow,
+    /// The grey back of a sign.
+    SignBack,
+}
+
+/// Where a rendering's columns are painted: pixels (by index, rows top first) given their
+/// colour and what they show; each canvas keeps what it needs.
+trait Canvas {
+    fn put(&mut self, index: usize, colour: Rgb, source: PixelSource);
+}
+
+/// An rgb8 frame.
+struct RgbCanvas<'a>(&'a mut [u8]);
+
+impl Canvas for RgbCanvas<'_> {
+    #[inline(always)]
+    fn put(&mut self, index: usize, c: Rgb, _: PixelSource) {
+        let i = index * 3;
+        self.0[i..i + 3].copy_from_slice(&[c.r, c.g, c.b]);
+    }
+}
+
+/// What each pixel shows.
+struct SourceCanvas<'a>(&'a mut [PixelSource]);
+
+impl Canvas for SourceCanvas<'_> {
+    fn put(&mut self, index: usize, _: Rgb, source: PixelSource) {
+        self.0[index] = source;
     }
 }
 

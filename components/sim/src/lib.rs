@@ -23,7 +23,7 @@ pub mod sonar;
 pub mod world;
 
 pub use base::{BaseConfig, BaseConfigError, BatteryConfig, OdometryNoise, SimBase};
-pub use camera::{CameraConfig, Intrinsics, SimCamera};
+pub use camera::{CameraConfig, Intrinsics, PixelSource, PrimitivePart, SimCamera};
 pub use geometry::{RayHit, Shape};
 pub use laser::{LaserConfig, SensorConfigError, SimLaser};
 pub use scene::{Scene, ScenePlan};

@@ -193,6 +193,14 @@ impl ColorConfig {
         player_format::parse(text, source_name)
     }
 
+    /// The configuration as a Player colour file (with `[Options]` when `min_area_px` is
+    /// not 1), `comment`'s lines first as `#` comments: [`ColorConfig::from_player_str`]
+    /// reads it back to the same configuration.
+    #[must_use]
+    pub fn to_player_string(&self, comment: &str) -> String {
+        player_format::write(self, comment)
+    }
+
     /// Parses the TOML colour file format (see [`toml_format`]).
     ///
     /// # Errors

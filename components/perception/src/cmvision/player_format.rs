@@ -50,6 +50,51 @@ struct Place {
     column: usize,
 }
 
+/// The text of a Player colour file for `config`, which [`parse`] reads back to the same
+/// configuration; every line of `comment` goes first, as a `#` comment.
+pub(super) fn write(config: &ColorConfig, comment: &str) -> String {
+    use std::fmt::Write as _;
+    let mut text = String::new();
+    for line in comment.lines() {
+        let _ = writeln!(text, "# {line}");
+    }
+    if !comment.is_empty() {
+        text.push('\n');
+    }
+    text.push_str("[Colors]\n");
+    for class in &config.colors {
+        let [r, g, b] = class.display_rgb;
+        let _ = writeln!(
+            text,
+            "({r:3},{g:3},{b:3}) {:.6} {} {}",
+            class.merge_density, class.expected_regions, class.name
+        );
+    }
+    text.push_str("\n[Thresholds]\n");
+    // A range that matches nothing (lo > hi) is written outside 0..=255, which reads back
+    // as matching nothing; written reversed it would not read at all.
+    let range = |r: ChannelRange| {
+        if r.lo > r.hi {
+            "256:256".to_owned()
+        } else {
+            format!("{:3}:{:3}", r.lo, r.hi)
+        }
+    };
+    for class in &config.colors {
+        let _ = writeln!(
+            text,
+            "({},{},{})",
+            range(class.y),
+            range(class.u),
+            range(class.v)
+        );
+    }
+    if config.min_area_px != 1 {
+        let _ = write!(text, "\n[Options]\nmin_area_px = {}\n", config.min_area_px);
+    }
+    text
+}
+
 /// Parses the text of a Player colour file; `source_name` labels errors.
 pub(super) fn parse(text: &str, source_name: &str) -> Result<ColorConfig, ColorFileError> {
     let invalid = |place: Place, problem| ColorFileError::Invalid {
@@ -446,6 +491,21 @@ mod tests {
             Ok(config) => panic!("parsed {config:?}, expected error {expected_message}"),
             Err(e) => assert_eq!(e.to_string(), expected_message),
         }
+    }
+
+    #[test]
+    fn a_written_file_reads_back_the_same() {
+        let mut config = check_ok(
+            "[Colors]\n(255,128,  0) 0.000000 Ball\n( 1, 2,3) 0.5 10 Big Red\n(1,2,3) 0 1 None\n[Thresholds]\n( 12:153, 99:127,143:168)\n(0:1,2:3,4:5)\n(300:400,0:255,0:255)\n",
+            &["Ball", "Big Red", "None"],
+        );
+        config.min_area_px = 30;
+        let text = write(&config, "fitted by a test\nfrom here");
+        assert_eq!(
+            text,
+            "# fitted by a test\n# from here\n\n[Colors]\n(255,128,  0) 0.000000 0 Ball\n(  1,  2,  3) 0.500000 10 Big Red\n(  1,  2,  3) 0.000000 1 None\n\n[Thresholds]\n( 12:153, 99:127,143:168)\n(  0:  1,  2:  3,  4:  5)\n(256:256,  0:255,  0:255)\n\n[Options]\nmin_area_px = 30\n"
+        );
+        assert_eq!(parse(&text, "written.txt").unwrap(), config);
     }
 
     #[test]
