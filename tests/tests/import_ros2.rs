@@ -42,7 +42,7 @@ fn lewis_ok(dir: &Path, args: &[&str]) -> String {
 fn write_bag(dir: &Path, name: &str, variant: &str) -> PathBuf {
     let path = dir.join(name);
     let script = repo_root().join("tests/python/write_ros2_bag.py");
-    run_ok(python_tool("python").arg(script).arg(&path).arg(variant));
+    let _ = run_ok(python_tool("python").arg(script).arg(&path).arg(variant));
     path
 }
 

@@ -371,3 +371,117 @@ pub fn image_source(width: u32, height: u32, rgb: Vec<u8>) -> ImageSource {
     };
     lewis_images::image_message(width, height, rgb, none)
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use std::sync::Arc;
+
+    use image::ImageEncoder as _;
+
+    use super::*;
+
+    fn message(fields: Vec<(&str, Value)>) -> Value {
+        Value::Struct(
+            fields
+                .into_iter()
+                .map(|(name, value)| (Arc::from(name), value))
+                .collect(),
+        )
+    }
+
+    fn raw(encoding: &str, width: u64, height: u64, step: u64, data: Vec<u8>) -> Value {
+        message(vec![
+            ("height", Value::UInt(height)),
+            ("width", Value::UInt(width)),
+            ("encoding", Value::String(encoding.to_owned())),
+            ("is_bigendian", Value::UInt(0)),
+            ("step", Value::UInt(step)),
+            ("data", Value::Bytes(data)),
+        ])
+    }
+
+    #[test]
+    fn raw_encodings_become_rgb8_rows_without_their_padding() {
+        // Two pixels a row, one byte of padding per row.
+        let bgr = raw("bgr8", 2, 1, 7, vec![1, 2, 3, 4, 5, 6, 99]);
+        assert_eq!(image(&bgr).unwrap(), (2, 1, vec![3, 2, 1, 6, 5, 4]));
+        let mono = raw("mono8", 2, 2, 3, vec![7, 8, 99, 9, 10]);
+        assert_eq!(
+            image(&mono).unwrap(),
+            (2, 2, vec![7, 7, 7, 8, 8, 8, 9, 9, 9, 10, 10, 10])
+        );
+        // UYVY grey (Y 128, U = V = 128) is the drivers' YUYV grey.
+        let uyvy = raw("yuv422", 2, 1, 4, vec![128, 128, 128, 128]);
+        let (_, _, rgb) = image(&uyvy).unwrap();
+        assert_eq!(
+            rgb,
+            [lewis_drivers::camera::pixel_format::yuv_to_rgb(128, 128, 128); 2].concat()
+        );
+    }
+
+    #[test]
+    fn an_unknown_encoding_or_a_short_image_is_refused() {
+        let bayer = raw("bayer_rggb8", 2, 2, 2, vec![0; 4]);
+        assert_eq!(
+            image(&bayer),
+            Err(ImageError::UnknownEncoding("bayer_rggb8".to_owned()))
+        );
+        let short = raw("rgb8", 2, 2, 6, vec![0; 11]);
+        assert!(matches!(image(&short), Err(ImageError::Bad(r)) if r.contains("needs 12 bytes")));
+        let impossible = raw("rgb8", 4, 2, 6, vec![0; 100]);
+        assert!(matches!(image(&impossible), Err(ImageError::Bad(_))));
+    }
+
+    #[test]
+    fn a_png_compressed_image_decodes_to_its_pixels() {
+        let pixels = vec![1u8, 2, 3, 4, 5, 6];
+        let mut png = Vec::new();
+        image::codecs::png::PngEncoder::new(&mut png)
+            .write_image(&pixels, 2, 1, image::ExtendedColorType::Rgb8)
+            .unwrap();
+        let compressed = message(vec![
+            (
+                "format",
+                Value::String("rgb8; png compressed bgr8".to_owned()),
+            ),
+            ("data", Value::Bytes(png)),
+        ]);
+        assert_eq!(compressed_image(&compressed).unwrap(), (2, 1, pixels));
+    }
+
+    #[test]
+    fn readings_outside_the_limits_become_max_range_and_the_rest_are_kept() {
+        let scan = Scan {
+            ranges_m: vec![0.05, 1.25, f64::NAN, 31.0, f64::INFINITY, 30.0],
+            angle_min_rad: -1.0,
+            angle_increment_rad: 0.5,
+            range_min_m: 0.1,
+            range_max_m: 30.0,
+        };
+        let mut counts = RangeCounts::default();
+        let reading = range_finder(&scan, &mut counts);
+        assert_eq!(reading.ranges, [30.0, 1.25, 30.0, 30.0, 30.0, 30.0]);
+        assert_eq!((counts.kept, counts.out_of_limits), (2, 4));
+        assert_eq!(reading.sensor_positions[2].theta, 0.0);
+    }
+
+    #[test]
+    fn a_quaternion_about_z_gives_its_heading() {
+        let q = |yaw: f64| {
+            message(vec![(
+                "q",
+                message(vec![
+                    ("x", Value::Float(0.0)),
+                    ("y", Value::Float(0.0)),
+                    ("z", Value::Float((yaw / 2.0).sin())),
+                    ("w", Value::Float((yaw / 2.0).cos())),
+                ]),
+            )])
+        };
+        for yaw in [0.0, 0.5, -2.0, 3.0] {
+            assert!((super::yaw(&q(yaw), "q").unwrap() - yaw).abs() < 1e-12);
+        }
+    }
+}

@@ -265,7 +265,7 @@ impl ImportReport {
         for laser in self.laser.iter().chain(&self.second_laser) {
             if laser.readings.out_of_limits > 0 {
                 out.push(format!(
-                    "{}: {} of {} readings outside [range_min, range_max] or not finite, published as max range ({} m)",
+                    "{}: {} of {} readings outside [range_min, range_max] or not finite, published as max range ({:.2} m)",
                     laser.topic,
                     laser.readings.out_of_limits,
                     laser.readings.out_of_limits + laser.readings.kept,

@@ -264,3 +264,85 @@ fn list(out: &mut String, interface: &str, kind: &str, many: &[&TopicStats]) {
         let _ = writeln!(out, "  e.g. --map {}={interface}", first.topic.name);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use std::path::Path;
+
+    use super::*;
+
+    fn topic(name: &str, type_name: &str, count: u64) -> TopicStats {
+        TopicStats {
+            topic: Topic {
+                id: 0,
+                name: name.to_owned(),
+                type_name: type_name.to_owned(),
+                schema_encoding: "ros2msg".to_owned(),
+                schema_text: String::new(),
+                message_encoding: "cdr".to_owned(),
+            },
+            count,
+            span_ns: Some((0, (count.max(2) - 1) * 100_000_000)),
+        }
+    }
+
+    fn check(topics: &[TopicStats], maps: &[(&str, &str)]) -> Result<Choice, String> {
+        let maps: Vec<(String, String)> = maps
+            .iter()
+            .map(|(t, i)| ((*t).to_owned(), (*i).to_owned()))
+            .collect();
+        choose(Path::new("bag.mcap"), topics, &maps).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn one_topic_of_a_type_is_chosen_by_its_type_and_tf_only_without_odometry() {
+        let bag = [
+            topic("/scan", "sensor_msgs/msg/LaserScan", 10),
+            topic("/odom", "nav_msgs/msg/Odometry", 10),
+            topic("/tf", "tf2_msgs/msg/TFMessage", 10),
+            topic("/image/compressed", "sensor_msgs/msg/CompressedImage", 3),
+        ];
+        let choice = check(&bag, &[]).unwrap();
+        assert_eq!(choice.laser.as_deref(), Some("/scan"));
+        assert_eq!(choice.odometry, Some(("/odom".to_owned(), Role::Odometry)));
+        assert_eq!(
+            choice.image,
+            Some(("/image/compressed".to_owned(), Role::CompressedImage))
+        );
+        let choice = check(&bag[2..], &[]).unwrap();
+        assert_eq!(choice.odometry, Some(("/tf".to_owned(), Role::Tf)));
+    }
+
+    #[test]
+    fn several_candidates_stop_with_a_list_and_a_map_chooses() {
+        let bag = [
+            topic("/front", "sensor_msgs/msg/LaserScan", 20),
+            topic("/rear", "sensor_msgs/LaserScan", 11),
+        ];
+        let error = check(&bag, &[]).unwrap_err();
+        assert_eq!(
+            error,
+            "bag.mcap: 2 LaserScan topics could be the RangeFinder; say which with --map:\n  \
+             /front (sensor_msgs/msg/LaserScan): 20 messages at 10.0 Hz\n  \
+             /rear (sensor_msgs/LaserScan): 11 messages at 10.0 Hz\n  \
+             e.g. --map /front=RangeFinder"
+        );
+        let choice = check(&bag, &[("/rear", "RangeFinder"), ("/front", "RangeFinder")]).unwrap();
+        assert_eq!(choice.laser.as_deref(), Some("/rear"));
+        assert_eq!(choice.second_laser.as_deref(), Some("/front"));
+    }
+
+    #[test]
+    fn a_map_to_an_unknown_topic_or_the_wrong_interface_is_refused() {
+        let bag = [topic("/scan", "sensor_msgs/msg/LaserScan", 5)];
+        let error = check(&bag, &[("/scna", "RangeFinder")]).unwrap_err();
+        assert!(
+            error.contains("no topic `/scna` (did you mean `/scan`?)"),
+            "{error}"
+        );
+        let error = check(&bag, &[("/scan", "Egomotion")]).unwrap_err();
+        assert!(error.contains("do not become Egomotion"), "{error}");
+    }
+}
