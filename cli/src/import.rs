@@ -53,6 +53,10 @@ pub struct Ros2Args {
     /// Derive no sonar-like fallback from the laser.
     #[arg(long)]
     pub no_sonar: bool,
+    /// A colour file (Player's format or TOML): the robot gets a `blobfinder` over the
+    /// bag's camera, whose Blobs the import computes for `lewis replay --check`.
+    #[arg(long, value_name = "FILE")]
+    pub colors: Option<PathBuf>,
     /// Chunk compression: zstd, lz4 or none.
     #[arg(long, default_value = "zstd", value_name = "KIND")]
     pub compression: Compression,
@@ -130,6 +134,7 @@ fn ros2_bag(args: &Ros2Args) -> anyhow::Result<ExitCode> {
         maps: args.maps.clone(),
         goal: args.goal,
         sonar: (!args.no_sonar).then(SonarOptions::default),
+        colors: args.colors.clone(),
         ..ros2::ImportOptions::default()
     };
     let output = args.output.clone().unwrap_or_else(|| {
@@ -228,6 +233,9 @@ fn ros2_summary(report: &ros2::ImportReport, written: &Written) -> String {
         let _ = writeln!(t, "warning: {warning}");
     }
     let mut resim = Vec::new();
+    if report.colors.is_some() {
+        resim.push("blobfinder".to_owned());
+    }
     if report.laser.is_some() {
         resim.push("distance".to_owned());
     }

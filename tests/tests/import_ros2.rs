@@ -1,7 +1,8 @@
 //! `lewis import ros2`: bags written by an independent writer (Python's
 //! `mcap-ros2-support`, with ROS 2's own message definitions, `tests/python/write_ros2_bag.py`)
 //! imported and checked field by field; replay over the import (deterministic, `--check`,
-//! a laser fault moving the avoider to the fallback); bad bags refused with the file, the
+//! a laser fault moving the avoider to the fallback, the blob finder's outputs over the
+//! camera re-simulated); bad bags refused with the file, the
 //! topic, the message and what is wrong, nothing written; and the real bags of
 //! `../shared/data/ros2/` and rosbag2's test bags imported or refused clearly.
 
@@ -185,9 +186,26 @@ fn replaying_an_imported_bag_is_deterministic_and_a_laser_fault_moves_the_avoide
 {
     let dir = tempfile::tempdir().unwrap();
     write_bag(dir.path(), "good.mcap", "good");
-    lewis_ok(
+    let colors = repo_root().join("robots/colors/conference.txt");
+    let stdout = lewis_ok(
         dir.path(),
-        &["import", "ros2", "good.mcap", "-o", "in.mcap"],
+        &[
+            "import",
+            "ros2",
+            "good.mcap",
+            "-o",
+            "in.mcap",
+            "--colors",
+            colors.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        stdout.contains("re-simulated by `lewis replay`: blobfinder, distance, obstacle_avoider"),
+        "{stdout}"
+    );
+    assert_eq!(
+        messages(&dir.path().join("in.mcap"))["/blobfinder/Blobs"].len(),
+        6
     );
     let first = replay(dir.path(), "in.mcap", "a.mcap", &["--check"]);
     let second = replay(dir.path(), "in.mcap", "b.mcap", &["--check"]);
@@ -200,8 +218,9 @@ fn replaying_an_imported_bag_is_deterministic_and_a_laser_fault_moves_the_avoide
         .collect();
     assert_eq!(
         resimulated,
-        ["distance", "obstacle_avoider", "vector_mover"]
+        ["blobfinder", "distance", "obstacle_avoider", "vector_mover"]
     );
+    assert_eq!(feed(&first, "blobfinder", "ImageSource", "camera"), Some(6));
     assert_eq!(
         feed(&first, "obstacle_avoider", "RangeFinder", "laser"),
         Some(30)

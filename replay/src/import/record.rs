@@ -226,6 +226,12 @@ fn channel_spec(message: &ImportedMessage, source: &str) -> Result<ChannelSpec, 
                 "computed at import from /laser/RangeFinder by the range_distance service's code, as it would have published it live",
             ),
         ),
+        Payload::Blobs(_) if provider == ros2::BLOBFINDER => (
+            "data",
+            Some(
+                "computed at import from /camera/ImageSource by the blobfinder service's code, as it would have published it live",
+            ),
+        ),
         _ => ("data", None),
     };
     spec.extra_metadata

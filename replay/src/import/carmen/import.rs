@@ -7,7 +7,8 @@ use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{
-    Distance, Egomotion, Header, Health, HealthState, ImageSource, InputRef, Pose2D, RangeFinder,
+    Blobs, Distance, Egomotion, Header, Health, HealthState, ImageSource, InputRef, Pose2D,
+    RangeFinder,
 };
 use lewis_interfaces::{Interface, Struct};
 use lewis_perception::range_distance::{self, RangeToDistance};
@@ -306,6 +307,8 @@ pub enum Payload {
     Health(Health),
     /// A camera image (a ROS 2 bag's; CARMEN logs have none).
     ImageSource(ImageSource),
+    /// The blobs of a camera image (a ROS 2 bag's, computed at import).
+    Blobs(Blobs),
 }
 
 impl Payload {
@@ -318,6 +321,7 @@ impl Payload {
             Self::Egomotion(_) => Egomotion::NAME,
             Self::Health(_) => Health::NAME,
             Self::ImageSource(_) => ImageSource::NAME,
+            Self::Blobs(_) => Blobs::NAME,
         }
     }
 
@@ -330,6 +334,7 @@ impl Payload {
             Self::Egomotion(_) => Egomotion::SCHEMA_NAME,
             Self::Health(_) => Health::SCHEMA_NAME,
             Self::ImageSource(_) => ImageSource::SCHEMA_NAME,
+            Self::Blobs(_) => Blobs::SCHEMA_NAME,
         }
     }
 
@@ -342,6 +347,7 @@ impl Payload {
             Self::Egomotion(_) => Egomotion::SCHEMA_TEXT,
             Self::Health(_) => Health::SCHEMA_TEXT,
             Self::ImageSource(_) => ImageSource::SCHEMA_TEXT,
+            Self::Blobs(_) => Blobs::SCHEMA_TEXT,
         }
     }
 
@@ -353,6 +359,7 @@ impl Payload {
             Self::Egomotion(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
             Self::Health(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
             Self::ImageSource(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
+            Self::Blobs(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
         }
     }
 
@@ -365,6 +372,7 @@ impl Payload {
             Self::Egomotion(m) => &m.header,
             Self::Health(m) => &m.header,
             Self::ImageSource(m) => &m.header,
+            Self::Blobs(m) => &m.header,
         }
     }
 }

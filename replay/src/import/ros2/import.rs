@@ -10,8 +10,11 @@ use std::path::{Path, PathBuf};
 use lewis_interfaces::Interface;
 use lewis_interfaces::dynamic::{Decoder, Value};
 use lewis_interfaces::msg::{
-    Distance, Egomotion, Header, Health, HealthState, ImageSource, InputRef, Pose2D, RangeFinder,
+    Blobs, Distance, Egomotion, Header, Health, HealthState, ImageSource, InputRef, Pose2D,
+    RangeFinder,
 };
+use lewis_perception::blobfinder::{self, BlobFinder};
+use lewis_perception::cmvision::ColorConfig;
 use lewis_perception::range_distance::{self, RangeToDistance};
 use lewis_runtime::names::{data_channel, health_channel};
 
@@ -33,6 +36,9 @@ pub const CAMERA: &str = "camera";
 pub const SONAR: &str = crate::import::carmen::SONAR;
 /// The name of the imported robot's Distance service, whose outputs the import computes.
 pub const DISTANCE: &str = crate::import::carmen::DISTANCE;
+/// The name of the imported robot's blob finder (with `--colors`), whose outputs the import
+/// computes.
+pub const BLOBFINDER: &str = "blobfinder";
 
 /// A header stamp further than this from its log time disagrees with it.
 pub const STAMP_TOLERANCE_NS: i64 = 1_000_000_000;
@@ -51,6 +57,9 @@ pub struct ImportOptions {
     pub distance_sectors: usize,
     /// The period of the sources' heartbeats, in ns.
     pub heartbeat_period_ns: i64,
+    /// A colour file (Player's format or TOML): with a camera, the robot gets a
+    /// `blobfinder` over it, whose Blobs the import computes (`None`: no blob finder).
+    pub colors: Option<PathBuf>,
 }
 
 impl Default for ImportOptions {
@@ -62,6 +71,7 @@ impl Default for ImportOptions {
             sonar: Some(SonarOptions::default()),
             distance_sectors: 8,
             heartbeat_period_ns: 100_000_000,
+            colors: None,
         }
     }
 }
@@ -231,6 +241,8 @@ pub struct ImportReport {
     pub damage: Option<String>,
     /// Topics kept as they are but not decodable (not CDR under ros2msg): not written.
     pub not_ros2: Vec<String>,
+    /// The colour file of the blob finder, made absolute (only with a camera).
+    pub colors: Option<PathBuf>,
 }
 
 impl ImportReport {
@@ -755,6 +767,21 @@ impl Ros2Import {
             size_px,
             rate_hz: rate(images.count, images.span),
         });
+        let colors = match (&options.colors, &image_stats) {
+            (Some(file), Some(_)) => {
+                let file = std::path::absolute(file).unwrap_or_else(|_| file.clone());
+                blob_finder(&file)?;
+                Some(file)
+            }
+            (Some(file), None) => {
+                return Err(ImportError::Option(format!(
+                    "{}: --colors {}: the bag has no camera (sensor_msgs/Image or CompressedImage) to find blobs in",
+                    path.display(),
+                    file.display()
+                )));
+            }
+            (None, _) => None,
+        };
         let goal = options
             .goal
             .unwrap_or_else(|| farthest.as_ref().map_or((0.0, 0.0), |(_, p)| (p.x, p.y)));
@@ -783,6 +810,7 @@ impl Ros2Import {
             goal,
             damage: end.damage,
             not_ros2,
+            colors,
         };
         Ok(Self { report })
     }
@@ -840,6 +868,10 @@ impl Ros2Import {
             scans: 0,
         };
         let sonar = report.sonar;
+        let mut finder = match &report.colors {
+            Some(file) => Some(blob_finder(file).map_err(E::from)?),
+            None => None,
+        };
         bag::read::<_, E>(&path, |m| {
             if !m.topic.is_ros2() {
                 return Ok(());
@@ -910,11 +942,27 @@ impl Ros2Import {
                 }
                 Converted::Image(mut i, _) => {
                     i.header = state.header(CAMERA, ImageSource::NAME, time_ns);
+                    // What the `blobfinder` service publishes when this image reaches it
+                    // (an image it cannot read gives none, as live).
+                    let blobs = finder.as_mut().and_then(|f| f.find(&i).ok());
+                    let camera_seq = i.header.seq;
                     out(Out::Lewis(message(
                         CAMERA,
                         time_ns,
                         Payload::ImageSource(i),
                     )))?;
+                    if let Some(mut blobs) = blobs {
+                        blobs.header = state.header(BLOBFINDER, Blobs::NAME, time_ns);
+                        blobs.header.inputs = vec![InputRef {
+                            channel: data_channel(CAMERA, ImageSource::NAME),
+                            seq: camera_seq,
+                        }];
+                        out(Out::Lewis(message(
+                            BLOBFINDER,
+                            time_ns,
+                            Payload::Blobs(blobs),
+                        )))?;
+                    }
                 }
                 Converted::Nothing => {}
             }
@@ -922,6 +970,16 @@ impl Ros2Import {
         })?;
         Ok(())
     }
+}
+
+/// The blob finder of a colour file, as the `blobfinder` service builds it with its
+/// default parameters.
+fn blob_finder(file: &Path) -> Result<BlobFinder, ImportError> {
+    let bad =
+        |reason: String| ImportError::Option(format!("--colors {}: {reason}", file.display()));
+    let colors = ColorConfig::load(file).map_err(|e| bad(e.to_string()))?;
+    BlobFinder::new(&colors, blobfinder::DEFAULT_MAX_BLOBS_PER_COLOR)
+        .map_err(|e| bad(e.to_string()))
 }
 
 fn message(provider: &str, time_ns: i64, payload: Payload) -> Box<ImportedMessage> {

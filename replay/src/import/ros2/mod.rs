@@ -35,8 +35,8 @@ pub mod robot;
 pub mod topics;
 
 pub use import::{
-    BASE, CAMERA, DISTANCE, ImageStats, ImportError, ImportOptions, ImportReport, LASER,
-    LaserStats, OdometryStats, Out, Ros2Import, SECOND_LASER, SONAR, STAMP_TOLERANCE_NS,
+    BASE, BLOBFINDER, CAMERA, DISTANCE, ImageStats, ImportError, ImportOptions, ImportReport,
+    LASER, LaserStats, OdometryStats, Out, Ros2Import, SECOND_LASER, SONAR, STAMP_TOLERANCE_NS,
     StampStats,
 };
 pub use robot::{has_avoider, robot_name, robot_toml};

@@ -9,9 +9,11 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use lewis_motion::service::{obstacle_avoider, vector_mover};
-use lewis_perception::range_distance;
+use lewis_perception::{blobfinder, range_distance};
 
-use super::import::{BASE, CAMERA, DISTANCE, ImportReport, LASER, LaserStats, SECOND_LASER, SONAR};
+use super::import::{
+    BASE, BLOBFINDER, CAMERA, DISTANCE, ImportReport, LASER, LaserStats, SECOND_LASER, SONAR,
+};
 use super::topics::Role;
 use crate::import::carmen::robot::{AVOIDER, MOVER, RECORDED_KIND};
 
@@ -171,6 +173,21 @@ pub fn robot_toml(report: &ImportReport) -> String {
             report.distance_sectors,
             float(from_deg),
             float(to_deg),
+        );
+    }
+    if let (Some(colors), Some(image)) = (&report.colors, &report.image) {
+        let _ = writeln!(
+            t,
+            "[[services]]\nname = \"{BLOBFINDER}\"\ndescription = {}\nkind = \"{}\"\nstart = \"always\"\n\
+             requires = [\"ImageSource\"]\nprovides = [{{ interface = \"Blobs\", quality = 10, cost = 3 }}]\n\n\
+             [services.parameters]\ncolors = {}\nmax_blobs_per_color = {}\n",
+            quoted(&format!(
+                "CMVision BlobFinder over the bag's camera ({})",
+                image.topic
+            )),
+            blobfinder::KIND,
+            quoted(&colors.to_string_lossy()),
+            blobfinder::DEFAULT_MAX_BLOBS_PER_COLOR,
         );
     }
     if has_avoider(report) {
