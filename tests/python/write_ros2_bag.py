@@ -9,7 +9,8 @@ Usage: write_ros2_bag.py OUT.mcap [VARIANT]
 VARIANT (default `good`): `no-laser-no-odom` (only the image), `bad-encoding` (an image
 in `bayer_rggb16`), `beams-change` (scan 3 has fewer ranges), `time-backwards` (the log
 time of /scan message 4 is earlier than message 3's), `two-lasers` (a second LaserScan on
-/scan_rear).
+/scan_rear), `stamps-off` (the scans' header stamps 5 s behind their log times, the
+first one zero).
 
 The values written are a function of the message index, so the test computes the same.
 """
@@ -300,7 +301,12 @@ def main():
                         topic,
                         scan_schema,
                         {
-                            "header": header(t, "laser"),
+                            "header": header(
+                                (0 if i == 0 else t - 5_000_000_000)
+                                if variant == "stamps-off"
+                                else t,
+                                "laser",
+                            ),
                             "angle_min": -math.pi / 2,
                             "angle_max": math.pi / 2,
                             "angle_increment": math.pi / (BEAMS - 1),

@@ -248,6 +248,33 @@ fn replaying_an_imported_bag_is_deterministic_and_a_laser_fault_moves_the_avoide
 }
 
 #[test]
+fn header_stamps_that_disagree_with_the_log_times_are_said_and_the_log_times_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = write_bag(dir.path(), "stamps.mcap", "stamps-off");
+    let stdout = lewis_ok(
+        dir.path(),
+        &["import", "ros2", "stamps.mcap", "-o", "out.mcap"],
+    );
+    assert!(
+        stdout
+            .contains("timestamps: /scan: 30 header stamps, log time minus stamp 5.000 to 5.000 s"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(
+            "warning: /scan: of 30 header stamps, 1 are zero, 29 differ from their log time by more than 1 s and 0 go backwards; the recording keeps the log times"
+        ),
+        "{stdout}"
+    );
+    let log_times: Vec<u64> = messages(&bag)["/scan"].iter().map(|(t, _)| *t).collect();
+    let laser_times: Vec<u64> = messages(&dir.path().join("out.mcap"))["/laser/RangeFinder"]
+        .iter()
+        .map(|(t, _)| *t)
+        .collect();
+    assert_eq!(laser_times, log_times);
+}
+
+#[test]
 fn a_second_laser_of_the_bag_is_the_fallback_once_mapped() {
     let dir = tempfile::tempdir().unwrap();
     write_bag(dir.path(), "two.mcap", "two-lasers");
