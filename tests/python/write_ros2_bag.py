@@ -10,13 +10,16 @@ VARIANT (default `good`): `no-laser-no-odom` (only the image), `bad-encoding` (a
 in `bayer_rggb16`), `beams-change` (scan 3 has fewer ranges), `time-backwards` (the log
 time of /scan message 4 is earlier than message 3's), `two-lasers` (a second LaserScan on
 /scan_rear), `stamps-off` (the scans' header stamps 5 s behind their log times, the
-first one zero).
+first one zero), `compressed` (the images as sensor_msgs/CompressedImage PNG on
+/camera/image_raw/compressed, encoded here with zlib).
 
 The values written are a function of the message index, so the test computes the same.
 """
 
 import math
+import struct
 import sys
+import zlib
 
 from mcap_ros2.writer import Writer
 
@@ -213,6 +216,72 @@ uint8[] data          # actual matrix data, size is (step * rows)
 """
 
 
+COMPRESSED_IMAGE = """# This message contains a compressed image.
+
+std_msgs/Header header # Header timestamp should be acquisition time of image
+                             # Header frame_id should be optical frame of camera
+                             # origin of frame should be optical center of cameara
+                             # +x should point to the right in the image
+                             # +y should point down in the image
+                             # +z should point into to plane of the image
+
+string format                # Specifies the format of the data
+                             #   Acceptable values differ by the image transport used:
+                             #   - compressed_image_transport:
+                             #       ORIG_PIXFMT; CODEC compressed [COMPRESSED_PIXFMT]
+                             #     where:
+                             #     - ORIG_PIXFMT is pixel format of the raw image, i.e.
+                             #       the content of sensor_msgs/Image/encoding with
+                             #       values from include/sensor_msgs/image_encodings.h
+                             #     - CODEC is one of [jpeg, png, tiff, webp]
+                             #     - COMPRESSED_PIXFMT is only appended for color images
+                             #       and is the pixel format used by the compression
+                             #       algorithm. Valid values for jpeg encoding are:
+                             #       [bgr8, rgb8]. Valid values for png encoding are:
+                             #       [bgr8, rgb8, bgr16, rgb16].
+                             #     If the field is empty or does not correspond to the
+                             #     above pattern, the image is treated as bgr8 or mono8
+                             #     jpeg image (depending on the number of channels).
+                             #   - compressed_depth_image_transport:
+                             #       ORIG_PIXFMT; compressedDepth CODEC
+                             #     where:
+                             #     - ORIG_PIXFMT is pixel format of the raw image, i.e.
+                             #       the content of sensor_msgs/Image/encoding with
+                             #       values from include/sensor_msgs/image_encodings.h
+                             #       It is usually one of [16UC1, 32FC1].
+                             #     - CODEC is one of [png, rvl]
+                             #     If the field is empty or does not correspond to the
+                             #     above pattern, the image is treated as png image.
+                             #   - Other image transports can store whatever values they
+                             #     need for successful decoding of the image. Refer to
+                             #     documentation of the other transports for details.
+
+uint8[] data                 # Compressed image buffer
+"""
+
+
+def png(width, height, rgb):
+    """An 8-bit RGB PNG of `rgb`, each row filtered with filter 0."""
+
+    def chunk(kind, body):
+        return (
+            struct.pack(">I", len(body))
+            + kind
+            + body
+            + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
+        )
+
+    rows = b"".join(
+        b"\x00" + rgb[r * width * 3 : (r + 1) * width * 3] for r in range(height)
+    )
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(rows))
+        + chunk(b"IEND", b"")
+    )
+
+
 def definition(main, *deps):
     text = main
     for name, body in deps:
@@ -289,6 +358,9 @@ def main():
         )
         image_schema = writer.register_msgdef(
             "sensor_msgs/msg/Image", definition(IMAGE, *HEADER_DEPS)
+        )
+        compressed_schema = writer.register_msgdef(
+            "sensor_msgs/msg/CompressedImage", definition(COMPRESSED_IMAGE, *HEADER_DEPS)
         )
         seq = 0
         for i in range(30):
@@ -369,7 +441,21 @@ def main():
                     sequence=seq,
                 )
                 seq += 1
-            if i % 5 == 0:
+            if i % 5 == 0 and variant == "compressed":
+                writer.write_message(
+                    "/camera/image_raw/compressed",
+                    compressed_schema,
+                    {
+                        "header": header(t + 3_000, "camera"),
+                        "format": "rgb8; png compressed rgb8",
+                        "data": png(6, 4, pixels(i, 6, 4)),
+                    },
+                    log_time=t + 3_000,
+                    publish_time=t + 3_000,
+                    sequence=seq,
+                )
+                seq += 1
+            elif i % 5 == 0:
                 encoding = "bayer_rggb16" if (variant == "bad-encoding" and i == 10) else "rgb8"
                 writer.write_message(
                     "/camera/image_raw",

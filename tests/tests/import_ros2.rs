@@ -248,6 +248,29 @@ fn replaying_an_imported_bag_is_deterministic_and_a_laser_fault_moves_the_avoide
 }
 
 #[test]
+fn png_images_of_an_independent_encoder_arrive_as_their_pixels() {
+    let dir = tempfile::tempdir().unwrap();
+    write_bag(dir.path(), "png.mcap", "compressed");
+    let stdout = lewis_ok(
+        dir.path(),
+        &["import", "ros2", "png.mcap", "-o", "out.mcap"],
+    );
+    assert!(
+        stdout.contains(
+            "camera: /camera/image_raw/compressed -> /camera/ImageSource (rgb8): 6 images of 6x4 (6 rgb8; png compressed rgb8)"
+        ),
+        "{stdout}"
+    );
+    let images = &messages(&dir.path().join("out.mcap"))["/camera/ImageSource"];
+    assert_eq!(images.len(), 6);
+    for (k, (_, data)) in images.iter().enumerate() {
+        let image: ImageSource = cdr::from_bytes(data).unwrap();
+        assert_eq!((image.width, image.height), (6, 4));
+        assert_eq!(image.data, pixels(k * 5), "image {k}");
+    }
+}
+
+#[test]
 fn header_stamps_that_disagree_with_the_log_times_are_said_and_the_log_times_kept() {
     let dir = tempfile::tempdir().unwrap();
     let bag = write_bag(dir.path(), "stamps.mcap", "stamps-off");
