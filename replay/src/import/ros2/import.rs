@@ -18,7 +18,7 @@ use lewis_perception::cmvision::ColorConfig;
 use lewis_perception::range_distance::{self, RangeToDistance};
 use lewis_runtime::names::{data_channel, health_channel};
 
-use super::bag::{self, BagMessage, Topic};
+use super::bag::{self, BagMessage};
 use super::convert::{self, ImageError, RangeCounts, Scan};
 use super::topics::{self, Choice, ChoiceError, Role, TopicStats};
 use crate::import::carmen::laser::{SonarOptions, derived_sonar, field_of_view};
@@ -575,22 +575,6 @@ fn check_options(options: &ImportOptions) -> Result<(), ImportError> {
     Ok(())
 }
 
-fn rate(count: u64, span: Option<(u64, u64)>) -> Option<f64> {
-    TopicStats {
-        topic: Topic {
-            id: 0,
-            name: String::new(),
-            type_name: String::new(),
-            schema_encoding: String::new(),
-            schema_text: String::new(),
-            message_encoding: String::new(),
-        },
-        count,
-        span_ns: span,
-    }
-    .rate_hz()
-}
-
 fn laser_stats(
     topic: &str,
     first: &RangeFinder,
@@ -605,7 +589,7 @@ fn laser_stats(
         max_range_m: first.max_range,
         angle_min_rad: first.theta_offset,
         angle_increment_rad: first.theta_separation,
-        rate_hz: rate(scans, span),
+        rate_hz: topics::rate_hz(scans, span),
         readings,
     }
 }
@@ -664,13 +648,17 @@ impl Ros2Import {
                 .iter()
                 .map(|t| format!("{} ({})", t.topic.name, t.topic.type_name))
                 .collect();
+            let mut topics = if list.is_empty() {
+                "no messages".to_owned()
+            } else {
+                list.join(", ")
+            };
+            if let Some(damage) = &end.damage {
+                topics.push_str(&format!(" (it is damaged: {damage}; read up to there)"));
+            }
             return Err(ImportError::NothingToImport {
                 path: path.to_owned(),
-                topics: if list.is_empty() {
-                    "no messages".to_owned()
-                } else {
-                    list.join(", ")
-                },
+                topics,
             });
         }
         // Pass 2: decode and check the chosen topics.
@@ -741,7 +729,7 @@ impl Ros2Import {
                     topic: t.clone(),
                     role: *role,
                     readings: odometry.count,
-                    rate_hz: rate(odometry.count, odometry.span),
+                    rate_hz: topics::rate_hz(odometry.count, odometry.span),
                 });
         if laser_stats_v.is_none() && odometry_stats.is_none() {
             let topics_text = topics
@@ -765,7 +753,7 @@ impl Ros2Import {
             images: images.count,
             encodings,
             size_px,
-            rate_hz: rate(images.count, images.span),
+            rate_hz: topics::rate_hz(images.count, images.span),
         });
         let colors = match (&options.colors, &image_stats) {
             (Some(file), Some(_)) => {

@@ -71,10 +71,7 @@ impl TopicStats {
     /// Messages per second, when there are two or more over a positive span.
     #[must_use]
     pub fn rate_hz(&self) -> Option<f64> {
-        let (first, last) = self.span_ns?;
-        // Counts and spans of real bags are far below 2^53.
-        (self.count >= 2 && last > first)
-            .then(|| (self.count - 1) as f64 * 1e9 / (last - first) as f64)
+        rate_hz(self.count, self.span_ns)
     }
 
     fn line(&self) -> String {
@@ -88,6 +85,15 @@ impl TopicStats {
                 .unwrap_or_default()
         )
     }
+}
+
+/// Messages per second of `count` messages from the first log time of `span_ns` to the
+/// last, when there are two or more over a positive span.
+#[must_use]
+pub fn rate_hz(count: u64, span_ns: Option<(u64, u64)>) -> Option<f64> {
+    let (first, last) = span_ns?;
+    // Counts and spans of real bags are far below 2^53.
+    (count >= 2 && last > first).then(|| (count - 1) as f64 * 1e9 / (last - first) as f64)
 }
 
 /// The topics chosen for each interface.
