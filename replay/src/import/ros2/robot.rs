@@ -96,7 +96,7 @@ pub fn robot_toml(report: &ImportReport) -> String {
         );
     }
     if let Some(laser) = &report.laser {
-        range_source(&mut t, LASER, laser, 10, "always", "Laser");
+        range_source(&mut t, LASER, laser, 10, None, "Laser");
     }
     if let Some(laser) = &report.second_laser {
         range_source(
@@ -104,7 +104,7 @@ pub fn robot_toml(report: &ImportReport) -> String {
             SECOND_LASER,
             laser,
             5,
-            "standby",
+            Some("standby"),
             "Second range sensor",
         );
     }
@@ -226,15 +226,18 @@ fn range_source(
     name: &str,
     laser: &LaserStats,
     quality: u32,
-    start: &str,
+    start: Option<&str>,
     what: &str,
 ) {
+    // A fallback waits in standby; the laser starts as the broker decides, as a CARMEN
+    // import's does.
+    let start = start.map_or_else(String::new, |s| format!("start = \"{s}\"\n"));
     let fov_deg = (laser.angle_increment_rad * laser.beams.saturating_sub(1) as f64)
         .abs()
         .to_degrees();
     let _ = writeln!(
         t,
-        "[[services]]\nname = \"{name}\"\ndescription = {}\nkind = \"{RECORDED_KIND}\"\nstart = \"{start}\"\nprovides = [\n    \
+        "[[services]]\nname = \"{name}\"\ndescription = {}\nkind = \"{RECORDED_KIND}\"\n{start}provides = [\n    \
          {{ interface = \"RangeFinder\", quality = {quality}, cost = 2{} }},\n]\n\n\
          [services.parameters]\norigin = \"ros2\"\ntopic = {}\nbeams = {}\nfield_of_view_deg = {fov_deg:.3}\nmax_range_m = {}\n",
         quoted(&format!(
