@@ -1,5 +1,5 @@
-//! `lewis import carmen LOG[.gz] -o OUT.mcap`: a real log of another robot software as a
-//! Lewis recording that `lewis replay` runs services over.
+//! `lewis import carmen LOG[.gz] -o OUT.mcap` and `lewis import ros2 BAG.mcap`: a real log of
+//! another robot software as a Lewis recording that `lewis replay` runs services over.
 
 use std::fmt::Write as _;
 use std::io::{IsTerminal, Write as _};
@@ -13,7 +13,8 @@ use lewis_recorder::Compression;
 use lewis_replay::import::carmen::{
     CarmenImport, ImportOptions, ImportReport, SonarOptions, TimePolicy,
 };
-use lewis_replay::import::record::{WriteOptions, Written, write_carmen};
+use lewis_replay::import::record::{WriteOptions, Written, write_carmen, write_ros2};
+use lewis_replay::import::ros2;
 
 /// The formats `lewis import` reads.
 #[derive(Debug, Subcommand)]
@@ -23,6 +24,55 @@ pub enum ImportCommand {
     /// laser, and the services replay re-simulates over them (Distance, ObstacleAvoider to a
     /// goal, VectorMover).
     Carmen(CarmenArgs),
+    /// A ROS 2 bag (rosbag2 MCAP): sensor_msgs/LaserScan as a RangeFinder (and Distance),
+    /// nav_msgs/Odometry (or odom to base_link on /tf) as Egomotion, sensor_msgs/Image and
+    /// CompressedImage as ImageSource, the bag's messages kept beside them, and the services
+    /// replay can re-simulate over what was found.
+    Ros2(Ros2Args),
+}
+
+/// Arguments of `lewis import ros2`.
+#[derive(Debug, Args)]
+#[command(
+    after_help = "Topics are chosen by type when the bag has one of a type; with several,     the import stops and lists them: say which with --map TOPIC=RangeFinder,     TOPIC=Egomotion or TOPIC=ImageSource (a second RangeFinder map is the laser's     fallback). The recording's times are the bag's log times; header stamps are compared     to them in the report. Nothing is written under OUT.mcap unless the import completes.\n\n    Exit codes: 0 imported; 2 the bag could not be imported."
+)]
+pub struct Ros2Args {
+    /// The bag (one `.mcap` file).
+    #[arg(value_name = "BAG.mcap")]
+    pub bag: PathBuf,
+    /// The recording to write (default: `BAG-lewis.mcap` in the current folder).
+    #[arg(short, long, value_name = "OUT.mcap")]
+    pub output: Option<PathBuf>,
+    /// Which topic gives which interface: RangeFinder, Egomotion or ImageSource.
+    #[arg(long = "map", value_name = "TOPIC=INTERFACE", value_parser = parse_map)]
+    pub maps: Vec<(String, String)>,
+    /// The goal of the imported ObstacleAvoider, in the odometry frame, in m (default: the
+    /// odometry pose farthest from the start).
+    #[arg(long, value_name = "X,Y", value_parser = parse_point, allow_hyphen_values = true)]
+    pub goal: Option<(f64, f64)>,
+    /// Derive no sonar-like fallback from the laser.
+    #[arg(long)]
+    pub no_sonar: bool,
+    /// A colour file (Player's format or TOML): the robot gets a `blobfinder` over the
+    /// bag's camera, whose Blobs the import computes for `lewis replay --check`.
+    #[arg(long, value_name = "FILE")]
+    pub colors: Option<PathBuf>,
+    /// Chunk compression: zstd, lz4 or none.
+    #[arg(long, default_value = "zstd", value_name = "KIND")]
+    pub compression: Compression,
+}
+
+fn parse_map(text: &str) -> Result<(String, String), String> {
+    let (topic, interface) = text
+        .split_once('=')
+        .ok_or_else(|| format!("`{text}` is not TOPIC=INTERFACE, like /scan=RangeFinder"))?;
+    if !ros2::topics::MAPPABLE.contains(&interface) {
+        return Err(format!(
+            "`{interface}`: give one of {}",
+            ros2::topics::MAPPABLE.join(", ")
+        ));
+    }
+    Ok((topic.to_owned(), interface.to_owned()))
 }
 
 /// Arguments of `lewis import carmen`.
@@ -75,7 +125,154 @@ fn parse_point(text: &str) -> Result<(f64, f64), String> {
 pub fn run(command: ImportCommand) -> anyhow::Result<ExitCode> {
     match command {
         ImportCommand::Carmen(args) => carmen(&args),
+        ImportCommand::Ros2(args) => ros2_bag(&args),
     }
+}
+
+fn ros2_bag(args: &Ros2Args) -> anyhow::Result<ExitCode> {
+    let options = ros2::ImportOptions {
+        maps: args.maps.clone(),
+        goal: args.goal,
+        sonar: (!args.no_sonar).then(SonarOptions::default),
+        colors: args.colors.clone(),
+        ..ros2::ImportOptions::default()
+    };
+    let output = args.output.clone().unwrap_or_else(|| {
+        let file = args
+            .bag
+            .file_name()
+            .map_or_else(|| "bag".to_owned(), |f| f.to_string_lossy().into_owned());
+        let stem = file.strip_suffix(".mcap").unwrap_or(&file);
+        PathBuf::from(format!("{stem}-lewis.mcap"))
+    });
+    let import = ros2::Ros2Import::open(&args.bag, &options)?;
+    let written = write_ros2(&import, &output, args.compression, &mut |_| {})
+        .with_context(|| format!("importing {}", args.bag.display()))?;
+    let text = ros2_summary(import.report(), &written);
+    std::io::stdout().lock().write_all(text.as_bytes())?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// What a ROS 2 import did, for people.
+fn ros2_summary(report: &ros2::ImportReport, written: &Written) -> String {
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "read {}: {} topics",
+        report.path.display(),
+        report.topics.len()
+    );
+    for topic in &report.topics {
+        let _ = writeln!(
+            t,
+            "  {} ({}): {} messages{}",
+            topic.topic.name,
+            topic.topic.type_name,
+            topic.count,
+            topic
+                .rate_hz()
+                .map(|r| format!(" at {r:.1} Hz"))
+                .unwrap_or_default()
+        );
+    }
+    if let Some(laser) = &report.laser {
+        let _ = writeln!(
+            t,
+            "laser: {} -> /laser/RangeFinder: {} scans of {} beams, max range {:.2} m",
+            laser.topic, laser.scans, laser.beams, laser.max_range_m
+        );
+    }
+    if let Some(laser) = &report.second_laser {
+        let _ = writeln!(
+            t,
+            "second range sensor: {} -> /laser2/RangeFinder: {} scans of {} beams",
+            laser.topic, laser.scans, laser.beams
+        );
+    }
+    if let Some(o) = &report.odometry {
+        let _ = writeln!(
+            t,
+            "odometry: {} -> /base/Egomotion: {} readings",
+            o.topic, o.readings
+        );
+    }
+    if let Some(i) = &report.image {
+        let kinds: Vec<String> = i
+            .encodings
+            .iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect();
+        let _ = writeln!(
+            t,
+            "camera: {} -> /camera/ImageSource (rgb8): {} images of {}x{} ({})",
+            i.topic,
+            i.images,
+            i.size_px.0,
+            i.size_px.1,
+            kinds.join(", ")
+        );
+    }
+    for (topic, s) in &report.stamps {
+        let offsets = s
+            .offset_range_ns
+            .map(|(lo, hi)| {
+                format!(
+                    ", log time minus stamp {:.3} to {:.3} s",
+                    secs(lo),
+                    secs(hi)
+                )
+            })
+            .unwrap_or_default();
+        let _ = writeln!(
+            t,
+            "timestamps: {topic}: {} header stamps{offsets}; the recording keeps the log times",
+            s.stamped
+        );
+    }
+    for warning in report.warnings() {
+        let _ = writeln!(t, "warning: {warning}");
+    }
+    let mut resim = Vec::new();
+    if report.colors.is_some() {
+        resim.push("blobfinder".to_owned());
+    }
+    if report.laser.is_some() {
+        resim.push("distance".to_owned());
+    }
+    if ros2::has_avoider(report) {
+        resim.push(format!(
+            "obstacle_avoider (goal {:.2},{:.2}), vector_mover",
+            report.goal.0, report.goal.1
+        ));
+    }
+    let _ = writeln!(
+        t,
+        "robot: re-simulated by `lewis replay`: {}",
+        if resim.is_empty() {
+            "nothing (no laser: the import keeps the odometry for viewing and comparison)"
+                .to_owned()
+        } else {
+            resim.join(", ")
+        }
+    );
+    let files: Vec<String> = written
+        .recording
+        .parts
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    let (start, end) = written.span_ns.unwrap_or((0, 0));
+    let _ = writeln!(
+        t,
+        "wrote {}: {} messages over {:.1} s",
+        files.join(", "),
+        written.messages.values().sum::<u64>(),
+        secs(end - start)
+    );
+    for (topic, count) in &written.messages {
+        let _ = writeln!(t, "  {topic}: {count}");
+    }
+    t
 }
 
 fn carmen(args: &CarmenArgs) -> anyhow::Result<ExitCode> {

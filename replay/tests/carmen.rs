@@ -589,6 +589,12 @@ fn payloads_carry_their_schema_and_decode_back_from_cdr() {
             Payload::Health(_) => {
                 Payload::Health(lewis_interfaces::cdr::from_bytes(&buffer).unwrap())
             }
+            Payload::ImageSource(_) => {
+                Payload::ImageSource(lewis_interfaces::cdr::from_bytes(&buffer).unwrap())
+            }
+            Payload::Blobs(_) => {
+                Payload::Blobs(lewis_interfaces::cdr::from_bytes(&buffer).unwrap())
+            }
         };
         assert_eq!(decoded, m.payload);
         assert!(

@@ -7,6 +7,7 @@ mod dynamic_never_panics;
 mod info;
 mod lockstep;
 mod play;
+mod ros2_never_panics;
 mod ros2_recordings;
 mod same_bytes;
 mod sweep;

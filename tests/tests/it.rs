@@ -12,6 +12,7 @@ mod failover_data;
 mod failover_health;
 mod failover_processes;
 mod import_carmen;
+mod import_ros2;
 mod interop_ros2;
 mod layers;
 mod play;

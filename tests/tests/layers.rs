@@ -106,6 +106,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-sequencer",
             "lewis-motion",
             "lewis-perception",
+            "lewis-images",
+            "lewis-drivers",
         ],
     ),
     (

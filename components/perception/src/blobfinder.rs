@@ -48,8 +48,11 @@ pub struct Params {
     pub max_blobs_per_color: u32,
 }
 
+/// At most this many blobs of each colour, unless the parameters say otherwise.
+pub const DEFAULT_MAX_BLOBS_PER_COLOR: u32 = 64;
+
 fn default_max_blobs() -> u32 {
-    64
+    DEFAULT_MAX_BLOBS_PER_COLOR
 }
 
 /// The message of one region: colour id, name and drawing colour from its class.

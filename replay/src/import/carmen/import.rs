@@ -7,7 +7,8 @@ use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{
-    Distance, Egomotion, Header, Health, HealthState, InputRef, Pose2D, RangeFinder,
+    Blobs, Distance, Egomotion, Header, Health, HealthState, ImageSource, InputRef, Pose2D,
+    RangeFinder,
 };
 use lewis_interfaces::{Interface, Struct};
 use lewis_perception::range_distance::{self, RangeToDistance};
@@ -304,6 +305,10 @@ pub enum Payload {
     /// A heartbeat of a source (the log says nothing of its health: it is taken as alive
     /// from the log's first record to its last).
     Health(Health),
+    /// A camera image (a ROS 2 bag's; CARMEN logs have none).
+    ImageSource(ImageSource),
+    /// The blobs of a camera image (a ROS 2 bag's, computed at import).
+    Blobs(Blobs),
 }
 
 impl Payload {
@@ -315,6 +320,8 @@ impl Payload {
             Self::Distance(_) => Distance::NAME,
             Self::Egomotion(_) => Egomotion::NAME,
             Self::Health(_) => Health::NAME,
+            Self::ImageSource(_) => ImageSource::NAME,
+            Self::Blobs(_) => Blobs::NAME,
         }
     }
 
@@ -326,6 +333,8 @@ impl Payload {
             Self::Distance(_) => Distance::SCHEMA_NAME,
             Self::Egomotion(_) => Egomotion::SCHEMA_NAME,
             Self::Health(_) => Health::SCHEMA_NAME,
+            Self::ImageSource(_) => ImageSource::SCHEMA_NAME,
+            Self::Blobs(_) => Blobs::SCHEMA_NAME,
         }
     }
 
@@ -337,6 +346,8 @@ impl Payload {
             Self::Distance(_) => Distance::SCHEMA_TEXT,
             Self::Egomotion(_) => Egomotion::SCHEMA_TEXT,
             Self::Health(_) => Health::SCHEMA_TEXT,
+            Self::ImageSource(_) => ImageSource::SCHEMA_TEXT,
+            Self::Blobs(_) => Blobs::SCHEMA_TEXT,
         }
     }
 
@@ -347,6 +358,8 @@ impl Payload {
             Self::Distance(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
             Self::Egomotion(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
             Self::Health(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
+            Self::ImageSource(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
+            Self::Blobs(m) => lewis_interfaces::cdr::encode_to_vec(m, buffer),
         }
     }
 
@@ -358,6 +371,8 @@ impl Payload {
             Self::Distance(m) => &m.header,
             Self::Egomotion(m) => &m.header,
             Self::Health(m) => &m.header,
+            Self::ImageSource(m) => &m.header,
+            Self::Blobs(m) => &m.header,
         }
     }
 }
