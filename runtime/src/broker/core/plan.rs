@@ -92,8 +92,11 @@ impl BrokerCore {
     /// when there are too many combinations: the caller decides pair by pair.
     pub(super) fn plan(&self, pairs: &[Pair]) -> Option<Vec<Option<String>>> {
         let first = self.search(pairs, false)?;
+        let unchanged = pairs.iter().zip(&first).all(|(p, c)| p.current == *c);
         let broken = self.broken(pairs, &first).len();
-        if broken == 0 || !self.constrained() {
+        // Clients whose provider serves are moved only when something is being decided
+        // anyway (a new client, a failure, a fail back), never on a heartbeat.
+        if broken == 0 || unchanged || !self.constrained() {
             return Some(first);
         }
         match self.search(pairs, true) {
