@@ -139,19 +139,25 @@ impl BrokerCore {
     /// Every client's interface, with what the planner may give it.
     fn pairs(&self) -> Vec<Pair> {
         let mut pairs = Vec::new();
+        // Only a constrained robot's second pass gives a serving client another provider:
+        // otherwise the list is not made (this runs at every heartbeat).
+        let constrained = self.constrained();
         for (client, bindings) in &self.clients {
             for (interface, current) in bindings {
                 let serving = current
                     .as_ref()
                     .filter(|s| self.services.get(s.as_str()).is_some_and(Entry::serves));
-                let can: Vec<String> = self
-                    .services
-                    .iter()
-                    .filter(|(name, e)| {
-                        *name != client && e.can_serve() && e.offers.contains_key(interface)
-                    })
-                    .map(|(name, _)| name.clone())
-                    .collect();
+                let can: Vec<String> = if serving.is_none() || constrained {
+                    self.services
+                        .iter()
+                        .filter(|(name, e)| {
+                            *name != client && e.can_serve() && e.offers.contains_key(interface)
+                        })
+                        .map(|(name, _)| name.clone())
+                        .collect()
+                } else {
+                    Vec::new()
+                };
                 let (options, free) = match serving {
                     Some(current) => {
                         let mut options = vec![current.clone()];
