@@ -1586,3 +1586,85 @@ fn a_measurement_is_smoothed() {
     }
     assert_eq!(seen, [400, 300, 225, 368]);
 }
+
+#[test]
+fn a_recovered_camera_on_the_same_mount_takes_both_clients_back_together() {
+    check(
+        &stereo("fail_back = true", "excludes = \"pan-tilt\""),
+        &[
+            (0, req("blobs", "ImageSource")),
+            (1, ready("camera1")),
+            (2, killed("camera1")),
+            (3, ready("camera2")),
+            (4, req("blobs2", "ImageSource")),
+            (5, restart("camera1")),
+            (6, ready("camera1")),
+        ],
+        &expect![[r#"
+            @0 client blobs requests ImageSource
+              start camera1: blobs needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            @1 camera1 ready
+            @2 camera1 exited with signal 9
+              camera1 failed: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              start camera2: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+              rebind blobs from camera1 to camera2 for ImageSource: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+            @3 camera2 ready
+            @4 client blobs2 requests ImageSource
+              bind blobs2 to camera2 for ImageSource: camera2 is the best provider of ImageSource (quality 8, cost 30)
+            @5 operator restarts camera1
+              start camera1: the operator restarts camera1
+            @6 camera1 ready
+              rebind blobs from camera2 to camera1 for ImageSource: fail back: camera1 is ready and better for ImageSource (quality 9, cost 40) than camera2 (quality 8, cost 30)
+              rebind blobs2 from camera2 to camera1 for ImageSource: fail back: camera1 is ready and better for ImageSource (quality 9, cost 40) than camera2 (quality 8, cost 30)
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: ready, last heartbeat 6 ms, health ok, 0 restarts, 2 clients, last failure: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service camera2: ready, last heartbeat 3 ms, health ok, 0 restarts, 0 clients
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera1
+            client blobs2 ImageSource -> camera1
+            next deadline: 53 ms
+        "#]],
+    );
+}
+
+#[test]
+fn no_fail_back_to_a_camera_too_slow_for_one_of_the_clients_it_would_take() {
+    check(
+        &stereo("fail_back = true", "excludes = \"pan-tilt\""),
+        &[
+            (0, req("blobs", "ImageSource")),
+            (1, ready("camera1")),
+            (2, killed("camera1")),
+            (3, ready("camera2")),
+            (4, req("signs", "ImageSource")),
+            (5, restart("camera1")),
+            (6, ready("camera1")),
+        ],
+        &expect![[r#"
+            @0 client blobs requests ImageSource
+              start camera1: blobs needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            @1 camera1 ready
+            @2 camera1 exited with signal 9
+              camera1 failed: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              start camera2: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+              rebind blobs from camera1 to camera2 for ImageSource: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+            @3 camera2 ready
+            @4 client signs requests ImageSource
+              bind signs to camera2 for ImageSource: camera2 is the best provider of ImageSource (quality 8, cost 30)
+            @5 operator restarts camera1
+              start camera1: the operator restarts camera1
+            @6 camera1 ready
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: ready, last heartbeat 6 ms, health ok, 0 restarts, 0 clients, last failure: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service camera2: ready, last heartbeat 3 ms, health ok, 0 restarts, 2 clients
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera2
+            client signs ImageSource -> camera2
+            next deadline: 53 ms
+        "#]],
+    );
+}
