@@ -6,9 +6,11 @@
 //! decisions live and in replay. The live driver turns processes, heartbeats and timers
 //! into [`Event`]s and carries out the [`Action`]s; every [`Decision`] (action and reason)
 //! is published on `/lewis/broker`. The [`health`] checks judge what providers publish
-//! (rate, freshness, values, a frozen stream), as purely as the core.
+//! (rate, freshness, values, a frozen stream), as purely as the core; [`cpu`] measures what
+//! a provider's process uses of the CPU, for the core's CPU budget.
 
 mod core;
+pub mod cpu;
 pub mod health;
 pub mod live;
 pub mod status;

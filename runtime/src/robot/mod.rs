@@ -1,5 +1,6 @@
 //! The robot description (`robots/*.toml`): which services make up a robot, how each is
-//! started, which interfaces it provides (with a quality and a cost) and requires, and how
+//! started, which interfaces it provides (with a quality and a cost; the cost is read as the
+//! percent of one core the service uses, until the broker measures it) and requires, and how
 //! the broker watches it (restart policy, heartbeat deadline, start mode, fail back).
 //!
 //! [`parse`] and [`load`] turn the TOML text into a validated [`Robot`] or a
@@ -23,6 +24,8 @@
 //!
 //! data_checks = true              # check what providers publish (default: false)
 //! nice = -10                      # run the robot ahead of other work (default: as started)
+//! # cpu_budget_percent = 150       # optional: CPU the services may use together, in percent
+//! #                                # of one core (measured, or `cost` until measured)
 //!
 //! [broker.interfaces.RangeFinder]
 //! fail_back = true                # per-interface override
@@ -42,7 +45,8 @@
 //! provides = [
 //!     { interface = "RangeFinder", quality = 10, cost = 2, data_rate_hz = 10.0 },
 //! ]
-//! requires = []
+//! requires = []                   # or ["Mover", { interface = "ImageSource", min_rate_hz = 20 }]
+//! # excludes = "pan-tilt"         # services with the same group are never used together
 //! environment = { RUST_LOG = "info" }
 //! [services.parameters]           # free table handed to the service
 //! beams = 181
@@ -139,6 +143,12 @@ pub struct BrokerSettings {
     /// The nice value `lewis up` runs the robot at (broker, recorder, services and programs
     /// inherit it), from -20 (first) to 19 (last); `None` leaves the one it was started with.
     pub nice: Option<i32>,
+    /// The CPU the robot's services may use together, in percent of one core (150 is one
+    /// and a half cores), when the robot file gives one (`[broker] cpu_budget_percent`):
+    /// the broker then chooses providers so that starting one does not go beyond it,
+    /// counting each running service's measured CPU, or its declared cost
+    /// ([`ServiceSpec::declared_cpu_percent`]) until it is measured.
+    pub cpu_budget_percent: Option<u32>,
 }
 
 /// When and how a failed service gets another chance (`[broker]`'s `retry_failed_after_ms`,
@@ -222,6 +232,7 @@ impl Default for BrokerSettings {
             data_checks: false,
             checks_per_interface: BTreeMap::new(),
             nice: None,
+            cpu_budget_percent: None,
         }
     }
 }
@@ -241,6 +252,13 @@ pub struct ServiceSpec {
     pub provides: Vec<Provision>,
     /// The interfaces it asks the broker for when it runs.
     pub requires: Vec<String>,
+    /// The least data rate it needs of some of the interfaces it requires, in hertz
+    /// (`requires = [{ interface = "ImageSource", min_rate_hz = 20 }]`): the broker prefers
+    /// a provider whose `data_rate_hz` is at least this.
+    pub min_rates_hz: BTreeMap<String, f64>,
+    /// The group of services that exclude each other (`excludes = "pan-tilt"`: two drivers
+    /// of one device): the broker binds clients to at most one service of a group at a time.
+    pub excludes: Option<String>,
     /// How it is restarted after a crash (the broker's default unless given).
     pub restart: RestartPolicy,
     /// Silence longer than this (milliseconds) after a heartbeat means the service stalled.
@@ -258,6 +276,14 @@ impl ServiceSpec {
     #[must_use]
     pub fn provision(&self, interface: &str) -> Option<&Provision> {
         self.provides.iter().find(|p| p.interface == interface)
+    }
+
+    /// What this service is taken to use of the CPU until it is measured, in percent of one
+    /// core: the highest `cost` of its provisions (a process runs once, whatever it
+    /// provides).
+    #[must_use]
+    pub fn declared_cpu_percent(&self) -> u32 {
+        self.provides.iter().map(|p| p.cost).max().unwrap_or(0)
     }
 
     /// The program and arguments that start this service: `lewis_exe service NAME --robot

@@ -44,6 +44,7 @@ pub(super) struct RawBroker {
     pub retry_probation_ms: Option<Spanned<i64>>,
     pub data_checks: Option<bool>,
     pub nice: Option<Spanned<i64>>,
+    pub cpu_budget_percent: Option<Spanned<i64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -77,7 +78,8 @@ pub(super) struct RawService {
     #[serde(default)]
     pub provides: Vec<Spanned<RawProvision>>,
     #[serde(default)]
-    pub requires: Vec<Spanned<String>>,
+    pub requires: Vec<Spanned<RawRequirement>>,
+    pub excludes: Option<Spanned<String>>,
     pub restart: Option<Spanned<RestartPolicy>>,
     pub heartbeat_deadline_ms: Option<Spanned<i64>>,
     pub startup_deadline_ms: Option<Spanned<i64>>,
@@ -95,4 +97,54 @@ pub(super) struct RawProvision {
     pub cost: Spanned<i64>,
     pub data_rate_hz: Option<Spanned<f64>>,
     pub checks: Option<Spanned<RawChecks>>,
+}
+
+/// A required interface: its name, or a table with the least data rate the client needs.
+/// Read by hand rather than as an untagged enum, so that a misspelt key in the table is
+/// named in the error.
+#[derive(Debug)]
+pub(super) enum RawRequirement {
+    /// `"ImageSource"`.
+    Name(String),
+    /// `{ interface = "ImageSource", min_rate_hz = 20 }`.
+    Table(RawRequirementTable),
+}
+
+impl<'de> Deserialize<'de> for RawRequirement {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = RawRequirement;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("an interface name or { interface = ..., min_rate_hz = ... }")
+            }
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<Self::Value, E> {
+                Ok(RawRequirement::Name(name.to_owned()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<Self::Value, A::Error> {
+                RawRequirementTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(RawRequirement::Table)
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRequirementTable {
+    pub interface: String,
+    pub min_rate_hz: Option<f64>,
+}
+
+impl RawRequirement {
+    pub fn interface(&self) -> &str {
+        match self {
+            Self::Name(name) => name,
+            Self::Table(table) => &table.interface,
+        }
+    }
 }

@@ -44,6 +44,9 @@ fn summary(robot: &Robot) -> String {
         b.retry,
         b.restart,
     );
+    if let Some(budget) = b.cpu_budget_percent {
+        let _ = writeln!(out, "cpu budget {budget}% of a core");
+    }
     for s in &robot.services {
         let _ = writeln!(
             out,
@@ -58,7 +61,17 @@ fn summary(robot: &Robot) -> String {
             );
         }
         for r in &s.requires {
-            let _ = writeln!(out, "  requires {r}");
+            match s.min_rates_hz.get(r) {
+                Some(hz) => {
+                    let _ = writeln!(out, "  requires {r} at least {hz} Hz");
+                }
+                None => {
+                    let _ = writeln!(out, "  requires {r}");
+                }
+            }
+        }
+        if let Some(group) = &s.excludes {
+            let _ = writeln!(out, "  excludes {group}");
         }
         if !s.parameters.is_empty() {
             let _ = writeln!(
@@ -194,7 +207,7 @@ provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
 heartbeat_deadline = 50
 "#,
         &expect![[r#"
-            robot.toml:8:1: unknown field `heartbeat_deadline`, expected one of `name`, `description`, `kind`, `command`, `parameters`, `provides`, `requires`, `restart`, `heartbeat_deadline_ms`, `startup_deadline_ms`, `start`, `environment`
+            robot.toml:8:1: unknown field `heartbeat_deadline`, expected one of `name`, `description`, `kind`, `command`, `parameters`, `provides`, `requires`, `excludes`, `restart`, `heartbeat_deadline_ms`, `startup_deadline_ms`, `start`, `environment`
         "#]],
     );
 }
@@ -672,6 +685,105 @@ checks = { on_failure = "ignored" }
 "#,
         &expect![[r#"
             robot.toml:6:25: unknown variant `ignored`, expected `failed` or `degraded`
+        "#]],
+    );
+}
+
+#[test]
+fn a_cpu_budget_exclusion_groups_and_least_rates_are_read() {
+    check(
+        r#"
+[robot]
+name = "stereo"
+[broker]
+cpu_budget_percent = 150
+[[services]]
+name = "camera1"
+kind = "camera"
+excludes = "pan-tilt"
+provides = [{ interface = "ImageSource", quality = 9, cost = 20, data_rate_hz = 10.0 }]
+[[services]]
+name = "camera2"
+kind = "camera"
+excludes = "pan-tilt"
+provides = [{ interface = "ImageSource", quality = 8, cost = 2, data_rate_hz = 30.0 }]
+[[services]]
+name = "signs"
+kind = "sign-detector"
+requires = [{ interface = "ImageSource", min_rate_hz = 20 }]
+provides = [{ interface = "Signs", quality = 5, cost = 5 }]
+[[services]]
+name = "blobs"
+kind = "blob-finder"
+requires = ["ImageSource"]
+provides = [{ interface = "Blobs", quality = 5, cost = 5 }]
+"#,
+        &expect![[r#"
+            robot stereo ()
+            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back false {}, retry None, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+            cpu budget 150% of a core
+            service camera1 Kind("camera") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides ImageSource quality 9 cost 20 rate Some(10.0)
+              excludes pan-tilt
+            service camera2 Kind("camera") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides ImageSource quality 8 cost 2 rate Some(30.0)
+              excludes pan-tilt
+            service signs Kind("sign-detector") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides Signs quality 5 cost 5 rate None
+              requires ImageSource at least 20 Hz
+            service blobs Kind("blob-finder") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
+              provides Blobs quality 5 cost 5 rate None
+              requires ImageSource
+        "#]],
+    );
+}
+
+#[test]
+fn a_bad_cpu_budget_least_rate_or_group_is_placed_at_its_value() {
+    check(
+        r#"
+[robot]
+name = "stereo"
+[broker]
+cpu_budget_percent = 0
+[[services]]
+name = "camera1"
+kind = "camera"
+excludes = "pan tilt"
+provides = [{ interface = "ImageSource", quality = 9, cost = 20 }]
+[[services]]
+name = "signs"
+kind = "sign-detector"
+requires = [{ interface = "ImageSource", min_rate_hz = -2 }, { interface = "Mover3D" }]
+provides = [{ interface = "Signs", quality = 5, cost = 5 }]
+"#,
+        &expect![[r#"
+            robot.toml:5:22: cpu_budget_percent is 0: give the CPU the robot's services may use together, in percent of one core (1 to 6400; 150 is one and a half cores)
+            robot.toml:9:12: service `camera1` excludes group `pan tilt` is not a valid name: use a letter then letters, digits, `-` or `_`, at most 64 characters
+            robot.toml:14:13: min_rate_hz -2 of `ImageSource` in service `signs` is out of range: give a rate above 0 and at most 1000000
+            robot.toml:14:62: service `signs` requires unknown interface `Mover3D`: known interfaces are Blobs, Blobs3D, CameraControl, Distance, Egomotion, ImageSource, Mover, Power, RangeFinder, Signs, Synchrodrive
+        "#]],
+    );
+}
+
+#[test]
+fn a_requirement_table_with_an_unknown_key_is_an_error() {
+    check(
+        r#"
+[robot]
+name = "stereo"
+[[services]]
+name = "camera1"
+kind = "camera"
+provides = [{ interface = "ImageSource", quality = 9, cost = 20 }]
+[[services]]
+name = "signs"
+kind = "sign-detector"
+requires = [{ interface = "ImageSource", min_rate = 20 }]
+provides = [{ interface = "Signs", quality = 5, cost = 5 }]
+"#,
+        &expect![[r#"
+            robot.toml:11:42: unknown field `min_rate`, expected `interface` or `min_rate_hz`
         "#]],
     );
 }

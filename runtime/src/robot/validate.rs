@@ -8,7 +8,9 @@ use std::path::Path;
 use toml::Spanned;
 
 use super::error::{Problem, RobotError, line_column};
-use super::raw::{RawBroker, RawChecks, RawProvision, RawRobot, RawService};
+use super::raw::{
+    RawBroker, RawChecks, RawProvision, RawRequirement, RawRequirementTable, RawRobot, RawService,
+};
 use super::{
     BrokerSettings, DataChecks, Kinds, Known, Launch, MIN_FROZEN_COUNT, Provision, RetryPolicy,
     Robot, SCORE_RANGE, ServiceSpec, StartMode,
@@ -18,6 +20,9 @@ use crate::supervise::RestartPolicy;
 pub(super) const DEFAULT_HEARTBEAT_PERIOD_MS: u64 = 20;
 pub(super) const DEFAULT_HEARTBEAT_DEADLINE_MS: u64 = 100;
 pub(super) const DEFAULT_STARTUP_DEADLINE_MS: u64 = 5_000;
+
+/// The largest CPU budget a robot file may give, in percent of one core: 64 cores.
+const MAX_CPU_BUDGET_PERCENT: u32 = 6_400;
 
 /// Names (robot, service, kind) become parts of IPC names and file names.
 const MAX_NAME_LEN: usize = 64;
@@ -141,7 +146,23 @@ impl Checker<'_> {
                 checks_per_interface.insert(interface.into_inner(), checks);
             }
         }
+        let cpu_budget_percent = raw.cpu_budget_percent.and_then(|budget| {
+            match u32::try_from(*budget.get_ref()) {
+                Ok(percent) if (1..=MAX_CPU_BUDGET_PERCENT).contains(&percent) => Some(percent),
+                _ => {
+                    self.report(
+                        &budget.span(),
+                        format!(
+                            "cpu_budget_percent is {}: give the CPU the robot's services may use together, in percent of one core (1 to {MAX_CPU_BUDGET_PERCENT}; 150 is one and a half cores)",
+                            budget.get_ref()
+                        ),
+                    );
+                    None
+                }
+            }
+        });
         BrokerSettings {
+            cpu_budget_percent,
             heartbeat_period_ms,
             heartbeat_deadline_ms,
             startup_deadline_ms,
@@ -311,9 +332,14 @@ impl Checker<'_> {
             provides.push(self.provision(&name, provision.into_inner(), broker));
         }
         let mut requires = Vec::with_capacity(raw.requires.len());
+        let mut min_rates_hz = BTreeMap::new();
         let mut required: BTreeSet<String> = BTreeSet::new();
-        for interface in &raw.requires {
-            self.interface_name(interface, &format!("service `{name}` requires"));
+        for requirement in &raw.requires {
+            let interface = Spanned::new(
+                requirement.span(),
+                requirement.get_ref().interface().to_owned(),
+            );
+            self.interface_name(&interface, &format!("service `{name}` requires"));
             if !required.insert(interface.get_ref().clone()) {
                 self.report(
                     &interface.span(),
@@ -323,8 +349,29 @@ impl Checker<'_> {
                     ),
                 );
             }
-            requires.push(interface.get_ref().clone());
+            if let RawRequirement::Table(RawRequirementTable {
+                min_rate_hz: Some(hz),
+                ..
+            }) = requirement.get_ref()
+            {
+                if hz.is_finite() && *hz > 0.0 && *hz <= 1e6 {
+                    min_rates_hz.insert(interface.get_ref().clone(), *hz);
+                } else {
+                    self.report(
+                        &requirement.span(),
+                        format!(
+                            "min_rate_hz {hz} of `{}` in service `{name}` is out of range: give a rate above 0 and at most 1000000",
+                            interface.get_ref()
+                        ),
+                    );
+                }
+            }
+            requires.push(interface.into_inner());
         }
+        let excludes = raw.excludes.map(|group| {
+            self.identifier(&group, &format!("service `{name}` excludes group"));
+            group.into_inner()
+        });
         if provides.is_empty() && raw.start == StartMode::OnDemand {
             self.report(
                 &raw.name.span(),
@@ -377,6 +424,8 @@ impl Checker<'_> {
             parameters: parameters.1,
             provides,
             requires,
+            min_rates_hz,
+            excludes,
             restart,
             heartbeat_deadline_ms,
             startup_deadline_ms,

@@ -186,3 +186,12 @@ pub(super) fn fmt_span(ns: i64) -> String {
         format!("{} min {} s", ms / 60_000, (ms % 60_000) / 1000)
     }
 }
+
+/// Thousandths of a core as a person reads them: `18%`, `2.5%`, `150%`.
+pub(super) fn fmt_cpu(milli_cores: u32) -> String {
+    if milli_cores.is_multiple_of(10) {
+        format!("{}%", milli_cores / 10)
+    } else {
+        format!("{}.{}%", milli_cores / 10, milli_cores % 10)
+    }
+}

@@ -117,6 +117,17 @@ pub enum Event {
         /// What the check saw.
         reason: String,
     },
+    /// What a service's process used of the CPU since the last measurement, from /proc, in
+    /// thousandths of one core (1000: a whole core). The core smooths the measurements and
+    /// counts them against the robot's CPU budget and in the cost of choosing the service;
+    /// a service never measured counts with its declared cost. Recorded as every event is
+    /// fed, so that replay decides the same.
+    CpuMeasured {
+        /// The service.
+        service: String,
+        /// Thousandths of one core.
+        milli_cores: u32,
+    },
     /// Time passed; the driver sends it when [`BrokerCore::next_deadline`](super::BrokerCore::next_deadline) is reached.
     TimePassed,
     /// The operator stops a service (it is not chosen again until restarted).
@@ -152,6 +163,14 @@ impl fmt::Display for Event {
             } => write!(
                 f,
                 "{service} failed its {check} check on {interface}: {reason}"
+            ),
+            Self::CpuMeasured {
+                service,
+                milli_cores,
+            } => write!(
+                f,
+                "{service} used {} of a core",
+                super::decision::fmt_cpu(*milli_cores)
             ),
             Self::TimePassed => write!(f, "time passed"),
             Self::StopService { service } => write!(f, "operator stops {service}"),

@@ -41,12 +41,16 @@
 //!   for good also asks for help. Services started on demand keep running when their
 //!   clients leave, as warm standbys, until the operator stops them.
 //!
-//! Joint choice: requests arrive one at a time while the robot runs, so the core does not
-//! re-plan all bindings at each request (that would move working clients). It is greedy
-//! per request, with one rule that makes it choose well jointly: at equal quality it prefers
-//! a provider whose process already runs, so a service that provides several requested
-//! interfaces (a base giving Synchrodrive, Power and a sonar RangeFinder) is reused rather
-//! than a new process started.
+//! Joint choice ([`plan`]): each time clients need a decision (a new client, a provider
+//! that failed, one to fail back to), every client's interface is given its provider
+//! together with the others. The robot file may constrain the set: a CPU budget (the
+//! services' CPU as measured, [`Event::CpuMeasured`], or declared until measured), groups
+//! of services that exclude each other (one pan-tilt), and the least data rate a client
+//! needs. The choice keeps as many constraints as it can, then takes the highest quality,
+//! then starts the least CPU, preferring a process that already runs (a base giving
+//! Synchrodrive, Power and a sonar RangeFinder is reused rather than a new process
+//! started). Clients whose provider serves are not moved, except to fail back or, when no
+//! other choice keeps a constraint, to keep it; the reason says which.
 //!
 //! Deadlines: [`BrokerCore::handle`] first acts on every deadline at or before `now_ns`
 //! (so a heartbeat arriving exactly at or after its deadline is late), then on the event,
@@ -56,6 +60,7 @@ mod bindings;
 mod decision;
 mod event;
 mod lifecycle;
+mod plan;
 mod service;
 mod snapshot;
 
@@ -92,6 +97,11 @@ pub struct BrokerCore {
     clients: BTreeMap<String, BTreeMap<String, Option<String>>>,
     /// Interfaces for which help was asked and no provider came back since.
     help_asked: BTreeSet<String>,
+    /// The least data rate a client needs of an interface (client, interface), from the
+    /// robot file's `requires` of the service the client is.
+    min_rates_hz: BTreeMap<(String, String), f64>,
+    /// The robot's CPU budget in thousandths of a core, when it has one.
+    cpu_budget_milli_cores: Option<u32>,
     out: Vec<Decision>,
     now_ns: i64,
 }
@@ -121,6 +131,19 @@ impl BrokerCore {
                 .collect(),
             clients: BTreeMap::new(),
             help_asked: BTreeSet::new(),
+            min_rates_hz: robot
+                .services
+                .iter()
+                .flat_map(|s| {
+                    s.min_rates_hz
+                        .iter()
+                        .map(move |(i, hz)| ((s.name.clone(), i.clone()), *hz))
+                })
+                .collect(),
+            cpu_budget_milli_cores: robot
+                .broker
+                .cpu_budget_percent
+                .map(|p| p.saturating_mul(10)),
             out: Vec::new(),
             now_ns: 0,
         }
@@ -188,6 +211,14 @@ impl BrokerCore {
                 check,
                 reason,
             } => self.data_check_failed(service, interface, check, reason),
+            Event::CpuMeasured {
+                service,
+                milli_cores,
+            } => {
+                if let Some(entry) = self.services.get_mut(service) {
+                    entry.measured(*milli_cores);
+                }
+            }
         }
     }
 }

@@ -60,10 +60,12 @@ pub enum AfterStop {
 }
 
 /// What a service offers for one interface.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Offer {
     pub quality: u32,
     pub cost: u32,
+    /// The rate it publishes at, when the robot file says.
+    pub rate_hz: Option<f64>,
 }
 
 #[derive(Debug, Clone)]
@@ -83,6 +85,13 @@ pub(super) struct Entry {
     pub retries: u32,
     /// Whether a retried service has yet to prove itself.
     pub probation: Probation,
+    /// The group of services it excludes (one device): clients are bound to at most one.
+    pub excludes: Option<String>,
+    /// What it is taken to use of the CPU until measured, in thousandths of a core.
+    pub declared_milli_cores: u32,
+    /// What it was measured to use, smoothed, in thousandths of a core; `None` until its
+    /// process was first measured.
+    pub measured_milli_cores: Option<u32>,
 }
 
 /// A retried service's trial: clients fail back to it only once it has stayed up.
@@ -120,6 +129,7 @@ impl Entry {
                         Offer {
                             quality: p.quality,
                             cost: p.cost,
+                            rate_hz: p.data_rate_hz,
                         },
                     )
                 })
@@ -134,7 +144,32 @@ impl Entry {
             data_degraded: None,
             retries: 0,
             probation: Probation::Passed,
+            excludes: spec.excludes.clone(),
+            declared_milli_cores: spec.declared_cpu_percent().saturating_mul(10),
+            measured_milli_cores: None,
         }
+    }
+
+    /// What it uses of the CPU, in thousandths of a core: measured when it was, declared
+    /// otherwise.
+    pub fn milli_cores(&self) -> u32 {
+        self.measured_milli_cores
+            .unwrap_or(self.declared_milli_cores)
+    }
+
+    /// Takes a measurement of its CPU into the smoothed one: an exponential average that
+    /// gives each new measurement a quarter of the weight, so that one busy second (a
+    /// start, a burst of frames) does not turn the choice of providers over; the first
+    /// measurement is taken as it is. Integer arithmetic: replay must get the same.
+    pub fn measured(&mut self, milli_cores: u32) {
+        self.measured_milli_cores = Some(match self.measured_milli_cores {
+            None => milli_cores,
+            Some(old) => {
+                let old = i64::from(old);
+                let new = old + (i64::from(milli_cores) - old) / 4;
+                u32::try_from(new).unwrap_or(u32::MAX)
+            }
+        });
     }
 
     /// Whether a process of this service exists (or is being spawned).

@@ -1397,3 +1397,274 @@ fn spans_read_as_a_person_reads_them() {
     assert_eq!(ms(4_250), "4.2 s");
     assert_eq!(ms(200_000), "3 min 20 s");
 }
+
+/// Two cameras on one pan-tilt mount: camera1 is better (quality 9) but slower (10 Hz) and
+/// dearer (40% of a core) than camera2 (quality 8, 30 Hz, 30%). `extra` goes under
+/// `[broker]`; `camera` is added to each camera's service.
+fn stereo(extra: &str, camera: &str) -> String {
+    format!(
+        r#"
+[robot]
+name = "stereo"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+startup_deadline_ms = 1000
+restart = {{ max_restarts = 0, window_ms = 10000 }}
+{extra}
+[[services]]
+name = "camera1"
+kind = "camera"
+{camera}
+provides = [{{ interface = "ImageSource", quality = 9, cost = 40, data_rate_hz = 10.0 }}]
+[[services]]
+name = "camera2"
+kind = "camera"
+{camera}
+provides = [{{ interface = "ImageSource", quality = 8, cost = 30, data_rate_hz = 30.0 }}]
+[[services]]
+name = "signs"
+kind = "sign-detector"
+requires = [{{ interface = "ImageSource", min_rate_hz = 20 }}]
+provides = [{{ interface = "Signs", quality = 5, cost = 5 }}]
+[[services]]
+name = "blobs"
+kind = "blob-finder"
+requires = ["ImageSource"]
+provides = [{{ interface = "Blobs", quality = 5, cost = 5 }}]
+"#
+    )
+}
+
+#[test]
+fn two_clients_share_one_camera_when_a_second_would_break_the_cpu_budget() {
+    check(
+        &stereo("cpu_budget_percent = 50", ""),
+        &[
+            (0, req("blobs", "ImageSource")),
+            (1, ready("camera1")),
+            (2, req("signs", "ImageSource")),
+        ],
+        &expect![[r#"
+            @0 client blobs requests ImageSource
+              start camera1: blobs needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            @1 camera1 ready
+            @2 client signs requests ImageSource
+              bind signs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40); its least rate is not kept: camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: ready, last heartbeat 1 ms, health ok, 0 restarts, 2 clients
+            service camera2: idle, health ok, 0 restarts, 0 clients
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera1
+            client signs ImageSource -> camera1
+            next deadline: 51 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_running_camera_is_chosen_within_the_budget_until_it_is_measured_to_use_less() {
+    check(
+        &stereo("cpu_budget_percent = 60", ""),
+        &[
+            (0, restart("camera2")),
+            (1, ready("camera2")),
+            (2, req("blobs", "ImageSource")),
+            (
+                3,
+                Event::CpuMeasured {
+                    service: s("camera2"),
+                    milli_cores: 100,
+                },
+            ),
+            (4, req("blobs2", "ImageSource")),
+        ],
+        &expect![[r#"
+            @0 operator restarts camera2
+              start camera2: the operator restarts camera2
+            @1 camera2 ready
+            @2 client blobs requests ImageSource
+              bind blobs to camera2 for ImageSource: camera2 for blobs: starting camera1 would take the robot to 70% of a core, beyond its budget of 60% (quality 8 against 9 of camera1)
+            @3 camera2 used 10% of a core
+            @4 client blobs2 requests ImageSource
+              start camera1: blobs2 needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs2 to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: starting since 4 ms, health ok, 0 restarts, 1 clients
+            service camera2: ready, last heartbeat 1 ms, health ok, 0 restarts, 1 clients
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera2
+            client blobs2 ImageSource -> camera1
+            next deadline: 51 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_client_that_needs_20_hz_gets_the_faster_camera_and_is_told_when_none_is_left() {
+    check(
+        &stereo("", ""),
+        &[
+            (0, req("signs", "ImageSource")),
+            (1, ready("camera2")),
+            (2, killed("camera2")),
+        ],
+        &expect![[r#"
+            @0 client signs requests ImageSource
+              start camera2: camera2 for signs: camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz (quality 8 against 9 of camera1)
+              bind signs to camera2 for ImageSource: camera2 for signs: camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz (quality 8 against 9 of camera1)
+            @1 camera2 ready
+            @2 camera2 exited with signal 9
+              camera2 failed: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              start camera1: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera1 is the best provider of ImageSource left (quality 9, cost 40); its least rate is not kept: camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz
+              rebind signs from camera2 to camera1 for ImageSource: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera1 is the best provider of ImageSource left (quality 9, cost 40); its least rate is not kept: camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: starting since 2 ms, health ok, 0 restarts, 1 clients
+            service camera2: failed, health ok, 0 restarts, 0 clients, last failure: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client signs ImageSource -> camera1
+            next deadline: 1002 ms
+        "#]],
+    );
+}
+
+#[test]
+fn cameras_that_exclude_each_other_serve_one_at_a_time_and_a_failure_replans_both_clients() {
+    check(
+        &stereo("", "excludes = \"pan-tilt\""),
+        &[
+            (0, req("blobs", "ImageSource")),
+            (1, ready("camera1")),
+            (2, req("signs", "ImageSource")),
+            (3, ready("camera2")),
+            (4, beat("camera1")),
+            (5, killed("camera2")),
+        ],
+        &expect![[r#"
+            @0 client blobs requests ImageSource
+              start camera1: blobs needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            @1 camera1 ready
+            @2 client signs requests ImageSource
+              start camera2: camera2 for blobs: camera1 and camera2 exclude each other (pan-tilt) and would serve at once (quality 8 against 9 of camera1)
+              rebind blobs from camera1 to camera2 for ImageSource: camera2 for blobs: camera1 and camera2 exclude each other (pan-tilt) and would serve at once (quality 8 against 9 of camera1)
+              bind signs to camera2 for ImageSource: camera2 for signs: camera1 and camera2 exclude each other (pan-tilt) and would serve at once; camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz (quality 8 against 9 of camera1)
+            @3 camera2 ready
+            @4 camera1 heartbeat: ok
+            @5 camera2 exited with signal 9
+              camera2 failed: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              rebind blobs from camera2 to camera1 for ImageSource: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera1 is the best provider of ImageSource left (quality 9, cost 40)
+              rebind signs from camera2 to camera1 for ImageSource: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera1 is the best provider of ImageSource left (quality 9, cost 40); its least rate is not kept: camera1 gives 10 Hz of ImageSource, signs asks for at least 20 Hz
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: ready, last heartbeat 4 ms, health ok, 0 restarts, 2 clients
+            service camera2: failed, health ok, 0 restarts, 0 clients, last failure: camera2 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera1
+            client signs ImageSource -> camera1
+            next deadline: 54 ms
+        "#]],
+    );
+}
+
+#[test]
+fn a_measurement_is_smoothed() {
+    let robot = stereo("cpu_budget_percent = 60", "");
+    let mut core = core_for(&robot);
+    let measure = |milli_cores| Event::CpuMeasured {
+        service: s("camera1"),
+        milli_cores,
+    };
+    let mut seen = Vec::new();
+    for (i, m) in [400, 0, 0, 800].into_iter().enumerate() {
+        let _ = core.handle(i64::try_from(i).unwrap_or(0) * MS, &measure(m));
+        seen.push(core.services["camera1"].milli_cores());
+    }
+    assert_eq!(seen, [400, 300, 225, 368]);
+}
+
+#[test]
+fn a_recovered_camera_on_the_same_mount_takes_both_clients_back_together() {
+    check(
+        &stereo("fail_back = true", "excludes = \"pan-tilt\""),
+        &[
+            (0, req("blobs", "ImageSource")),
+            (1, ready("camera1")),
+            (2, killed("camera1")),
+            (3, ready("camera2")),
+            (4, req("blobs2", "ImageSource")),
+            (5, restart("camera1")),
+            (6, ready("camera1")),
+        ],
+        &expect![[r#"
+            @0 client blobs requests ImageSource
+              start camera1: blobs needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            @1 camera1 ready
+            @2 camera1 exited with signal 9
+              camera1 failed: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              start camera2: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+              rebind blobs from camera1 to camera2 for ImageSource: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+            @3 camera2 ready
+            @4 client blobs2 requests ImageSource
+              bind blobs2 to camera2 for ImageSource: camera2 is the best provider of ImageSource (quality 8, cost 30)
+            @5 operator restarts camera1
+              start camera1: the operator restarts camera1
+            @6 camera1 ready
+              rebind blobs from camera2 to camera1 for ImageSource: fail back: camera1 is ready and better for ImageSource (quality 9, cost 40) than camera2 (quality 8, cost 30)
+              rebind blobs2 from camera2 to camera1 for ImageSource: fail back: camera1 is ready and better for ImageSource (quality 9, cost 40) than camera2 (quality 8, cost 30)
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: ready, last heartbeat 6 ms, health ok, 0 restarts, 2 clients, last failure: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service camera2: ready, last heartbeat 3 ms, health ok, 0 restarts, 0 clients
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera1
+            client blobs2 ImageSource -> camera1
+            next deadline: 53 ms
+        "#]],
+    );
+}
+
+#[test]
+fn no_fail_back_to_a_camera_too_slow_for_one_of_the_clients_it_would_take() {
+    check(
+        &stereo("fail_back = true", "excludes = \"pan-tilt\""),
+        &[
+            (0, req("blobs", "ImageSource")),
+            (1, ready("camera1")),
+            (2, killed("camera1")),
+            (3, ready("camera2")),
+            (4, req("signs", "ImageSource")),
+            (5, restart("camera1")),
+            (6, ready("camera1")),
+        ],
+        &expect![[r#"
+            @0 client blobs requests ImageSource
+              start camera1: blobs needs ImageSource and camera1 is its best provider (quality 9, cost 40)
+              bind blobs to camera1 for ImageSource: camera1 is the best provider of ImageSource (quality 9, cost 40)
+            @1 camera1 ready
+            @2 camera1 exited with signal 9
+              camera1 failed: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+              start camera2: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+              rebind blobs from camera1 to camera2 for ImageSource: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; camera2 is the best provider of ImageSource left (quality 8, cost 30)
+            @3 camera2 ready
+            @4 client signs requests ImageSource
+              bind signs to camera2 for ImageSource: camera2 is the best provider of ImageSource (quality 8, cost 30)
+            @5 operator restarts camera1
+              start camera1: the operator restarts camera1
+            @6 camera1 ready
+            == state
+            service blobs: idle, health ok, 0 restarts, 0 clients
+            service camera1: ready, last heartbeat 6 ms, health ok, 0 restarts, 0 clients, last failure: camera1 exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+            service camera2: ready, last heartbeat 3 ms, health ok, 0 restarts, 2 clients
+            service signs: idle, health ok, 0 restarts, 0 clients
+            client blobs ImageSource -> camera2
+            client signs ImageSource -> camera2
+            next deadline: 53 ms
+        "#]],
+    );
+}
