@@ -152,7 +152,7 @@ impl RawClient {
             data: None,
             data_channel: String::new(),
             commands: None,
-            unanswered: UnansweredCalls::new(),
+            unanswered: UnansweredCalls::new(ipc, client, interface),
             released: false,
         };
         raw.send_request();
@@ -328,7 +328,6 @@ impl RawClient {
     pub fn call(&mut self, frame: &[u8], timeout: Duration) -> Result<IpcCallId, ClientError> {
         let sent = self.send(frame, timeout);
         let caller = Caller {
-            ipc: &self.ipc,
             client: &self.client,
             interface: &self.interface,
         };
@@ -385,7 +384,6 @@ impl RawClient {
             Err(e) => Some((UnansweredCallStatus::Failed, e.to_string())),
         };
         let caller = Caller {
-            ipc: &self.ipc,
             client: &self.client,
             interface: &self.interface,
         };
@@ -503,7 +501,6 @@ impl RawClient {
         }
         // The calls to the provider left behind will never be answered.
         let caller = Caller {
-            ipc: &self.ipc,
             client: &self.client,
             interface: &self.interface,
         };

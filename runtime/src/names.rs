@@ -10,6 +10,7 @@
 //! | commands a service answered | `/lewis/commands/<service>` | `CommandLog` |
 //! | calls a client sent that got no answer | `/lewis/calls` | `UnansweredCall` |
 //! | broker decisions | `/lewis/broker` | `Broker` |
+//! | the CPU each service's process used, measured by the broker | `/lewis/broker/cpu` | `ProcessCpu` |
 //! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
 //! | services' output lines | `/lewis/log` | `LogLine` |
 //! | the sequencer's records | `/lewis/sequencer` | `Sequencer` |
@@ -26,6 +27,9 @@ use crate::ipc::{ChannelConfig, CommandConfig, OverflowPolicy};
 
 /// The channel of broker decisions.
 pub const BROKER_CHANNEL: &str = "/lewis/broker";
+
+/// The channel of the CPU the broker measured of each service's process.
+pub const CPU_CHANNEL: &str = "/lewis/broker/cpu";
 
 /// The command channel of the broker (`request`, `release`, `status`).
 pub const BROKER_COMMAND: &str = "/lewis/broker/cmd";
@@ -153,6 +157,22 @@ pub fn broker_config() -> ChannelConfig {
     }
 }
 
+/// The settings of `/lewis/broker/cpu`: a measurement a second per service, every one
+/// owed to the recorder (replay decides with them), none worth slowing the broker for: a
+/// deep buffer, the oldest dropped.
+#[must_use]
+pub fn cpu_config() -> ChannelConfig {
+    ChannelConfig {
+        buffer: 256,
+        overflow: OverflowPolicy::DropOldest,
+        history: 0,
+        max_held: 4,
+        max_subscribers: 16,
+        max_publishers: 2,
+        ..ChannelConfig::sensor(256)
+    }
+}
+
 /// The settings of `/lewis/log`: a deep buffer, the oldest dropped (logs must not stall
 /// the broker).
 #[must_use]
@@ -240,6 +260,7 @@ pub fn channel_config(channel: &str) -> ChannelConfig {
         SEQUENCER_CHANNEL => sequencer_config(),
         CLOCK_CHANNEL => clock_config(),
         CALLS_CHANNEL => calls_config(),
+        CPU_CHANNEL => cpu_config(),
         _ if channel.starts_with("/lewis/health/") => health_config(),
         _ if channel.starts_with("/lewis/commands/") => command_log_config(),
         // A provider's data channel is `/<provider>/<Interface>`.
@@ -305,6 +326,7 @@ mod tests {
         check(SEQUENCER_CHANNEL, &sequencer_config());
         check(CLOCK_CHANNEL, &clock_config());
         check(CALLS_CHANNEL, &calls_config());
+        check(CPU_CHANNEL, &cpu_config());
     }
 
     #[test]

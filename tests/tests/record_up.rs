@@ -263,6 +263,60 @@ fn a_call_its_provider_never_answers_is_recorded_by_the_caller() {
     assert!(recording.of("/lewis/commands/laser").is_empty());
 }
 
+/// The broker measures what each service's process uses of the CPU, hands it to its core
+/// and publishes it; the recording keeps it, so replay decides with the same numbers.
+#[test]
+fn the_cpu_the_broker_measured_is_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("cpu.mcap");
+    let mut up = Up::start_with(
+        tempfile::tempdir().unwrap(),
+        Namespace::unique("record-cpu"),
+        &test_robot_file(),
+        &[OsStr::new("-o"), output.as_os_str()],
+    );
+    up.wait_line("broker up");
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut measured = ipc
+        .subscriber(
+            lewis_runtime::names::CPU_CHANNEL,
+            &lewis_runtime::names::cpu_config(),
+        )
+        .unwrap();
+    let mut client = Client::<RangeFinder>::connect(&ipc, "app").unwrap();
+    receive(&mut client, 2);
+    // The laser runs; its first measurement comes a second after its first look.
+    let waits = WaitSet::new(WakeMode::Event);
+    let deadline = std::time::Instant::now() + WATCHDOG;
+    let seen = loop {
+        if let Some(sample) = measured.receive().unwrap() {
+            let message: lewis_interfaces::msg::ProcessCpu =
+                cdr::from_bytes(sample.bytes()).unwrap();
+            if message.service == "laser" {
+                break message;
+            }
+            continue;
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no CPU measurement of the laser"
+        );
+        waits.wait(&[&measured], Some(deadline)).unwrap();
+    };
+    // A test service at 50 Hz uses a little of one core.
+    assert!((0..1000).contains(&seen.milli_cores), "{seen:?}");
+    drop(client);
+    assert!(up.stop().success(), "{}", up.log());
+    let recording = Recording::read(std::slice::from_ref(&output));
+    let recorded: Vec<lewis_interfaces::msg::ProcessCpu> = recording
+        .of("/lewis/broker/cpu")
+        .iter()
+        .map(decode)
+        .collect();
+    assert!(recorded.contains(&seen), "{recorded:?}");
+    assert_eq!(recording.channels["/lewis/broker/cpu"]["kind"], "cpu");
+}
+
 /// A service that only talks: its output lines go to `/lewis/log`.
 const TALKER: &str = r#"
 [robot]

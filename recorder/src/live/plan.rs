@@ -3,7 +3,9 @@
 
 use globset::{GlobBuilder, GlobSet, GlobSetBuilder};
 use lewis_interfaces::Interface;
-use lewis_interfaces::msg::{Broker, CommandLog, Health, LogLine, Sequencer, UnansweredCall};
+use lewis_interfaces::msg::{
+    Broker, CommandLog, Health, LogLine, ProcessCpu, Sequencer, UnansweredCall,
+};
 use lewis_runtime::ipc::ChannelConfig;
 use lewis_runtime::names;
 use lewis_runtime::robot::Robot;
@@ -12,7 +14,7 @@ use thiserror::Error;
 use crate::channel::ChannelSpec;
 
 /// Channel metadata key saying what a channel carries: `data`, `health`, `commands`,
-/// `broker`, `calls`, `sequencer` or `log`.
+/// `broker`, `cpu`, `calls`, `sequencer` or `log`.
 pub const META_KIND: &str = "kind";
 
 /// One channel to tap: its IPC name and settings, and the MCAP channel it is written to.
@@ -60,8 +62,9 @@ impl TapChannel {
 /// Every channel of `robot` worth recording, in a stable order: each provider's data
 /// channel `/<service>/<Interface>` (all of them, started or not, so that a provider
 /// started later by a failover is recorded from its first sample), then per service its
-/// health and its command log, then `/lewis/broker`, `/lewis/calls` (the calls clients sent
-/// that got no answer), `/lewis/sequencer` and `/lewis/log`.
+/// health and its command log, then `/lewis/broker`, `/lewis/broker/cpu` (what each
+/// service's process used of the CPU), `/lewis/calls` (the calls clients sent that got no
+/// answer), `/lewis/sequencer` and `/lewis/log`.
 /// Without a robot, only the channels that do not depend on it.
 #[must_use]
 pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
@@ -99,6 +102,12 @@ pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
         names::BROKER_CHANNEL,
         "broker",
         &names::broker_config(),
+    ));
+    channels.push(TapChannel::of::<ProcessCpu>(
+        names::BROKER_NODE,
+        names::CPU_CHANNEL,
+        "cpu",
+        &names::cpu_config(),
     ));
     // Any client publishes here, each numbering its own records: the provider is `*`, and
     // each record's header names its caller.
@@ -236,6 +245,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
                 "/lewis/health/sonar",
                 "/lewis/commands/sonar",
                 "/lewis/broker",
+                "/lewis/broker/cpu",
                 "/lewis/calls",
                 "/lewis/sequencer",
                 "/lewis/log",
@@ -265,6 +275,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
         check("/lewis/health/laser", ["laser", "Health", "health"]);
         check("/lewis/commands/sonar", ["sonar", "CommandLog", "commands"]);
         check("/lewis/broker", ["lewis-broker", "Broker", "broker"]);
+        check("/lewis/broker/cpu", ["lewis-broker", "ProcessCpu", "cpu"]);
         check("/lewis/calls", ["*", "UnansweredCall", "calls"]);
         check(
             "/lewis/sequencer",
@@ -283,6 +294,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
             topics,
             [
                 "/lewis/broker",
+                "/lewis/broker/cpu",
                 "/lewis/calls",
                 "/lewis/sequencer",
                 "/lewis/log"

@@ -392,7 +392,7 @@ impl DirectServices {
                     let _ = instance.on_command(&mut state.context(backend), &command);
                     events += 1;
                 }
-                Route::Health { .. } | Route::Broker | Route::Other => {}
+                Route::Health { .. } | Route::Broker | Route::Cpu | Route::Other => {}
             }
         }
         events

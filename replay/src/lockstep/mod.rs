@@ -87,7 +87,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, CommandLog};
+use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, CommandLog, ProcessCpu};
 use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
 use lewis_runtime::live::health_from_message;
 use lewis_runtime::robot::Robot;
@@ -450,7 +450,7 @@ impl<'a> Lockstep<'a> {
                         .expect_call(&service, &caller, &log.request, taken);
                 }
             }
-            Route::Health { .. } | Route::Broker | Route::Other => {}
+            Route::Health { .. } | Route::Broker | Route::Cpu | Route::Other => {}
         }
     }
 
@@ -532,6 +532,17 @@ impl<'a> Lockstep<'a> {
                         interface: decision.interface,
                     }));
                 }
+            }
+            Route::Cpu => {
+                let Ok(measured) = cdr::from_bytes::<ProcessCpu>(&message.data) else {
+                    self.stats.undecodable += 1;
+                    return;
+                };
+                // The live broker's measurement, as it was fed: replay decides the same.
+                self.work.push_back(Work::Broker(Event::CpuMeasured {
+                    service: measured.service,
+                    milli_cores: u32::try_from(measured.milli_cores).unwrap_or(0),
+                }));
             }
             Route::Other => {}
         }

@@ -26,6 +26,8 @@ pub enum Route {
     },
     /// The broker's decisions (`/lewis/broker`).
     Broker,
+    /// The CPU the broker measured of each service's process (`/lewis/broker/cpu`).
+    Cpu,
     /// Anything else (logs, the recorder's stats, topics of other programs).
     Other,
 }
@@ -48,6 +50,9 @@ pub fn route(topic: &str, robot: &Robot) -> Route {
     }
     if topic == names::BROKER_CHANNEL {
         return Route::Broker;
+    }
+    if topic == names::CPU_CHANNEL {
+        return Route::Cpu;
     }
     let mut parts = topic.strip_prefix('/').unwrap_or("").splitn(2, '/');
     if let (Some(service), Some(interface)) = (parts.next(), parts.next())
@@ -95,6 +100,7 @@ mod tests {
             },
         );
         check("/lewis/broker", Route::Broker);
+        check("/lewis/broker/cpu", Route::Cpu);
         check("/laser/Distance", Route::Other);
         check("/lewis/health/sonar", Route::Other);
         check("/lewis/log", Route::Other);

@@ -234,7 +234,7 @@ pub fn select_services(
             Route::Data { service, .. }
             | Route::Health { service }
             | Route::Commands { service } => Some(service),
-            Route::Broker | Route::Other => None,
+            Route::Broker | Route::Cpu | Route::Other => None,
         })
         .collect();
     let mut chosen = BTreeSet::new();

@@ -19,6 +19,10 @@
 //!   every sample, so clients lose nothing) and feeds them to the [`health`](super::health)
 //!   checks while the provider is ready; a failed check is an [`Event::DataCheckFailed`].
 //!
+//! - about once a second it measures the CPU each service's process used ([`cpu`](super::cpu)),
+//!   publishes it on `/lewis/broker/cpu` (recorded, so replay decides the same) and hands it
+//!   to the core as an [`Event::CpuMeasured`].
+//!
 //! Everything waits on one [`WaitSet`]: the stop signals, the supervisor's descriptor, the
 //! command server and the health channels, with the earliest deadline.
 
@@ -32,11 +36,12 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
     Broker as BrokerMessage, BrokerAction, BrokerCommand, BrokerReleaseReply, BrokerRequestReply,
     BrokerRequestReplyStatus, BrokerRobotReply, Health as HealthMessage, LogLine as LogLineMessage,
-    LogLineLevel, LogLineStream,
+    LogLineLevel, LogLineStream, ProcessCpu,
 };
 use lewis_interfaces::{CommandSet, Message};
 use nix::sys::signal::Signal;
 
+use super::cpu::CpuSampler;
 use super::health::DataMonitor;
 use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need};
 use crate::clock::LiveClock;
@@ -68,6 +73,10 @@ const DATA_LOOK_HELD_UP_NS: i64 = 100_000_000;
 
 /// How often the broker looks for clients that died without a release.
 const CLIENT_SWEEP: Duration = Duration::from_millis(500);
+
+/// How often the broker measures the CPU of the services' processes: a second gives a
+/// measurement good to 1% of a core (`/proc`'s clock ticks are 10 ms).
+const CPU_SAMPLE_PERIOD: Duration = Duration::from_secs(1);
 
 /// The IPC cleanups asked for at a service's exits ([`NodeCleaner::request`] tickets).
 #[derive(Debug, Default)]
@@ -293,6 +302,14 @@ struct Driver<'r> {
     client_pids: BTreeMap<String, i32>,
     /// When the clients' processes are looked at next.
     next_client_sweep: Instant,
+    /// The CPU of the services' processes, measured.
+    cpu: CpuSampler,
+    /// Where each measurement is published.
+    cpu_out: Publisher,
+    /// Measurements published so far (the header's sequence).
+    cpu_seq: u64,
+    /// When the processes are measured next.
+    next_cpu_sample: Instant,
 }
 
 impl<'r> Driver<'r> {
@@ -309,6 +326,7 @@ impl<'r> Driver<'r> {
         let ipc = Ipc::open(&options.namespace, names::BROKER_NODE)?;
         let cleaner = NodeCleaner::start(&options.namespace, names::BROKER_CLEANER_NODE)?;
         let decisions_out = ipc.publisher(names::BROKER_CHANNEL, &names::broker_config())?;
+        let cpu_out = ipc.publisher(names::CPU_CHANNEL, &names::cpu_config())?;
         let server = ipc.command_server(names::BROKER_COMMAND, &names::broker_command_config())?;
         let health = robot
             .services
@@ -365,6 +383,10 @@ impl<'r> Driver<'r> {
             last_ns: 0,
             client_pids: BTreeMap::new(),
             next_client_sweep: Instant::now() + CLIENT_SWEEP,
+            cpu: CpuSampler::new(),
+            cpu_out,
+            cpu_seq: 0,
+            next_cpu_sample: Instant::now() + CPU_SAMPLE_PERIOD,
         })
     }
 
@@ -406,6 +428,10 @@ impl<'r> Driver<'r> {
                 self.sweep_dead_clients();
                 self.next_client_sweep = now + CLIENT_SWEEP;
             }
+            if now >= self.next_cpu_sample {
+                self.measure_cpu();
+                self.next_cpu_sample = now + CPU_SAMPLE_PERIOD;
+            }
             let sweep = (!self.client_pids.is_empty()).then_some(self.next_client_sweep);
             let deadline = self
                 .core
@@ -428,6 +454,7 @@ impl<'r> Driver<'r> {
                         .then(|| now + DATA_LOOK_PERIOD),
                 )
                 .chain(sweep)
+                .chain([self.next_cpu_sample])
                 .chain(end)
                 .min();
             self.wait(signals, deadline)?;
@@ -493,6 +520,48 @@ impl<'r> Driver<'r> {
             }
         }
         all
+    }
+
+    /// Measures what each service's process used of the CPU since the last look, publishes
+    /// it and hands it to the core.
+    fn measure_cpu(&mut self) {
+        let now_ns = self.clock.now_ns();
+        let running: Vec<(String, u32)> = self
+            .supervisor
+            .running()
+            .into_iter()
+            .filter_map(|name| Some((name.to_owned(), self.supervisor.pid(name)?)))
+            .collect();
+        for (service, pid) in &running {
+            let Some(milli_cores) = self.cpu.sample(*pid, now_ns) else {
+                continue;
+            };
+            self.cpu_seq += 1;
+            let mut message = ProcessCpu {
+                service: service.clone(),
+                milli_cores: i32::try_from(milli_cores).unwrap_or(i32::MAX),
+                ..ProcessCpu::default()
+            };
+            let header = message.header_mut();
+            names::BROKER_NODE.clone_into(&mut header.provider);
+            header.seq = self.cpu_seq;
+            header.publish_time_ns = now_ns;
+            let len = cdr::encoded_len(&message);
+            if let Err(e) = self.cpu_out.publish_with(len, |buf| {
+                let _ = cdr::encode_into(&message, buf);
+            }) {
+                tracing::debug!("cannot publish a CPU measurement: {e}");
+            }
+            self.feed_at(
+                now_ns,
+                Event::CpuMeasured {
+                    service: service.clone(),
+                    milli_cores,
+                },
+            );
+        }
+        self.cpu
+            .retain(|pid| running.iter().any(|(_, p)| *p == pid));
     }
 
     fn publish(&mut self, decision: &Decision, client_left: bool) {

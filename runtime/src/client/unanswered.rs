@@ -4,10 +4,14 @@
 //! call that times out, finds no provider, or whose provider dies or is replaced before
 //! answering leaves nothing there. So every [`RawClient`](super::RawClient) keeps the calls
 //! it has in flight (the frame, when, to whom) and publishes an
-//! [`UnansweredCall`] when one ends without a reply. Nothing is published and no channel is
-//! opened while every call is answered.
+//! [`UnansweredCall`] when one ends without a reply, on its process's one publisher of the
+//! channel ([`Ipc::shared_publisher`]), opened with the process's first client: a publisher
+//! opened at the failure and gone with its process a moment later would leave the record
+//! unread (the recorder maps a publisher's memory when it first reads from it).
 
+use std::cell::RefCell;
 use std::collections::BTreeMap;
+use std::rc::Rc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
@@ -36,35 +40,42 @@ struct InFlight {
 pub(super) struct UnansweredCalls {
     clock: LiveClock,
     in_flight: BTreeMap<IpcCallId, InFlight>,
-    /// Opened at the first unanswered call.
-    publisher: Option<Publisher>,
-    /// The channel could not be opened: said once, not tried again.
-    unavailable: bool,
+    /// The process's publisher; `None` when the channel could not be opened (said once).
+    publisher: Option<Rc<RefCell<Publisher>>>,
 }
 
 impl std::fmt::Debug for UnansweredCalls {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("UnansweredCalls")
             .field("in_flight", &self.in_flight)
-            .field("publishing", &self.publisher.is_some())
+            .field("recording", &self.publisher.is_some())
             .finish_non_exhaustive()
     }
 }
 
 /// What the record is about: the client and its interface.
 pub(super) struct Caller<'a> {
-    pub ipc: &'a Ipc,
     pub client: &'a str,
     pub interface: &'a str,
 }
 
 impl UnansweredCalls {
-    pub(super) fn new() -> Self {
+    /// The record of `client`'s calls of `interface`, on `ipc`'s shared publisher.
+    pub(super) fn new(ipc: &Ipc, client: &str, interface: &str) -> Self {
+        let publisher = ipc
+            .shared_publisher(names::CALLS_CHANNEL, &names::calls_config())
+            .map_err(|e| {
+                tracing::warn!(
+                    client,
+                    "cannot open {}: unanswered calls of {interface} are not recorded: {e}",
+                    names::CALLS_CHANNEL
+                );
+            })
+            .ok();
         Self {
             clock: LiveClock::new(),
             in_flight: BTreeMap::new(),
-            publisher: None,
-            unavailable: false,
+            publisher,
         }
     }
 
@@ -166,11 +177,11 @@ impl UnansweredCalls {
         caller.client.clone_into(&mut header.provider);
         header.seq = SEQ.fetch_add(1, Ordering::Relaxed) + 1;
         header.publish_time_ns = self.clock.now_ns();
-        let Some(publisher) = self.publisher(caller) else {
+        let Some(publisher) = &self.publisher else {
             return;
         };
         let len = cdr::encoded_len(&message);
-        if let Err(e) = publisher.publish_with(len, |buf| {
+        if let Err(e) = publisher.borrow_mut().publish_with(len, |buf| {
             let _ = cdr::encode_into(&message, buf);
         }) {
             tracing::warn!(
@@ -178,26 +189,5 @@ impl UnansweredCalls {
                 "cannot record an unanswered call: {e}"
             );
         }
-    }
-
-    fn publisher(&mut self, caller: &Caller<'_>) -> Option<&mut Publisher> {
-        if self.publisher.is_none() && !self.unavailable {
-            match caller
-                .ipc
-                .publisher(names::CALLS_CHANNEL, &names::calls_config())
-            {
-                Ok(publisher) => self.publisher = Some(publisher),
-                Err(e) => {
-                    self.unavailable = true;
-                    tracing::warn!(
-                        client = caller.client,
-                        "cannot open {}: unanswered calls of {} are not recorded: {e}",
-                        names::CALLS_CHANNEL,
-                        caller.interface
-                    );
-                }
-            }
-        }
-        self.publisher.as_mut()
     }
 }

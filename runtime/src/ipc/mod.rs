@@ -47,6 +47,10 @@ pub use stale::{WipeReport, remove_abandoned_channels, wipe_stale};
 pub(crate) use wait::SPINS_PER_CLOCK_READ;
 pub use wait::{FdSource, Fired, MAX_WAIT_SOURCES, WaitError, WaitSet, Waitable, WakeMode, Woken};
 
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::rc::Rc;
+
 use iceoryx2::node::{Node, NodeBuilder};
 use iceoryx2::prelude::{NodeName, ServiceName, SignalHandlingMode, ipc};
 
@@ -126,6 +130,9 @@ fn quiet_iceoryx2() {
 /// subscribers, command servers and clients, and sees the other nodes of the namespace.
 #[derive(Debug)]
 pub struct Ipc {
+    /// The publishers every part of this process shares ([`Ipc::shared_publisher`]); before
+    /// `node`, so that they close before it.
+    shared: RefCell<BTreeMap<String, Rc<RefCell<Publisher>>>>,
     node: Node<ipc::Service>,
     namespace: Namespace,
 }
@@ -154,9 +161,32 @@ impl Ipc {
                 reason: e.to_string(),
             })?;
         Ok(Self {
+            shared: RefCell::new(BTreeMap::new()),
             node,
             namespace: namespace.clone(),
         })
+    }
+
+    /// The one publisher of this process on `channel`, opened at the first call: for a
+    /// channel that every part of a process may write to (`/lewis/calls`), so that the
+    /// process counts once against the channel's publishers, and its publisher is there
+    /// (and the recorder connected to it) before the first message.
+    ///
+    /// # Errors
+    /// When the channel cannot be opened.
+    pub fn shared_publisher(
+        &self,
+        channel: &str,
+        config: &ChannelConfig,
+    ) -> Result<Rc<RefCell<Publisher>>, IpcError> {
+        if let Some(publisher) = self.shared.borrow().get(channel) {
+            return Ok(Rc::clone(publisher));
+        }
+        let publisher = Rc::new(RefCell::new(self.publisher(channel, config)?));
+        self.shared
+            .borrow_mut()
+            .insert(channel.to_owned(), Rc::clone(&publisher));
+        Ok(publisher)
     }
 
     /// Joins the namespace named by `LEWIS_NAMESPACE` (default `default`).

@@ -71,6 +71,7 @@ fn typed(interface: &str, bytes: &[u8]) -> Result<(), String> {
         LogLine,
         Mover,
         Power,
+        ProcessCpu,
         RecorderStats,
         Sequencer,
         Signs,
