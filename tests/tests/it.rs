@@ -26,4 +26,5 @@ mod replay_reference;
 mod replay_ros2;
 mod tune;
 mod tune_labels;
+mod tune_open;
 mod up_priority;
