@@ -49,6 +49,10 @@ pub struct OpenArgs {
     /// Do not open the page in the desktop's browser; only print its address.
     #[arg(long)]
     pub no_browser: bool,
+    /// Also run the sign detector on the frame shown, with the classes being tuned (its
+    /// board and arrow are the `White` and `Black` classes): its boards are drawn in white.
+    #[arg(long)]
+    pub signs: bool,
     /// The most memory the held frames take, in MB (beyond it the recording is thinned).
     #[arg(long, default_value_t = 512)]
     pub max_memory_mb: usize,
@@ -73,13 +77,21 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
             .map_or_else(|| "colors".to_owned(), |s| s.to_string_lossy().into_owned());
         PathBuf::from(format!("{stem}.tuned.txt"))
     });
-    let state = Arc::new(Mutex::new(State::new(
+    if args.signs {
+        // Refused now rather than on every frame: the classes the detector needs.
+        lewis_perception::sign_detector::Params::default()
+            .finder_with(&config)
+            .with_context(|| format!("--signs with {}", args.colors.display()))?;
+    }
+    let mut state = State::new(
         args.input.clone(),
         args.colors.clone(),
         save,
         config,
         args.max_memory_mb.saturating_mul(1 << 20),
-    )));
+    );
+    state.signs = args.signs;
+    let state = Arc::new(Mutex::new(state));
     let bind = SocketAddr::from((Ipv4Addr::LOCALHOST, args.port));
     let server = tiny_http::Server::http(bind)
         .map_err(|e| anyhow::anyhow!("cannot serve the tuning page on {bind}: {e}"))?;

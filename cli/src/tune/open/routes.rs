@@ -3,7 +3,8 @@
 //!
 //! - `GET /`: the page.
 //! - `GET /api/state`: the frames held, the classes and their ranges.
-//! - `GET /api/frame/N`: frame N's blobs; `GET /frame/N.png`: frame N drawn.
+//! - `GET /api/frame/N`: frame N's blobs (and signs, with `--signs`); `GET /frame/N.png`:
+//!   frame N drawn.
 //! - `GET /api/plots`: per class, blobs and largest area per frame over the recording.
 //! - `POST /api/ranges` `{class, y, u, v}`: sets a class's ranges.
 //! - `POST /api/mark` `{frame, class, rect: [x, y, w, h], outside}`: marks pixels and
@@ -162,7 +163,25 @@ fn frame_json(state: &State, index: &str) -> Response<Body> {
                     })
                 })
                 .collect();
-            json_response(200, &json!({ "name": frame.name, "blobs": blobs }))
+            let signs =
+                state
+                    .signs
+                    .then(|| match render::signs(&state.config, frame) {
+                        Ok(signs) => json!(signs
+                    .signs
+                    .iter()
+                    .map(|s| json!({
+                        "arrow": s.arrow,
+                        "confidence": s.confidence,
+                        "box": [s.board.left, s.board.top, s.board.right, s.board.bottom],
+                    }))
+                    .collect::<Vec<_>>()),
+                        Err(e) => json!({ "error": format!("{e:#}") }),
+                    });
+            json_response(
+                200,
+                &json!({ "name": frame.name, "blobs": blobs, "signs": signs }),
+            )
         }
         Err(e) => text(500, &e.to_string()),
     }
@@ -178,7 +197,18 @@ fn frame_png(state: &State, index: &str) -> Response<Body> {
     };
     let drawn = sweep::regions(&state.config, frame)
         .map_err(anyhow::Error::from)
-        .and_then(|regions| render::overlay_png(&state.config, frame, &regions));
+        .and_then(|regions| {
+            // A sign the detector cannot look for (no White or Black class) is said in
+            // the frame's JSON; the picture is drawn without boards.
+            let boards = if state.signs {
+                render::signs(&state.config, frame)
+                    .map(|s| render::sign_boards(&s))
+                    .unwrap_or_default()
+            } else {
+                Vec::new()
+            };
+            render::overlay_png(&state.config, frame, &regions, &boards)
+        });
     match drawn {
         Ok(png) => bytes(200, &png, "image/png"),
         Err(e) => text(500, &format!("{e:#}")),

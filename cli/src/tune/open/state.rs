@@ -36,6 +36,8 @@ pub struct State {
     pub config: ColorConfig,
     /// The held frames.
     pub store: FrameStore,
+    /// Whether the sign detector runs on the frame shown (`--signs`).
+    pub signs: bool,
     /// Whether frames are still being read.
     pub loading: bool,
     /// Why reading the frames stopped early.
@@ -117,6 +119,7 @@ impl State {
             save_path,
             config,
             store: FrameStore::new(max_bytes),
+            signs: false,
             loading: true,
             load_error: None,
             samples: vec![Samples::default(); classes],
