@@ -27,4 +27,5 @@ mod replay_reference;
 mod replay_ros2;
 mod tune;
 mod tune_labels;
+mod tune_open;
 mod up_priority;

@@ -87,7 +87,7 @@ fn shots() -> Vec<Shot> {
 
 /// Records the shots as the simulator would: GroundTruth at each frame's pose, WorldState
 /// with the guide present or gone, and the camera's frame naming both.
-fn record_sim(dir: &Path) -> PathBuf {
+pub(crate) fn record_sim(dir: &Path) -> PathBuf {
     let path = dir.join("sim.mcap");
     let mut options = RecorderOptions::new(&path);
     options.sync_on_flush = false;

@@ -19,6 +19,8 @@
 //!   labelled classes' ranges to the labels (`fit.rs`).
 //! - `lewis tune label-sim RUN.mcap -o FILE.json` labels a simulator recording's frames
 //!   from the simulator's ground truth (`label_sim.rs`).
+//! - `lewis tune open RUN.mcap|IMAGES --colors FILE` serves the tuning page on 127.0.0.1
+//!   (`open/`).
 //!
 //! The perception work is done by `lewis_perception::tuning`; recordings are read
 //! with `lewis_replay::recording` and written with `lewis_recorder`. This module wires them.
@@ -27,6 +29,7 @@ mod check;
 mod fit;
 mod frames;
 mod label_sim;
+mod open;
 mod output;
 mod pick;
 
@@ -44,6 +47,7 @@ use lewis_perception::tuning::{Tuner, save_png};
 pub use check::CheckArgs;
 pub use fit::FitArgs;
 pub use label_sim::LabelSimArgs;
+pub use open::OpenArgs;
 pub use pick::PickArgs;
 
 /// `lewis tune ...`
@@ -61,6 +65,9 @@ pub enum TuneCommand {
     Fit(FitArgs),
     /// Label the camera frames of a simulator recording from the simulator's ground truth.
     LabelSim(LabelSimArgs),
+    /// Open the tuning page: scrub the frames, move the class ranges, mark pixels, see the
+    /// blobs over the whole recording, save the colour file.
+    Open(OpenArgs),
 }
 
 /// Arguments of `lewis tune blobfinder`.
@@ -96,6 +103,7 @@ pub fn run(command: TuneCommand) -> anyhow::Result<ExitCode> {
         TuneCommand::Check(args) => check::run(&args),
         TuneCommand::Fit(args) => fit::run(&args),
         TuneCommand::LabelSim(args) => label_sim::run(&args),
+        TuneCommand::Open(args) => open::run(&args),
     }
 }
 

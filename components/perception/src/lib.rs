@@ -29,6 +29,7 @@ pub mod range_distance;
 pub mod scoring;
 pub mod sign_detector;
 pub mod signs;
+pub mod sweep;
 pub mod tuning;
 
 use lewis_runtime::service::ServiceRegistry;

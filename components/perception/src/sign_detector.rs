@@ -112,6 +112,15 @@ impl Params {
             }
             None => default_sign_colors(),
         };
+        self.finder_with(&colors)
+    }
+
+    /// The sign finder these parameters describe, with the classes of `colors` instead of
+    /// [`Self::colors`]' (`lewis tune open` finds signs with the classes being tuned).
+    ///
+    /// # Errors
+    /// As [`Self::finder`], but for the colour file's reading.
+    pub fn finder_with(&self, colors: &ColorConfig) -> Result<SignFinder, SignParamsError> {
         let class = |name: &str, parameter| {
             colors
                 .colors
@@ -152,7 +161,7 @@ impl Params {
             min_confidence: self.min_confidence,
             ..SignModel::default()
         };
-        SignFinder::new(&colors, board, arrow, model)
+        SignFinder::new(colors, board, arrow, model)
             .map_err(|e| SignParamsError::Colors(e.to_string()))
     }
 }

@@ -1,0 +1,105 @@
+//! `lewis tune open`'s page in a real browser: headless Chromium, driven by Playwright
+//! (`sequencer/gui-test/tune.mjs`), on a recording of the simulated robot's camera. The
+//! script drags a slider and sees the overlay and the plots change without a reload,
+//! marks the red cap's pixels and sees Red's ranges refitted, and saves; here the saved
+//! colour file must read back, say where its ranges came from, and hold every marked
+//! pixel's YUV value in Red.
+//!
+//! Needs what the supervisor page's test needs (see `lewis_tests::browser`). Screenshots
+//! go to `$TMPDIR/lewis-tune-open/` (`first.png`, `slider.png`, `marked.png`).
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::io::{BufRead as _, BufReader};
+use std::process::{Command, Stdio};
+
+use lewis_perception::ColorConfig;
+use lewis_tests::browser::{browser_tools, gui_test_dir};
+use lewis_tests::{lewis_exe, repo_root};
+
+use crate::tune_labels::record_sim;
+
+/// Kills the server when the test ends, whichever way.
+struct Server(std::process::Child);
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn the_tuning_page_redraws_refits_and_saves_in_a_real_browser() {
+    let chromium = browser_tools();
+    let dir = tempfile::tempdir().unwrap();
+    let recording = record_sim(dir.path());
+    let saved = dir.path().join("tuned.txt");
+    let shots = std::env::temp_dir().join("lewis-tune-open");
+    std::fs::create_dir_all(&shots).unwrap();
+    let _ = std::fs::remove_file(shots.join("marked.json"));
+
+    let mut server = Server(
+        Command::new(lewis_exe())
+            .args(["tune", "open"])
+            .arg(&recording)
+            .arg("--colors")
+            .arg(repo_root().join("robots/colors/conference.txt"))
+            .arg("--save")
+            .arg(&saved)
+            .args(["--port", "0", "--no-browser"])
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut line = String::new();
+    BufReader::new(server.0.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://127.0.0.1:"))
+        .unwrap_or_else(|| panic!("no address in {line:?}"))
+        .to_owned();
+
+    let browser = Command::new("node")
+        .arg(gui_test_dir().join("tune.mjs"))
+        .arg(&url)
+        .arg(&shots)
+        .env("LEWIS_CHROMIUM", &chromium)
+        .current_dir(gui_test_dir())
+        .output()
+        .unwrap();
+    drop(server);
+    let stdout = String::from_utf8_lossy(&browser.stdout);
+    let stderr = String::from_utf8_lossy(&browser.stderr);
+    assert!(
+        browser.status.success() && stdout.contains("gui-test: ok"),
+        "the browser test failed:\n{stdout}\n{stderr}"
+    );
+    for shot in ["first.png", "slider.png", "marked.png"] {
+        assert!(shots.join(shot).is_file(), "no screenshot {shot}");
+    }
+
+    let marked: Vec<[u8; 3]> =
+        serde_json::from_str(&std::fs::read_to_string(shots.join("marked.json")).unwrap()).unwrap();
+    assert!(marked.len() >= 2, "{marked:?}");
+    let text = std::fs::read_to_string(&saved).unwrap();
+    assert!(
+        text.starts_with("# Tuned with `lewis tune open` on "),
+        "{text}"
+    );
+    assert!(text.contains("# Red: refitted to "), "{text}");
+    assert!(text.contains("# Yellow: unchanged."), "{text}");
+    let config = ColorConfig::load(&saved).unwrap();
+    let red = config.colors.iter().find(|c| c.name == "Red").unwrap();
+    for yuv in &marked {
+        assert!(
+            red.contains_yuv(*yuv),
+            "{yuv:?} outside the saved Red {red:?}"
+        );
+    }
+    // The other classes are as they were.
+    let shipped = ColorConfig::load(&repo_root().join("robots/colors/conference.txt")).unwrap();
+    assert_eq!(config.colors[1..], shipped.colors[1..]);
+}
