@@ -2,8 +2,8 @@
 //! to the first sonar sample at an application bound to RangeFinder, measured at the
 //! application, with the sonar started on demand and as a hot standby:
 //!
-//! - **stall**: the laser stops (no data, no heartbeat; a 100 ms heartbeat deadline, as on
-//!   the shipped robots, with heartbeats every 10 ms);
+//! - **stall**: the laser stops (no data, no heartbeat; 50 ms heartbeat deadline, with
+//!   heartbeats every 10 ms);
 //! - **crash**: the laser aborts with no restart left (the crash beyond its limit);
 //! - **crash loop**: the laser aborts, and again at once after each of its 2 restarts
 //!   (backoff 20 ms then 40 ms), until it is beyond its limit: the whole episode;
@@ -171,14 +171,14 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 /// One `lewis up`, one application; the fault is injected once the application receives
 /// laser data, and the gap is measured at the application. A trial fails (and is counted,
 /// not measured) when no sonar sample comes in time, or when the broker gives up the sonar
-/// too: on a loaded machine a fresh sonar can miss its 100 ms heartbeat deadline.
+/// too: on a loaded machine a fresh sonar can miss its 50 ms heartbeat deadline.
 fn trial(scenario: Scenario, sonar_start: &str, index: usize) -> Result<Trial, String> {
     let dir = tempfile::tempdir().unwrap();
     let fault_file = dir.path().join("laser.fault");
     let robot = test_robot(&TestRobot {
         laser_fault_file: Some(&fault_file),
         sonar_start,
-        heartbeat_deadline_ms: 100,
+        heartbeat_deadline_ms: 50,
         laser_max_restarts: scenario.laser_max_restarts,
         rate_hz: 100.0,
         data_checks: scenario.data_checks,
