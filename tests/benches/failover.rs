@@ -9,7 +9,7 @@
 //!   (backoff 20 ms then 40 ms), until it is beyond its limit: the whole episode;
 //! - **garbage**, **frozen**, **slow**: the laser keeps running but publishes NaN ranges,
 //!   the same scan again and again, or at a third of its rate; the broker's data checks
-//!   (on for these) fail it.
+//!   (on for these) fail it; the gap runs from the last good sample.
 //!
 //! Each trial also splits the gap in two: until the broker's rebind decision (detection and
 //! decision), and from it to the first sonar sample (starting the sonar if needed, the
@@ -223,7 +223,11 @@ fn trial(scenario: Scenario, sonar_start: &str, index: usize) -> Result<Trial, S
         match sample.message.header.provider.as_str() {
             "laser" => {
                 laser_samples += 1;
-                last_laser = Some(now);
+                // Bad data still comes from the laser: the gap runs from its last good
+                // sample, the one before the fault.
+                if laser_samples <= 20 || !scenario.data_checks {
+                    last_laser = Some(now);
+                }
                 // Some samples first, so the system is in its steady state.
                 if laser_samples == 20 {
                     set_fault(&fault_file, scenario.fault);
