@@ -118,40 +118,22 @@ pub fn write_carmen(
     progress: &mut dyn FnMut(u64),
 ) -> Result<Written, WriteError> {
     let report = import.report();
-    let toml = robot_toml(report);
-    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
-        .iter()
-        .map(|i| i.name)
-        .collect();
-    let file_name = format!("{}.toml", robot_name(&report.path));
-    robot::parse(&toml, Path::new(&file_name), &known).map_err(|source| WriteError::Robot {
-        path: report.path.clone(),
-        source,
-    })?;
     let mut recorder_options = RecorderOptions::new(&options.output);
     recorder_options.compression = options.compression;
     recorder_options.split_size_bytes = options.split_size_bytes;
     recorder_options.split_duration_ns = options.split_duration_ns;
-    recorder_options.sync_on_flush = false;
-    recorder_options.robot_description = Some(RobotDescription {
+    let file_name = format!("{}.toml", robot_name(&report.path));
+    let mut file = ImportFile::create(
+        recorder_options,
+        &report.path,
+        robot_toml(report),
         file_name,
-        toml: toml.clone(),
-    });
-    IMPORTER_NAME.clone_into(&mut recorder_options.recorder_name);
-    let mut recorder = Recorder::create(recorder_options)?;
-    let source = report
-        .path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut channels: BTreeMap<String, ChannelId> = BTreeMap::new();
-    let mut messages: BTreeMap<String, u64> = BTreeMap::new();
-    let mut span_ns: Option<(i64, i64)> = None;
+    )?;
     let mut buffer = Vec::new();
-    let mut written = 0u64;
+    let mut last_ns = None;
     for message in import.messages()? {
         let message = message?;
-        if let Some((_, last)) = span_ns
+        if let Some(last) = last_ns
             && message.time_ns < last
         {
             return Err(WriteError::TimeGoesBack {
@@ -160,42 +142,135 @@ pub fn write_carmen(
                 before_ns: last,
             });
         }
-        let channel = match channels.get(&message.channel) {
-            Some(id) => *id,
-            None => {
-                let id = recorder.add_channel(channel_spec(&message, &source)?)?;
-                channels.insert(message.channel.clone(), id);
-                id
-            }
-        };
+        last_ns = Some(message.time_ns);
+        let channel = file.channel(&message.channel, |source| channel_spec(&message, source))?;
         message.payload.encode_to_vec(&mut buffer);
         let header = message.payload.header();
-        recorder.write(&Sample {
+        file.write(
             channel,
-            seq: header.seq,
-            publish_time_ns: header.publish_time_ns,
-            log_time_ns: message.time_ns,
-            data: &buffer,
-        })?;
-        *messages.entry(message.channel).or_default() += 1;
-        span_ns = Some(
-            span_ns.map_or((message.time_ns, message.time_ns), |(first, _)| {
-                (first, message.time_ns)
-            }),
-        );
-        written += 1;
-        if written.is_multiple_of(4096) {
-            progress(written);
-        }
+            &message.channel,
+            header.seq,
+            header.publish_time_ns,
+            message.time_ns,
+            &buffer,
+            progress,
+        )?;
     }
-    progress(written);
-    let recording = recorder.close()?;
-    Ok(Written {
-        recording,
-        robot_toml: toml,
-        messages,
-        span_ns,
-    })
+    file.finish(progress)
+}
+
+/// A recording being written by an importer: its robot description checked and stored as
+/// `lewis up` stores it, one channel per topic, and the counts and time span kept for the
+/// import's report.
+struct ImportFile {
+    recorder: Recorder,
+    toml: String,
+    /// The imported file's name, recorded on every channel as `imported_from`.
+    source: String,
+    channels: BTreeMap<String, ChannelId>,
+    messages: BTreeMap<String, u64>,
+    span_ns: Option<(i64, i64)>,
+    written: u64,
+}
+
+impl ImportFile {
+    /// Checks `toml` (made by the importer for `log`) and opens the recorder with it.
+    fn create(
+        mut options: RecorderOptions,
+        log: &Path,
+        toml: String,
+        file_name: String,
+    ) -> Result<Self, WriteError> {
+        let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+            .iter()
+            .map(|i| i.name)
+            .collect();
+        robot::parse(&toml, Path::new(&file_name), &known).map_err(|source| WriteError::Robot {
+            path: log.to_owned(),
+            source,
+        })?;
+        options.sync_on_flush = false;
+        options.robot_description = Some(RobotDescription {
+            file_name,
+            toml: toml.clone(),
+        });
+        IMPORTER_NAME.clone_into(&mut options.recorder_name);
+        let source = log
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Ok(Self {
+            recorder: Recorder::create(options)?,
+            toml,
+            source,
+            channels: BTreeMap::new(),
+            messages: BTreeMap::new(),
+            span_ns: None,
+            written: 0,
+        })
+    }
+
+    /// The channel of `topic`, added from `spec` (given the imported file's name) the first
+    /// time it is seen.
+    fn channel(
+        &mut self,
+        topic: &str,
+        spec: impl FnOnce(&str) -> Result<ChannelSpec, WriteError>,
+    ) -> Result<ChannelId, WriteError> {
+        if let Some(id) = self.channels.get(topic) {
+            return Ok(*id);
+        }
+        let id = self.recorder.add_channel(spec(&self.source)?)?;
+        self.channels.insert(topic.to_owned(), id);
+        Ok(id)
+    }
+
+    /// Writes one message and counts it; `progress` hears of every 4096th.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a sample's fields, named at the call"
+    )]
+    fn write(
+        &mut self,
+        channel: ChannelId,
+        topic: &str,
+        seq: u64,
+        publish_time_ns: i64,
+        log_time_ns: i64,
+        data: &[u8],
+        progress: &mut dyn FnMut(u64),
+    ) -> Result<(), WriteError> {
+        self.recorder.write(&Sample {
+            channel,
+            seq,
+            publish_time_ns,
+            log_time_ns,
+            data,
+        })?;
+        *self.messages.entry(topic.to_owned()).or_default() += 1;
+        self.span_ns = Some(
+            self.span_ns
+                .map_or((log_time_ns, log_time_ns), |(first, last)| {
+                    (first.min(log_time_ns), last.max(log_time_ns))
+                }),
+        );
+        self.written += 1;
+        if self.written.is_multiple_of(4096) {
+            progress(self.written);
+        }
+        Ok(())
+    }
+
+    /// Closes the recording.
+    fn finish(self, progress: &mut dyn FnMut(u64)) -> Result<Written, WriteError> {
+        progress(self.written);
+        Ok(Written {
+            recording: self.recorder.close()?,
+            robot_toml: self.toml,
+            messages: self.messages,
+            span_ns: self.span_ns,
+        })
+    }
 }
 
 /// The MCAP channel of an imported topic.
@@ -251,17 +326,6 @@ pub enum Ros2WriteError {
     /// The bag cannot be imported (found in the last pass: the bag changed).
     #[error(transparent)]
     Import(#[from] Ros2ImportError),
-    /// The recorder refused.
-    #[error(transparent)]
-    Record(#[from] RecordError),
-    /// The robot description made for the import is not valid: a bug of the importer.
-    #[error("the robot description made for {path} is not valid (please report it): {source}")]
-    Robot {
-        /// The bag.
-        path: PathBuf,
-        /// What is wrong with it.
-        source: RobotError,
-    },
     /// The output exists.
     #[error("{} exists: give another -o, or remove it first", path.display())]
     Exists {
@@ -278,9 +342,10 @@ pub enum Ros2WriteError {
         /// Why.
         source: std::io::Error,
     },
-    /// An imported topic is of no interface this build knows (an importer bug).
+    /// Writing failed: the recorder refused, or the robot description or a channel made
+    /// for the import is not valid (an importer bug).
     #[error(transparent)]
-    Channel(#[from] WriteError),
+    Write(#[from] WriteError),
 }
 
 /// The temporary file an import is written to, beside `output` (renamed at the end, so
@@ -341,95 +406,46 @@ fn write_ros2_to(
     progress: &mut dyn FnMut(u64),
 ) -> Result<Written, Ros2WriteError> {
     let report = import.report();
-    let toml = ros2::robot_toml(report);
-    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
-        .iter()
-        .map(|i| i.name)
-        .collect();
-    let file_name = format!("{}.toml", ros2::robot_name(&report.path));
-    robot::parse(&toml, Path::new(&file_name), &known).map_err(|source| Ros2WriteError::Robot {
-        path: report.path.clone(),
-        source,
-    })?;
     let mut options = RecorderOptions::new(path);
     options.compression = compression;
-    options.sync_on_flush = false;
-    options.robot_description = Some(RobotDescription {
-        file_name,
-        toml: toml.clone(),
-    });
-    IMPORTER_NAME.clone_into(&mut options.recorder_name);
-    let mut recorder = Recorder::create(options)?;
-    let source = report
-        .path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut channels: BTreeMap<String, ChannelId> = BTreeMap::new();
-    let mut messages: BTreeMap<String, u64> = BTreeMap::new();
-    let mut span_ns: Option<(i64, i64)> = None;
+    let file_name = format!("{}.toml", ros2::robot_name(&report.path));
+    let mut file = ImportFile::create(options, &report.path, ros2::robot_toml(report), file_name)?;
     let mut buffer = Vec::new();
-    let mut written = 0u64;
     import.stream::<Ros2WriteError, _>(|out| {
-        let (topic, seq, publish_ns, log_ns, data): (&str, u64, i64, i64, &[u8]) = match &out {
+        match &out {
             Out::Lewis(message) => {
-                if !channels.contains_key(&message.channel) {
-                    let id = recorder.add_channel(channel_spec(message, &source)?)?;
-                    channels.insert(message.channel.clone(), id);
-                }
+                let channel =
+                    file.channel(&message.channel, |source| channel_spec(message, source))?;
                 message.payload.encode_to_vec(&mut buffer);
                 let header = message.payload.header();
-                (
+                file.write(
+                    channel,
                     &message.channel,
                     header.seq,
                     header.publish_time_ns,
                     message.time_ns,
                     &buffer,
-                )
+                    progress,
+                )?;
             }
             Out::Original(m) => {
-                if !channels.contains_key(&m.topic.name) {
-                    let id = recorder.add_channel(original_spec(m.topic, &source))?;
-                    channels.insert(m.topic.name.clone(), id);
-                }
+                let channel =
+                    file.channel(&m.topic.name, |source| Ok(original_spec(m.topic, source)))?;
                 let log = i64::try_from(m.log_time_ns).unwrap_or(i64::MAX);
-                (
+                file.write(
+                    channel,
                     &m.topic.name,
                     m.index + 1,
                     i64::try_from(m.publish_time_ns).unwrap_or(log),
                     log,
                     m.data,
-                )
+                    progress,
+                )?;
             }
-        };
-        let Some(&channel) = channels.get(topic) else {
-            return Ok(());
-        };
-        recorder.write(&Sample {
-            channel,
-            seq,
-            publish_time_ns: publish_ns,
-            log_time_ns: log_ns,
-            data,
-        })?;
-        *messages.entry(topic.to_owned()).or_default() += 1;
-        span_ns = Some(span_ns.map_or((log_ns, log_ns), |(first, last)| {
-            (first.min(log_ns), last.max(log_ns))
-        }));
-        written += 1;
-        if written.is_multiple_of(4096) {
-            progress(written);
         }
         Ok(())
     })?;
-    progress(written);
-    let recording = recorder.close()?;
-    Ok(Written {
-        recording,
-        robot_toml: toml,
-        messages,
-        span_ns,
-    })
+    Ok(file.finish(progress)?)
 }
 
 /// The channel of a bag's topic kept as it is: its schema and encoding, the bag's type as

@@ -16,7 +16,7 @@ use lewis_runtime::names::{data_channel, health_channel};
 
 use super::laser::{
     BeamGeometry, DEFAULT_MAX_RANGE_M, LaserMount, LaserSetup, ReadingCounts, SonarOptions,
-    derived_sonar, field_of_view, range_finder,
+    derived_sonar, range_finder,
 };
 use super::parse::{LaserId, LaserScan, Record};
 use super::reader::{LineError, LogReader, ParseCounts, ReadError};
@@ -496,14 +496,7 @@ fn span_deg(
         theta_separation: geometry.separation_rad,
         ..RangeFinder::default()
     };
-    let span = field_of_view(&scan);
-    let round = |rad: f64| (rad.to_degrees() * 1e6).round() / 1e6;
-    let (from, to) = (round(span.from_rad), round(span.to_rad));
-    if from < to {
-        [from, to]
-    } else {
-        [-180.0, 180.0]
-    }
+    crate::import::span_deg(&scan)
 }
 
 fn check_options(options: &ImportOptions) -> Result<(), ImportError> {
@@ -512,28 +505,12 @@ fn check_options(options: &ImportOptions) -> Result<(), ImportError> {
             "--limit-scans 0 would import nothing: give at least 1 scan".to_owned(),
         ));
     }
-    if options.heartbeat_period_ns <= 0 {
-        return Err(ImportError::Option(format!(
-            "a heartbeat period of {} ns: give a positive period",
-            options.heartbeat_period_ns
-        )));
-    }
-    if let Some((x, y)) = options.goal
-        && !(x.is_finite() && y.is_finite())
-    {
-        return Err(ImportError::Option(format!(
-            "the goal ({x}, {y}) is not a point: give finite coordinates in m"
-        )));
-    }
-    if !range_distance::SECTOR_COUNTS.contains(&options.distance_sectors) {
-        return Err(ImportError::Option(format!(
-            "{} Distance sectors: give {} to {}",
-            options.distance_sectors,
-            range_distance::SECTOR_COUNTS.start(),
-            range_distance::SECTOR_COUNTS.end()
-        )));
-    }
-    Ok(())
+    crate::import::check_shared_options(
+        options.heartbeat_period_ns,
+        options.goal,
+        options.distance_sectors,
+    )
+    .map_err(ImportError::Option)
 }
 
 impl CarmenImport {

@@ -21,7 +21,7 @@ use lewis_runtime::names::{data_channel, health_channel};
 use super::bag::{self, BagMessage};
 use super::convert::{self, ImageError, RangeCounts, Scan};
 use super::topics::{self, Choice, ChoiceError, Role, TopicStats};
-use crate::import::carmen::laser::{SonarOptions, derived_sonar, field_of_view};
+use crate::import::carmen::laser::{SonarOptions, derived_sonar};
 use crate::import::carmen::{ImportedMessage, Payload};
 
 /// The provider name of the imported laser.
@@ -551,28 +551,12 @@ impl Converter {
 }
 
 fn check_options(options: &ImportOptions) -> Result<(), ImportError> {
-    if options.heartbeat_period_ns <= 0 {
-        return Err(ImportError::Option(format!(
-            "a heartbeat period of {} ns: give a positive period",
-            options.heartbeat_period_ns
-        )));
-    }
-    if let Some((x, y)) = options.goal
-        && !(x.is_finite() && y.is_finite())
-    {
-        return Err(ImportError::Option(format!(
-            "the goal ({x}, {y}) is not a point: give finite coordinates in m"
-        )));
-    }
-    if !range_distance::SECTOR_COUNTS.contains(&options.distance_sectors) {
-        return Err(ImportError::Option(format!(
-            "{} Distance sectors: give {} to {}",
-            options.distance_sectors,
-            range_distance::SECTOR_COUNTS.start(),
-            range_distance::SECTOR_COUNTS.end()
-        )));
-    }
-    Ok(())
+    crate::import::check_shared_options(
+        options.heartbeat_period_ns,
+        options.goal,
+        options.distance_sectors,
+    )
+    .map_err(ImportError::Option)
 }
 
 fn laser_stats(
@@ -591,18 +575,6 @@ fn laser_stats(
         angle_increment_rad: first.theta_separation,
         rate_hz: topics::rate_hz(scans, span),
         readings,
-    }
-}
-
-/// The Distance span of a laser, rounded to a micro-degree.
-fn span_deg(first: &RangeFinder) -> [f64; 2] {
-    let span = field_of_view(first);
-    let round = |rad: f64| (rad.to_degrees() * 1e6).round() / 1e6;
-    let (from, to) = (round(span.from_rad), round(span.to_rad));
-    if from < to {
-        [from, to]
-    } else {
-        [-180.0, 180.0]
     }
 }
 
@@ -776,7 +748,9 @@ impl Ros2Import {
         let sonar = options
             .sonar
             .filter(|_| laser_stats_v.is_some() && second_stats.is_none());
-        let distance_span_deg = first_laser.as_ref().map_or([-180.0, 180.0], span_deg);
+        let distance_span_deg = first_laser
+            .as_ref()
+            .map_or([-180.0, 180.0], crate::import::span_deg);
         let not_ros2 = topics
             .iter()
             .filter(|t| !t.topic.is_ros2())
