@@ -542,14 +542,10 @@ impl<'r> Driver<'r> {
                 milli_cores: i32::try_from(milli_cores).unwrap_or(i32::MAX),
                 ..ProcessCpu::default()
             };
-            let header = message.header_mut();
-            names::BROKER_NODE.clone_into(&mut header.provider);
-            header.seq = self.cpu_seq;
-            header.publish_time_ns = now_ns;
-            let len = cdr::encoded_len(&message);
-            if let Err(e) = self.cpu_out.publish_with(len, |buf| {
-                let _ = cdr::encode_into(&message, buf);
-            }) {
+            if let Err(e) =
+                self.cpu_out
+                    .publish_stamped(&mut message, names::BROKER_NODE, self.cpu_seq, now_ns)
+            {
                 tracing::debug!("cannot publish a CPU measurement: {e}");
             }
             self.feed_at(
@@ -589,14 +585,12 @@ impl<'r> Driver<'r> {
         let mut message = decision_message(decision);
         // Stamped as every publication is, so that a reader sees who sent it, in which
         // order, and when (the broker's clock); a replay stamps its own the same way.
-        let header = message.header_mut();
-        names::BROKER_NODE.clone_into(&mut header.provider);
-        header.seq = u64::try_from(self.decisions).unwrap_or(u64::MAX);
-        header.publish_time_ns = self.clock.now_ns();
-        let len = cdr::encoded_len(&message);
-        if let Err(e) = self.decisions_out.publish_with(len, |buf| {
-            let _ = cdr::encode_into(&message, buf);
-        }) {
+        let seq = u64::try_from(self.decisions).unwrap_or(u64::MAX);
+        let now_ns = self.clock.now_ns();
+        if let Err(e) =
+            self.decisions_out
+                .publish_stamped(&mut message, names::BROKER_NODE, seq, now_ns)
+        {
             tracing::warn!("cannot publish a broker decision: {e}");
         }
     }
@@ -1087,13 +1081,12 @@ fn spawn_log_forwarder(
                     text: line.text,
                     ..LogLineMessage::default()
                 };
-                message.header.provider = names::BROKER_NODE.to_owned();
-                message.header.seq = seq;
-                message.header.publish_time_ns = clock.now_ns();
-                let len = cdr::encoded_len(&message);
-                let _ = publisher.publish_with(len, |buf| {
-                    let _ = cdr::encode_into(&message, buf);
-                });
+                let _ = publisher.publish_stamped(
+                    &mut message,
+                    names::BROKER_NODE,
+                    seq,
+                    clock.now_ns(),
+                );
             }
             let _ = flushed_tx.send(());
             // Ends when `close` is dropped.

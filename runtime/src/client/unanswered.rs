@@ -16,7 +16,6 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use lewis_interfaces::msg::{UnansweredCall, UnansweredCallStatus};
-use lewis_interfaces::{Message, cdr};
 
 use crate::clock::LiveClock;
 use crate::ipc::{CallId as IpcCallId, Ipc, Publisher};
@@ -173,17 +172,16 @@ impl UnansweredCalls {
             sent_ns: call.sent_ns,
             ..UnansweredCall::default()
         };
-        let header = message.header_mut();
-        caller.client.clone_into(&mut header.provider);
-        header.seq = SEQ.fetch_add(1, Ordering::Relaxed) + 1;
-        header.publish_time_ns = self.clock.now_ns();
         let Some(publisher) = &self.publisher else {
             return;
         };
-        let len = cdr::encoded_len(&message);
-        if let Err(e) = publisher.borrow_mut().publish_with(len, |buf| {
-            let _ = cdr::encode_into(&message, buf);
-        }) {
+        let seq = SEQ.fetch_add(1, Ordering::Relaxed) + 1;
+        let now_ns = self.clock.now_ns();
+        if let Err(e) =
+            publisher
+                .borrow_mut()
+                .publish_stamped(&mut message, caller.client, seq, now_ns)
+        {
             tracing::warn!(
                 client = caller.client,
                 "cannot record an unanswered call: {e}"

@@ -19,6 +19,8 @@ use iceoryx2::sample::Sample;
 use iceoryx2::sample_mut::SampleMut;
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 
+use lewis_interfaces::{Message, cdr};
+
 use super::wait::{self, Waitable};
 use super::{Ipc, IpcError, port_error, service_name};
 
@@ -303,6 +305,28 @@ impl Publisher {
         // are ever written to these segments (the payload type is fixed to `[u8]`). Skipping
         // the zero-fill keeps a 1 MiB publication at one write of the payload.
         Ok(unsafe { sample.assume_init() })
+    }
+
+    /// Publishes `message` as CDR written in place, its header stamped first: sent by
+    /// `provider`, its `seq`-th publication, at `publish_time_ns`. The framework's own
+    /// channels (broker decisions, CPU measurements, heartbeats, command logs, unanswered
+    /// calls) publish through here, so that a reader sees who sent each message, in which
+    /// order, and when.
+    pub fn publish_stamped<M: Message>(
+        &mut self,
+        message: &mut M,
+        provider: &str,
+        seq: u64,
+        publish_time_ns: i64,
+    ) -> Result<Published, PublishError> {
+        let header = message.header_mut();
+        provider.clone_into(&mut header.provider);
+        header.seq = seq;
+        header.publish_time_ns = publish_time_ns;
+        // The buffer is exactly `encoded_len` long, so encoding into it cannot fail.
+        self.publish_with(cdr::encoded_len(&*message), |buf| {
+            let _ = cdr::encode_into(&*message, buf);
+        })
     }
 
     /// Publishes a copy of `bytes`.

@@ -48,7 +48,6 @@ use std::time::{Duration, Instant};
 use lewis_interfaces::msg::{
     CommandLog, CommandLogStatus, Health as HealthMessage, HealthState, InputRef,
 };
-use lewis_interfaces::{Message, cdr};
 
 use crate::broker::Health;
 use crate::client::{ClientError, RawClient};
@@ -682,15 +681,13 @@ impl LiveBackend {
             received_ns,
             ..CommandLog::default()
         };
-        let header = message.header_mut();
-        header.provider.clone_from(&self.service);
-        header.seq = self.command_log_seq;
         // The time of the event, like every publication of the handler that answered it.
-        header.publish_time_ns = received_ns;
-        let len = cdr::encoded_len(&message);
-        if let Err(e) = publisher.publish_with(len, |buf| {
-            let _ = cdr::encode_into(&message, buf);
-        }) {
+        if let Err(e) = publisher.publish_stamped(
+            &mut message,
+            &self.service,
+            self.command_log_seq,
+            received_ns,
+        ) {
             tracing::warn!(service = self.service, "cannot publish a command log: {e}");
         }
     }
@@ -712,14 +709,10 @@ impl LiveBackend {
             reason: reason.to_owned(),
             ..HealthMessage::default()
         };
-        let header = message.header_mut();
-        header.provider.clone_from(&self.service);
-        header.seq = self.health_seq;
-        header.publish_time_ns = self.clock.now_ns();
-        let len = cdr::encoded_len(&message);
-        if let Err(e) = publisher.publish_with(len, |buf| {
-            let _ = cdr::encode_into(&message, buf);
-        }) {
+        let now_ns = self.clock.now_ns();
+        if let Err(e) =
+            publisher.publish_stamped(&mut message, &self.service, self.health_seq, now_ns)
+        {
             tracing::warn!(service = self.service, "cannot publish heartbeat: {e}");
         }
     }
