@@ -21,6 +21,7 @@
 pub mod base;
 pub mod camera;
 pub mod laser;
+pub mod range;
 pub mod sonar;
 pub mod speech;
 

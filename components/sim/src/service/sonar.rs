@@ -33,18 +33,14 @@
 
 use std::path::PathBuf;
 
+use lewis_geometry::Pose2;
 use lewis_geometry::b21r_sonar_ring;
-use lewis_interfaces::msg::{
-    Distance, DistanceCommand, DistanceSetSectorCountReply, RangeFinder, RangeFinderCommand,
-};
-use lewis_runtime::service::{
-    BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
-};
+use lewis_interfaces::msg::{Distance, RangeFinder, RangeFinderGetGeometryReply};
+use lewis_runtime::service::{BuildError, Service, ServiceConfig};
 use serde::Deserialize;
 
-use super::{
-    MountParams, TruthFollower, invalid, load_world, period_ns, provides, publish, sector_count,
-};
+use super::range::{RangeSensor, RangeService};
+use super::{MountParams, invalid, load_world, period_ns, sector_count};
 use crate::sonar::{SimSonar, SonarConfig};
 use crate::world::World;
 
@@ -148,16 +144,7 @@ impl SonarParams {
 }
 
 /// The `sim-sonar` service.
-#[derive(Debug)]
-pub struct SimSonarService {
-    world: World,
-    sonar: SimSonar,
-    truth: TruthFollower,
-    period_ns: i64,
-    sectors: usize,
-    publish_range_finder: bool,
-    publish_distance: bool,
-}
+pub type SimSonarService = RangeService<SimSonar>;
 
 /// Builds a `sim-sonar` service from its robot-file entry.
 ///
@@ -187,63 +174,23 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     let sonar = SimSonar::new(params.sonar_config(), config.seed())
         .map_err(|e| invalid(config, e.to_string()))?;
     let world = load_world(config, &params.world)?;
-    Ok(Box::new(SimSonarService {
-        world,
-        sonar,
-        truth: TruthFollower::default(),
-        period_ns,
-        sectors,
-        publish_range_finder: provides::<RangeFinder>(config),
-        publish_distance: provides::<Distance>(config),
-    }))
+    Ok(Box::new(RangeService::new(
+        config, world, sonar, period_ns, sectors,
+    )))
 }
 
-impl Service for SimSonarService {
-    fn tick_period_ns(&self) -> Option<i64> {
-        Some(self.period_ns)
+impl RangeSensor for SimSonar {
+    const KIND: &'static str = KIND;
+
+    fn scan(&mut self, world: &World, pose: Pose2) -> RangeFinder {
+        SimSonar::scan(self, world, pose)
     }
 
-    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        self.truth.take(ctx, input);
+    fn distance(&self, scan: &RangeFinder, sectors: usize) -> Distance {
+        SimSonar::distance(scan, sectors)
     }
 
-    fn on_tick(&mut self, ctx: &mut Context<'_>) {
-        let Some(pose) = self.truth.pose_for_rendering(ctx, &mut self.world) else {
-            return;
-        };
-        let mut scan = self.sonar.scan(&self.world, pose);
-        if self.publish_distance {
-            publish(ctx, &mut SimSonar::distance(&scan, self.sectors));
-        }
-        if self.publish_range_finder {
-            publish(ctx, &mut scan);
-        }
-    }
-
-    fn on_command(
-        &mut self,
-        ctx: &mut Context<'_>,
-        command: &IncomingCommand<'_>,
-    ) -> Result<Reply, CommandError> {
-        match command.interface {
-            "RangeFinder" => match command.decode::<RangeFinder>()? {
-                RangeFinderCommand::GetGeometry(_) => Ok(ctx.reply(self.sonar.geometry())),
-            },
-            "Distance" => match command.decode::<Distance>()? {
-                DistanceCommand::SetSectorCount(c) => {
-                    self.sectors = sector_count(c.sector_count.into()).ok_or_else(|| {
-                        CommandError::new(format!(
-                            "set_sector_count: {} sectors, expected 1 to 360",
-                            c.sector_count
-                        ))
-                    })?;
-                    Ok(ctx.reply(DistanceSetSectorCountReply {
-                        sector_count: c.sector_count,
-                        ..DistanceSetSectorCountReply::default()
-                    }))
-                }
-            },
-            other => Err(CommandError::new(format!("{KIND} does not serve {other}"))),
-        }
+    fn geometry(&self) -> RangeFinderGetGeometryReply {
+        SimSonar::geometry(self)
     }
 }
