@@ -22,37 +22,11 @@ use std::time::{Duration, Instant};
 
 use lewis_perception::cmvision::{CmVision, ColorConfig, RgbFrame};
 
-const WIDTH: u32 = 640;
-const HEIGHT: u32 = 480;
+mod common;
+use common::{HEIGHT, WIDTH, load_frame, repository_path};
+
 /// Timed single-frame runs per frame and side.
 const REPETITIONS: usize = 500;
-
-fn repository_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(relative)
-}
-
-/// A photo of ../shared/data/images as 640x480 RGB8 (resized with a triangle filter when it
-/// has another size: fruits.jpg is 512x480).
-fn load_frame(name: &str) -> Result<Vec<u8>, String> {
-    let path = repository_path("../shared/data/images").join(name);
-    let photo = image::open(&path)
-        .map_err(|e| {
-            format!(
-                "{}: {e} (the benchmark reads the shared data)",
-                path.display()
-            )
-        })?
-        .to_rgb8();
-    if photo.dimensions() == (WIDTH, HEIGHT) {
-        return Ok(photo.into_raw());
-    }
-    Ok(
-        image::imageops::resize(&photo, WIDTH, HEIGHT, image::imageops::FilterType::Triangle)
-            .into_raw(),
-    )
-}
 
 /// The median and the minimum of `REPETITIONS` timed runs of `run`, after a warm-up.
 fn time(mut run: impl FnMut()) -> (Duration, Duration) {

@@ -14,15 +14,15 @@
 )]
 
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use lewis_perception::cmvision::{CmVision, ColorConfig, RgbFrame};
 use lewis_perception::sweep::{FrameStore, HeldFrame, sweep};
 
-const WIDTH: u32 = 640;
-const HEIGHT: u32 = 480;
+mod common;
+use common::{HEIGHT, WIDTH, load_frame, repository_path};
+
 /// 5 minutes at 5 Hz.
 const RECORDING_FRAMES: usize = 1500;
 const PHOTOS: [&str; 5] = [
@@ -32,32 +32,6 @@ const PHOTOS: [&str; 5] = [
     "smarties.png",
     "stuff.jpg",
 ];
-
-fn repository_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .join(relative)
-}
-
-/// A photo as 640x480 RGB8 (resized with a triangle filter when it has another size).
-fn load_frame(name: &str) -> Result<Vec<u8>, String> {
-    let path = repository_path("../shared/data/images").join(name);
-    let photo = image::open(&path)
-        .map_err(|e| {
-            format!(
-                "{}: {e} (the benchmark reads the shared data)",
-                path.display()
-            )
-        })?
-        .to_rgb8();
-    if photo.dimensions() == (WIDTH, HEIGHT) {
-        return Ok(photo.into_raw());
-    }
-    Ok(
-        image::imageops::resize(&photo, WIDTH, HEIGHT, image::imageops::FilterType::Triangle)
-            .into_raw(),
-    )
-}
 
 /// The median of `runs` timed runs of `run`, after one warm-up.
 fn median(runs: usize, mut run: impl FnMut()) -> Duration {
