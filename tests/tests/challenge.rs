@@ -297,7 +297,9 @@ fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) {
         .expect("the mission lived again reaches register");
     // Registering is short and ends the mission, so on a slow machine the replayed desk may
     // come within half a second of the recording's end; a fault must fall inside it.
-    let end_ns = same["duration_ns"].as_i64().expect("the report has the length");
+    let end_ns = same["duration_ns"]
+        .as_i64()
+        .expect("the report has the length");
     assert!(
         register_ns < end_ns,
         "register starts at {register_ns} ns, after the recording's end ({end_ns} ns)"
