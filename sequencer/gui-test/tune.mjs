@@ -4,9 +4,11 @@
 // On a recording of the simulated robot, the script finds a frame with the red cap's blob,
 // drags the Red class's V-low slider to the top and sees the blob go from the frame (and
 // its plot) without a reload, clicks and drags on the cap's pixels and sees Red's ranges
-// refitted to hold them and the blob back, and saves. It writes the YUV values it marked
-// to OUT_DIR/marked.json for the test to check against the saved file, and screenshots
-// (first.png, slider.png, marked.png) to OUT_DIR. Exits non-zero on the first expectation
+// refitted to hold them and the blob back, and saves. Then it labels the cap: a box of class
+// Red dragged around it (another box drawn and removed), sees the live score find it, and
+// saves the labels. It writes the YUV values it marked to OUT_DIR/marked.json and the box
+// it dragged (full-frame px) to OUT_DIR/box.json for the test to check against the saved
+// files, and screenshots (first.png, slider.png, marked.png, labelled.png) to OUT_DIR. Exits non-zero on the first expectation
 // that fails.
 import { runInBrowser, sameDocument, step } from "./browser.mjs";
 import { writeFileSync } from "node:fs";
@@ -126,4 +128,58 @@ await runInBrowser(url, async (page) => {
   await page.locator("#save-status[data-saved]").waitFor();
   writeFileSync(join(out, "marked.json"), JSON.stringify(marked));
   step(`saved to ${await page.locator("#save-status").getAttribute("data-saved")}`);
+
+  // Label the cap: a box dragged around its blob (in the camera's full-frame pixels, twice
+  // the held frame's), of class Red.
+  await page.locator("#mode-box").check();
+  const state = await page.evaluate(async () => (await fetch("/api/state")).json());
+  const [fullW, fullH] = state.frames[best.frame].full;
+  const k = img.width / fullW;
+  const atFull = (x, y) => [img.x + (x + 0.5) * k, img.y + (y + 0.5) * k];
+  const drag = async (from, to) => {
+    await page.mouse.move(...atFull(...from));
+    await page.mouse.down();
+    await page.mouse.move(...atFull(...to), { steps: 6 });
+    await page.mouse.up();
+  };
+  const boxes = () => page.evaluate(() => JSON.parse(document.querySelector("#boxes").dataset.boxes || "[]"));
+  const waitBoxes = (n) => page.waitForFunction((n) => JSON.parse(document.querySelector("#boxes").dataset.boxes || "[]").length === n, n);
+  // The cap's blob as Red is now (refitted), in held pixels: each is 2x2 camera pixels.
+  const now = (await redBlobs(page, best.frame)).reduce((a, b) => (b.area_px > a.area_px ? b : a));
+  const [n0, n1, n2, n3] = now.box;
+  const dragged = [n0 * 2, n1 * 2, n2 * 2 + 1, n3 * 2 + 1];
+  await page.locator("#box-class").selectOption({ label: "Red" });
+  await drag([dragged[0], dragged[1]], [dragged[2], dragged[3]]);
+  await waitBoxes(1);
+  const [cap] = await boxes();
+  if (cap.class !== "Red" || cap.box.some((v, i) => Math.abs(v - dragged[i]) > 1)) {
+    throw new Error(`the box drawn is ${JSON.stringify(cap)}, not Red at ${dragged}`);
+  }
+  // A second box, of another class, removed again with its button.
+  await page.locator("#box-class").selectOption({ label: "Yellow" });
+  // Away from the cap, so as not to start on its box's label.
+  const fx = dragged[0] < fullW / 2 ? fullW - 70 : 10, fy = dragged[1] < fullH / 2 ? fullH - 50 : 10;
+  await drag([fx, fy], [fx + 50, fy + 30]);
+  await waitBoxes(2);
+  if ((await boxes())[1].class !== "Yellow") throw new Error(`the second box is ${JSON.stringify(await boxes())}`);
+  await page.locator(".label-box .remove-box").nth(1).click();
+  await waitBoxes(1);
+  await page.waitForFunction((i) => document.querySelector("#labelled").dataset.labelled === String(i), best.frame);
+  // The score with Red's refitted ranges: the cap's blob finds the box drawn around it.
+  await page.waitForFunction(() => {
+    const s = JSON.parse(document.querySelector("#score").dataset.score || "null");
+    return s && s.frames === 1 && s.classes.length === 1 && s.classes[0].name === "Red";
+  });
+  const score = JSON.parse(await page.locator("#score").getAttribute("data-score"));
+  if (score.classes[0].found !== 1 || score.classes[0].missed !== 0) {
+    throw new Error(`the cap's blob does not find its box: ${JSON.stringify(score)}`);
+  }
+  await sameDocument(page);
+  step(`labelled the cap on frame ${best.frame} as Red at [${cap.box}] (dragged [${dragged}]); score ${JSON.stringify(score.classes[0])}`);
+  await page.screenshot({ path: join(out, "labelled.png") });
+
+  await page.locator("#save-labels").click();
+  await page.locator("#labels-status[data-saved]").waitFor();
+  writeFileSync(join(out, "box.json"), JSON.stringify({ frame: state.frames[best.frame].name, box: dragged }));
+  step(`labels saved to ${await page.locator("#labels-status").getAttribute("data-saved")}`);
 });

@@ -29,6 +29,11 @@ use lewis_sim::{PixelSource, PrimitivePart, SimCamera, World};
 
 use super::frames::frame_name;
 
+/// Objects with fewer visible pixels are optional, and smaller blobs are not scored: the
+/// default of `--min-pixels`, and the `min_area_px` of a labels file `lewis tune open`
+/// starts.
+pub const DEFAULT_MIN_PIXELS: u32 = 40;
+
 /// The kind of the simulator's camera service in robot files.
 const SIM_CAMERA_KIND: &str = "sim-camera";
 
@@ -49,7 +54,7 @@ pub struct LabelSimArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     pub every: u64,
     /// Objects with fewer visible pixels are optional, and smaller blobs are not scored.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = DEFAULT_MIN_PIXELS)]
     pub min_pixels: u32,
     /// The colour class of the people's caps.
     #[arg(long, default_value = "Red")]

@@ -19,8 +19,9 @@
 //!   labelled classes' ranges to the labels (`fit.rs`).
 //! - `lewis tune label-sim RUN.mcap -o FILE.json` labels a simulator recording's frames
 //!   from the simulator's ground truth (`label_sim.rs`).
-//! - `lewis tune open RUN.mcap|IMAGES --colors FILE` serves the tuning page on 127.0.0.1
-//!   (`open/`).
+//! - `lewis tune open RUN.mcap|IMAGES --colors FILE [--labels FILE.json]` serves the tuning
+//!   page on 127.0.0.1 (`open/`), where boxes labelled by hand are saved for `check` and
+//!   `fit`.
 //!
 //! The perception work is done by `lewis_perception::tuning`; recordings are read
 //! with `lewis_replay::recording` and written with `lewis_recorder`. This module wires them.

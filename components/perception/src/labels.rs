@@ -280,17 +280,39 @@ impl Labels {
         Ok(labels)
     }
 
-    /// Writes the labels as pretty JSON.
+    /// The labels as the file holds them: pretty JSON, ending in a newline.
+    #[must_use]
+    pub fn to_json(&self) -> String {
+        let mut text = serde_json::to_string_pretty(self).unwrap_or_default();
+        text.push('\n');
+        text
+    }
+
+    /// Writes the labels as pretty JSON ([`Labels::to_json`]), atomically: into a
+    /// temporary file beside `path`, then renamed over it, so that a failure half-way (a
+    /// full disk, a kill) leaves the file as it was, never half-written.
     ///
     /// # Errors
     /// When the file cannot be written.
     pub fn save(&self, path: &Path) -> Result<(), LabelsError> {
-        let mut text = serde_json::to_string_pretty(self).unwrap_or_default();
-        text.push('\n');
-        std::fs::write(path, text).map_err(|source| LabelsError::Write {
+        let error = |source| LabelsError::Write {
             path: path.to_path_buf(),
             source,
-        })
+        };
+        let mut temporary = path.as_os_str().to_owned();
+        temporary.push(format!(".{}.tmp", std::process::id()));
+        let temporary = PathBuf::from(temporary);
+        let written = (|| {
+            let mut file = std::fs::File::create(&temporary)?;
+            std::io::Write::write_all(&mut file, self.to_json().as_bytes())?;
+            // On disk before the rename, so the name never points at a file still empty.
+            file.sync_all()?;
+            std::fs::rename(&temporary, path)
+        })();
+        if written.is_err() {
+            let _ = std::fs::remove_file(&temporary);
+        }
+        written.map_err(error)
     }
 
     /// The labelled frame named `name`, if any.

@@ -3,13 +3,16 @@
 //! in) that only draws: the frames with their classified pixels and blobs, the class
 //! ranges as sliders, pixels marked on the frame, and per-class plots over the whole
 //! recording. Every computation is done here, in Rust, with the live CMVision code
-//! (`lewis_perception::sweep`).
+//! (`lewis_perception::sweep`). Boxes drawn around the true objects are held here as
+//! labels, saved to the labels file `lewis tune check` reads, and scored live
+//! (`labelling.rs`).
 //!
 //! Frames are read once, in a background thread (the page shows the first as soon as it
 //! is read), and held 2x2-decimated under `--max-memory-mb` (see
 //! `lewis_perception::sweep::FrameStore`): a quarter of the bytes, so a 5-minute recording
 //! at 5 Hz of 640x480 frames takes 350 MB, and one past the bound is thinned evenly.
 
+mod labelling;
 mod render;
 mod routes;
 mod state;
@@ -40,6 +43,12 @@ pub struct OpenArgs {
     /// file's name with `.tuned.txt`, in the current folder).
     #[arg(long, value_name = "FILE")]
     pub save: Option<PathBuf>,
+    /// The labels file (JSON, as `lewis tune check --labels` reads it): read at the start
+    /// when it exists, its boxes shown and scored; the page's "Save labels" writes it
+    /// (default: beside the input, `RUN.labels.json` for `RUN.mcap`, `labels.json` in a
+    /// folder of images or, for a glob, in the current folder).
+    #[arg(long, value_name = "FILE.json")]
+    pub labels: Option<PathBuf>,
     /// Only this image topic of the recording (default: every ImageSource topic).
     #[arg(long)]
     pub channel: Option<String>,
@@ -70,6 +79,12 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
         args.colors.display()
     );
     let input = Input::open(&args.input, args.channel.as_deref())?;
+    let labels_path = args
+        .labels
+        .clone()
+        .unwrap_or_else(|| labelling::default_labels_path(&args.input));
+    // Read (and refused) now, before the page opens: the same parser as `tune check`.
+    let (labels, existed) = labelling::start_labels(&labels_path, &config, &args.input)?;
     let save = args.save.clone().unwrap_or_else(|| {
         let stem = args
             .colors
@@ -91,6 +106,20 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
         args.max_memory_mb.saturating_mul(1 << 20),
     );
     state.signs = args.signs;
+    let labels_line = if existed {
+        format!(
+            "labels: {} labelled frames read from {} (\"Save labels\" writes it)",
+            labels.frames.len(),
+            labels_path.display()
+        )
+    } else {
+        format!(
+            "labels: none yet; \"Save labels\" writes {}",
+            labels_path.display()
+        )
+    };
+    state.labels = labels;
+    state.labels_path = labels_path;
     let state = Arc::new(Mutex::new(state));
     let bind = SocketAddr::from((Ipv4Addr::LOCALHOST, args.port));
     let server = tiny_http::Server::http(bind)
@@ -111,6 +140,7 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
             out,
             "lewis tune open: the tuning page is at {url} (Ctrl-C to stop)"
         )?;
+        writeln!(out, "{labels_line}")?;
         out.flush()?;
     }
     if !args.no_browser {
@@ -134,6 +164,7 @@ fn load(input: &Input, state: &Mutex<State>) {
                     continue;
                 }
             };
+            let full_size = [rgb.width(), rgb.height()];
             let held = HeldFrame::decimate(
                 frame.name,
                 frame.log_time_ns,
@@ -141,7 +172,7 @@ fn load(input: &Input, state: &Mutex<State>) {
                 rgb.height(),
                 rgb.as_raw(),
             )?;
-            state::lock(state).add_frame(held);
+            state::lock(state).add_frame(held, full_size);
         }
         Ok(())
     })();

@@ -10,6 +10,12 @@
 //! - `POST /api/mark` `{frame, class, rect: [x, y, w, h], outside}`: marks pixels and
 //!   refits the class; answers the YUV values marked.
 //! - `POST /api/save`: writes the colour file.
+//! - `POST /api/box` `{frame, class, box: [left, top, right, bottom]}` (full-frame px):
+//!   labels an object on frame N; `POST /api/box/remove` `{frame, index}`: removes one;
+//!   both answer the frame's boxes and the labelled frames.
+//! - `POST /api/labels/save`: writes the labels file.
+//! - `GET /api/score`: precision and recall per labelled class with the ranges as they
+//!   are now, over the labelled frames held.
 
 use std::io::Read as _;
 use std::sync::Mutex;
@@ -44,6 +50,20 @@ struct Mark {
     rect: [u32; 4],
     #[serde(default)]
     outside: bool,
+}
+
+#[derive(Deserialize)]
+struct NewBox {
+    frame: usize,
+    class: usize,
+    #[serde(rename = "box")]
+    bounds: [u32; 4],
+}
+
+#[derive(Deserialize)]
+struct RemoveBox {
+    frame: usize,
+    index: usize,
 }
 
 /// Answers one request.
@@ -91,6 +111,31 @@ pub fn handle(mut request: Request, state: &Mutex<State>) {
             Err(e) => text(400, &e),
         },
         (Method::Post, "/api/save") => save(&lock(state)),
+        (Method::Post, "/api/box") => match body::<NewBox>(&mut request) {
+            Ok(b) => {
+                let mut state = lock(state);
+                match state.add_box(b.frame, b.class, b.bounds) {
+                    Ok(()) => boxes_json(&state, b.frame),
+                    Err(e) => text(400, &e),
+                }
+            }
+            Err(e) => text(400, &e),
+        },
+        (Method::Post, "/api/box/remove") => match body::<RemoveBox>(&mut request) {
+            Ok(r) => {
+                let mut state = lock(state);
+                match state.remove_box(r.frame, r.index) {
+                    Ok(()) => boxes_json(&state, r.frame),
+                    Err(e) => text(400, &e),
+                }
+            }
+            Err(e) => text(400, &e),
+        },
+        (Method::Post, "/api/labels/save") => save_labels(&mut lock(state)),
+        (Method::Get, "/api/score") => match lock(state).score() {
+            Ok(score) => json_response(200, &json!(score)),
+            Err(e) => text(500, &format!("{e:#}")),
+        },
         (Method::Get, _) => text(404, "no such page: try /"),
         _ => text(405, "method not allowed"),
     };
@@ -114,7 +159,14 @@ fn state_json(state: &State) -> Response<Body> {
         .store
         .frames()
         .iter()
-        .map(|f| json!({ "name": f.name, "width": f.width_px, "height": f.height_px }))
+        .map(|f| {
+            json!({
+                "name": f.name,
+                "width": f.width_px,
+                "height": f.height_px,
+                "full": state.full_size(f),
+            })
+        })
         .collect();
     json_response(
         200,
@@ -128,8 +180,42 @@ fn state_json(state: &State) -> Response<Body> {
             "offered": state.store.offered(),
             "frames": frames,
             "classes": state.classes(),
+            "labels": labels_json(state),
         }),
     )
+}
+
+/// The labels file and which held frames are labelled.
+fn labels_json(state: &State) -> serde_json::Value {
+    let (labelled, not_held) = state.labelled_frames();
+    json!({
+        "path": state.labels_path.display().to_string(),
+        "changed": state.labels_changed,
+        "labelled": labelled,
+        "not_held": not_held,
+    })
+}
+
+fn boxes_json(state: &State, frame: usize) -> Response<Body> {
+    json_response(
+        200,
+        &json!({ "boxes": state.boxes(frame), "labels": labels_json(state) }),
+    )
+}
+
+fn save_labels(state: &mut State) -> Response<Body> {
+    match state.save_labels() {
+        Ok(objects) => json_response(
+            200,
+            &json!({
+                "path": state.labels_path.display().to_string(),
+                "frames": state.labels.frames.len(),
+                "objects": objects,
+                "labels": labels_json(state),
+            }),
+        ),
+        Err(e) => text(500, &format!("{e:#}")),
+    }
 }
 
 fn frame_index(state: &State, index: &str) -> Result<usize, Response<Body>> {
@@ -180,7 +266,12 @@ fn frame_json(state: &State, index: &str) -> Response<Body> {
                     });
             json_response(
                 200,
-                &json!({ "name": frame.name, "blobs": blobs, "signs": signs }),
+                &json!({
+                    "name": frame.name,
+                    "blobs": blobs,
+                    "signs": signs,
+                    "boxes": state.boxes(index),
+                }),
             )
         }
         Err(e) => text(500, &e.to_string()),

@@ -1,7 +1,7 @@
 //! What the tuning page shows: the colour classes as they are now, the held frames, the
 //! pixels marked per class, and the last sweep over the recording.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use lewis_perception::ColorConfig;
 use lewis_perception::cmvision::ChannelRange;
+use lewis_perception::labels::Labels;
 use lewis_perception::sweep::{self, ClassCount, FrameStore, HeldFrame, Samples};
 use serde::Serialize;
 
@@ -48,6 +49,14 @@ pub struct State {
     pub sampled_frames: Vec<BTreeSet<String>>,
     /// Per class: whether its ranges were moved by hand since the last refit.
     pub moved_by_hand: Vec<bool>,
+    /// The labelled frames: loaded from the labels file, changed by the page's boxes.
+    pub labels: Labels,
+    /// The labels file: where they were read from and Save labels writes.
+    pub labels_path: PathBuf,
+    /// Whether the labels were changed since they were read or saved.
+    pub labels_changed: bool,
+    /// Each frame's size as the camera took it (held frames are half of it), by name.
+    pub full_sizes: BTreeMap<String, [u32; 2]>,
     /// The last sweep and the frames it covered.
     sweep: Option<(usize, Vec<Vec<ClassCount>>)>,
 }
@@ -104,7 +113,8 @@ fn range([lo, hi]: [u8; 2]) -> ChannelRange {
 }
 
 impl State {
-    /// A session starting from `config`, holding at most `max_bytes` of frames.
+    /// A session starting from `config`, holding at most `max_bytes` of frames, with no
+    /// labels (to be set from the labels file) saved to `labels.json`.
     pub fn new(
         source: String,
         colors_path: PathBuf,
@@ -125,12 +135,22 @@ impl State {
             samples: vec![Samples::default(); classes],
             sampled_frames: vec![BTreeSet::new(); classes],
             moved_by_hand: vec![false; classes],
+            labels: Labels {
+                version: lewis_perception::labels::LABELS_VERSION,
+                source: String::new(),
+                min_area_px: 1,
+                frames: Vec::new(),
+            },
+            labels_path: PathBuf::from("labels.json"),
+            labels_changed: false,
+            full_sizes: BTreeMap::new(),
             sweep: None,
         }
     }
 
-    /// Holds one more frame of the recording.
-    pub fn add_frame(&mut self, frame: HeldFrame) {
+    /// Holds one more frame of the recording, `full_size` as the camera took it.
+    pub fn add_frame(&mut self, frame: HeldFrame, full_size: [u32; 2]) {
+        self.full_sizes.insert(frame.name.clone(), full_size);
         self.store.offer(frame);
     }
 
