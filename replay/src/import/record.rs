@@ -143,18 +143,7 @@ pub fn write_carmen(
             });
         }
         last_ns = Some(message.time_ns);
-        let channel = file.channel(&message.channel, |source| channel_spec(&message, source))?;
-        message.payload.encode_to_vec(&mut buffer);
-        let header = message.payload.header();
-        file.write(
-            channel,
-            &message.channel,
-            header.seq,
-            header.publish_time_ns,
-            message.time_ns,
-            &buffer,
-            progress,
-        )?;
+        file.write_lewis(&message, &mut buffer, progress)?;
     }
     file.finish(progress)
 }
@@ -223,6 +212,28 @@ impl ImportFile {
         let id = self.recorder.add_channel(spec(&self.source)?)?;
         self.channels.insert(topic.to_owned(), id);
         Ok(id)
+    }
+
+    /// Writes one Lewis message the import made, on its topic's channel (added on first
+    /// sight), encoded into `buffer`.
+    fn write_lewis(
+        &mut self,
+        message: &ImportedMessage,
+        buffer: &mut Vec<u8>,
+        progress: &mut dyn FnMut(u64),
+    ) -> Result<(), WriteError> {
+        let channel = self.channel(&message.channel, |source| channel_spec(message, source))?;
+        message.payload.encode_to_vec(buffer);
+        let header = message.payload.header();
+        self.write(
+            channel,
+            &message.channel,
+            header.seq,
+            header.publish_time_ns,
+            message.time_ns,
+            buffer,
+            progress,
+        )
     }
 
     /// Writes one message and counts it; `progress` hears of every 4096th.
@@ -414,19 +425,7 @@ fn write_ros2_to(
     import.stream::<Ros2WriteError, _>(|out| {
         match &out {
             Out::Lewis(message) => {
-                let channel =
-                    file.channel(&message.channel, |source| channel_spec(message, source))?;
-                message.payload.encode_to_vec(&mut buffer);
-                let header = message.payload.header();
-                file.write(
-                    channel,
-                    &message.channel,
-                    header.seq,
-                    header.publish_time_ns,
-                    message.time_ns,
-                    &buffer,
-                    progress,
-                )?;
+                file.write_lewis(message, &mut buffer, progress)?;
             }
             Out::Original(m) => {
                 let channel =
