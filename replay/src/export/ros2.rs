@@ -275,7 +275,7 @@ pub fn export(
     Ok(report)
 }
 
-fn decode<T: lewis_interfaces::cdr::Decode>(
+fn decode<T: cdr::Decode>(
     topic: &str,
     index: u64,
     interface: &str,
