@@ -17,6 +17,7 @@ mod fake_device;
 mod fault;
 mod goal;
 mod idl;
+mod export;
 mod import;
 mod info;
 mod play;
@@ -77,6 +78,10 @@ pub enum Command {
     /// services over.
     #[command(subcommand)]
     Import(import::ImportCommand),
+    /// Export a Lewis recording for other tools: ROS 2 companion channels (LaserScan,
+    /// Odometry, tf) that Foxglove and RViz draw.
+    #[command(subcommand)]
+    Export(export::ExportCommand),
     /// Re-simulate a recording in lockstep: services and broker on a virtual clock, faults
     /// injected, outputs compared with the recording (a regression test with --check).
     Replay(replay::ReplayArgs),
@@ -143,6 +148,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Record(args) => record::run(&args),
         Command::Recover(args) => recover::run(&args),
         Command::Import(command) => import::run(command),
+        Command::Export(command) => export::run(command),
         Command::Play(args) => play::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Up(args) => up::run(&args),

@@ -146,6 +146,8 @@ pub struct Topic {
     pub interface_version: Option<String>,
     /// Messages on the topic, over all files (from the summaries' statistics).
     pub message_count: u64,
+    /// The channel's whole metadata (of its first file), for copying it unchanged.
+    pub metadata: BTreeMap<String, String>,
 }
 
 /// The files of a parts index stand for it; other paths are kept. Every file once.
@@ -244,6 +246,7 @@ impl RecordingFiles {
                     interface: channel.metadata.get("interface").cloned(),
                     interface_version: channel.metadata.get("interface_version").cloned(),
                     message_count: 0,
+                    metadata: channel.metadata.clone(),
                 });
                 topic.message_count += count;
             }
