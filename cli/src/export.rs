@@ -3,19 +3,20 @@
 
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use anyhow::Context as _;
 use clap::{Args, Subcommand, ValueEnum};
-use lewis_replay::export::ros2::{ExportOptions, ExportReport, ImageCodec, export};
+use lewis_recorder::companion::{CompanionOptions, ImageCodec};
+use lewis_replay::export::ros2::{ExportReport, export};
 
 /// The formats `lewis export` writes.
 #[derive(Debug, Subcommand)]
 pub enum ExportCommand {
     /// The recording with companion channels of ROS 2's standard types beside its own:
     /// LaserScan (uniform RangeFinders), PointCloud2 (the sonar), Odometry, tf and
-    /// tf_static, and with --images CompressedImage.
+    /// tf_static, MarkerArray (blobs, signs, the broker's bindings), and with --images
+    /// CompressedImage.
     Ros2(Ros2ExportArgs),
 }
 
@@ -26,6 +27,15 @@ pub enum ImagesArg {
     Png,
     /// Lossy, smaller.
     Jpeg,
+}
+
+impl From<ImagesArg> for ImageCodec {
+    fn from(arg: ImagesArg) -> Self {
+        match arg {
+            ImagesArg::Png => Self::Png,
+            ImagesArg::Jpeg => Self::Jpeg,
+        }
+    }
 }
 
 /// Arguments of `lewis export ros2`.
@@ -54,42 +64,44 @@ pub fn run(command: ExportCommand) -> anyhow::Result<ExitCode> {
 }
 
 fn ros2(args: &Ros2ExportArgs) -> anyhow::Result<ExitCode> {
-    let options = ExportOptions {
-        images: args.images.map(|i| match i {
-            ImagesArg::Png => ImageCodec::Png,
-            ImagesArg::Jpeg => ImageCodec::Jpeg,
-        }),
+    let options = CompanionOptions {
+        images: args.images.map(ImageCodec::from),
     };
-    let report = export(&args.input, &args.output, &options)
-        .with_context(|| format!("exporting {}", args.input.display()))?;
+    let report = match export(&args.input, &args.output, options) {
+        Ok(report) => report,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Ok(ExitCode::from(2));
+        }
+    };
     let text = summary(&args.output, &report);
     std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(ExitCode::SUCCESS)
 }
 
 /// What was written, for people.
-fn summary(output: &std::path::Path, report: &ExportReport) -> String {
+fn summary(output: &Path, report: &ExportReport) -> String {
     let mut t = String::new();
     let _ = writeln!(
         t,
-        "{}: {} messages copied on {} channels, with ROS 2 companions:",
+        "{}: {} messages copied, with ROS 2 companions:",
         output.display(),
         report.copied,
-        report.copied_channels
     );
     for (topic, (type_name, count)) in &report.companions {
-        let _ = writeln!(t, "  {topic:<28} {type_name:<32} {count}");
+        let _ = writeln!(t, "  {topic:<28} {type_name:<36} {count}");
     }
-    for (topic, count) in &report.images_skipped {
+    for (topic, count) in &report.images_left_out {
         let _ = writeln!(
             t,
-            "  images of {topic} not exported ({count}): give --images to add them as CompressedImage"
+            "  {topic}: {count} images left out (give --images to add them as CompressedImage)"
         );
     }
-    for (topic, count) in &report.images_unsupported {
+    for (topic, skipped) in &report.skipped {
         let _ = writeln!(
             t,
-            "  images of {topic} not exported ({count}): only rgb8 and mono8 are compressed"
+            "  {topic}: {} messages without a companion: {}",
+            skipped.count, skipped.reason
         );
     }
     t

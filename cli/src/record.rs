@@ -7,10 +7,13 @@ use std::time::Duration;
 
 use anyhow::Context as _;
 use clap::Args;
+use lewis_recorder::companion::{CompanionOptions, ImageCodec};
 use lewis_recorder::live::child::{Summary, default_output, ready_line};
 use lewis_recorder::live::{LiveOptions, TopicFilter, record};
 use lewis_recorder::{Compression, QueueOptions, RecorderOptions, RobotDescription};
 use lewis_runtime::ipc::Namespace;
+
+use crate::export::ImagesArg;
 
 /// Arguments of `lewis record`.
 #[derive(Debug, Args)]
@@ -42,6 +45,14 @@ pub struct RecordArgs {
     /// Stop after this long, as `8s` or `500ms` (default: until Ctrl-C or SIGTERM).
     #[arg(long, value_name = "DURATION", value_parser = lewis_stdx::parse_duration)]
     pub duration: Option<Duration>,
+    /// Write no companion channels (by default ROS 2's LaserScan, PointCloud2, Odometry,
+    /// tf and markers are written beside the robot's own messages, for Foxglove).
+    #[arg(long)]
+    pub no_companions: bool,
+    /// Also write each camera image as a CompressedImage companion (png unless jpeg is
+    /// given): a second copy of every frame, so off by default.
+    #[arg(long, value_name = "FORMAT", num_args = 0..=1, default_missing_value = "png", conflicts_with = "no_companions")]
+    pub companion_images: Option<ImagesArg>,
     /// Test knob: the writer pauses this many microseconds after each message (a slow
     /// disk).
     #[arg(long, value_name = "US", hide = true)]
@@ -75,6 +86,9 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
         "--split-duration and --duration must be longer than 0s"
     );
     recorder.split_duration_ns = args.split_duration;
+    recorder.companions = (!args.no_companions).then(|| CompanionOptions {
+        images: args.companion_images.map(ImageCodec::from),
+    });
     if let Some(file) = &args.robot {
         recorder.robot_description = Some(RobotDescription {
             file_name: file.file_name().map_or_else(

@@ -12,6 +12,7 @@
 pub mod cdr;
 pub mod dynamic;
 pub mod idl;
+pub mod ros2;
 pub mod speech;
 mod traits;
 mod vocabulary;

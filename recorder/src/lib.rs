@@ -28,10 +28,13 @@
 //! - Rotation by size or duration, with a parts index ([`index`]).
 //! - A full disk: a reserve of space beside the file is given back so that the file is
 //!   closed valid; other errors name the path ([`RecordError`]).
+//! - Companion channels ([`companion`], an option): ROS 2's standard messages (LaserScan,
+//!   Odometry, tf, markers) beside the robot's own, so that Foxglove draws the robot.
 //! - [`spawn`]: the bounded queue and writer thread; the tap calls [`Tap::try_record`] or
 //!   records into a [`TapBatch`], which never block (drop and count when full).
 
 mod channel;
+pub mod companion;
 mod error;
 pub mod index;
 pub mod live;

@@ -6,6 +6,8 @@ use std::str::FromStr;
 
 use thiserror::Error;
 
+use crate::companion::CompanionOptions;
+
 /// One second, in nanoseconds.
 pub const SECOND_NS: i64 = 1_000_000_000;
 
@@ -113,11 +115,15 @@ pub struct RecorderOptions {
     /// to different names are the same file) sets it. The parts index, outside the
     /// recording, keeps the real names, which locate the parts.
     pub file_label: Option<String>,
+    /// Companion channels of ROS 2's standard types written beside the robot's own
+    /// ([`crate::companion`]); `None` writes none.
+    pub companions: Option<CompanionOptions>,
 }
 
 impl RecorderOptions {
     /// The defaults: zstd, 1 MiB chunks, flushed at least every second, stats every
-    /// second, no rotation, a 4 MiB disk reserve, synced at each timed flush.
+    /// second, no rotation, a 4 MiB disk reserve, synced at each timed flush, no companion
+    /// channels.
     #[must_use]
     pub fn new(path: impl Into<PathBuf>) -> Self {
         Self {
@@ -133,6 +139,7 @@ impl RecorderOptions {
             sync_on_flush: true,
             recorder_name: "recorder".to_owned(),
             file_label: None,
+            companions: None,
         }
     }
 

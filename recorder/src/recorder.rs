@@ -3,7 +3,7 @@
 //! thread, reads no clock (times come from the caller) and never blocks on anything but
 //! the file; [`crate::spawn`] puts it behind a bounded queue.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{Header, RecorderStats};
@@ -12,6 +12,7 @@ use lewis_mcap::format::WrittenBy;
 use mcap::records::Metadata;
 
 use crate::channel::{ChannelId, ChannelSpec, Sample};
+use crate::companion::{Companion, Companions, Skipped};
 use crate::error::RecordError;
 use crate::index::{self, PartEntry, PartsIndex};
 use crate::loss::{ChannelCounts, Observation, SequenceTracker};
@@ -73,6 +74,14 @@ pub struct Recorder {
     durable_before_part: u64,
     stopped: bool,
     closing: bool,
+    companions: Option<CompanionWriter>,
+}
+
+/// The companion channels' state: what makes them, their channels and numbers.
+struct CompanionWriter {
+    companions: Companions,
+    channels: HashMap<String, (ChannelId, u64)>,
+    out: Vec<Companion>,
 }
 
 impl Recorder {
@@ -97,6 +106,14 @@ impl Recorder {
             interface_version: RecorderStats::VERSION.to_owned(),
             extra_metadata: BTreeMap::new(),
         };
+        let companions = options.companions.map(|c| CompanionWriter {
+            companions: Companions::new(
+                c,
+                options.robot_description.as_ref().map(|r| r.toml.as_str()),
+            ),
+            channels: HashMap::new(),
+            out: Vec::new(),
+        });
         let mut recorder = Self {
             options,
             channels: Vec::new(),
@@ -113,6 +130,7 @@ impl Recorder {
             durable_before_part: 0,
             stopped: false,
             closing: false,
+            companions,
         };
         recorder.open_part()?;
         Ok(recorder)
@@ -199,7 +217,69 @@ impl Recorder {
         {
             self.flush_part(false)?;
         }
+        self.write_companions(index, sample)?;
         self.timers(sample.log_time_ns)
+    }
+
+    /// Writes the companions of the message just written on channel `index`.
+    fn write_companions(&mut self, index: usize, sample: &Sample<'_>) -> Result<(), RecordError> {
+        // Taken out while its messages are written, so that they make none of their own.
+        let Some(mut writer) = self.companions.take() else {
+            return Ok(());
+        };
+        let stamp_ns = if sample.publish_time_ns == 0 {
+            sample.log_time_ns
+        } else {
+            sample.publish_time_ns
+        };
+        writer.companions.convert(
+            &self.channels[index].spec,
+            sample.data,
+            stamp_ns,
+            &mut writer.out,
+        );
+        let part_number = self.part_number;
+        let mut result = Ok(());
+        for companion in writer.out.drain(..) {
+            let (channel, seq) = match writer.channels.get_mut(&companion.topic) {
+                Some(entry) => {
+                    entry.1 += 1;
+                    *entry
+                }
+                None => match self.add_channel(companion.channel_spec()) {
+                    Ok(id) => *writer
+                        .channels
+                        .entry(companion.topic.clone())
+                        .or_insert((id, 1)),
+                    Err(e) => {
+                        result = Err(e);
+                        break;
+                    }
+                },
+            };
+            result = self.write(&Sample {
+                channel,
+                seq,
+                publish_time_ns: sample.publish_time_ns,
+                log_time_ns: sample.log_time_ns,
+                data: &companion.data,
+            });
+            if result.is_err() {
+                break;
+            }
+        }
+        writer.out.clear();
+        if self.part_number != part_number {
+            writer.companions.part_started();
+        }
+        self.companions = Some(writer);
+        result
+    }
+
+    /// Messages that got no companion channel message, by topic (`None`: companions off).
+    #[must_use]
+    pub fn companion_skips(&self) -> Option<&BTreeMap<String, Skipped>> {
+        self.companions.as_ref().map(|w| w.companions.skipped())
     }
 
     /// Closes the open chunk if anything is in it, so that what comes next starts a chunk.
@@ -232,6 +312,9 @@ impl Recorder {
     pub fn set_robot_description(&mut self, robot: RobotDescription) -> Result<(), RecordError> {
         self.ensure_running()?;
         let record = robot_metadata(&robot);
+        if let Some(writer) = &mut self.companions {
+            writer.companions.set_robot(&robot.toml);
+        }
         self.options.robot_description = Some(robot);
         self.file_metadata = file_metadata(&self.options);
         let result = match &mut self.part {
@@ -407,6 +490,9 @@ impl Recorder {
         }
         self.part = Some(part);
         self.parts.push(path.clone());
+        if let Some(writer) = &mut self.companions {
+            writer.companions.part_started();
+        }
         if let Some((index_path, index)) = &mut self.index {
             index.parts.push(PartEntry {
                 file: file_name(&path),

@@ -14,8 +14,8 @@
 //! - [`mission_log`]: the sequencer's records read back from a recording;
 //!   [`mission_replay`]: `lewis seq replay`, a recorded mission replayed on a script.
 //! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
-//! - [`export`]: Lewis recordings with companion channels of ROS 2's standard types
-//!   ([`ros2msg`]), for Foxglove and RViz.
+//! - [`export`]: Lewis recordings with companion channels of ROS 2's standard types, for
+//!   Foxglove and RViz.
 //! - [`bench`](mod@bench): measures of replay's speed and memory (`lewis bench`).
 
 pub mod bench;
@@ -33,7 +33,6 @@ pub mod play;
 pub mod recording;
 pub mod report;
 pub mod resim;
-pub mod ros2msg;
 pub mod sweep;
 
 pub use info::{InfoError, InfoOptions, InfoReport, inspect};

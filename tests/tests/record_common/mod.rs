@@ -30,8 +30,9 @@ pub struct Recorded {
     pub data: Vec<u8>,
 }
 
-/// A recording read with the mcap crate: messages per topic in file order, the file
-/// metadata, and the channel metadata per topic (every channel, with messages or not).
+/// A recording read with the mcap crate: messages per topic in file order (the companion
+/// channels of ROS 2 types left out), the file metadata, and the channel metadata per
+/// topic (every channel, with messages or not).
 #[derive(Debug, Default)]
 pub struct Recording {
     pub topics: BTreeMap<String, Vec<Recorded>>,
@@ -53,6 +54,13 @@ impl Recording {
                     .channels
                     .entry(channel.topic.clone())
                     .or_insert_with(|| channel.metadata.clone());
+                // ROS 2's own types, with no Lewis header: checked against their sources
+                // by tests/python/check_companions.py.
+                if channel.metadata.get("kind").map(String::as_str)
+                    == Some(lewis_recorder::companion::COMPANION_KIND)
+                {
+                    continue;
+                }
                 recording
                     .topics
                     .entry(channel.topic.clone())

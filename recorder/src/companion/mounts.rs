@@ -1,0 +1,65 @@
+//! Where each sensor sits on the robot: the frames under `base_link`.
+
+use std::collections::BTreeMap;
+
+use lewis_interfaces::msg::RangeFinder;
+
+/// A sensor's frame in `base_link`: planar position, height and heading.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Mount {
+    /// Forward, in m.
+    pub x: f64,
+    /// Left, in m.
+    pub y: f64,
+    /// Up, in m.
+    pub z: f64,
+    /// Heading about z, in rad.
+    pub yaw: f64,
+}
+
+impl Mount {
+    /// A RangeFinder's frame: where its readings are measured from (its offsets), facing
+    /// the robot's way, so that its bearings are the robot's.
+    #[must_use]
+    pub fn of_range_finder(rf: &RangeFinder) -> Self {
+        Self {
+            x: rf.x_offset,
+            y: rf.y_offset,
+            z: rf.z_offset,
+            yaw: 0.0,
+        }
+    }
+}
+
+/// The `mount` parameter of each service of the robot description `toml`
+/// (`mount = { x_m, y_m, heading_deg, height_m }`, a missing key 0). The description was
+/// checked when it was loaded; a text that does not parse gives no mounts.
+#[must_use]
+pub fn of_robot(toml: &str) -> BTreeMap<String, Mount> {
+    let Ok(robot) = toml.parse::<toml::Table>() else {
+        return BTreeMap::new();
+    };
+    let services = robot.get("services").and_then(toml::Value::as_array);
+    services
+        .into_iter()
+        .flatten()
+        .filter_map(|service| {
+            let name = service.get("name")?.as_str()?;
+            let mount = service.get("parameters")?.get("mount")?;
+            let get = |key: &str| {
+                mount
+                    .get(key)
+                    .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+            };
+            Some((
+                name.to_owned(),
+                Mount {
+                    x: get("x_m").unwrap_or(0.0),
+                    y: get("y_m").unwrap_or(0.0),
+                    z: get("height_m").unwrap_or(0.0),
+                    yaw: get("heading_deg").unwrap_or(0.0).to_radians(),
+                },
+            ))
+        })
+        .collect()
+}
