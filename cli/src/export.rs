@@ -67,13 +67,7 @@ fn ros2(args: &Ros2ExportArgs) -> anyhow::Result<ExitCode> {
     let options = CompanionOptions {
         images: args.images.map(ImageCodec::from),
     };
-    let report = match export(&args.input, &args.output, options) {
-        Ok(report) => report,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return Ok(ExitCode::from(2));
-        }
-    };
+    let report = export(&args.input, &args.output, options)?;
     let text = summary(&args.output, &report);
     std::io::stdout().lock().write_all(text.as_bytes())?;
     Ok(ExitCode::SUCCESS)

@@ -15,8 +15,7 @@ use std::path::{Path, PathBuf};
 
 use lewis_interfaces::cdr;
 use lewis_recorder::{
-    ChannelId, ChannelSpec, RecordError, Recorder, RecorderOptions, RobotDescription, STATS_TOPIC,
-    Sample,
+    ChannelId, RecordError, Recorder, RecorderOptions, RobotDescription, STATS_TOPIC, Sample,
 };
 
 use crate::recording::{Recording, RecordingError};
@@ -107,16 +106,9 @@ pub fn write_long(
         if &*topic.name == STATS_TOPIC {
             continue;
         }
-        let spec = ChannelSpec {
-            topic: topic.name.to_string(),
-            schema_name: topic.schema_name.clone(),
-            schema_text: topic.schema_text.clone(),
-            provider: topic.provider.clone().unwrap_or_default(),
-            interface: topic.interface.clone().unwrap_or_default(),
-            interface_version: topic.interface_version.clone().unwrap_or_default(),
-            extra_metadata: BTreeMap::new(),
-        };
-        let id = recorder.add_channel(spec).map_err(record_error)?;
+        let id = recorder
+            .add_channel(topic.channel_spec())
+            .map_err(record_error)?;
         channels.insert(topic.name.to_string(), id);
     }
     let mut messages = 0u64;

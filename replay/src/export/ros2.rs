@@ -18,8 +18,8 @@ use std::sync::Arc;
 use lewis_recorder::companion::{COMPANION_KIND, CompanionOptions, Skipped};
 use lewis_recorder::live::META_KIND;
 use lewis_recorder::{
-    ChannelId, ChannelSpec, RecordError, Recorder, RecorderOptions, RecordingReport,
-    RobotDescription, STATS_TOPIC, Sample,
+    ChannelId, RecordError, Recorder, RecorderOptions, RecordingReport, RobotDescription,
+    STATS_TOPIC, Sample,
 };
 
 use crate::import::record::temporary_path;
@@ -170,7 +170,7 @@ fn export_to(
             None => {
                 let channel = match recording.topics().get(&message.topic) {
                     Some(topic) if !is_companion(topic) && &*topic.name != STATS_TOPIC => {
-                        Some(recorder.add_channel(original_spec(topic))?)
+                        Some(recorder.add_channel(topic.channel_spec())?)
                     }
                     _ => None,
                 };
@@ -218,17 +218,4 @@ fn export_to(
         images_left_out,
         skipped,
     })
-}
-
-/// The channel of a recording's topic, as it was (schema, provider, interface, metadata).
-fn original_spec(topic: &Topic) -> ChannelSpec {
-    ChannelSpec {
-        topic: topic.name.to_string(),
-        schema_name: topic.schema_name.clone(),
-        schema_text: topic.schema_text.clone(),
-        provider: topic.provider.clone().unwrap_or_default(),
-        interface: topic.interface.clone().unwrap_or_default(),
-        interface_version: topic.interface_version.clone().unwrap_or_default(),
-        extra_metadata: topic.metadata.clone(),
-    }
 }

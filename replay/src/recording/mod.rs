@@ -22,6 +22,7 @@ use std::sync::Arc;
 
 use lewis_mcap::format::{FORMAT_VERSION, RECORDING_METADATA, WrittenBy};
 use lewis_mcap::{McapFile, OpenError, ReadError, Summary};
+use lewis_recorder::ChannelSpec;
 use lewis_recorder::index::{IndexError, PartsIndex};
 use lewis_runtime::robot::{self, Robot, RobotError};
 
@@ -148,6 +149,23 @@ pub struct Topic {
     pub message_count: u64,
     /// The channel's whole metadata (of its first file), for copying it unchanged.
     pub metadata: BTreeMap<String, String>,
+}
+
+impl Topic {
+    /// The channel to write its messages on again, as it was: schema, provider,
+    /// interface and metadata.
+    #[must_use]
+    pub fn channel_spec(&self) -> ChannelSpec {
+        ChannelSpec {
+            topic: self.name.to_string(),
+            schema_name: self.schema_name.clone(),
+            schema_text: self.schema_text.clone(),
+            provider: self.provider.clone().unwrap_or_default(),
+            interface: self.interface.clone().unwrap_or_default(),
+            interface_version: self.interface_version.clone().unwrap_or_default(),
+            extra_metadata: self.metadata.clone(),
+        }
+    }
 }
 
 /// The files of a parts index stand for it; other paths are kept. Every file once.
