@@ -8,6 +8,7 @@ use std::time::Duration;
 use anyhow::Context as _;
 use clap::Args;
 use lewis_launch::{Launch, LaunchOptions, MissionPlan};
+use lewis_recorder::companion::{CompanionOptions, ImageCodec};
 use lewis_runtime::broker::live::UpOptions;
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
@@ -45,6 +46,14 @@ pub struct UpArgs {
         conflicts_with = "no_record"
     )]
     pub output: Option<PathBuf>,
+    /// Record no ROS 2 companion channels (by default LaserScan, PointCloud2, Odometry, tf
+    /// and markers are written beside the robot's own messages, for Foxglove).
+    #[arg(long, conflicts_with = "no_record")]
+    pub no_companions: bool,
+    /// Also record each camera image as a CompressedImage companion (png unless jpeg is
+    /// given).
+    #[arg(long, value_name = "FORMAT", num_args = 0..=1, default_missing_value = "png", conflicts_with_all = ["no_record", "no_companions"])]
+    pub companion_images: Option<crate::export::ImagesArg>,
     /// Drive to a goal, then stop (`--goal X,Y`).
     #[command(flatten)]
     pub goal: crate::goal::GoalArgs,
@@ -83,6 +92,9 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
             clock: args.clock,
         },
         record: (!args.no_record).then(|| args.output.clone()),
+        companions: (!args.no_companions).then(|| CompanionOptions {
+            images: args.companion_images.map(ImageCodec::from),
+        }),
         goal: args.goal.plan(&robot)?,
         mission,
     };

@@ -421,6 +421,7 @@ pub fn run_demo(
             clock: ClockSource::Wall,
         },
         record: Some(Some(files.run.clone())),
+        companions: Some(lewis_recorder::companion::CompanionOptions::default()),
         goal: None,
         mission: Some(MissionPlan {
             script: options.script.clone(),

@@ -15,6 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use lewis_motion::goal::{GoalPlan, GoalRun, GoalRunError, Outcome as GoalOutcome};
+use lewis_recorder::companion::CompanionOptions;
 use lewis_recorder::live::child::{ChildError, ChildOptions, RecorderChild};
 use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up};
 use lewis_runtime::live::{RECORDING_ENV, StopHandle, StopSignals};
@@ -42,6 +43,8 @@ pub struct LaunchOptions {
     /// Record into this file (`Some(None)`: the default name under `logs/`); `None`: no
     /// recording.
     pub record: Option<Option<PathBuf>>,
+    /// The recording's ROS 2 companion channels (`None`: none).
+    pub companions: Option<CompanionOptions>,
     /// A goal to drive to; the run ends with it.
     pub goal: Option<GoalPlan>,
     /// A mission to run; the run ends with it.
@@ -169,6 +172,7 @@ impl Launch {
                 robot_name: robot.name.clone(),
                 namespace: namespace.clone(),
                 output: output.clone(),
+                companions: options.companions,
             })?,
             None => None,
         };
@@ -285,6 +289,7 @@ mod tests {
                 clock: ClockSource::Wall,
             },
             record: None,
+            companions: None,
             goal: None,
             mission: None,
         };

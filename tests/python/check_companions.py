@@ -7,8 +7,9 @@ MarkerArray against Blobs3D, Signs and the broker's bindings, CompressedImage ag
 ImageSource (format and size).
 
 Usage: check_companions.py FILE.mcap
-Prints `TOPIC TYPE COUNT` per companion topic checked, then one line per mismatch; exits
-1 if there is any mismatch or no companion at all.
+Decodes every message of the file (exits 1 at one that does not decode). Prints `TOPIC TYPE
+COUNT` per companion topic checked, `decoded TOPIC COUNT` per topic, then one line per
+mismatch; exits 1 if there is any mismatch or no companion at all.
 """
 
 import math
@@ -48,6 +49,7 @@ class Checker:
         self.problems = []
         self.counts = Counter()
         self.types = {}
+        self.decoded = Counter()
         # (topic, log_time) -> (decoded Lewis message, its channel's metadata)
         self.sources = {}
         self.offsets = defaultdict(set)
@@ -75,6 +77,7 @@ class Checker:
             reader = make_reader(f, decoder_factories=[DecoderFactory()])
             pending = []
             for schema, channel, message, decoded in reader.iter_decoded_messages():
+                self.decoded[channel.topic] += 1
                 meta = channel.metadata
                 if meta.get("kind") == "ros2-companion":
                     pending.append((schema.name, channel.topic, meta, message.log_time, decoded))
@@ -263,6 +266,8 @@ def main(path):
     checker.run()
     for topic, count in sorted(checker.counts.items()):
         print(f"{topic} {checker.types[topic]} {count}")
+    for topic, count in sorted(checker.decoded.items()):
+        print(f"decoded {topic} {count}")
     for problem in checker.problems:
         print(f"MISMATCH {problem}")
     if not checker.counts:

@@ -4,7 +4,7 @@
 //! its restart limit and the broker moves its clients to the sonar; the mission must still
 //! succeed through door, sign (at least twice), queue and register (`register` exits 0),
 //! within about 3 minutes of simulated time. The recording must read in independent
-//! readers, and a closed-loop replay of it with a fault (`--all`: the mission lived again)
+//! readers, its ROS 2 companion channels equal to the Lewis messages they came from, and a closed-loop replay of it with a fault (`--all`: the mission lived again)
 //! must give the same bytes whatever the output file is called. Lived again without a new
 //! fault, the mission goes as it went live; with the laser and the sonar dead before the
 //! door it fails; with the sonar dead at the registration desk it still succeeds. The
@@ -110,14 +110,25 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         "the obstacle_avoider is moved to the sonar"
     );
 
-    // Independent readers: pymcap-cli doctor (and rerun's check), mcap-ros2-support.
+    // Independent readers: pymcap-cli doctor (and rerun's check), mcap-ros2-support, which
+    // decodes every message and finds the ROS 2 companions equal to their sources.
     doctor(&run_mcap);
     let decoded = run_ok(
         python_tool("python")
-            .arg(repo_root().join("tests/python/decode_all.py"))
+            .arg(repo_root().join("tests/python/check_companions.py"))
             .arg(&run_mcap),
     );
-    assert!(decoded.contains("/lewis/sequencer "), "{decoded}");
+    for line in [
+        "decoded /lewis/sequencer ",
+        "/laser/scan sensor_msgs/msg/LaserScan ",
+        "/sonar/points sensor_msgs/msg/PointCloud2 ",
+        "/base/odom nav_msgs/msg/Odometry ",
+        "/sign_detector/markers visualization_msgs/msg/MarkerArray ",
+        "/lewis/broker/markers visualization_msgs/msg/MarkerArray ",
+        "/tf_static tf2_msgs/msg/TFMessage ",
+    ] {
+        assert!(decoded.contains(line), "{line} not in:\n{decoded}");
+    }
 
     // A replay with a fault gives the same bytes twice, whatever its output is called: the
     // demo's own replay, and one more with the same fault into another file.

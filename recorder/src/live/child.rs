@@ -12,6 +12,7 @@ use lewis_runtime::ipc::{NAMESPACE_ENV, Namespace};
 use lewis_runtime::supervise::{ChildSpec, Stream, SuperviseError, Supervisor, SupervisorEvent};
 
 use super::{LiveReport, Ready};
+use crate::companion::CompanionOptions;
 
 /// The line `lewis record` writes on stdout once every channel is subscribed: nothing
 /// published after it is missed. [`RecorderChild::start`] waits for it before the robot's
@@ -116,6 +117,8 @@ pub struct ChildOptions {
     pub namespace: Namespace,
     /// The file (default: `logs/<robot>-<UTC time>.mcap`).
     pub output: Option<PathBuf>,
+    /// The ROS 2 companion channels to write (`None`: none).
+    pub companions: Option<CompanionOptions>,
 }
 
 /// A recorder running as a child process.
@@ -156,12 +159,20 @@ impl RecorderChild {
         };
         let (lines_tx, lines) = sync_channel(64);
         let mut supervisor = Supervisor::with_log_sink(lines_tx)?;
-        let spec = ChildSpec::new(RECORDER_CHILD, &options.lewis_exe)
+        let mut spec = ChildSpec::new(RECORDER_CHILD, &options.lewis_exe)
             .arg("record")
             .args(["--namespace", options.namespace.as_str(), "--robot"])
             .arg(&options.robot_path)
             .arg("-o")
-            .arg(&path)
+            .arg(&path);
+        spec = match options.companions {
+            None => spec.arg("--no-companions"),
+            Some(CompanionOptions { images: None }) => spec,
+            Some(CompanionOptions {
+                images: Some(codec),
+            }) => spec.args(["--companion-images", codec.name()]),
+        };
+        let spec = spec
             .env(NAMESPACE_ENV, options.namespace.as_str())
             .stop_grace(RECORDER_STOP_GRACE);
         if let Err(e) = supervisor.start(spec) {
