@@ -16,6 +16,7 @@
 //! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
 //! - [`export`]: Lewis recordings with companion channels of ROS 2's standard types, for
 //!   Foxglove and RViz.
+//! - [`whole_file`]: an output written whole or not at all.
 //! - [`bench`](mod@bench): measures of replay's speed and memory (`lewis bench`).
 
 pub mod bench;
@@ -34,6 +35,7 @@ pub mod recording;
 pub mod report;
 pub mod resim;
 pub mod sweep;
+pub mod whole_file;
 
 pub use info::{InfoError, InfoOptions, InfoReport, inspect};
 pub use json::JsonValue;

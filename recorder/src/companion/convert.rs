@@ -257,33 +257,40 @@ fn colour_of(name: &str) -> Color {
     Color { r, g, b, a: 0.8 }
 }
 
-/// Each placed blob as a thin box of its size, in its colour, with its name above.
-pub(super) fn blobs(topic: &str, stamp: i64, blobs: &Blobs3D) -> Companion {
+/// Labelled boxes, each a thin box facing the robot at `(x, y, z)` of `(width, height)`
+/// in its colour with its label above it, as a MarkerArray replacing the topic's last one.
+fn labelled_boxes(
+    topic: &str,
+    stamp: i64,
+    ns: &str,
+    boxes: impl Iterator<Item = ([f64; 3], [f64; 2], Color, String)>,
+) -> Companion {
     let mut markers = vec![clear(stamp)];
-    for (i, b) in blobs.blobs.iter().filter(|b| b.range_valid).enumerate() {
-        let Blob { colour_name, .. } = &b.blob;
-        let (x, y, z) = (b.position.x, b.position.y, b.position.z);
+    for (i, ([x, y, z], [width, height], color, label)) in boxes.enumerate() {
+        let size = [0.02, width.max(0.01), height.max(0.01)];
+        let centre = Pose::planar(x, y, z, 0.0);
         markers.push(marker(
             stamp,
-            "blobs",
+            ns,
             2 * i,
             MarkerKind::Cube,
-            Pose::planar(x, y, z, 0.0),
-            [0.02, b.width.max(0.01), b.height.max(0.01)],
-            colour_of(colour_name),
+            centre,
+            size,
+            color,
         ));
-        let above = Pose::planar(x, y, z + b.height / 2.0 + 0.1, 0.0);
+        let above = Pose::planar(x, y, z + height / 2.0 + 0.1, 0.0);
+        let text = marker(
+            stamp,
+            ns,
+            2 * i + 1,
+            MarkerKind::Text,
+            above,
+            [0.0, 0.0, 0.12],
+            WHITE,
+        );
         markers.push(Marker {
-            text: colour_name.clone(),
-            ..marker(
-                stamp,
-                "blobs",
-                2 * i + 1,
-                MarkerKind::Text,
-                above,
-                [0.0, 0.0, 0.12],
-                WHITE,
-            )
+            text: label,
+            ..text
         });
     }
     companion(
@@ -294,41 +301,36 @@ pub(super) fn blobs(topic: &str, stamp: i64, blobs: &Blobs3D) -> Companion {
     )
 }
 
+/// Each placed blob as a box of its size in its colour, its colour's name above.
+pub(super) fn blobs(topic: &str, stamp: i64, blobs: &Blobs3D) -> Companion {
+    let placed = blobs.blobs.iter().filter(|b| b.range_valid).map(|b| {
+        let Blob { colour_name, .. } = &b.blob;
+        let at = [b.position.x, b.position.y, b.position.z];
+        (
+            at,
+            [b.width, b.height],
+            colour_of(colour_name),
+            colour_name.clone(),
+        )
+    });
+    labelled_boxes(topic, stamp, "blobs", placed)
+}
+
+/// The size of a sign's board, in m.
+const BOARD: [f64; 2] = [0.4, 0.3];
+
 /// Each sign as a white board with what it says above it.
 pub(super) fn signs(topic: &str, stamp: i64, signs: &Signs) -> Companion {
-    let mut markers = vec![clear(stamp)];
-    for (i, s) in signs.signs.iter().enumerate() {
-        let (x, y, z) = (s.position.x, s.position.y, s.position.z);
-        markers.push(marker(
-            stamp,
-            "signs",
-            2 * i,
-            MarkerKind::Cube,
-            Pose::planar(x, y, z, 0.0),
-            [0.02, 0.4, 0.3],
+    let boards = signs.signs.iter().map(|s| {
+        let at = [s.position.x, s.position.y, s.position.z];
+        (
+            at,
+            BOARD,
             WHITE,
-        ));
-        let above = Pose::planar(x, y, z + 0.3, 0.0);
-        let text = format!("{} ({:.2})", s.arrow, s.confidence);
-        markers.push(Marker {
-            text,
-            ..marker(
-                stamp,
-                "signs",
-                2 * i + 1,
-                MarkerKind::Text,
-                above,
-                [0.0, 0.0, 0.15],
-                WHITE,
-            )
-        });
-    }
-    companion(
-        &sibling_topic(topic, "markers"),
-        ros2::MARKER_ARRAY,
-        Some(topic),
-        &MarkerArray { markers },
-    )
+            format!("{} ({:.2})", s.arrow, s.confidence),
+        )
+    });
+    labelled_boxes(topic, stamp, "signs", boards)
 }
 
 /// The broker's bindings as one text above the robot, a line each:

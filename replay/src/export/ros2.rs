@@ -22,8 +22,8 @@ use lewis_recorder::{
     STATS_TOPIC, Sample,
 };
 
-use crate::import::record::temporary_path;
 use crate::recording::{RecordingError, RecordingFiles, Topic};
+use crate::whole_file::{RenameError, write_whole};
 
 /// The provider of the export's recorder stats.
 pub const EXPORT_PROVIDER: &str = "lewis-export";
@@ -63,15 +63,8 @@ pub enum ExportError {
         path: PathBuf,
     },
     /// The finished file could not be moved to its name.
-    #[error("cannot rename {} to {}: {source}", from.display(), to.display())]
-    Rename {
-        /// The temporary file.
-        from: PathBuf,
-        /// The output.
-        to: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Rename(#[from] RenameError),
 }
 
 /// What was written.
@@ -116,25 +109,7 @@ pub fn export(
             path: input.to_owned(),
         });
     }
-    let temporary = temporary_path(output);
-    // A temporary file left by an export that was killed is ours to replace.
-    let _ = std::fs::remove_file(&temporary);
-    let report = match export_to(&recording, &temporary, options) {
-        Ok(report) => report,
-        Err(e) => {
-            let _ = std::fs::remove_file(&temporary);
-            return Err(e);
-        }
-    };
-    if let Err(source) = std::fs::rename(&temporary, output) {
-        let _ = std::fs::remove_file(&temporary);
-        return Err(ExportError::Rename {
-            from: temporary,
-            to: output.to_owned(),
-            source,
-        });
-    }
-    let mut report = report;
+    let mut report = write_whole(output, |path| export_to(&recording, path, options))?;
     report.recording.parts = vec![output.to_owned()];
     Ok(report)
 }

@@ -21,6 +21,8 @@ use lewis_recorder::{
 };
 use lewis_runtime::robot::{self, RobotError};
 
+use crate::whole_file::{RenameError, write_whole};
+
 use super::carmen::robot::{robot_name, robot_toml};
 use super::carmen::{CarmenImport, DISTANCE, ImportError, ImportedMessage, Payload, SONAR};
 use super::ros2::{self, ImportError as Ros2ImportError, Out, Ros2Import};
@@ -344,29 +346,12 @@ pub enum Ros2WriteError {
         path: PathBuf,
     },
     /// The finished import could not be moved to its name.
-    #[error("cannot rename {} to {}: {source}", from.display(), to.display())]
-    Rename {
-        /// The temporary file.
-        from: PathBuf,
-        /// The output.
-        to: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Rename(#[from] RenameError),
     /// Writing failed: the recorder refused, or the robot description or a channel made
     /// for the import is not valid (an importer bug).
     #[error(transparent)]
     Write(#[from] WriteError),
-}
-
-/// The temporary file an import is written to, beside `output` (renamed at the end, so
-/// that nothing is left half-written under the output's name).
-#[must_use]
-pub fn temporary_path(output: &Path) -> PathBuf {
-    let name = output
-        .file_name()
-        .map_or_else(|| "import".to_owned(), |f| f.to_string_lossy().into_owned());
-    output.with_file_name(format!(".{name}.importing.mcap"))
 }
 
 /// Writes a ROS 2 bag's import as one Lewis recording at `output` (through a temporary file
@@ -386,26 +371,9 @@ pub fn write_ros2(
             path: output.to_owned(),
         });
     }
-    let temporary = temporary_path(output);
-    // A temporary file left by an import that was killed is ours to replace.
-    let _ = std::fs::remove_file(&temporary);
-    let result = write_ros2_to(import, &temporary, compression, progress);
-    let written = match result {
-        Ok(written) => written,
-        Err(e) => {
-            let _ = std::fs::remove_file(&temporary);
-            return Err(e);
-        }
-    };
-    if let Err(source) = std::fs::rename(&temporary, output) {
-        let _ = std::fs::remove_file(&temporary);
-        return Err(Ros2WriteError::Rename {
-            from: temporary,
-            to: output.to_owned(),
-            source,
-        });
-    }
-    let mut written = written;
+    let mut written = write_whole(output, |path| {
+        write_ros2_to(import, path, compression, progress)
+    })?;
     written.recording.parts = vec![output.to_owned()];
     Ok(written)
 }
