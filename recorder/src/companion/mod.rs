@@ -93,6 +93,21 @@ pub struct CompanionOptions {
     pub images: Option<ImageCodec>,
 }
 
+/// Whether messages of `schema_name` have a ROS 2 view (ImageSource's only when images
+/// are asked for): the schemas [`Companions::convert`] makes companions of.
+#[must_use]
+pub fn has_view(schema_name: &str) -> bool {
+    [
+        RangeFinder::SCHEMA_NAME,
+        Egomotion::SCHEMA_NAME,
+        ImageSource::SCHEMA_NAME,
+        Blobs3D::SCHEMA_NAME,
+        Signs::SCHEMA_NAME,
+        Broker::SCHEMA_NAME,
+    ]
+    .contains(&schema_name)
+}
+
 /// One companion message, ready to write.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Companion {

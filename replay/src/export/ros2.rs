@@ -15,7 +15,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use lewis_recorder::companion::{COMPANION_KIND, CompanionOptions, Skipped};
+use lewis_interfaces::Struct;
+use lewis_interfaces::msg::ImageSource;
+use lewis_recorder::companion::{COMPANION_KIND, CompanionOptions, Skipped, has_view};
 use lewis_recorder::live::META_KIND;
 use lewis_recorder::{
     ChannelId, RecordError, Recorder, RecorderOptions, RecordingReport, RobotDescription,
@@ -27,16 +29,6 @@ use crate::whole_file::{RenameError, write_whole};
 
 /// The provider of the export's recorder stats.
 pub const EXPORT_PROVIDER: &str = "lewis-export";
-
-/// The Lewis interfaces that have ROS 2 companions (the images only when asked).
-const CONVERTED: [&str; 6] = [
-    "RangeFinder",
-    "Egomotion",
-    "Blobs3D",
-    "Signs",
-    "Broker",
-    "ImageSource",
-];
 
 /// Why an export failed.
 #[derive(Debug, thiserror::Error)]
@@ -98,12 +90,10 @@ pub fn export(
         });
     }
     let recording = RecordingFiles::open(&[input.to_owned()])?;
-    let converted = recording.topics().values().any(|t| {
-        !is_companion(t)
-            && t.interface
-                .as_deref()
-                .is_some_and(|i| CONVERTED.contains(&i))
-    });
+    let converted = recording
+        .topics()
+        .values()
+        .any(|t| !is_companion(t) && has_view(&t.schema_name));
     if !converted {
         return Err(ExportError::NothingToExport {
             path: input.to_owned(),
@@ -137,7 +127,17 @@ fn export_to(
     let mut recorder = Recorder::create(recorder_options)?;
     let mut channels: BTreeMap<Arc<str>, Option<ChannelId>> = BTreeMap::new();
     let mut copied = 0;
-    let mut images_left_out = BTreeMap::new();
+    // From the summaries' counts: no work per message.
+    let images_left_out = if options.images.is_none() {
+        recording
+            .topics()
+            .values()
+            .filter(|t| !is_companion(t) && t.schema_name == ImageSource::SCHEMA_NAME)
+            .map(|t| (t.name.to_string(), t.message_count))
+            .collect()
+    } else {
+        BTreeMap::new()
+    };
     for message in recording.messages()? {
         let message = message?;
         let channel = match channels.get(&message.topic) {
@@ -162,15 +162,6 @@ fn export_to(
             data: &message.data,
         })?;
         copied += 1;
-        let interface = recording
-            .topics()
-            .get(&message.topic)
-            .and_then(|t| t.interface.as_deref());
-        if options.images.is_none() && interface == Some("ImageSource") {
-            *images_left_out
-                .entry(message.topic.to_string())
-                .or_default() += 1;
-        }
     }
     let skipped = recorder.companion_skips().cloned().unwrap_or_default();
     let companions = recorder
