@@ -12,8 +12,11 @@
 //! - `1 < seq <= last`: the provider restarted and the first `seq - 1` messages of its new
 //!   run were lost (a channel is delivered in order, so this is the only way back).
 //!
-//! Messages lost at the very end of a run cannot be seen from numbers alone; the
-//! recorder's own drops are also counted where they happen ([`crate::Tap`]).
+//! Messages lost at the very end of a run cannot be seen from numbers alone: the live tap
+//! reads what a dead provider sent from its publication ledger
+//! (`lewis_runtime::ipc::LedgerReader`) and counts the rest as lost
+//! ([`crate::Tap::count_lost_at_exit`]). The recorder's own drops are also counted where
+//! they happen ([`crate::Tap`]).
 
 /// What one sequence number meant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

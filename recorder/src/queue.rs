@@ -71,6 +71,18 @@ pub enum Dropped {
 struct Registered {
     spec: ChannelSpec,
     dropped: AtomicU64,
+    /// Samples its provider sent before it died that never arrived ([`Tap::count_lost_at_exit`]).
+    lost_at_exit: AtomicU64,
+}
+
+impl Registered {
+    fn new(spec: ChannelSpec) -> Arc<Self> {
+        Arc::new(Self {
+            spec,
+            dropped: AtomicU64::new(0),
+            lost_at_exit: AtomicU64::new(0),
+        })
+    }
 }
 
 struct Shared {
@@ -192,10 +204,7 @@ impl Tap {
     #[must_use]
     pub fn register(&self, spec: ChannelSpec) -> ChannelId {
         let mut channels = self.shared.channels();
-        channels.push(Arc::new(Registered {
-            spec,
-            dropped: AtomicU64::new(0),
-        }));
+        channels.push(Registered::new(spec));
         ChannelId(u32::try_from(channels.len() - 1).unwrap_or(u32::MAX))
     }
 
@@ -273,6 +282,18 @@ impl Tap {
     pub fn count_missed(&self, channel: ChannelId, count: u64) {
         if count > 0 {
             self.count_dropped(channel, count);
+        }
+    }
+
+    /// Counts `count` messages of `channel` that its provider sent before it died and that
+    /// never arrived (see `lewis_runtime::ipc::LedgerReader`): no later message shows them
+    /// as a gap, so they are counted as lost here.
+    pub fn count_lost_at_exit(&self, channel: ChannelId, count: u64) {
+        if let Some(registered) = usize::try_from(channel.0)
+            .ok()
+            .and_then(|i| self.shared.channels().get(i).cloned())
+        {
+            registered.lost_at_exit.fetch_add(count, Ordering::Relaxed);
         }
     }
 
@@ -426,12 +447,7 @@ pub fn spawn(
     let path = recorder.current_path().to_path_buf();
     let channels = recorder
         .channels()
-        .map(|spec| {
-            Arc::new(Registered {
-                spec: spec.clone(),
-                dropped: AtomicU64::new(0),
-            })
-        })
+        .map(|spec| Registered::new(spec.clone()))
         .collect();
     let shared = Arc::new(Shared {
         channels: Mutex::new(channels),
@@ -481,7 +497,7 @@ fn drain(
     write_delay: Duration,
     mut clock: impl FnMut() -> i64,
 ) -> Result<RecordingReport, RecordError> {
-    let mut drops_seen: Vec<u64> = Vec::new();
+    let mut drops_seen: Vec<Swept> = Vec::new();
     let mut since_sweep = 0_u32;
     loop {
         match receiver.recv_timeout(IDLE_TICK) {
@@ -538,16 +554,32 @@ fn add_new_channels(recorder: &mut Recorder, shared: &Shared) -> Result<(), Reco
     Ok(())
 }
 
-/// Passes the tap's new drop counts to the recorder.
-fn sweep_drops(recorder: &mut Recorder, shared: &Shared, seen: &mut Vec<u64>) {
+/// The counts of one channel already passed to the recorder.
+#[derive(Debug, Clone, Copy, Default)]
+struct Swept {
+    dropped: u64,
+    lost_at_exit: u64,
+}
+
+/// Passes the tap's new drop and loss counts to the recorder.
+fn sweep_drops(recorder: &mut Recorder, shared: &Shared, seen: &mut Vec<Swept>) {
     let channels = shared.channels();
-    // Drops of a channel the recorder does not know yet are passed once it does.
-    seen.resize(recorder.channel_count().min(channels.len()), 0);
+    // Counts of a channel the recorder does not know yet are passed once it does.
+    seen.resize(
+        recorder.channel_count().min(channels.len()),
+        Swept::default(),
+    );
     for (i, (channel, seen)) in channels.iter().zip(seen.iter_mut()).enumerate() {
-        let now = channel.dropped.load(Ordering::Relaxed);
-        if now > *seen {
-            recorder.note_dropped(ChannelId(u32::try_from(i).unwrap_or(u32::MAX)), now - *seen);
-            *seen = now;
+        let id = ChannelId(u32::try_from(i).unwrap_or(u32::MAX));
+        let dropped = channel.dropped.load(Ordering::Relaxed);
+        if dropped > seen.dropped {
+            recorder.note_dropped(id, dropped - seen.dropped);
+            seen.dropped = dropped;
+        }
+        let lost = channel.lost_at_exit.load(Ordering::Relaxed);
+        if lost > seen.lost_at_exit {
+            recorder.note_lost_at_exit(id, lost - seen.lost_at_exit);
+            seen.lost_at_exit = lost;
         }
     }
 }

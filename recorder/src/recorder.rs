@@ -303,6 +303,18 @@ impl Recorder {
         }
     }
 
+    /// Counts `count` messages of `channel` that its provider sent before it died and that
+    /// never arrived: lost, though no sequence gap shows them.
+    pub fn note_lost_at_exit(&mut self, channel: ChannelId, count: u64) {
+        if let Some(state) = usize::try_from(channel.0)
+            .ok()
+            .and_then(|i| self.channels.get_mut(i))
+        {
+            state.part.lost += count;
+            state.total.lost += count;
+        }
+    }
+
     /// Stores the robot description from now on, for a robot found after the recording
     /// started: written at once into the current file (`lewis.robot`, which closes the
     /// open chunk) and into every later part.

@@ -22,6 +22,7 @@ mod record_discover;
 mod record_errors;
 mod record_failover;
 mod record_kill;
+mod record_lost_at_exit;
 mod record_mission;
 mod record_up;
 mod replay_reference;

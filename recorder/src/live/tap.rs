@@ -8,7 +8,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::Header;
 use lewis_runtime::clock::LiveClock;
 use lewis_runtime::ipc::{
-    FdSource, Ipc, MAX_WAIT_SOURCES, Subscriber, WaitSet, Waitable, WakeMode,
+    FdSource, Ipc, LedgerReader, MAX_WAIT_SOURCES, Subscriber, WaitSet, Waitable, WakeMode,
 };
 use lewis_runtime::live::StopSignals;
 
@@ -21,6 +21,9 @@ use crate::queue::{Dropped, Tap, WriterThread};
 /// How often the loop looks whether the writer thread has stopped (a full disk) while no
 /// sample comes: the writer has no descriptor to wait on.
 const WRITER_CHECK: Duration = Duration::from_millis(200);
+
+/// How often the loop looks for publishers whose process died (their ledgers).
+const LEDGER_LOOK: Duration = Duration::from_millis(500);
 
 /// Samples of one channel that iceoryx2 may fail to map in one turn before the tap leaves
 /// the channel for the next turn.
@@ -49,6 +52,8 @@ pub struct TapCounts {
     /// Samples whose bytes did not start with a valid header (recorded anyway, with the
     /// receive time as publish time and sequence number 0).
     pub headerless: u64,
+    /// Samples a provider sent before it died that never arrived (counted lost).
+    pub lost_at_exit: u64,
 }
 
 struct Tapped {
@@ -74,6 +79,9 @@ pub struct LiveTap {
     waits: WaitSet,
     counts: TapCounts,
     growth: Option<Growth>,
+    /// The ledgers of the namespace's processes, read as they die.
+    ledgers: LedgerReader,
+    next_ledger_look: Instant,
 }
 
 impl LiveTap {
@@ -95,6 +103,8 @@ impl LiveTap {
             waits: WaitSet::new(WakeMode::Event),
             counts: TapCounts::default(),
             growth: None,
+            ledgers: LedgerReader::new(ipc.namespace()),
+            next_ledger_look: Instant::now() + LEDGER_LOOK,
         };
         live.check_room(plan.len())?;
         for channel in plan {
@@ -177,12 +187,17 @@ impl LiveTap {
                 // What the publishers sent before the stop (the services stop first) is
                 // still in the buffers.
                 self.take_all(tap);
+                self.count_lost_at_exit(tap);
                 return Ok(Ended::Signal);
             }
             if !self.take_all(tap) || writer.is_finished() {
                 return Ok(Ended::WriterStopped);
             }
             let now = Instant::now();
+            if now >= self.next_ledger_look {
+                self.count_lost_at_exit(tap);
+                self.next_ledger_look = now + LEDGER_LOOK;
+            }
             if end.is_some_and(|e| now >= e) {
                 return Ok(Ended::Duration);
             }
@@ -205,6 +220,35 @@ impl LiveTap {
         }
     }
 
+    /// Counts, for each publisher whose process died since the last look, the samples it
+    /// sent that never arrived.
+    fn count_lost_at_exit(&mut self, tap: &Tap) {
+        let ended = self.ledgers.ended();
+        if ended.is_empty() {
+            return;
+        }
+        // The processes are dead: what they sent is all in the buffers now. What can
+        // still be received is taken first, so that only the rest counts.
+        self.take(tap, |topic| ended.iter().any(|e| e.channel == topic));
+        for ended in ended {
+            for channel in self
+                .channels
+                .iter_mut()
+                .filter(|c| c.topic == ended.channel)
+            {
+                let lost = channel.subscriber.publisher_ended(&ended);
+                if lost > 0 {
+                    tracing::warn!(
+                        "{lost} messages on {} that its provider sent before it died never arrived",
+                        channel.topic
+                    );
+                    tap.count_lost_at_exit(channel.id, lost);
+                    self.counts.lost_at_exit += lost;
+                }
+            }
+        }
+    }
+
     /// What the loop counted.
     #[must_use]
     pub fn counts(&self) -> TapCounts {
@@ -213,12 +257,18 @@ impl LiveTap {
 
     /// Takes every unread sample of every channel; false when the recorder has stopped.
     fn take_all(&mut self, tap: &Tap) -> bool {
+        self.take(tap, |_| true)
+    }
+
+    /// Takes every unread sample of the channels whose topic is `wanted`; false when the
+    /// recorder has stopped.
+    fn take(&mut self, tap: &Tap, wanted: impl Fn(&str) -> bool) -> bool {
         let mut running = true;
         // One hand-over to the writer for everything taken in this turn.
         let mut batch = tap.batch();
         for channel in &mut self.channels {
             // A look at shared memory, cheaper than a receive that finds nothing.
-            if !channel.subscriber.has_data() {
+            if !wanted(&channel.topic) || !channel.subscriber.has_data() {
                 continue;
             }
             // Each unmappable sample is released as it is met, so looking again ends; the

@@ -21,6 +21,7 @@ use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use lewis_interfaces::{Message, cdr};
 
+use super::ledger::{self, EndedPublisher, LedgerFile, LedgerSlot};
 use super::wait::{self, Waitable};
 use super::{Ipc, IpcError, port_error, service_name};
 
@@ -235,6 +236,8 @@ pub struct Publisher {
     /// loan (its pass over the subscribers' returned samples and the pool) is not on the
     /// way from the message to its subscribers.
     spare: Option<Loan>,
+    /// Where it notes what it sent, for a reader after a crash ([`super::ledger`]).
+    ledger: Option<LedgerSlot>,
 }
 
 impl fmt::Debug for Publisher {
@@ -276,6 +279,9 @@ impl Publisher {
             channel: self.channel.clone(),
             reason: e.to_string(),
         })?;
+        if let Some(ledger) = &self.ledger {
+            ledger.note(self.next_seq);
+        }
         self.notifier.notify().map_err(|e| PublishError::Notify {
             channel: self.channel.clone(),
             reason: e.to_string(),
@@ -376,6 +382,8 @@ pub struct Subscriber {
     last_seq: Vec<(u128, u64)>,
     tracked_publishers: usize,
     lost: u64,
+    /// When it was made, in ns since 1970: a publisher made later owed it every sample.
+    created_ns: i64,
 }
 
 impl fmt::Debug for Subscriber {
@@ -446,6 +454,30 @@ impl Subscriber {
     /// The channel name.
     pub fn channel(&self) -> &str {
         &self.channel
+    }
+
+    /// The samples that `ended`, a publisher of this channel whose process has died, sent
+    /// to this subscriber after the last one it received: unread when the publisher's
+    /// memory went, they never arrive and no later sample shows the gap. Take what can
+    /// still be received first. A publisher made before this subscriber and never heard
+    /// from owed it nothing; one made after it owed it everything it sent. The publisher
+    /// is forgotten, so that it is counted once.
+    pub fn publisher_ended(&mut self, ended: &EndedPublisher) -> u64 {
+        if ended.channel != self.channel {
+            return 0;
+        }
+        match self
+            .last_seq
+            .iter()
+            .position(|(p, _)| *p == ended.publisher_id)
+        {
+            Some(pos) => {
+                let (_, last) = self.last_seq.remove(pos);
+                ended.sent.saturating_sub(last + 1)
+            }
+            None if ended.created_ns >= self.created_ns => ended.sent,
+            None => 0,
+        }
     }
 
     fn account(&mut self, publisher: u128, seq: u64) {
@@ -616,6 +648,11 @@ impl Ipc {
             .notifier_builder()
             .create()
             .map_err(|e| port_error("notifier", channel, e))?;
+        let ledger = self
+            .ledger
+            .get_or_init(|| LedgerFile::create(&self.namespace))
+            .as_ref()
+            .and_then(|file| file.slot(channel, port.id().value()));
         Ok(Publisher {
             channel: channel.to_owned(),
             port,
@@ -625,6 +662,7 @@ impl Ipc {
             discarded,
             last_len: 0,
             spare: None,
+            ledger,
         })
     }
 
@@ -655,6 +693,7 @@ impl Ipc {
             last_seq: Vec::new(),
             tracked_publishers: 4 * config.max_publishers.max(1),
             lost: 0,
+            created_ns: ledger::now_ns(),
         })
     }
 }
@@ -683,6 +722,37 @@ mod tests {
         check(&[(1, 0), (1, 3)], 2);
         check(&[(1, 0), (2, 10), (1, 1), (2, 12)], 1);
         check(&[(1, 4), (1, 2), (1, 5)], 0);
+    }
+
+    #[test]
+    fn an_ended_publisher_owes_what_it_sent_after_the_last_sample_received() {
+        let namespace = Namespace::unique("ended");
+        let ipc = Ipc::open(&namespace, "pub").unwrap();
+        let other = Ipc::open(&namespace, "sub").unwrap();
+        let config = ChannelConfig::reliable(16);
+        let mut sub = other.subscriber("scan", &config).unwrap();
+        let mut publisher = ipc.publisher("scan", &config).unwrap();
+        for i in 0..5_u8 {
+            publisher.publish(&[i]).unwrap();
+        }
+        let first = sub.receive().unwrap().unwrap();
+        let id = first.publisher_id();
+        assert_eq!(first.bytes(), [0]);
+        drop(first);
+        assert_eq!(sub.receive().unwrap().unwrap().bytes(), [1]);
+        let ended = |channel: &str, publisher_id, created_ns| EndedPublisher {
+            channel: channel.to_owned(),
+            publisher_id,
+            sent: 5,
+            created_ns,
+        };
+        assert_eq!(sub.publisher_ended(&ended("other", id, 0)), 0);
+        // Samples 2, 3 and 4 were sent after the last one received (1).
+        assert_eq!(sub.publisher_ended(&ended("scan", id, 0)), 3);
+        // Counted once: forgotten, and made before the subscriber.
+        assert_eq!(sub.publisher_ended(&ended("scan", id, 0)), 0);
+        // Never heard from and made after the subscriber: everything it sent.
+        assert_eq!(sub.publisher_ended(&ended("scan", id + 1, i64::MAX)), 5);
     }
 
     #[test]

@@ -17,6 +17,9 @@
 //! - [`Ipc::nodes`] / [`Ipc::cleanup_dead_nodes`]: liveness of the processes in the
 //!   namespace, the only way to see a publisher that was killed with SIGKILL;
 //!   [`NodeCleaner`] cleans on a thread of its own, for loops that must not stall.
+//! - [`LedgerReader`]: what each publisher of a process that died had sent (every
+//!   publisher notes its count in a small mapped file that outlives it), so that a reader
+//!   counts the samples a killed provider sent that never arrived.
 //! - [`baseline`]: raw iceoryx2, none of the above, for the latency benchmarks to compare
 //!   with.
 
@@ -24,6 +27,7 @@ pub mod baseline;
 mod channel;
 mod cleaner;
 mod command;
+mod ledger;
 mod liveness;
 mod namespace;
 mod predict;
@@ -39,6 +43,7 @@ pub use command::{
     CallError, CallId, CallOutcome, CommandClient, CommandConfig, CommandServer, Reply, ReplyError,
     Request,
 };
+pub use ledger::{EndedPublisher, LedgerReader};
 pub use liveness::{CleanupReport, LivenessError, NodeInfo, NodeLiveness};
 pub use namespace::{
     DEFAULT_NAMESPACE, MAX_NAMESPACE_LEN, NAMESPACE_ENV, Namespace, NamespaceError,
@@ -47,9 +52,10 @@ pub use stale::{WipeReport, remove_abandoned_channels, wipe_stale};
 pub(crate) use wait::SPINS_PER_CLOCK_READ;
 pub use wait::{FdSource, Fired, MAX_WAIT_SOURCES, WaitError, WaitSet, Waitable, WakeMode, Woken};
 
-use std::cell::RefCell;
+use std::cell::{OnceCell, RefCell};
 use std::collections::BTreeMap;
 use std::rc::Rc;
+use std::sync::Arc;
 
 use iceoryx2::node::{Node, NodeBuilder};
 use iceoryx2::prelude::{NodeName, ServiceName, SignalHandlingMode, ipc};
@@ -133,6 +139,8 @@ pub struct Ipc {
     /// The publishers every part of this process shares ([`Ipc::shared_publisher`]); before
     /// `node`, so that they close before it.
     shared: RefCell<BTreeMap<String, Rc<RefCell<Publisher>>>>,
+    /// This endpoint's publication ledger, made with its first publisher.
+    ledger: OnceCell<Option<Arc<ledger::LedgerFile>>>,
     node: Node<ipc::Service>,
     namespace: Namespace,
 }
@@ -162,6 +170,7 @@ impl Ipc {
             })?;
         Ok(Self {
             shared: RefCell::new(BTreeMap::new()),
+            ledger: OnceCell::new(),
             node,
             namespace: namespace.clone(),
         })
