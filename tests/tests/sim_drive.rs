@@ -58,6 +58,8 @@ fn write_robot(dir: &std::path::Path, text: &str) -> PathBuf {
 struct GoalDrive {
     child: Child,
     namespace: Namespace,
+    /// What `lewis up` gives the robot, and the watchdog of each wait.
+    timeout: Duration,
     _dir: tempfile::TempDir,
     lines: Receiver<String>,
     seen: Vec<String>,
@@ -107,6 +109,7 @@ impl GoalDrive {
         Self {
             child,
             namespace,
+            timeout: Duration::from_secs(timeout_secs),
             _dir: dir,
             lines,
             seen: Vec::new(),
@@ -115,7 +118,7 @@ impl GoalDrive {
 
     /// Waits (watchdog) for a line containing `needle`.
     fn wait_line(&mut self, needle: &str) -> String {
-        let deadline = Instant::now() + Duration::from_secs(GOAL_TIMEOUT_SECS);
+        let deadline = Instant::now() + self.timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.lines.recv_timeout(left) {
@@ -132,15 +135,19 @@ impl GoalDrive {
         }
     }
 
-    /// Waits for `lewis up` to end by itself (it gives the robot GOAL_TIMEOUT_SECS, then
-    /// stops); returns its exit status.
+    /// Waits for `lewis up` to end by itself (it gives the robot its timeout, then stops);
+    /// returns its exit status.
     fn wait_end(&mut self) -> ExitStatus {
-        let status =
-            wait_child_within(&mut self.child, Duration::from_secs(GOAL_TIMEOUT_SECS + 30));
+        let status = wait_child_within(&mut self.child, self.timeout + Duration::from_secs(30));
+        self.read_rest();
+        status
+    }
+
+    /// Reads what `lewis up` wrote until it closed its stderr.
+    fn read_rest(&mut self) {
         while let Ok(line) = self.lines.recv_timeout(Duration::from_secs(10)) {
             self.seen.push(line);
         }
-        status
     }
 
     /// Runs `lewis fault SERVICE --kill` against this robot; whether it killed something.
@@ -232,6 +239,73 @@ fn the_simulated_robot_reaches_a_goal_through_the_door_without_a_collision() {
     drive.wait_line("goal 1 sent to obstacle_avoider");
     let status = drive.wait_end();
     assert_arrived_without_collision(&drive, status);
+}
+
+/// The far goal: the corridor's east end, about 26 m from the lobby (a minute's drive).
+const FAR_GOAL: &str = "29.5,12.5";
+
+/// The actions of a decision against a provider: none may come when nothing is wrong.
+const AGAINST_A_PROVIDER: [&str; 5] = [
+    "restart-scheduled",
+    "service-failed",
+    "service-degraded",
+    "rebind",
+    "ask-for-help",
+];
+
+#[test]
+fn with_every_data_check_on_a_minute_s_drive_moves_no_healthy_provider() {
+    let _one = ONE_ROBOT
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let robot = sim_robot(dir.path());
+    assert!(
+        std::fs::read_to_string(&robot)
+            .expect("the robot file reads")
+            .contains("\ndata_checks = true\n"),
+        "robots/sim.toml no longer turns the broker's data checks on"
+    );
+    let mut drive = GoalDrive::start_with("sim-checks", dir, &robot, FAR_GOAL, 150);
+    let ipc = Ipc::open(&drive.namespace, "test-watch").expect("the test's IPC node opens");
+    let mut decisions = ipc
+        .subscriber(names::BROKER_CHANNEL, &names::broker_config())
+        .expect("the broker's decisions can be read");
+    drive.wait_line("goal 1 sent to obstacle_avoider");
+    let started = Instant::now();
+    // Read as they come: what the broker sent and nobody read goes with it when it ends.
+    let mut seen = Vec::new();
+    let deadline = started + drive.timeout + Duration::from_secs(30);
+    let status = loop {
+        drain(&mut decisions, &mut seen);
+        if let Some(status) = drive.child.try_wait().expect("lewis up can be waited for") {
+            break status;
+        }
+        assert!(Instant::now() < deadline, "lewis up did not end:\n{}", drive.log());
+        // Woken by the next decision, or after a while to see whether lewis up ended.
+        WaitSet::new(WakeMode::Event)
+            .wait(&[&decisions], Some(Instant::now() + Duration::from_millis(500)))
+            .expect("the test can wait");
+    };
+    let drove = started.elapsed();
+    drive.read_rest();
+    assert_arrived_without_collision(&drive, status);
+    let against: Vec<String> = seen
+        .iter()
+        .filter(|d| AGAINST_A_PROVIDER.contains(&d.action.as_str()))
+        .map(|d| format!("{} {}: {}", d.action, d.service, d.reason))
+        .collect();
+    assert!(
+        against.is_empty(),
+        "healthy providers were acted against in {drove:?}:\n{}\n{}",
+        against.join("\n"),
+        drive.log()
+    );
+    assert!(
+        seen.iter().any(|d| d.action == "start" && d.service == "camera"),
+        "the camera never ran, so its checks were not tried: {seen:?}"
+    );
+    eprintln!("{drove:?} of driving, {} decisions, none against a provider", seen.len());
 }
 
 #[test]
