@@ -294,24 +294,23 @@ impl Recorder {
     /// Counts `count` messages of `channel` that the queue in front of the recorder
     /// dropped (they also show as sequence gaps).
     pub fn note_dropped(&mut self, channel: ChannelId, count: u64) {
-        if let Some(state) = usize::try_from(channel.0)
-            .ok()
-            .and_then(|i| self.channels.get_mut(i))
-        {
-            state.part.dropped += count;
-            state.total.dropped += count;
-        }
+        self.count(channel, |counts| counts.dropped += count);
     }
 
     /// Counts `count` messages of `channel` that its provider sent before it died and that
     /// never arrived: lost, though no sequence gap shows them.
     pub fn note_lost_at_exit(&mut self, channel: ChannelId, count: u64) {
+        self.count(channel, |counts| counts.lost += count);
+    }
+
+    /// Adds to `channel`'s counts, of this part and of the whole recording.
+    fn count(&mut self, channel: ChannelId, add: impl Fn(&mut ChannelCounts)) {
         if let Some(state) = usize::try_from(channel.0)
             .ok()
             .and_then(|i| self.channels.get_mut(i))
         {
-            state.part.lost += count;
-            state.total.lost += count;
+            add(&mut state.part);
+            add(&mut state.total);
         }
     }
 
