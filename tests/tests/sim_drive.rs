@@ -10,6 +10,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stderr)]
 
+use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, ExitStatus, Stdio};
@@ -17,7 +18,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker, GroundTruth, Mover};
+use lewis_interfaces::msg::{Blob3D, Blobs3D, Broker, GroundTruth, Mover};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
 use lewis_runtime::names;
 use lewis_tests::robot::with_absolute_paths;
@@ -281,10 +282,17 @@ fn with_every_data_check_on_a_minute_s_drive_moves_no_healthy_provider() {
         if let Some(status) = drive.child.try_wait().expect("lewis up can be waited for") {
             break status;
         }
-        assert!(Instant::now() < deadline, "lewis up did not end:\n{}", drive.log());
+        assert!(
+            Instant::now() < deadline,
+            "lewis up did not end:\n{}",
+            drive.log()
+        );
         // Woken by the next decision, or after a while to see whether lewis up ended.
         WaitSet::new(WakeMode::Event)
-            .wait(&[&decisions], Some(Instant::now() + Duration::from_millis(500)))
+            .wait(
+                &[&decisions],
+                Some(Instant::now() + Duration::from_millis(500)),
+            )
             .expect("the test can wait");
     };
     let drove = started.elapsed();
@@ -302,10 +310,14 @@ fn with_every_data_check_on_a_minute_s_drive_moves_no_healthy_provider() {
         drive.log()
     );
     assert!(
-        seen.iter().any(|d| d.action == "start" && d.service == "camera"),
+        seen.iter()
+            .any(|d| d.action == "start" && d.service == "camera"),
         "the camera never ran, so its checks were not tried: {seen:?}"
     );
-    eprintln!("{drove:?} of driving, {} decisions, none against a provider", seen.len());
+    eprintln!(
+        "{drove:?} of driving, {} decisions, none against a provider",
+        seen.len()
+    );
 }
 
 #[test]
@@ -631,4 +643,137 @@ fn the_simulated_sensors_honour_out_of_service_clear_and_stall() {
     assert!(log.contains("rebind app from laser to sonar"), "{log}");
     assert!(log.contains("rebind app from sonar to laser"), "{log}");
     assert!(log.contains("heartbeat"), "{log}");
+}
+
+/// Blobs3D samples taken on each side of the camera switch.
+const PLACED_SAMPLES: usize = 8;
+
+/// The width of the simulated cameras' images (`robots/sim.toml`).
+const IMAGE_WIDTH_PX: i32 = 640;
+
+/// The median position (x, y) of each colour's largest placed blob over `count` Blobs3D
+/// samples from now on. Blobs cut by the image's side are left out: the two cameras see
+/// different parts of such an object, so its centroid is not the same point.
+fn placed_by_colour(blobs3d: &mut Subscriber, count: usize) -> BTreeMap<String, (f64, f64)> {
+    let deadline = Instant::now() + Duration::from_secs(GOAL_TIMEOUT_SECS);
+    count_new(blobs3d);
+    let mut seen: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    let mut taken = 0;
+    while taken < count {
+        assert!(
+            Instant::now() < deadline,
+            "only {taken} Blobs3D samples came"
+        );
+        while let Some(sample) = blobs3d.receive().expect("Blobs3D can be received") {
+            let message: Blobs3D = cdr::from_bytes(sample.bytes()).expect("Blobs3D decodes");
+            let mut largest: BTreeMap<&str, &Blob3D> = BTreeMap::new();
+            let whole = |b: &&Blob3D| b.blob.left > 2 && b.blob.right < IMAGE_WIDTH_PX - 3;
+            for placed in message.blobs.iter().filter(|b| b.range_valid).filter(whole) {
+                let entry = largest.entry(&placed.blob.colour_name).or_insert(placed);
+                if placed.blob.area > entry.blob.area {
+                    *entry = placed;
+                }
+            }
+            for (colour, placed) in largest {
+                seen.entry(colour.to_owned())
+                    .or_default()
+                    .push((placed.position.x, placed.position.y));
+            }
+            taken += 1;
+        }
+        WaitSet::new(WakeMode::Event)
+            .wait(&[&*blobs3d], Some(deadline))
+            .expect("the test can wait");
+    }
+    let median = |mut values: Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    seen.into_iter()
+        // A colour seen in most samples, not one that flickered in once.
+        .filter(|(_, at)| at.len() > count / 2)
+        .map(|(colour, at)| {
+            let x = median(at.iter().map(|p| p.0).collect());
+            let y = median(at.iter().map(|p| p.1).collect());
+            (colour, (x, y))
+        })
+        .collect()
+}
+
+/// The paper's example of a failover: Lewis's stereo pair. The left camera goes out of
+/// service; the broker moves the blob finder and the sign detector to the right camera
+/// (one pan-tilt mount: both at once), and BlobFinder3D, knowing that camera's place 12 cm
+/// to the right, puts the same objects where it put them before. The robot stands still.
+#[test]
+fn the_left_camera_lost_the_right_one_serves_perception_and_blobs_stay_in_place() {
+    let _one = ONE_ROBOT
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    // Turned toward the lobby's first sign (on the wall by the entrance door), so that it
+    // is whole in both cameras' images.
+    let start = "start = { x_m = 3.0, y_m = 12.5, heading_deg = 0.0 }";
+    let robot = lewis_tests::robot::shipped_robot("sim.toml");
+    assert!(
+        robot.contains(start),
+        "robots/sim.toml's start pose changed"
+    );
+    let robot = robot.replace(
+        start,
+        "start = { x_m = 3.0, y_m = 12.5, heading_deg = 21.0 }",
+    );
+    let mut up = Up::start("sim-stereo", &robot);
+    let ipc = open_ipc(&up.namespace, "test-app");
+    let mut decisions = ipc
+        .subscriber(names::BROKER_CHANNEL, &names::broker_config())
+        .expect("the broker's decisions can be read");
+    let mut blobs3d = ipc
+        .subscriber(
+            &names::data_channel("blobfinder3d", "Blobs3D"),
+            &names::data_config("Blobs3D"),
+        )
+        .expect("Blobs3D can be read");
+    up.wait_line("broker up");
+    let left = placed_by_colour(&mut blobs3d, PLACED_SAMPLES);
+
+    inject(&up, "camera", "--out-of-service", "out-of-service");
+    let moved = |seen: &[Broker], client: &str| {
+        seen.iter().any(|d| {
+            d.action == "rebind"
+                && d.client == client
+                && d.interface == "ImageSource"
+                && d.from_service == "camera"
+                && d.to_service == "camera2"
+        })
+    };
+    let mut seen = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(GOAL_TIMEOUT_SECS);
+    while !(moved(&seen, "blobfinder") && moved(&seen, "sign_detector")) {
+        assert!(
+            Instant::now() < deadline,
+            "perception did not move to camera2: {seen:#?}"
+        );
+        drain(&mut decisions, &mut seen);
+        WaitSet::new(WakeMode::Event)
+            .wait(&[&decisions], Some(deadline))
+            .expect("the test can wait");
+    }
+    // Blobs already on their way from the left camera's last images pass first.
+    count_new(&mut blobs3d);
+    let right = placed_by_colour(&mut blobs3d, PLACED_SAMPLES);
+    up.stop();
+
+    eprintln!("through the left camera {left:?}\nthrough the right camera {right:?}");
+    let both: Vec<_> = left.keys().filter(|c| right.contains_key(*c)).collect();
+    assert!(
+        !both.is_empty(),
+        "no colour placed through both cameras: left {left:?}, right {right:?}"
+    );
+    for colour in both {
+        let (a, b) = (left[colour], right[colour]);
+        let moved_m = (a.0 - b.0).hypot(a.1 - b.1);
+        assert!(
+            moved_m < 0.05,
+            "{colour}: placed at {a:?} through the left camera, {b:?} through the right: {moved_m:.3} m apart"
+        );
+    }
 }

@@ -123,7 +123,7 @@ fn tuner(args: &BlobfinderArgs) -> anyhow::Result<Tuner> {
         .with_context(|| format!("--signs with {}", args.colors.display()))?;
     Ok(tuner.with_signs(SignDetector::new(
         finder,
-        params.camera,
+        params.mounts(),
         params.horizontal_fov_deg.to_radians(),
     )))
 }

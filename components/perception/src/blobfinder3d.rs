@@ -23,10 +23,15 @@
 //! max_range_m = 8.0             # readings beyond are not used
 //! max_scan_age_ms = 500         # an older scan is not used
 //! camera = { x_m = 0.1, y_m = 0.0, z_m = 1.2, pan_rad = 0.0, tilt_rad = 0.0 }
+//! # Optional: other cameras the Blobs may come from, by service name (their images' channel
+//! # is in each Blobs message's inputs); `camera` is for any other.
+//! cameras = { camera2 = { x_m = 0.1, y_m = -0.12, z_m = 1.2, pan_rad = 0.0, tilt_rad = 0.0 } }
 //! ```
 //!
 //! A blob with no usable reading is still published, with `range_valid` false and a zero
 //! position and size.
+
+use std::collections::BTreeMap;
 
 use lewis_geometry::wrap_angle;
 use lewis_images::ImageIntrinsics;
@@ -41,7 +46,7 @@ use lewis_runtime::service::{
 use nalgebra::Point2;
 use serde::Deserialize;
 
-use super::camera_model::{CameraMount, PinholeCamera};
+use super::camera_model::{CameraMount, CameraMounts, PinholeCamera};
 
 /// The kind name in robot files.
 pub const KIND: &str = "blobfinder3d";
@@ -58,6 +63,9 @@ pub struct Params {
     pub max_scan_age_ms: u64,
     /// Where the camera sits on the robot.
     pub camera: CameraMount,
+    /// Where each other camera sits, by its service's name, for Blobs found in its images
+    /// (the broker may move the blob finder to another camera).
+    pub cameras: BTreeMap<String, CameraMount>,
 }
 
 impl Default for Params {
@@ -67,6 +75,7 @@ impl Default for Params {
             max_range_m: 8.0,
             max_scan_age_ms: 500,
             camera: CameraMount::default(),
+            cameras: BTreeMap::new(),
         }
     }
 }
@@ -145,18 +154,18 @@ impl Scan {
 #[derive(Debug, Clone, PartialEq)]
 pub struct BlobLocator {
     horizontal_fov_rad: f64,
-    mount: CameraMount,
+    mounts: CameraMounts,
     max_range_m: f64,
 }
 
 impl BlobLocator {
-    /// A locator for a camera of horizontal field of view `horizontal_fov_rad` at `mount`,
+    /// A locator for cameras of horizontal field of view `horizontal_fov_rad` at `mounts`,
     /// using readings up to `max_range_m`.
     #[must_use]
-    pub fn new(horizontal_fov_rad: f64, mount: CameraMount, max_range_m: f64) -> Self {
+    pub fn new(horizontal_fov_rad: f64, mounts: CameraMounts, max_range_m: f64) -> Self {
         Self {
             horizontal_fov_rad,
-            mount,
+            mounts,
             max_range_m,
         }
     }
@@ -166,21 +175,31 @@ impl BlobLocator {
         self.max_range_m = max_range_m;
     }
 
-    /// The camera model for images of `width_px` x `height_px`.
+    /// The model of the camera at `mount` for images of `width_px` x `height_px`.
     #[must_use]
-    pub fn camera(&self, width_px: u32, height_px: u32) -> PinholeCamera {
+    pub fn camera(&self, mount: &CameraMount, width_px: u32, height_px: u32) -> PinholeCamera {
         PinholeCamera::new(
             ImageIntrinsics::from_fov(width_px, height_px, self.horizontal_fov_rad),
-            &self.mount,
+            mount,
         )
     }
 
-    /// Every blob of `blobs` placed with `scan` (or not placed, without a scan).
+    /// Every blob of `blobs` placed with `scan` (or not placed, without a scan), seen by
+    /// the camera whose images the Blobs name among their inputs.
     #[must_use]
     pub fn locate(&self, blobs: &Blobs, scan: Option<&Scan>) -> Blobs3D {
         let width = u32::try_from(blobs.image_width).unwrap_or(0).max(1);
         let height = u32::try_from(blobs.image_height).unwrap_or(0).max(1);
-        let camera = self.camera(width, height);
+        let mount = blobs
+            .header
+            .inputs
+            .iter()
+            .find(|input| input.channel.ends_with("/ImageSource"))
+            .map_or_else(
+                || self.mounts.of(""),
+                |input| self.mounts.of_channel(&input.channel),
+            );
+        let camera = self.camera(mount, width, height);
         let placed: Vec<Blob3D> = blobs
             .blobs
             .iter()
@@ -281,7 +300,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     Ok(Box::new(BlobFinder3D {
         locator: BlobLocator::new(
             params.horizontal_fov_deg.to_radians(),
-            params.camera,
+            CameraMounts::new(params.camera, params.cameras),
             params.max_range_m,
         ),
         max_scan_age_ns: i64::try_from(params.max_scan_age_ms)
@@ -413,7 +432,7 @@ mod tests {
 
     #[test]
     fn a_blob_is_placed_where_the_beam_along_its_bearing_ends() {
-        let locator = BlobLocator::new(90f64.to_radians(), CameraMount::default(), 8.0);
+        let locator = BlobLocator::new(90f64.to_radians(), CameraMounts::default(), 8.0);
         let scan = Scan::from_range_finder(&circle_scan(3.0));
         let blobs = Blobs {
             image_width: 640,
@@ -439,8 +458,39 @@ mod tests {
     }
 
     #[test]
+    fn blobs_are_placed_from_the_camera_whose_images_they_came_from() {
+        let (_, mounts) = crate::camera_model::stereo_pair();
+        let locator = BlobLocator::new(90f64.to_radians(), mounts, 8.0);
+        let scan = Scan::from_range_finder(&circle_scan(3.0));
+        let from = |channel: &str| Blobs {
+            image_width: 640,
+            image_height: 480,
+            blob_count: 1,
+            blobs: vec![blob(310, 230, 330, 250)],
+            header: lewis_interfaces::msg::Header {
+                inputs: vec![InputRef {
+                    channel: channel.to_owned(),
+                    seq: 1,
+                }],
+                ..Default::default()
+            },
+        };
+        let y_of = |channel: &str| {
+            locator.locate(&from(channel), Some(&scan)).blobs[0]
+                .position
+                .y
+        };
+        // The image centre, straight ahead of each camera: on its own line across the robot.
+        assert!(y_of("/camera/ImageSource").abs() < 0.01);
+        assert!((y_of("/camera2/ImageSource") + 0.12).abs() < 0.01);
+        // A camera not named, or no image among the inputs: the default mount.
+        assert!(y_of("/camera3/ImageSource").abs() < 0.01);
+        assert!(y_of("/laser/RangeFinder").abs() < 0.01);
+    }
+
+    #[test]
     fn blobs_beyond_the_range_or_without_a_scan_have_no_position() {
-        let mut locator = BlobLocator::new(90f64.to_radians(), CameraMount::default(), 8.0);
+        let mut locator = BlobLocator::new(90f64.to_radians(), CameraMounts::default(), 8.0);
         let blobs = Blobs {
             image_width: 640,
             image_height: 480,

@@ -6,6 +6,8 @@
 //! pan (a turn to the left, about z) and its tilt (upwards), as the CameraControl interface
 //! and the simulator name them.
 
+use std::collections::BTreeMap;
+
 use nalgebra::{Isometry3, Point2, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
@@ -59,6 +61,59 @@ impl CameraMount {
             robot_from_body * UnitQuaternion::from_rotation_matrix(&body_from_optical),
         )
     }
+}
+
+/// Where each camera of the robot sits, by the name of the service that provides its
+/// images: perception that the broker may move from one camera to another (a stereo pair,
+/// the paper's example) places what it sees from the camera each image came from.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CameraMounts {
+    default: CameraMount,
+    by_camera: BTreeMap<String, CameraMount>,
+}
+
+impl CameraMounts {
+    /// `default` for images of any camera not named in `by_camera`.
+    #[must_use]
+    pub fn new(default: CameraMount, by_camera: BTreeMap<String, CameraMount>) -> Self {
+        Self { default, by_camera }
+    }
+
+    /// One camera, wherever the images come from.
+    #[must_use]
+    pub fn single(mount: CameraMount) -> Self {
+        Self::new(mount, BTreeMap::new())
+    }
+
+    /// The mount of the camera service `camera`.
+    #[must_use]
+    pub fn of(&self, camera: &str) -> &CameraMount {
+        self.by_camera.get(camera).unwrap_or(&self.default)
+    }
+
+    /// The mount of the camera whose images came on `channel` (`/camera2/ImageSource`).
+    #[must_use]
+    pub fn of_channel(&self, channel: &str) -> &CameraMount {
+        channel
+            .strip_prefix('/')
+            .and_then(|rest| rest.strip_suffix("/ImageSource"))
+            .map_or(&self.default, |camera| self.of(camera))
+    }
+}
+
+/// The simulated robot's stereo pair: the right camera's mount (`camera2`, 12 cm right of
+/// the default), and the mounts of both.
+#[cfg(test)]
+pub(crate) fn stereo_pair() -> (CameraMount, CameraMounts) {
+    let right = CameraMount {
+        y_m: -0.12,
+        ..CameraMount::default()
+    };
+    let mounts = CameraMounts::new(
+        CameraMount::default(),
+        [("camera2".to_owned(), right)].into(),
+    );
+    (right, mounts)
 }
 
 /// A pinhole camera at a known place on the robot.
@@ -228,5 +283,16 @@ mod tests {
         assert!(close((point - cam.origin()).xy().norm(), 2.5));
         let bearing = cam.bearing_from(100.0, 100.0, Point2::new(0.1, 0.0), 2.5);
         assert!(close(bearing, point.y.atan2(point.x - 0.1)));
+    }
+
+    #[test]
+    fn each_camera_has_its_mount_and_the_others_the_default() {
+        let (right, mounts) = stereo_pair();
+        assert_eq!(mounts.of("camera2"), &right);
+        assert_eq!(mounts.of("camera"), &CameraMount::default());
+        assert_eq!(mounts.of_channel("/camera2/ImageSource"), &right);
+        for other in ["/camera2/Blobs", "camera2/ImageSource", "/camera2", ""] {
+            assert_eq!(mounts.of_channel(other), &CameraMount::default(), "{other}");
+        }
     }
 }

@@ -18,8 +18,12 @@
 //! min_confidence = 0.2
 //! horizontal_fov_deg = 48.8              # only for images that carry no intrinsics
 //! camera = { x_m = 0.1, y_m = 0.0, z_m = 1.2, pan_rad = 0.0, tilt_rad = 0.0 }
+//! # Optional: other cameras the images may come from, by service name (each image's header
+//! # names its provider); `camera` is for any other.
+//! cameras = { camera2 = { x_m = 0.1, y_m = -0.12, z_m = 1.2, pan_rad = 0.0, tilt_rad = 0.0 } }
 //! ```
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use lewis_images::ImageIntrinsics;
@@ -30,7 +34,7 @@ use lewis_runtime::service::{
 };
 use serde::Deserialize;
 
-use super::camera_model::{CameraMount, PinholeCamera};
+use super::camera_model::{CameraMount, CameraMounts, PinholeCamera};
 use super::cmvision::ColorConfig;
 use super::image_view::{FrameScratch, ImageError};
 use super::signs::{SignFinder, SignModel, default_sign_colors};
@@ -60,6 +64,9 @@ pub struct Params {
     pub horizontal_fov_deg: f64,
     /// Where the camera sits on the robot.
     pub camera: CameraMount,
+    /// Where each other camera sits, by its service's name, for its images (the broker may
+    /// move the detector to another camera).
+    pub cameras: BTreeMap<String, CameraMount>,
 }
 
 impl Default for Params {
@@ -75,6 +82,7 @@ impl Default for Params {
             min_confidence: model.min_confidence,
             horizontal_fov_deg: 48.8,
             camera: CameraMount::default(),
+            cameras: BTreeMap::new(),
         }
     }
 }
@@ -101,6 +109,12 @@ pub enum SignParamsError {
 }
 
 impl Params {
+    /// Where the cameras the images may come from sit.
+    #[must_use]
+    pub fn mounts(&self) -> CameraMounts {
+        CameraMounts::new(self.camera, self.cameras.clone())
+    }
+
     /// The sign finder these parameters describe.
     ///
     /// # Errors
@@ -170,19 +184,19 @@ impl Params {
 pub struct SignDetector {
     finder: SignFinder,
     scratch: FrameScratch,
-    mount: CameraMount,
+    mounts: CameraMounts,
     horizontal_fov_rad: f64,
 }
 
 impl SignDetector {
-    /// A detector with `finder`, a camera at `mount` whose field of view is
+    /// A detector with `finder`, cameras at `mounts` whose field of view is
     /// `horizontal_fov_rad` when the images do not say.
     #[must_use]
-    pub fn new(finder: SignFinder, mount: CameraMount, horizontal_fov_rad: f64) -> Self {
+    pub fn new(finder: SignFinder, mounts: CameraMounts, horizontal_fov_rad: f64) -> Self {
         Self {
             finder,
             scratch: FrameScratch::default(),
-            mount,
+            mounts,
             horizontal_fov_rad,
         }
     }
@@ -196,7 +210,8 @@ impl SignDetector {
         let intrinsics = ImageIntrinsics::of_image(image).unwrap_or_else(|| {
             ImageIntrinsics::from_fov(frame.width_px(), frame.height_px(), self.horizontal_fov_rad)
         });
-        let camera = PinholeCamera::new(intrinsics, &self.mount);
+        // The camera that took it: the provider its header names.
+        let camera = PinholeCamera::new(intrinsics, self.mounts.of(&image.header.provider));
         let found = self.finder.find(frame);
         let signs: Vec<_> = found
             .iter()
@@ -223,7 +238,7 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
     Ok(Box::new(SignDetectorService {
         detector: SignDetector::new(
             finder,
-            params.camera,
+            params.mounts(),
             params.horizontal_fov_deg.to_radians(),
         ),
         enabled: true,

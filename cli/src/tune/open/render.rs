@@ -59,7 +59,7 @@ pub fn signs(config: &ColorConfig, frame: &HeldFrame) -> anyhow::Result<Signs> {
     };
     let fov_rad = params.horizontal_fov_deg.to_radians();
     let finder = params.finder_with(config)?;
-    let mut detector = SignDetector::new(finder, params.camera, fov_rad);
+    let mut detector = SignDetector::new(finder, params.mounts(), fov_rad);
     let image = image_message(
         frame.width_px,
         frame.height_px,

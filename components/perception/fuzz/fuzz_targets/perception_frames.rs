@@ -6,7 +6,7 @@
 
 use lewis_interfaces::msg::{ImageSource, RangeFinder};
 use lewis_perception::blobfinder3d::{BlobLocator, Scan};
-use lewis_perception::camera_model::CameraMount;
+use lewis_perception::camera_model::CameraMounts;
 use lewis_perception::sign_detector::{Params, SignDetector};
 use lewis_perception::signs::default_sign_colors;
 use lewis_perception::tuning::Tuner;
@@ -64,7 +64,7 @@ fuzz_target!(|data: &[u8]| {
     let params = Params::default();
     let mut detector = SignDetector::new(
         params.finder().expect("the default sign colours"),
-        params.camera,
+        params.mounts(),
         params.horizontal_fov_deg.to_radians(),
     );
     let signs = detector.detect(&image).expect("the frame was read once");
@@ -84,7 +84,7 @@ fuzz_target!(|data: &[u8]| {
         ..RangeFinder::default()
     };
     let scan = Scan::from_range_finder(&scan_message);
-    let locator = BlobLocator::new(0.85, CameraMount::default(), 8.0);
+    let locator = BlobLocator::new(0.85, CameraMounts::default(), 8.0);
     let placed = locator.locate(&tuned.blobs, Some(&scan));
     for blob in placed.blobs.iter().filter(|b| b.range_valid) {
         assert!(blob.position.x.is_finite() && blob.position.z.is_finite());
