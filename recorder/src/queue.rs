@@ -259,15 +259,8 @@ impl Tap {
     /// Messages dropped so far on `channel`.
     #[must_use]
     pub fn dropped(&self, channel: ChannelId) -> u64 {
-        usize::try_from(channel.0)
-            .ok()
-            .and_then(|i| {
-                self.shared
-                    .channels()
-                    .get(i)
-                    .map(|c| c.dropped.load(Ordering::Relaxed))
-            })
-            .unwrap_or(0)
+        self.registered(channel)
+            .map_or(0, |c| c.dropped.load(Ordering::Relaxed))
     }
 
     /// Messages dropped so far, on all channels.
@@ -289,22 +282,23 @@ impl Tap {
     /// never arrived (see `lewis_runtime::ipc::LedgerReader`): no later message shows them
     /// as a gap, so they are counted as lost here.
     pub fn count_lost_at_exit(&self, channel: ChannelId, count: u64) {
-        if let Some(registered) = usize::try_from(channel.0)
-            .ok()
-            .and_then(|i| self.shared.channels().get(i).cloned())
-        {
+        if let Some(registered) = self.registered(channel) {
             registered.lost_at_exit.fetch_add(count, Ordering::Relaxed);
         }
     }
 
     fn count_dropped(&self, channel: ChannelId, count: u64) {
         self.shared.dropped.fetch_add(count, Ordering::Relaxed);
-        if let Some(registered) = usize::try_from(channel.0)
-            .ok()
-            .and_then(|i| self.shared.channels().get(i).cloned())
-        {
+        if let Some(registered) = self.registered(channel) {
             registered.dropped.fetch_add(count, Ordering::Relaxed);
         }
+    }
+
+    /// The registration of `channel`, if it is one of the tap's.
+    fn registered(&self, channel: ChannelId) -> Option<Arc<Registered>> {
+        usize::try_from(channel.0)
+            .ok()
+            .and_then(|i| self.shared.channels().get(i).cloned())
     }
 }
 

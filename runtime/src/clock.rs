@@ -6,6 +6,15 @@
 
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+/// The wall clock now, in nanoseconds since the Unix epoch (0 before it): for times that
+/// other processes compare (a [`LiveClock`]'s anchor, when an IPC port was made).
+#[must_use]
+pub(crate) fn wall_ns() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}
+
 /// A monotonic clock that reads as nanoseconds since the Unix epoch.
 #[derive(Debug, Clone, Copy)]
 pub struct LiveClock {
@@ -17,12 +26,9 @@ impl LiveClock {
     /// A clock anchored to the wall clock now.
     #[must_use]
     pub fn new() -> Self {
-        let origin_ns = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
         Self {
             origin: Instant::now(),
-            origin_ns,
+            origin_ns: wall_ns(),
         }
     }
 

@@ -212,6 +212,17 @@ fn drain(decisions: &mut Subscriber, into: &mut Vec<Broker>) {
     }
 }
 
+/// Whether the broker moved `client`'s `interface` from `from` to `to` among `seen`.
+fn moved(seen: &[Broker], client: &str, interface: &str, from: &str, to: &str) -> bool {
+    seen.iter().any(|d| {
+        d.action == "rebind"
+            && d.client == client
+            && d.interface == interface
+            && d.from_service == from
+            && d.to_service == to
+    })
+}
+
 /// The channels the obstacle_avoider's Mover publications say they were computed from.
 fn drain_inputs(status: &mut Subscriber, into: &mut Vec<String>) {
     while let Some(sample) = status.receive().expect("Mover samples can be received") {
@@ -365,18 +376,9 @@ fn laser_killed_beyond_its_restart_limit_the_robot_arrives_on_sonar() {
     let mut seen = Vec::new();
     let mut killed = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(GOAL_TIMEOUT_SECS);
-    let rebound = |seen: &[Broker]| {
-        seen.iter().any(|d| {
-            d.action == "rebind"
-                && d.client == "obstacle_avoider"
-                && d.interface == "RangeFinder"
-                && d.from_service == "laser"
-                && d.to_service == "sonar"
-        })
-    };
     loop {
         drain(&mut decisions, &mut seen);
-        if rebound(&seen) {
+        if moved(&seen, "obstacle_avoider", "RangeFinder", "laser", "sonar") {
             break;
         }
         assert!(
@@ -736,18 +738,11 @@ fn the_left_camera_lost_the_right_one_serves_perception_and_blobs_stay_in_place(
     let left = placed_by_colour(&mut blobs3d, PLACED_SAMPLES);
 
     inject(&up, "camera", "--out-of-service", "out-of-service");
-    let moved = |seen: &[Broker], client: &str| {
-        seen.iter().any(|d| {
-            d.action == "rebind"
-                && d.client == client
-                && d.interface == "ImageSource"
-                && d.from_service == "camera"
-                && d.to_service == "camera2"
-        })
-    };
+    let to_camera2 =
+        |seen: &[Broker], client: &str| moved(seen, client, "ImageSource", "camera", "camera2");
     let mut seen = Vec::new();
     let deadline = Instant::now() + Duration::from_secs(GOAL_TIMEOUT_SECS);
-    while !(moved(&seen, "blobfinder") && moved(&seen, "sign_detector")) {
+    while !(to_camera2(&seen, "blobfinder") && to_camera2(&seen, "sign_detector")) {
         assert!(
             Instant::now() < deadline,
             "perception did not move to camera2: {seen:#?}"

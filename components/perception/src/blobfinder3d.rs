@@ -190,15 +190,13 @@ impl BlobLocator {
     pub fn locate(&self, blobs: &Blobs, scan: Option<&Scan>) -> Blobs3D {
         let width = u32::try_from(blobs.image_width).unwrap_or(0).max(1);
         let height = u32::try_from(blobs.image_height).unwrap_or(0).max(1);
-        let mount = blobs
+        let images = blobs
             .header
             .inputs
             .iter()
             .find(|input| input.channel.ends_with("/ImageSource"))
-            .map_or_else(
-                || self.mounts.of(""),
-                |input| self.mounts.of_channel(&input.channel),
-            );
+            .map_or("", |input| input.channel.as_str());
+        let mount = self.mounts.of_channel(images);
         let camera = self.camera(mount, width, height);
         let placed: Vec<Blob3D> = blobs
             .blobs

@@ -21,7 +21,7 @@ use iceoryx2::service::port_factory::{event, publish_subscribe};
 
 use lewis_interfaces::{Message, cdr};
 
-use super::ledger::{self, EndedPublisher, LedgerFile, LedgerSlot};
+use super::ledger::{EndedPublisher, LedgerFile, LedgerSlot};
 use super::wait::{self, Waitable};
 use super::{Ipc, IpcError, port_error, service_name};
 
@@ -693,7 +693,7 @@ impl Ipc {
             last_seq: Vec::new(),
             tracked_publishers: 4 * config.max_publishers.max(1),
             lost: 0,
-            created_ns: ledger::now_ns(),
+            created_ns: crate::clock::wall_ns(),
         })
     }
 }

@@ -10,14 +10,14 @@
 //! ledgers of processes that have died and compares what each publisher sent with what it
 //! received ([`super::Subscriber::publisher_ended`]).
 //!
-//! One file per [`super::Ipc`], in `/dev/shm` under the namespace's prefix
-//! (`lewis.NS.ledger.PID.N`), so that the leftovers of a dead namespace go with the rest of
-//! it ([`super::wipe_stale`]). The layout, all little-endian:
+//! One file per [`super::Ipc`], `PID.N` in a folder of the namespace's in `/dev/shm`
+//! (`lewis.NS.ledgers/`): a reader lists only its namespace's ledgers, and the folder goes
+//! with the rest of a dead namespace ([`super::wipe_stale`]). The layout, all
+//! little-endian:
 //!
 //! | bytes | what |
 //! |---|---|
 //! | 0..8 | [`MAGIC`] |
-//! | 8..16 | the writer's process id |
 //! | 64.. | [`SLOTS`] slots of [`SLOT_LEN`] bytes, one per publisher |
 //!
 //! A slot: `0..8` the length of its channel name, written last (0: unused); `8..16` the
@@ -34,14 +34,14 @@ use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
-use std::time::{SystemTime, UNIX_EPOCH};
 
 use nix::sys::mman::{MapFlags, ProtFlags, mmap, munmap};
 
 use super::Namespace;
+use crate::clock::wall_ns;
 
-/// Where the ledgers live: memory, not disk.
-const DIR: &str = "/dev/shm";
+/// Where the ledgers' folders live: memory, not disk.
+const ROOT: &str = "/dev/shm";
 /// The first bytes of a ledger.
 pub const MAGIC: [u8; 8] = *b"LWLEDG01";
 /// The size of a ledger file: one page.
@@ -56,9 +56,9 @@ const NAME_AT: usize = 40;
 /// losses at a crash stay unseen, as before the ledger).
 pub const SLOTS: usize = (FILE_LEN - SLOTS_AT) / SLOT_LEN;
 
-/// The file name prefix of the ledgers of `namespace`.
-fn prefix(namespace: &Namespace) -> String {
-    format!("{}ledger.", namespace.iceoryx2_prefix())
+/// The folder of `namespace`'s ledgers under `root`.
+fn folder(root: &Path, namespace: &Namespace) -> PathBuf {
+    root.join(format!("{}ledgers", namespace.iceoryx2_prefix()))
 }
 
 /// A ledger file, mapped for writing, shared by the publishers of one [`super::Ipc`].
@@ -89,9 +89,9 @@ impl LedgerFile {
     pub(crate) fn create(namespace: &Namespace) -> Option<Arc<Self>> {
         static FILES: AtomicUsize = AtomicUsize::new(0);
         let n = FILES.fetch_add(1, Ordering::Relaxed);
-        let pid = std::process::id();
-        let path = Path::new(DIR).join(format!("{}{pid}.{n}", prefix(namespace)));
-        match Self::create_at(&path, pid) {
+        let dir = folder(Path::new(ROOT), namespace);
+        let path = dir.join(format!("{}.{n}", std::process::id()));
+        match std::fs::create_dir_all(&dir).and_then(|()| Self::create_at(&path)) {
             Ok(file) => Some(Arc::new(file)),
             Err(e) => {
                 tracing::debug!("no publication ledger at {}: {e}", path.display());
@@ -100,7 +100,7 @@ impl LedgerFile {
         }
     }
 
-    fn create_at(path: &Path, pid: u32) -> std::io::Result<Self> {
+    fn create_at(path: &Path) -> std::io::Result<Self> {
         let file = OpenOptions::new()
             .read(true)
             .write(true)
@@ -127,9 +127,6 @@ impl LedgerFile {
             next_slot: Mutex::new(0),
         };
         ledger.bytes_at(0, 8).copy_from_slice(&MAGIC);
-        ledger
-            .bytes_at(8, 8)
-            .copy_from_slice(&u64::from(pid).to_le_bytes());
         Ok(ledger)
     }
 
@@ -171,7 +168,7 @@ impl LedgerFile {
         self.bytes_at(at + 16, 16)
             .copy_from_slice(&id.to_le_bytes());
         self.bytes_at(at + 32, 8)
-            .copy_from_slice(&now_ns().to_le_bytes());
+            .copy_from_slice(&wall_ns().to_le_bytes());
         self.bytes_at(at + NAME_AT, name.len())
             .copy_from_slice(name);
         // Last: a reader takes a slot with a length as whole.
@@ -199,13 +196,6 @@ impl LedgerSlot {
     }
 }
 
-/// The current time in ns since 1970 (0 before it).
-pub(crate) fn now_ns() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
-}
-
 /// What a publisher of a process that has died had sent.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EndedPublisher {
@@ -223,7 +213,6 @@ pub struct EndedPublisher {
 #[derive(Debug)]
 pub struct LedgerReader {
     dir: PathBuf,
-    prefix: String,
     /// Ledgers already read (their process dead).
     read: HashSet<OsString>,
 }
@@ -233,13 +222,12 @@ impl LedgerReader {
     /// they lost was lost before this reader was there to be owed it.
     #[must_use]
     pub fn new(namespace: &Namespace) -> Self {
-        Self::new_in(Path::new(DIR), namespace)
+        Self::new_in(Path::new(ROOT), namespace)
     }
 
-    fn new_in(dir: &Path, namespace: &Namespace) -> Self {
+    fn new_in(root: &Path, namespace: &Namespace) -> Self {
         let mut reader = Self {
-            dir: dir.to_owned(),
-            prefix: prefix(namespace),
+            dir: folder(root, namespace),
             read: HashSet::new(),
         };
         let _ = reader.ended();
@@ -256,8 +244,7 @@ impl LedgerReader {
             let name = entry.file_name();
             let Some(pid) = name
                 .to_str()
-                .and_then(|n| n.strip_prefix(&self.prefix))
-                .and_then(|rest| rest.split('.').next())
+                .and_then(|n| n.split('.').next())
                 .and_then(|pid| pid.parse::<u32>().ok())
             else {
                 continue;
@@ -324,11 +311,8 @@ mod tests {
     #[test]
     fn a_ledger_reads_back_what_its_publishers_noted() {
         let dir = tempfile::tempdir().unwrap();
-        let namespace = Namespace::unique("ledger");
-        let path = dir
-            .path()
-            .join(format!("{}{}.0", prefix(&namespace), u32::MAX));
-        let file = Arc::new(LedgerFile::create_at(&path, 7).unwrap());
+        let path = dir.path().join("1.0");
+        let file = Arc::new(LedgerFile::create_at(&path).unwrap());
         let laser = file.slot("/laser/RangeFinder", 11).unwrap();
         let health = file.slot("/lewis/health/laser", 12).unwrap();
         laser.note(41);
@@ -352,7 +336,7 @@ mod tests {
     #[test]
     fn a_full_ledger_or_a_long_name_gets_no_slot() {
         let dir = tempfile::tempdir().unwrap();
-        let file = Arc::new(LedgerFile::create_at(&dir.path().join("l"), 1).unwrap());
+        let file = Arc::new(LedgerFile::create_at(&dir.path().join("l")).unwrap());
         assert!(file.slot(&"x".repeat(SLOT_LEN), 1).is_none());
         let slots: Vec<_> = (0..SLOTS + 3)
             .filter_map(|i| file.slot(&format!("/c{i}"), i as u128))
@@ -367,9 +351,11 @@ mod tests {
         // A process id that is not running (above the kernel's limit) and this one.
         let dead = 4_194_305_u32;
         let alive = std::process::id();
+        let ours = folder(dir.path(), &namespace);
+        std::fs::create_dir_all(&ours).unwrap();
         let write = |pid: u32, n: u32, sent: u64| {
-            let path = dir.path().join(format!("{}{pid}.{n}", prefix(&namespace)));
-            let file = Arc::new(LedgerFile::create_at(&path, pid).unwrap());
+            let path = ours.join(format!("{pid}.{n}"));
+            let file = Arc::new(LedgerFile::create_at(&path).unwrap());
             file.slot("/laser/RangeFinder", u128::from(n))
                 .unwrap()
                 .note(sent);
@@ -378,13 +364,10 @@ mod tests {
         let _before = write(dead, 0, 5);
         let mut reader = LedgerReader::new_in(dir.path(), &namespace);
         // Another namespace's ledger and a file that is not one are not read.
-        std::fs::write(dir.path().join("lewis.other.ledger.1.0"), MAGIC).unwrap();
-        std::fs::write(
-            dir.path()
-                .join(format!("{}{dead}.junk", prefix(&namespace))),
-            b"not a ledger",
-        )
-        .unwrap();
+        let other = folder(dir.path(), &Namespace::unique("other"));
+        std::fs::create_dir_all(&other).unwrap();
+        std::fs::write(other.join(format!("{dead}.0")), MAGIC).unwrap();
+        std::fs::write(ours.join(format!("{dead}.junk")), b"not a ledger").unwrap();
         let _live = write(alive, 1, 9);
         let _after = write(dead, 2, 7);
         let ended = reader.ended();
