@@ -14,6 +14,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // The one MCAP reading layer: below everything that reads a recording.
     ("lewis-mcap", &["lewis-stdx"]),
     ("lewis-runtime", &["lewis-stdx", "lewis-interfaces"]),
+    // The one HTTP server of the pages served on localhost.
+    ("lewis-pages", &[]),
     (
         "lewis-recorder",
         &[
@@ -25,7 +27,12 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     (
         "lewis-sequencer",
-        &["lewis-stdx", "lewis-interfaces", "lewis-runtime"],
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-runtime",
+            "lewis-pages",
+        ],
     ),
     // The components: shared vocabulary below all of them, nothing borrowed sideways.
     ("lewis-geometry", &["lewis-stdx", "lewis-interfaces"]),
@@ -157,6 +164,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
 /// Outside crates that only some of ours may use: the mechanism lives in one place.
 const ONLY_IN: &[(&str, &[&str], &str)] = &[
     ("rerun", &["lewis-viewer"], "only the viewer knows Rerun"),
+    (
+        "axum",
+        &["lewis-pages"],
+        "only lewis-pages serves HTTP: the pages use the axum it re-exports",
+    ),
     (
         "iceoryx2",
         &["lewis-runtime"],

@@ -1,7 +1,7 @@
 //! The supervisor's page: the mission as a diagram with the current state, the history of
 //! decisions, and big buttons to choose where to resume when the sequencer asks. Served on
-//! localhost by a small HTTP server (`tiny_http`), the page compiled in (no network), live
-//! through Server-Sent Events.
+//! localhost by the pages' HTTP server (`lewis-pages`), the page compiled in (no network),
+//! live through Server-Sent Events.
 //!
 //! Routes: `GET /` the page; `GET /view` the [`View`] as JSON; `GET /events` the view again
 //! on every change (`text/event-stream`), and the robot (`event: robot`); `POST /choose`
@@ -16,14 +16,17 @@ mod open;
 mod robot;
 mod view;
 
-use std::io::{Read, Write};
 use std::net::SocketAddr;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
+use lewis_pages::axum::Router;
+use lewis_pages::axum::body::Bytes;
+use lewis_pages::axum::extract::{DefaultBodyLimit, State};
+use lewis_pages::axum::http::{HeaderMap, Method, Uri, header};
+use lewis_pages::axum::response::{IntoResponse, Response};
+use lewis_pages::{PageError, PageServer, Sent};
 use serde::Deserialize;
-use tiny_http::{Header, Method, Request, Response, Server};
 
 pub use open::open_in_browser;
 pub use robot::{
@@ -47,7 +50,10 @@ const PAGE: &str = include_str!("page.html");
 const KEEPALIVE: Duration = Duration::from_secs(15);
 
 /// The largest request body read, in bytes.
-const MAX_BODY_BYTES: u64 = 4096;
+const MAX_BODY_BYTES: usize = 4096;
+
+/// How soon a browser reconnects a broken event stream.
+const RETRY: Duration = Duration::from_secs(1);
 
 /// The server could not start.
 #[derive(Debug, thiserror::Error)]
@@ -67,10 +73,15 @@ pub enum GuiError {
 
 /// The page's server; stops when dropped (or with [`GuiServer::shutdown`]).
 pub struct GuiServer {
-    server: Arc<Server>,
+    server: PageServer,
     hub: Arc<Hub>,
-    addr: SocketAddr,
-    thread: Option<JoinHandle<()>>,
+}
+
+/// What every request's handler is given.
+#[derive(Clone)]
+struct Page {
+    hub: Arc<Hub>,
+    controller: Controller,
 }
 
 impl GuiServer {
@@ -85,43 +96,34 @@ impl GuiServer {
         mission: &Mission,
         controller: Controller,
     ) -> Result<Self, GuiError> {
-        let server = Server::http(bind).map_err(|e| GuiError::Bind {
-            addr: bind,
-            message: e.to_string(),
-        })?;
-        let addr = server.server_addr().to_ip().unwrap_or(bind);
-        let server = Arc::new(server);
         let hub = Arc::new(Hub::new(View::new(mission)));
-        let thread = {
-            let server = Arc::clone(&server);
-            let hub = Arc::clone(&hub);
-            std::thread::Builder::new()
-                .name("lewis-seq-gui".into())
-                .spawn(move || {
-                    for request in server.incoming_requests() {
-                        handle(request, &hub, &controller);
-                    }
-                })
-                .map_err(GuiError::Thread)?
-        };
-        Ok(Self {
-            server,
-            hub,
-            addr,
-            thread: Some(thread),
-        })
+        let router = Router::new()
+            .fallback(handle)
+            .layer(DefaultBodyLimit::max(MAX_BODY_BYTES))
+            .with_state(Page {
+                hub: Arc::clone(&hub),
+                controller,
+            });
+        let server = PageServer::start("lewis-seq-gui", bind, router).map_err(|e| match e {
+            PageError::Bind { addr, source } => GuiError::Bind {
+                addr,
+                message: source.to_string(),
+            },
+            PageError::Start(e) => GuiError::Thread(e),
+        })?;
+        Ok(Self { server, hub })
     }
 
     /// The address served.
     #[must_use]
     pub fn addr(&self) -> SocketAddr {
-        self.addr
+        self.server.addr()
     }
 
     /// The page's address (`http://127.0.0.1:8042/`).
     #[must_use]
     pub fn url(&self) -> String {
-        format!("http://{}/", self.addr)
+        self.server.url()
     }
 
     /// A sink updating the page with the mission's records.
@@ -152,21 +154,16 @@ impl GuiServer {
     }
 
     fn stop(&mut self) {
-        let streams = {
+        {
             let mut state = self.hub.lock();
             state.closed = true;
             for subscriber in &state.subscribers {
                 subscriber.close();
             }
-            std::mem::take(&mut state.streams)
-        };
-        self.server.unblock();
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
         }
-        for stream in streams {
-            let _ = stream.join();
-        }
+        // Each stream sends what its subscriber holds, then ends; the server waits for
+        // that (within its grace) before it stops.
+        self.server.stop();
     }
 }
 
@@ -198,7 +195,6 @@ pub(crate) struct Hub {
 pub(crate) struct HubState {
     view: View,
     subscribers: Vec<Arc<Subscriber>>,
-    streams: Vec<JoinHandle<()>>,
     closed: bool,
     robot: robot::RobotState,
 }
@@ -209,7 +205,6 @@ impl Hub {
             state: Mutex::new(HubState {
                 view,
                 subscribers: Vec::new(),
-                streams: Vec::new(),
                 closed: false,
                 robot: robot::RobotState::default(),
             }),
@@ -320,40 +315,41 @@ enum Next {
     Robot(Arc<str>),
 }
 
-fn handle(request: Request, hub: &Arc<Hub>, controller: &Controller) {
-    let path = request.url().split('?').next().unwrap_or("/").to_owned();
-    let result = match (request.method(), path.as_str()) {
-        (Method::Get, "/" | "/index.html") => request.respond(with_header(
-            Response::from_string(PAGE),
-            "Content-Type",
-            "text/html; charset=utf-8",
-        )),
-        (Method::Get, "/view") => {
+/// Answers one request.
+async fn handle(
+    State(page): State<Page>,
+    method: Method,
+    uri: Uri,
+    headers: HeaderMap,
+    body: Bytes,
+) -> Response {
+    let hub = &page.hub;
+    match (&method, uri.path()) {
+        (&Method::GET, "/" | "/index.html") => {
+            ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], PAGE).into_response()
+        }
+        (&Method::GET, "/view") => {
             let json = hub.lock().json();
-            request.respond(json_response(200, &json))
+            json_response(200, &json)
         }
-        (Method::Get, "/events") => {
-            stream(request, hub);
-            Ok(())
+        (&Method::GET, "/events") => stream(hub),
+        (&Method::GET, "/robot") => match hub.lock().robot.requested().json.clone() {
+            Some(json) => json_response(200, &json),
+            None => text_response(404, "the robot is not watched"),
+        },
+        (&Method::GET, "/camera.bmp") => match hub.lock().robot.requested().camera_bmp.clone() {
+            Some(bmp) => bytes_response(&bmp, "image/bmp"),
+            None => text_response(404, "no camera frame yet"),
+        },
+        (&Method::GET, "/map.png") => match hub.lock().robot.map_png.clone() {
+            Some(png) => bytes_response(&png, "image/png"),
+            None => text_response(404, "no world map"),
+        },
+        (&Method::POST, path @ ("/choose" | "/stop" | "/answer")) => {
+            post(&headers, &body, path, hub, &page.controller)
         }
-        (Method::Get, "/robot") => match hub.lock().robot.requested().json.clone() {
-            Some(json) => request.respond(json_response(200, &json)),
-            None => request.respond(text_response(404, "the robot is not watched")),
-        },
-        (Method::Get, "/camera.bmp") => match hub.lock().robot.requested().camera_bmp.clone() {
-            Some(bmp) => request.respond(bytes_response(&bmp, "image/bmp")),
-            None => request.respond(text_response(404, "no camera frame yet")),
-        },
-        (Method::Get, "/map.png") => match hub.lock().robot.map_png.clone() {
-            Some(png) => request.respond(bytes_response(&png, "image/png")),
-            None => request.respond(text_response(404, "no world map")),
-        },
-        (Method::Post, "/choose" | "/stop" | "/answer") => post(request, &path, hub, controller),
-        (Method::Get, _) => request.respond(text_response(404, "no such page: try /")),
-        _ => request.respond(text_response(405, "method not allowed")),
-    };
-    if let Err(e) = result {
-        tracing::debug!("the supervisor's page: cannot answer {path}: {e}");
+        (&Method::GET, _) => text_response(404, "no such page: try /"),
+        _ => text_response(405, "method not allowed"),
     }
 }
 
@@ -363,32 +359,27 @@ struct Choice {
 }
 
 fn post(
-    mut request: Request,
+    headers: &HeaderMap,
+    body: &[u8],
     path: &str,
     hub: &Arc<Hub>,
     controller: &Controller,
-) -> std::io::Result<()> {
-    let trusted = request
-        .headers()
+) -> Response {
+    let trusted = headers
+        .get_all("X-Lewis-Supervisor")
         .iter()
-        .any(|h| h.field.equiv("X-Lewis-Supervisor") && h.value.as_str() == "1");
+        .any(|value| value.as_bytes() == b"1");
     if !trusted {
-        return request.respond(text_response(
+        return text_response(
             403,
             "send the header `X-Lewis-Supervisor: 1` with the command",
-        ));
+        );
     }
-    let mut body = String::new();
-    if request
-        .as_reader()
-        .take(MAX_BODY_BYTES)
-        .read_to_string(&mut body)
-        .is_err()
-    {
-        return request.respond(text_response(400, "the body is not UTF-8 text"));
-    }
+    let Ok(body) = std::str::from_utf8(body) else {
+        return text_response(400, "the body is not UTF-8 text");
+    };
     let (status, message) = if path == "/answer" {
-        match serde_json::from_str::<Answer>(&body) {
+        match serde_json::from_str::<Answer>(body) {
             Err(e) => (
                 400,
                 format!("expected {{\"answer\":\"yes\",\"text\":\"...\"}}: {e}"),
@@ -410,12 +401,12 @@ fn post(
             (409, "the mission is over".to_owned())
         }
     } else {
-        match serde_json::from_str::<Choice>(&body) {
+        match serde_json::from_str::<Choice>(body) {
             Err(e) => (400, format!("expected {{\"state\":\"NAME\"}}: {e}")),
             Ok(Choice { state }) => choose(hub, controller, &state),
         }
     };
-    request.respond(text_response(status, &message))
+    text_response(status, &message)
 }
 
 fn choose(hub: &Hub, controller: &Controller, state: &str) -> (u16, String) {
@@ -434,76 +425,61 @@ fn choose(hub: &Hub, controller: &Controller, state: &str) -> (u16, String) {
     }
 }
 
-/// Answers `GET /events` on a thread of its own: the view now, then on every change.
-fn stream(request: Request, hub: &Arc<Hub>) {
+/// Answers `GET /events`: the view now, then on every change, until the mission's page
+/// closes or the browser goes away.
+fn stream(hub: &Arc<Hub>) -> Response {
     let subscriber = Arc::new(Subscriber::default());
-    let mut state = hub.lock();
-    if state.closed {
-        drop(state);
-        let _ = request.respond(text_response(503, "the mission is over"));
-        return;
-    }
-    subscriber.offer(state.json());
-    if let Some(robot) = state.robot.json.clone() {
-        subscriber.offer_robot(robot);
-    }
-    state.subscribers.push(Arc::clone(&subscriber));
-    let spawned = std::thread::Builder::new()
-        .name("lewis-seq-gui-events".into())
-        .spawn(move || {
-            let mut out = request.into_writer();
-            let sent = write_stream(&mut *out, &subscriber);
-            if let Err(e) = sent {
-                tracing::debug!("an event stream of the supervisor's page ended: {e}");
-            }
-            subscriber.lock().gone = true;
-        });
-    match spawned {
-        Ok(thread) => state.streams.push(thread),
-        Err(e) => tracing::error!("cannot stream to the supervisor's page: {e}"),
-    }
-}
-
-fn write_stream(out: &mut dyn Write, subscriber: &Subscriber) -> std::io::Result<()> {
-    out.write_all(
-        b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
-          Connection: close\r\n\r\nretry: 1000\n\n",
-    )?;
-    out.flush()?;
-    while let Ok(next) = subscriber.next() {
-        match next {
-            Some(Next::View(json)) => write!(out, "data: {json}\n\n")?,
-            Some(Next::Robot(json)) => write!(out, "event: robot\ndata: {json}\n\n")?,
-            None => out.write_all(b": keep-alive\n\n")?,
+    {
+        let mut state = hub.lock();
+        if state.closed {
+            return text_response(503, "the mission is over");
         }
-        out.flush()?;
+        subscriber.offer(state.json());
+        if let Some(robot) = state.robot.json.clone() {
+            subscriber.offer_robot(robot);
+        }
+        state.subscribers.push(Arc::clone(&subscriber));
     }
-    Ok(())
+    let gone = Gone(Arc::clone(&subscriber));
+    lewis_pages::event_stream(RETRY, move || {
+        let _held = &gone;
+        match subscriber.next() {
+            Ok(Some(Next::View(json))) => Some(Sent::Event {
+                kind: None,
+                data: json,
+            }),
+            Ok(Some(Next::Robot(json))) => Some(Sent::Event {
+                kind: Some("robot"),
+                data: json,
+            }),
+            Ok(None) => Some(Sent::KeepAlive),
+            Err(()) => None,
+        }
+    })
 }
 
-type Body = std::io::Cursor<Vec<u8>>;
+/// Marks a subscriber gone when its stream ends, however it ends: the robot's view then
+/// stops being computed for it.
+struct Gone(Arc<Subscriber>);
 
-/// Adds a header; `from_bytes` refuses only non-ASCII, and ours are ASCII constants.
-fn with_header(response: Response<Body>, field: &str, value: &str) -> Response<Body> {
-    match Header::from_bytes(field.as_bytes(), value.as_bytes()) {
-        Ok(header) => response.with_header(header),
-        Err(()) => response,
+impl Drop for Gone {
+    fn drop(&mut self) {
+        self.0.lock().gone = true;
     }
 }
 
-fn text_response(status: u16, text: &str) -> Response<Body> {
-    let response = Response::from_string(text).with_status_code(status);
-    with_header(response, "Content-Type", "text/plain; charset=utf-8")
+fn text_response(status: u16, text: &str) -> Response {
+    lewis_pages::respond(
+        status,
+        "text/plain; charset=utf-8",
+        text.as_bytes().to_vec(),
+    )
 }
 
-fn bytes_response(bytes: &[u8], content_type: &str) -> Response<Body> {
-    let response = Response::from_data(bytes.to_vec());
-    let response = with_header(response, "Content-Type", content_type);
-    with_header(response, "Cache-Control", "no-store")
+fn bytes_response(bytes: &[u8], content_type: &'static str) -> Response {
+    lewis_pages::respond(200, content_type, bytes.to_vec())
 }
 
-fn json_response(status: u16, json: &str) -> Response<Body> {
-    let response = Response::from_string(json).with_status_code(status);
-    let response = with_header(response, "Content-Type", "application/json");
-    with_header(response, "Cache-Control", "no-store")
+fn json_response(status: u16, json: &str) -> Response {
+    lewis_pages::respond(status, "application/json", json.as_bytes().to_vec())
 }

@@ -1,5 +1,5 @@
 //! `lewis tune open RUN.mcap|IMAGES --colors FILE`: the tuning page. A small HTTP server on
-//! 127.0.0.1 (`tiny_http`, as the supervisor's page) serves one page (`page.html`, compiled
+//! 127.0.0.1 (`lewis-pages`, as the supervisor's page) serves one page (`page.html`, compiled
 //! in) that only draws: the frames with their classified pixels and blobs, the class
 //! ranges as sliders, pixels marked on the frame, and per-class plots over the whole
 //! recording. Every computation is done here, in Rust, with the live CMVision code
@@ -25,6 +25,7 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::Context as _;
 use clap::Args;
+use lewis_pages::PageServer;
 use lewis_perception::ColorConfig;
 use lewis_perception::sweep::HeldFrame;
 
@@ -122,10 +123,9 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
     state.labels_path = labels_path;
     let state = Arc::new(Mutex::new(state));
     let bind = SocketAddr::from((Ipv4Addr::LOCALHOST, args.port));
-    let server = tiny_http::Server::http(bind)
-        .map_err(|e| anyhow::anyhow!("cannot serve the tuning page on {bind}: {e}"))?;
-    let addr = server.server_addr().to_ip().unwrap_or(bind);
-    let url = format!("http://{addr}/");
+    let server = PageServer::start("lewis-tune-page", bind, routes::router(Arc::clone(&state)))
+        .context("the tuning page")?;
+    let url = server.url();
     {
         let state = Arc::clone(&state);
         std::thread::Builder::new()
@@ -146,9 +146,7 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
     if !args.no_browser {
         open_browser(&url);
     }
-    for request in server.incoming_requests() {
-        routes::handle(request, &state);
-    }
+    server.wait();
     Ok(ExitCode::SUCCESS)
 }
 

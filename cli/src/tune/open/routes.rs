@@ -17,13 +17,16 @@
 //! - `GET /api/score`: precision and recall per labelled class with the ranges as they
 //!   are now, over the labelled frames held.
 
-use std::io::Read as _;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
+use lewis_pages::axum::Router;
+use lewis_pages::axum::body::Bytes;
+use lewis_pages::axum::extract::DefaultBodyLimit;
+use lewis_pages::axum::http::{Method, Uri};
+use lewis_pages::axum::response::{IntoResponse, Response};
 use lewis_perception::sweep;
 use serde::Deserialize;
 use serde_json::json;
-use tiny_http::{Header, Method, Request, Response};
 
 use super::render;
 use super::state::{State, lock};
@@ -31,9 +34,35 @@ use super::state::{State, lock};
 const PAGE: &str = include_str!("page.html");
 
 /// The largest request body taken (a mark or ranges are a few dozen bytes).
-const MAX_BODY: u64 = 64 * 1024;
+const MAX_BODY: usize = 64 * 1024;
 
-type Body = std::io::Cursor<Vec<u8>>;
+/// One answer of the page's server: its status, content type and bytes.
+struct Reply {
+    status: u16,
+    content_type: &'static str,
+    body: Vec<u8>,
+}
+
+impl IntoResponse for Reply {
+    fn into_response(self) -> Response {
+        lewis_pages::respond(self.status, self.content_type, self.body)
+    }
+}
+
+/// The page's routes over `state`. Every answer is computed on the blocking pool: a sweep
+/// over the recording or a frame drawn takes a while, and holds the state's lock.
+pub fn router(state: Arc<Mutex<State>>) -> Router {
+    Router::new()
+        .fallback(move |method: Method, uri: Uri, body: Bytes| {
+            let state = Arc::clone(&state);
+            async move {
+                lewis_pages::blocking(move || answer(&method, uri.path(), &body, &state))
+                    .await
+                    .unwrap_or_else(|| text(500, "the answer failed: see the terminal"))
+            }
+        })
+        .layer(DefaultBodyLimit::max(MAX_BODY))
+}
 
 #[derive(Deserialize)]
 struct Ranges {
@@ -67,27 +96,24 @@ struct RemoveBox {
 }
 
 /// Answers one request.
-pub fn handle(mut request: Request, state: &Mutex<State>) {
-    let url = request.url().to_owned();
-    let path = url.split('?').next().unwrap_or_default().to_owned();
-    let method = request.method().clone();
-    let response = match (&method, path.as_str()) {
-        (Method::Get, "/" | "/index.html") => {
+fn answer(method: &Method, path: &str, request: &[u8], state: &Mutex<State>) -> Reply {
+    match (method, path) {
+        (&Method::GET, "/" | "/index.html") => {
             bytes(200, PAGE.as_bytes(), "text/html; charset=utf-8")
         }
-        (Method::Get, "/api/state") => state_json(&lock(state)),
-        (Method::Get, "/api/plots") => {
+        (&Method::GET, "/api/state") => state_json(&lock(state)),
+        (&Method::GET, "/api/plots") => {
             let plots = lock(state).plots();
             json_response(200, &json!(plots))
         }
-        (Method::Get, p) if p.starts_with("/api/frame/") => {
+        (&Method::GET, p) if p.starts_with("/api/frame/") => {
             frame_json(&lock(state), p.trim_start_matches("/api/frame/"))
         }
-        (Method::Get, p) if p.starts_with("/frame/") && p.ends_with(".png") => frame_png(
+        (&Method::GET, p) if p.starts_with("/frame/") && p.ends_with(".png") => frame_png(
             &lock(state),
             p.trim_start_matches("/frame/").trim_end_matches(".png"),
         ),
-        (Method::Post, "/api/ranges") => match body::<Ranges>(&mut request) {
+        (&Method::POST, "/api/ranges") => match body::<Ranges>(request) {
             Ok(r) => {
                 let mut state = lock(state);
                 match state.set_ranges(r.class, [r.y, r.u, r.v]) {
@@ -97,7 +123,7 @@ pub fn handle(mut request: Request, state: &Mutex<State>) {
             }
             Err(e) => text(400, &e),
         },
-        (Method::Post, "/api/mark") => match body::<Mark>(&mut request) {
+        (&Method::POST, "/api/mark") => match body::<Mark>(request) {
             Ok(m) => {
                 let mut state = lock(state);
                 match state.mark(m.frame, m.class, m.rect, m.outside) {
@@ -110,8 +136,8 @@ pub fn handle(mut request: Request, state: &Mutex<State>) {
             }
             Err(e) => text(400, &e),
         },
-        (Method::Post, "/api/save") => save(&lock(state)),
-        (Method::Post, "/api/box") => match body::<NewBox>(&mut request) {
+        (&Method::POST, "/api/save") => save(&lock(state)),
+        (&Method::POST, "/api/box") => match body::<NewBox>(request) {
             Ok(b) => {
                 let mut state = lock(state);
                 match state.add_box(b.frame, b.class, b.bounds) {
@@ -121,7 +147,7 @@ pub fn handle(mut request: Request, state: &Mutex<State>) {
             }
             Err(e) => text(400, &e),
         },
-        (Method::Post, "/api/box/remove") => match body::<RemoveBox>(&mut request) {
+        (&Method::POST, "/api/box/remove") => match body::<RemoveBox>(request) {
             Ok(r) => {
                 let mut state = lock(state);
                 match state.remove_box(r.frame, r.index) {
@@ -131,30 +157,21 @@ pub fn handle(mut request: Request, state: &Mutex<State>) {
             }
             Err(e) => text(400, &e),
         },
-        (Method::Post, "/api/labels/save") => save_labels(&mut lock(state)),
-        (Method::Get, "/api/score") => match lock(state).score() {
+        (&Method::POST, "/api/labels/save") => save_labels(&mut lock(state)),
+        (&Method::GET, "/api/score") => match lock(state).score() {
             Ok(score) => json_response(200, &json!(score)),
             Err(e) => text(500, &format!("{e:#}")),
         },
-        (Method::Get, _) => text(404, "no such page: try /"),
+        (&Method::GET, _) => text(404, "no such page: try /"),
         _ => text(405, "method not allowed"),
-    };
-    if let Err(e) = request.respond(response) {
-        tracing::debug!("the tuning page went away before its answer to {url}: {e}");
     }
 }
 
-fn body<T: serde::de::DeserializeOwned>(request: &mut Request) -> Result<T, String> {
-    let mut text = String::new();
-    request
-        .as_reader()
-        .take(MAX_BODY)
-        .read_to_string(&mut text)
-        .map_err(|e| format!("cannot read the request: {e}"))?;
-    serde_json::from_str(&text).map_err(|e| format!("bad request body: {e}"))
+fn body<T: serde::de::DeserializeOwned>(request: &[u8]) -> Result<T, String> {
+    serde_json::from_slice(request).map_err(|e| format!("bad request body: {e}"))
 }
 
-fn state_json(state: &State) -> Response<Body> {
+fn state_json(state: &State) -> Reply {
     let frames: Vec<_> = state
         .store
         .frames()
@@ -196,14 +213,14 @@ fn labels_json(state: &State) -> serde_json::Value {
     })
 }
 
-fn boxes_json(state: &State, frame: usize) -> Response<Body> {
+fn boxes_json(state: &State, frame: usize) -> Reply {
     json_response(
         200,
         &json!({ "boxes": state.boxes(frame), "labels": labels_json(state) }),
     )
 }
 
-fn save_labels(state: &mut State) -> Response<Body> {
+fn save_labels(state: &mut State) -> Reply {
     match state.save_labels() {
         Ok(objects) => json_response(
             200,
@@ -218,7 +235,7 @@ fn save_labels(state: &mut State) -> Response<Body> {
     }
 }
 
-fn frame_index(state: &State, index: &str) -> Result<usize, Response<Body>> {
+fn frame_index(state: &State, index: &str) -> Result<usize, Reply> {
     let index: usize = index
         .parse()
         .map_err(|_| text(400, "a frame is named by its number"))?;
@@ -228,7 +245,7 @@ fn frame_index(state: &State, index: &str) -> Result<usize, Response<Body>> {
     Ok(index)
 }
 
-fn frame_json(state: &State, index: &str) -> Response<Body> {
+fn frame_json(state: &State, index: &str) -> Reply {
     let index = match frame_index(state, index) {
         Ok(i) => i,
         Err(response) => return response,
@@ -278,7 +295,7 @@ fn frame_json(state: &State, index: &str) -> Response<Body> {
     }
 }
 
-fn frame_png(state: &State, index: &str) -> Response<Body> {
+fn frame_png(state: &State, index: &str) -> Reply {
     let index = match frame_index(state, index) {
         Ok(i) => i,
         Err(response) => return response,
@@ -306,7 +323,7 @@ fn frame_png(state: &State, index: &str) -> Response<Body> {
     }
 }
 
-fn save(state: &State) -> Response<Body> {
+fn save(state: &State) -> Reply {
     let text_out = state.colour_file();
     match std::fs::write(&state.save_path, &text_out) {
         Ok(()) => json_response(
@@ -320,27 +337,18 @@ fn save(state: &State) -> Response<Body> {
     }
 }
 
-/// Adds a header; `from_bytes` refuses only non-ASCII, and ours are ASCII constants.
-fn with_header(response: Response<Body>, field: &str, value: &str) -> Response<Body> {
-    match Header::from_bytes(field.as_bytes(), value.as_bytes()) {
-        Ok(header) => response.with_header(header),
-        Err(()) => response,
+fn bytes(status: u16, body: &[u8], content_type: &'static str) -> Reply {
+    Reply {
+        status,
+        content_type,
+        body: body.to_vec(),
     }
 }
 
-fn bytes(status: u16, body: &[u8], content_type: &str) -> Response<Body> {
-    let response = Response::from_data(body.to_vec()).with_status_code(status);
-    with_header(
-        with_header(response, "Content-Type", content_type),
-        "Cache-Control",
-        "no-store",
-    )
-}
-
-fn text(status: u16, message: &str) -> Response<Body> {
+fn text(status: u16, message: &str) -> Reply {
     bytes(status, message.as_bytes(), "text/plain; charset=utf-8")
 }
 
-fn json_response(status: u16, value: &serde_json::Value) -> Response<Body> {
+fn json_response(status: u16, value: &serde_json::Value) -> Reply {
     bytes(status, value.to_string().as_bytes(), "application/json")
 }
