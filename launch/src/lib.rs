@@ -162,6 +162,20 @@ impl Launch {
                     None
                 }
             });
+        // Each service's heartbeat thread asks for it itself; said here once for all.
+        match robot.broker.heartbeat_priority {
+            0 => {}
+            priority => match lewis_runtime::supervise::realtime_allowed(priority) {
+                Ok(()) => tracing::info!(
+                    "heartbeats run at real-time priority (SCHED_FIFO {priority}), ahead of \
+                     any load"
+                ),
+                Err(e) => tracing::warn!(
+                    "{e}; heartbeats run at normal priority, and a loaded machine may delay \
+                     them"
+                ),
+            },
+        }
         // Before anything of this run opens a channel: what killed runs left half made
         // would be refused to it.
         let _ = lewis_runtime::ipc::wipe_stale(namespace);

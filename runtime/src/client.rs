@@ -358,6 +358,8 @@ impl RawClient {
                 interface: self.interface.clone(),
             });
         };
+        // Opened at the first call, not at binding: most clients never call, and a
+        // failover reaches the data first.
         if self.commands.is_none() {
             let channel = names::command_channel(provider, &self.interface);
             self.commands = Some(

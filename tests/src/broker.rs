@@ -73,6 +73,21 @@ impl Decisions {
         }
     }
 
+    /// Takes the decisions published for `span` from now, as they come (a window of
+    /// observation: nothing is awaited).
+    ///
+    /// # Panics
+    /// When waiting fails.
+    pub fn watch_for(&mut self, span: std::time::Duration) {
+        let until = Instant::now() + span;
+        while Instant::now() < until {
+            self.waits
+                .wait(&[&self.subscriber], Some(until))
+                .expect("waiting works");
+            self.take();
+        }
+    }
+
     /// Takes the decisions published so far, without waiting.
     pub fn take(&mut self) {
         while let Some(sample) = self.subscriber.receive().expect("receiving works") {

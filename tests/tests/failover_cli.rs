@@ -67,9 +67,8 @@ fn lewis_fault_stall_makes_the_broker_kill_the_laser_and_move_the_client_to_sona
         d.action == "service-failed" && d.service == "laser"
     });
     assert!(
-        failed
-            .reason
-            .contains("no heartbeat within its deadline of 300 ms"),
+        failed.reason.starts_with("laser stalled: no heartbeat for")
+            && failed.reason.contains("(its deadline: 300 ms)"),
         "{}",
         failed.reason
     );

@@ -43,7 +43,7 @@ use nix::sys::signal::Signal;
 
 use super::cpu::CpuSampler;
 use super::health::DataMonitor;
-use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need};
+use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need, ServiceState};
 use crate::clock::LiveClock;
 use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeCleaner, NodeLiveness, Publisher,
@@ -297,6 +297,8 @@ struct Driver<'r> {
     decisions: usize,
     /// The time of the last event handed to the core.
     last_ns: i64,
+    /// Heartbeats read but sent after the time of the last event fed: fed with the next.
+    later_beats: Vec<(i64, String, Health)>,
     /// The process of each client that told it, watched so that a client that dies without
     /// a release loses its bindings.
     client_pids: BTreeMap<String, i32>,
@@ -381,6 +383,7 @@ impl<'r> Driver<'r> {
             waits: WaitSet::new(WakeMode::Event),
             decisions: 0,
             last_ns: 0,
+            later_beats: Vec::new(),
             client_pids: BTreeMap::new(),
             next_client_sweep: Instant::now() + CLIENT_SWEEP,
             cpu: CpuSampler::new(),
@@ -418,7 +421,12 @@ impl<'r> Driver<'r> {
             self.serve_requests();
             let now_ns = self.clock.now_ns();
             if self.core.next_deadline().is_some_and(|d| now_ns >= d) {
-                self.feed_at(now_ns, Event::TimePassed);
+                // A process killed just now is silent already; its exit, dated at its
+                // death, must come before the deadline its silence would miss.
+                self.supervisor.await_dying(DYING_GRACE);
+                self.take_exits()?;
+                // Now, not `now_ns`: waiting for the dying and restarting took time.
+                self.feed(Event::TimePassed);
             } else {
                 self.take_heartbeats(now_ns);
             }
@@ -488,6 +496,15 @@ impl<'r> Driver<'r> {
     /// a service is judged stalled only when it really sent nothing in time.
     fn feed_at(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
         self.take_heartbeats(at_ns);
+        self.handle(at_ns, event)
+    }
+
+    /// As [`Driver::feed_at`] for an event dated before now (an exit, at the death it
+    /// stands for): the heartbeats sent after it are fed later, at their own times. Dated
+    /// back to it, they made every other service look silent since then, and its deadline
+    /// failed them all.
+    fn feed_in_the_past(&mut self, at_ns: i64, event: Event) -> Vec<Decision> {
+        self.take_heartbeats_sent(at_ns, Later::Wait);
         self.handle(at_ns, event)
     }
 
@@ -654,6 +671,9 @@ impl<'r> Driver<'r> {
                     service,
                     "the IPC cleanup after {service}'s exit took over {CLEANUP_WAIT_LIMIT:?}: starting it anyway"
                 );
+                // A pass that long waits on memory a killed process left empty: gone, the
+                // pass goes on.
+                let _ = crate::ipc::remove_abandoned_memory(&self.options.namespace);
             }
         }
         // A predecessor killed while it made its channels left them half made, refused to
@@ -691,8 +711,9 @@ impl<'r> Driver<'r> {
                     ProcessExit::Exited { code } => ExitStatus::Code(code),
                     ProcessExit::Signalled { signal, .. } => ExitStatus::Signal(signal),
                 };
-                self.feed_at(
-                    seen_ns,
+                let died_ns = self.death_time(&name, seen_ns);
+                self.feed_in_the_past(
+                    died_ns,
                     Event::ProcessExited {
                         service: name,
                         status,
@@ -703,10 +724,40 @@ impl<'r> Driver<'r> {
         Ok(())
     }
 
+    /// When `service`'s process, whose exit was seen at `seen_ns`, died: the earliest time
+    /// consistent with what was seen, just after its last heartbeat (or the last event
+    /// handled, times never going back). Its heartbeat thread died with it, so its
+    /// silence is the death's doing; dated when it was seen, an exit noticed late (a busy
+    /// machine, a 100 ms deadline) was judged a stall first, and a crash that should have
+    /// been restarted was failed for good.
+    fn death_time(&self, service: &str, seen_ns: i64) -> i64 {
+        let last_beat = self
+            .core
+            .snapshot()
+            .services
+            .into_iter()
+            .find(|s| s.name == service)
+            .and_then(|s| match s.state {
+                ServiceState::Ready { last_heartbeat_ns } => Some(last_heartbeat_ns),
+                _ => None,
+            });
+        last_beat.map_or(seen_ns, |beat_ns| {
+            seen_ns.min(beat_ns.saturating_add(1).max(self.last_ns))
+        })
+    }
+
     /// Feeds every heartbeat waiting on the health channels, in the order they were sent
     /// whatever their service, each at its publish time but no later than `until_ns`.
     fn take_heartbeats(&mut self, until_ns: i64) {
-        let mut beats = Vec::new();
+        self.take_heartbeats_sent(until_ns, Later::AtUntil);
+    }
+
+    /// Feeds the heartbeats sent up to `until_ns`, in the order they were sent; those sent
+    /// after it are fed at their own times, no later than the present (a clock slightly
+    /// ahead must not delay them), or wait for the next call (for an event in the past,
+    /// which must come before them).
+    fn take_heartbeats_sent(&mut self, until_ns: i64, later: Later) {
+        let mut beats = std::mem::take(&mut self.later_beats);
         for (service, subscriber) in &mut self.health {
             while let Ok(Some(sample)) = subscriber.receive() {
                 match cdr::from_bytes::<HealthMessage>(sample.bytes()) {
@@ -719,7 +770,14 @@ impl<'r> Driver<'r> {
                 }
             }
         }
-        for (at_ns, event) in heartbeats_in_order(beats, until_ns) {
+        if later == Later::Wait {
+            let (due, after): (Vec<_>, Vec<_>) = beats
+                .into_iter()
+                .partition(|(sent_ns, _, _)| *sent_ns <= until_ns);
+            beats = due;
+            self.later_beats = after;
+        }
+        for (at_ns, event) in heartbeats_in_order(beats, until_ns, self.clock.now_ns()) {
             self.handle(at_ns, event);
         }
     }
@@ -1001,19 +1059,45 @@ fn stop_order(running: &[String], bindings: &[Binding]) -> Vec<String> {
     order
 }
 
+/// What [`Driver::take_heartbeats_sent`] does with a heartbeat sent after the time it is
+/// given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Later {
+    /// Feeds it at that time: the present.
+    AtUntil,
+    /// Keeps it for the next call: a time in the past.
+    Wait,
+}
+
+/// How long the broker waits, before judging a deadline, for a process that is exiting
+/// to be gone (its threads' teardown). Only a process already killed or exiting is waited
+/// for, and the wait ends when it is gone; on a machine whose cores are busy, a killed
+/// process's threads wait for a core before they exit, and a shorter grace let CI judge
+/// the demo's killed laser a stall, failed for good instead of restarted.
+const DYING_GRACE: Duration = Duration::from_millis(500);
+
 /// Heartbeats drained from the health channels (publish time, service, health), one
 /// channel after the other, as the core must take them: in the order they were sent across
 /// services (the core judges every deadline at each one's time, so a later heartbeat of one
 /// service taken before an earlier one of another would judge that other too early), each
-/// at its publish time but no later than `until_ns`, the time of the event they precede (a
-/// clock ahead of the broker's must not delay deadlines). Sorting is stable: one service's
+/// at its publish time but no later than `until_ns`, the time of the event they precede, or
+/// the present `now_ns` if that is later (a clock ahead of the broker's must not delay
+/// deadlines). A heartbeat is never dated before it was sent: when the event's time was
+/// taken before the loop was held up (a restart after a killed laser took 144 ms), the
+/// heartbeats sent meanwhile, dated back to it, made every service look silent since then,
+/// and the next heartbeat's time failed them all. Sorting is stable: one service's
 /// heartbeats keep their order.
-fn heartbeats_in_order(mut beats: Vec<(i64, String, Health)>, until_ns: i64) -> Vec<(i64, Event)> {
+fn heartbeats_in_order(
+    mut beats: Vec<(i64, String, Health)>,
+    until_ns: i64,
+    now_ns: i64,
+) -> Vec<(i64, Event)> {
     beats.sort_by_key(|(sent_ns, _, _)| *sent_ns);
+    let latest_ns = until_ns.max(now_ns);
     beats
         .into_iter()
         .map(|(sent_ns, service, health)| {
-            (sent_ns.min(until_ns), Event::Heartbeat { service, health })
+            (sent_ns.min(latest_ns), Event::Heartbeat { service, health })
         })
         .collect()
 }
@@ -1214,11 +1298,8 @@ mod tests {
     /// given up although it beat every 10 ms. A service that then really goes silent is
     /// still failed at its deadline. The driver is real (IPC, processes); the times are
     /// given, not measured.
-    #[test]
-    fn heartbeats_sent_while_the_loop_was_held_up_are_taken_before_the_next_event() {
-        let dir = tempfile::tempdir().unwrap();
-        let robot_path = dir.path().join("robot.toml");
-        let text = r#"
+    /// A laser and a sonar that beat every 10 ms against a 50 ms deadline.
+    const TWO_RANGE_FINDERS: &str = r#"
 [robot]
 name = "held-up"
 [broker]
@@ -1237,16 +1318,78 @@ command = ["sleep", "30"]
 start = "standby"
 provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
 "#;
+
+    /// The robot file `text` written into `dir` and parsed, and options to run it.
+    fn robot_and_options(dir: &Path, text: &str, tag: &str) -> (Robot, UpOptions) {
+        let robot_path = dir.join("robot.toml");
         std::fs::write(&robot_path, text).unwrap();
         let robot = crate::robot::parse(text, &robot_path, &["RangeFinder"]).unwrap();
         let options = UpOptions {
             robot_path,
-            namespace: Namespace::unique("held-up"),
+            namespace: Namespace::unique(tag),
             lewis_exe: PathBuf::from("lewis"),
             duration: None,
             stop_grace: Duration::from_millis(300),
             clock: ClockSource::Wall,
         };
+        (robot, options)
+    }
+
+    #[test]
+    fn an_exit_seen_after_the_deadline_is_a_crash_restarted_not_a_stall() {
+        let dir = tempfile::tempdir().unwrap();
+        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "late-exit");
+        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
+        let services = Ipc::open(&options.namespace, "services").unwrap();
+        let mut laser = services
+            .publisher(&names::health_channel("laser"), &names::health_config())
+            .unwrap();
+        let mut sonar = services
+            .publisher(&names::health_channel("sonar"), &names::health_config())
+            .unwrap();
+        driver.feed(Event::BrokerStarted);
+        // Ahead of the broker's clock however slowly this runs (beats sent after the time
+        // an event is taken at are dated no later than the present), and within the
+        // startup deadline of the two standbys started with the broker.
+        let t0 = driver.clock.now_ns() + 5_000 * MS;
+        beat(&mut laser, "laser", t0);
+        beat(&mut sonar, "sonar", t0);
+        driver.take_heartbeats(t0);
+        // The laser is killed; its exit is seen 80 ms later, past its 50 ms deadline. The
+        // sonar beat meanwhile, after the laser's death.
+        for k in 1..=8 {
+            beat(&mut sonar, "sonar", t0 + k * 10 * MS);
+        }
+        let seen_ns = t0 + 80 * MS;
+        let died_ns = driver.death_time("laser", seen_ns);
+        assert_eq!(died_ns, t0 + 1);
+        let decisions = driver.feed_in_the_past(
+            died_ns,
+            Event::ProcessExited {
+                service: "laser".to_owned(),
+                status: ExitStatus::Signal(9),
+            },
+        );
+        assert!(
+            matches!(&decisions[..], [Decision { action: Action::RestartScheduled { service, .. }, .. }] if service == "laser"),
+            "{decisions:?}"
+        );
+        // The sonar's beats after the death were not dated back to it: 10 ms past the
+        // deadline it would then have had, it is alive, its last beat the latest due.
+        driver.feed_at(t0 + 60 * MS, Event::TimePassed);
+        assert_eq!(
+            service_state(&driver, "sonar"),
+            ServiceState::Ready {
+                last_heartbeat_ns: t0 + 60 * MS
+            }
+        );
+        driver.shutdown();
+    }
+
+    #[test]
+    fn heartbeats_sent_while_the_loop_was_held_up_are_taken_before_the_next_event() {
+        let dir = tempfile::tempdir().unwrap();
+        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "held-up");
         let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
         let services = Ipc::open(&options.namespace, "services").unwrap();
         let health = |name: &str| {
@@ -1319,7 +1462,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
             (35, "sonar".to_owned(), Health::Ok),
             (50, "sonar".to_owned(), Health::Ok),
         ];
-        let order: Vec<(i64, String)> = heartbeats_in_order(beats, 45)
+        let order: Vec<(i64, String)> = heartbeats_in_order(beats, 45, 0)
             .into_iter()
             .map(|(at, event)| (at, event.to_string()))
             .collect();
@@ -1333,6 +1476,40 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
                 (45, "sonar heartbeat: ok".to_owned()),
             ]
         );
+    }
+
+    #[test]
+    fn heartbeats_sent_after_a_stale_event_time_keep_their_own_times() {
+        let dir = tempfile::tempdir().unwrap();
+        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "stale-now");
+        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
+        let services = Ipc::open(&options.namespace, "services").unwrap();
+        let mut sonar = services
+            .publisher(&names::health_channel("sonar"), &names::health_config())
+            .unwrap();
+        // All of it a second ago, so that every beat is in the past when it is taken.
+        let t0 = driver.clock.now_ns() - 1000 * MS;
+        driver.feed_at(t0, Event::BrokerStarted);
+        beat(&mut sonar, "sonar", t0);
+        driver.take_heartbeats(t0);
+        // The loop took the time t0 + 10 ms, then was held up while the sonar beat on.
+        for k in 1..=15 {
+            beat(&mut sonar, "sonar", t0 + k * 10 * MS);
+        }
+        driver.feed_at(t0 + 10 * MS, Event::TimePassed);
+        assert_eq!(
+            service_state(&driver, "sonar"),
+            ServiceState::Ready {
+                last_heartbeat_ns: t0 + 150 * MS
+            }
+        );
+        // Dated back to t0 + 10 ms, its beats would have made it silent for 180 ms here.
+        driver.feed_at(t0 + 190 * MS, Event::TimePassed);
+        assert!(matches!(
+            service_state(&driver, "sonar"),
+            ServiceState::Ready { .. }
+        ));
+        driver.shutdown();
     }
 
     #[test]

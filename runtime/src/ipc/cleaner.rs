@@ -14,6 +14,18 @@ use std::time::{Duration, Instant};
 
 use super::{Ipc, IpcError, Namespace};
 
+/// How long a pass may run at shutdown before memory left empty by a killed process is
+/// taken for what holds it (a pass took 140-220 ms on a loaded machine; the memory counts
+/// as abandoned after a second).
+const STUCK_AFTER: Duration = Duration::from_millis(1500);
+
+/// How long the shutdown waits for a pass in all.
+const STOP_WAIT_LIMIT: Duration = Duration::from_secs(5);
+
+/// How often the shutdown looks whether the pass has ended (a thread's end cannot be waited
+/// for with a time limit).
+const STOP_POLL: Duration = Duration::from_millis(10);
+
 /// How far the requests and the passes have come.
 #[derive(Debug, Default)]
 struct Progress {
@@ -42,6 +54,7 @@ impl Shared {
 /// own (a node belongs to the thread that made it).
 #[derive(Debug)]
 pub struct NodeCleaner {
+    namespace: Namespace,
     requests: Option<SyncSender<()>>,
     thread: Option<JoinHandle<()>>,
     shared: Arc<Shared>,
@@ -62,11 +75,11 @@ impl NodeCleaner {
             namespace: namespace.to_string(),
             reason,
         };
-        let (namespace, node_name) = (namespace.clone(), node_name.to_owned());
+        let (thread_namespace, node_name) = (namespace.clone(), node_name.to_owned());
         let thread = std::thread::Builder::new()
             .name("lewis-ipc-cleaner".to_owned())
             .spawn(move || {
-                let ipc = match Ipc::open(&namespace, &node_name) {
+                let ipc = match Ipc::open(&thread_namespace, &node_name) {
                     Ok(ipc) => {
                         let _ = opened_tx.send(Ok(()));
                         ipc
@@ -95,6 +108,7 @@ impl NodeCleaner {
             })
             .map_err(|e| thread_error(format!("cannot start the cleaner's thread: {e}")))?;
         let mut cleaner = Self {
+            namespace: namespace.clone(),
             requests: Some(requests),
             thread: Some(thread),
             shared,
@@ -153,12 +167,33 @@ impl NodeCleaner {
         self.shared.lock().cleaned
     }
 
+    /// Ends the thread. A pass stuck on memory a killed process left empty is freed by
+    /// removing that memory once it is old enough to be abandoned; a pass still running
+    /// after that is left to end with the process rather than hold up the shutdown.
     fn stop(&mut self) {
         self.requests = None;
-        if let Some(thread) = self.thread.take() {
-            // The thread only cleans: it cannot panic but through iceoryx2 itself.
-            let _ = thread.join();
+        let Some(thread) = self.thread.take() else {
+            return;
+        };
+        let mut removed_empty = false;
+        let started = Instant::now();
+        while !thread.is_finished() {
+            let waited = started.elapsed();
+            if waited >= STOP_WAIT_LIMIT {
+                tracing::warn!(
+                    "the IPC cleanup of namespace {} is still running after {waited:?}: left to end with the process",
+                    self.namespace
+                );
+                return;
+            }
+            if !removed_empty && waited >= STUCK_AFTER {
+                removed_empty = true;
+                let _ = super::remove_abandoned_memory(&self.namespace);
+            }
+            std::thread::sleep(STOP_POLL);
         }
+        // The thread only cleans: it cannot panic but through iceoryx2 itself.
+        let _ = thread.join();
     }
 }
 

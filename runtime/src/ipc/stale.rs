@@ -102,6 +102,57 @@ pub fn remove_abandoned_channels(namespace: &Namespace) -> usize {
     )
 }
 
+/// Removes the shared memory of `namespace` that a process killed while it made it left
+/// empty (created, never sized), and returns how many went.
+///
+/// iceoryx2's cleanup of a dead node opens each of the node's connections, and it waits
+/// without end for an empty one to be sized: a cleanup pass after a laser killed at that
+/// moment never ended, and nothing after it was cleaned. A memory still empty long after
+/// it was made was abandoned; once it is gone the open fails and the cleanup goes on.
+#[must_use]
+pub fn remove_abandoned_memory(namespace: &Namespace) -> usize {
+    remove_empty_under(namespace, Path::new(ROOTS[1]), ago(ABANDONED))
+}
+
+fn remove_empty_under(namespace: &Namespace, shm: &Path, before: SystemTime) -> usize {
+    let mut removed = 0;
+    for (entry, _, metadata) in entries_of(shm, &namespace.iceoryx2_prefix()) {
+        let abandoned = metadata.modified().is_ok_and(|changed| changed < before);
+        if metadata.is_file()
+            && metadata.len() == 0
+            && abandoned
+            && std::fs::remove_file(entry.path()).is_ok()
+        {
+            removed += 1;
+            tracing::info!(
+                "removed shared memory {}, left empty by a process killed while it made it",
+                entry.file_name().to_string_lossy()
+            );
+        }
+    }
+    removed
+}
+
+/// The entries of `dir` whose names start with `prefix`: each with the rest of its name
+/// and its metadata (an entry whose metadata cannot be read is left out).
+fn entries_of(dir: &Path, prefix: &str) -> Vec<(std::fs::DirEntry, String, std::fs::Metadata)> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .filter_map(|entry| {
+            let rest = entry
+                .file_name()
+                .to_string_lossy()
+                .strip_prefix(prefix)?
+                .to_owned();
+            let metadata = entry.metadata().ok()?;
+            Some((entry, rest, metadata))
+        })
+        .collect()
+}
+
 /// The moment `age` ago: entries changed since are taken as a live process's.
 fn ago(age: Duration) -> SystemTime {
     SystemTime::now()
@@ -117,21 +168,10 @@ fn remove_abandoned_under(
 ) -> usize {
     use std::os::unix::fs::PermissionsExt as _;
 
-    let Ok(entries) = std::fs::read_dir(services) else {
-        return 0;
-    };
     let prefix = namespace.iceoryx2_prefix();
     let mut removed = 0;
-    for entry in entries.flatten() {
-        let name = entry.file_name();
-        let name = name.to_string_lossy();
-        let Some(stem) = name
-            .strip_prefix(&prefix)
-            .and_then(|rest| rest.strip_suffix(".service"))
-        else {
-            continue;
-        };
-        let Ok(metadata) = entry.metadata() else {
+    for (entry, rest, metadata) in entries_of(services, &prefix) {
+        let Some(stem) = rest.strip_suffix(".service") else {
             continue;
         };
         let unfinished = metadata.permissions().mode() & 0o222 != 0;
@@ -265,6 +305,36 @@ mod tests {
         let mode = if whole { 0o400 } else { 0o600 };
         std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
             .unwrap_or_else(|e| panic!("{e}"));
+    }
+
+    #[test]
+    fn only_old_empty_memory_of_the_namespace_is_removed() {
+        let namespace = Namespace::unique("empty-memory");
+        let other = Namespace::unique("empty-memory-other");
+        let shm = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+        let prefix = namespace.iceoryx2_prefix();
+        let abandoned = shm.path().join(format!("{prefix}aaaa.connection"));
+        let sized = shm.path().join(format!("{prefix}bbbb.connection"));
+        let being_made = shm.path().join(format!("{prefix}cccc.connection"));
+        let theirs = shm
+            .path()
+            .join(format!("{}dddd.connection", other.iceoryx2_prefix()));
+        write_old(&abandoned);
+        write_old(&theirs);
+        std::fs::write(&being_made, b"").unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(&sized, b"memory").unwrap_or_else(|e| panic!("{e}"));
+        let minute_ago = SystemTime::now() - Duration::from_secs(60);
+        std::fs::File::options()
+            .write(true)
+            .open(&sized)
+            .and_then(|f| f.set_modified(minute_ago))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let removed = remove_empty_under(&namespace, shm.path(), SystemTime::now() - JOINING);
+        assert_eq!(removed, 1);
+        assert!(!abandoned.exists());
+        assert!(sized.exists(), "memory in use has a size");
+        assert!(being_made.exists(), "memory being made now stays");
+        assert!(theirs.exists(), "another namespace's memory stays");
     }
 
     #[test]

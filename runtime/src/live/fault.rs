@@ -294,9 +294,10 @@ impl super::Harness<'_> {
             service = self.backend.service,
             "fault injected: {fault} ({OUT_OF_SERVICE_REASON})"
         );
-        // The broker hears a change of declared health at once, as with set_health.
-        if self.backend.fault != before && self.backend.fault != FaultState::Stalled {
-            self.backend.heartbeat();
+        // The broker hears a change of declared health at once, as with set_health; a
+        // stall stops the heartbeats.
+        if self.backend.fault != before {
+            self.backend.watch.fault(self.backend.fault);
         }
     }
 

@@ -9,16 +9,16 @@
 //! [`WaitSet`] for all of it (event wake-ups, no polling), the service's device and the stop
 //! signals. SIGTERM or SIGINT end it cleanly: `on_stop` runs, the process exits with 0.
 //!
-//! Heartbeats come from this event loop, between events, never from a thread of their own:
-//! a heartbeat means "this service is responsive". One is sent after any handler once it is
-//! due, so a service working through a backlog (camera frames queued while the machine was
-//! busy) keeps beating between them. So the first heartbeat (the service is
-//! ready) goes once `on_start` has returned: `on_start` may block (open a device, probe its
-//! baud rate) for up to the startup deadline. After that every handler must return well
-//! within the heartbeat deadline: a service stuck in a handler sends no heartbeat, and that
-//! is how the broker sees a stall. A handler that takes more than half of its deadline is
-//! reported once (`overrun.rs`). Work that blocks (a device that may go silent for seconds)
-//! belongs in a device reader that the loop waits on (see [`Service::device`]).
+//! A heartbeat means "this service is responsive". A thread of its own sends them
+//! (`heartbeat.rs`), watching the steps of this loop: it stops when a step has used more
+//! CPU than the heartbeat deadline or has slept in a handler past it, so a service stuck in
+//! a handler sends no heartbeat and that is how the broker sees a stall, while one that
+//! only waits for a core on a busy machine keeps beating. The first heartbeat (the service
+//! is ready) goes once `on_start` has returned: `on_start` may block (open a device, probe
+//! its baud rate) for up to the startup deadline. After that every handler must use well
+//! under the heartbeat deadline; one that uses more than half of it is reported once
+//! (`overrun.rs`). Work that blocks (a device that may go silent for seconds) belongs in a
+//! device reader that the loop waits on (see [`Service::device`]).
 //!
 //! The service's clock ([`Context::now`]) reads the time its current event was taken up, for
 //! the whole handler, as in the lockstep replay harness: every publication of one handler
@@ -28,6 +28,7 @@
 //! [`service_clock`]); heartbeats always keep the machine's time, since the broker is live.
 
 pub mod fault;
+mod heartbeat;
 mod overrun;
 pub mod service_clock;
 mod signals;
@@ -51,7 +52,6 @@ use lewis_interfaces::msg::{
 
 use crate::broker::Health;
 use crate::client::{ClientError, RawClient};
-use crate::clock::LiveClock;
 use crate::ipc::{
     CallError, CallId as IpcCallId, CommandServer, FdSource, Ipc, IpcError, Namespace, Publisher,
     WaitError, WaitSet, Waitable, WakeMode, Woken,
@@ -134,6 +134,7 @@ pub fn run_service(
         handler_deadline_ms: spec.heartbeat_deadline_ms,
         seed: config.seed(),
         heartbeat_period_ms: Some(robot.broker.heartbeat_period_ms),
+        heartbeat_priority: robot.broker.heartbeat_priority,
     };
     run_one(&run, instance.as_mut(), namespace, clock_source)?;
     Ok(())
@@ -179,6 +180,7 @@ pub fn run_program(
         handler_deadline_ms: PROGRAM_HANDLER_DEADLINE_MS,
         seed: program.seed,
         heartbeat_period_ms: None,
+        heartbeat_priority: 0,
     };
     Ok(run_one(&run, instance, namespace, clock_source)?.unwrap_or(STOPPED_EXIT_CODE))
 }
@@ -198,6 +200,8 @@ struct Run<'a> {
     seed: u64,
     /// `None` for a program: no heartbeats.
     heartbeat_period_ms: Option<u64>,
+    /// The heartbeat thread's real-time priority (0: none).
+    heartbeat_priority: u8,
 }
 
 /// Runs `instance` until a stop signal (`None`) or until it finishes (its exit code).
@@ -209,7 +213,6 @@ fn run_one(
 ) -> Result<Option<i32>, LiveError> {
     let signals = StopSignals::install().map_err(LiveError::Signals)?;
     let ipc = Rc::new(Ipc::open(namespace, run.name)?);
-    let clock = LiveClock::new();
     let time = ServiceClock::open(clock_source, &ipc)?;
 
     let mut publishers = BTreeMap::new();
@@ -238,36 +241,27 @@ fn run_one(
             RawClient::new(&ipc, run.name, interface)?,
         );
     }
-    // A provider's heartbeats and answered commands; a program has neither.
-    let (health, command_log) = match run.heartbeat_period_ms {
-        Some(_) => (
-            Some(ipc.publisher(&names::health_channel(run.name), &names::health_config())?),
-            Some(ipc.publisher(
-                &names::command_log_channel(run.name),
-                &names::command_log_config(),
-            )?),
-        ),
-        None => (None, None),
+    // A provider's answered commands; a program answers none.
+    let command_log = match run.heartbeat_period_ms {
+        Some(_) => Some(ipc.publisher(
+            &names::command_log_channel(run.name),
+            &names::command_log_config(),
+        )?),
+        None => None,
     };
     let mut backend = LiveBackend {
         service: run.name.to_owned(),
-        clock,
         time,
         publishers,
         clients,
         calls: BTreeMap::new(),
-        health,
-        health_seq: 0,
-        declared: Health::Ok,
+        watch: heartbeat::LoopWatch::new(),
         fault: fault::FaultState::Normal,
         command_log,
         command_log_seq: 0,
         event_ns: 0,
     };
     let mut state = ContextState::new(run.name, run.seed);
-    let heartbeat_period = run
-        .heartbeat_period_ms
-        .map(|ms| Duration::from_millis(ms.max(1)));
 
     let mut overruns = overrun::OverrunWatch::new(
         run.name,
@@ -285,9 +279,18 @@ fn run_one(
             service: run.name.to_owned(),
             reason,
         })?;
-    overruns.ran("on_start", started);
+    overruns.ran("on_start", started.elapsed());
     // The first heartbeat says "ready": after on_start, which the startup deadline covers.
-    backend.heartbeat();
+    if let Some(period_ms) = run.heartbeat_period_ms {
+        backend.watch.start_heartbeats(&heartbeat::HeartbeatPlan {
+            namespace,
+            service: run.name,
+            period: Duration::from_millis(period_ms),
+            deadline: Duration::from_millis(run.handler_deadline_ms),
+            setup_deadline: Duration::from_millis(run.startup_deadline_ms),
+            realtime_priority: run.heartbeat_priority,
+        })?;
+    }
     let mut harness = Harness {
         service: instance,
         state,
@@ -297,8 +300,6 @@ fn run_one(
         waits: WaitSet::new(WakeMode::Event),
         tick_period_ns: None,
         overruns,
-        heartbeat_period,
-        next_heartbeat: heartbeat_period.map(|period| Instant::now() + period),
     };
     harness.tick_period_ns = harness.service.tick_period_ns().filter(|ns| *ns > 0);
     let finished = harness.run(&signals)?;
@@ -326,9 +327,6 @@ struct Harness<'s> {
     /// On the service's clock.
     tick_period_ns: Option<i64>,
     overruns: overrun::OverrunWatch,
-    /// `None` for a program: no heartbeats.
-    heartbeat_period: Option<Duration>,
-    next_heartbeat: Option<Instant>,
 }
 
 impl Harness<'_> {
@@ -349,7 +347,6 @@ impl Harness<'_> {
                 self.wait_stalled(signals)?;
                 continue;
             }
-            self.beat_if_due();
             if let Some(period_ns) = self.tick_period_ns {
                 let now_ns = self.backend.time.now_ns();
                 match next_tick {
@@ -359,10 +356,10 @@ impl Harness<'_> {
                         next_tick = Some(now_ns.saturating_add(period_ns));
                     }
                     Some(at) if now_ns >= at => {
-                        let started = Instant::now();
+                        self.backend.watch.step();
                         self.service
                             .on_tick(&mut event_context(&mut self.state, &mut self.backend));
-                        self.handled("on_tick", started);
+                        self.handled("on_tick");
                         next_tick = Some(advance_ns(at, period_ns, now_ns));
                     }
                     // A played clock that went back (the player started again).
@@ -375,15 +372,14 @@ impl Harness<'_> {
             self.serve_commands();
             self.take_inputs()?;
             if device_ready {
-                let started = Instant::now();
+                self.backend.watch.step();
                 self.service
                     .on_device(&mut event_context(&mut self.state, &mut self.backend));
-                self.handled("on_device", started);
+                self.handled("on_device");
             }
             let tick_due = next_tick.and_then(|at| self.backend.time.instant_at(at));
-            let deadline = [self.next_heartbeat, tick_due]
+            let deadline = tick_due
                 .into_iter()
-                .flatten()
                 .chain(
                     self.backend
                         .clients
@@ -403,22 +399,9 @@ impl Harness<'_> {
         Ok(finished)
     }
 
-    /// Sends the heartbeat when it is due.
-    fn beat_if_due(&mut self) {
-        beat_if_due(
-            &mut self.backend,
-            &mut self.next_heartbeat,
-            self.heartbeat_period,
-        );
-    }
-
-    /// After each handler that `started` then: its overrun is watched, and the heartbeat
-    /// goes out if due. A service working through a backlog (four camera frames waiting, a
-    /// burst of commands) is responsive, and says so between handlers; one stuck in a
-    /// handler sends nothing until it returns, and the broker sees the stall.
-    fn handled(&mut self, handler: &'static str, started: Instant) {
-        self.overruns.ran(handler, started);
-        self.beat_if_due();
+    /// After each handler: the CPU it used (IPC work left out) is watched.
+    fn handled(&mut self, handler: &'static str) {
+        self.overruns.ran(handler, self.backend.watch.step_cpu());
     }
 
     /// Waits for anything to do; returns whether the device is readable.
@@ -437,7 +420,10 @@ impl Harness<'_> {
             sources.extend(client.waitables());
         }
         // The device, when there is one, is source 1.
-        Ok(match self.waits.wait(&sources, deadline)? {
+        self.backend.watch.waiting();
+        let woken = self.waits.wait(&sources, deadline);
+        self.backend.watch.step();
+        Ok(match woken? {
             Woken::Ready(fired) => device_fd.is_some() && fired.contains(1),
             Woken::DeadlineReached | Woken::Interrupted => false,
         })
@@ -445,7 +431,7 @@ impl Harness<'_> {
 
     fn serve_commands(&mut self) {
         for (interface, server) in &self.servers {
-            while let Ok(Some(request)) = server.receive() {
+            while let Ok(Some(request)) = self.backend.watch.ipc(|| server.receive()) {
                 let received_ns = self.backend.time.now_ns();
                 self.backend.event_ns = received_ns;
                 let mut logged = (String::new(), request.bytes().to_vec());
@@ -458,29 +444,25 @@ impl Harness<'_> {
                             bytes,
                         };
                         self.state.set_inputs(Vec::new());
-                        let started = Instant::now();
+                        self.backend.watch.step();
                         let answer = self
                             .service
                             .on_command(&mut self.state.context(&mut self.backend), &incoming)
                             .map(|reply| reply.bytes)
                             .map_err(|e| e.0);
-                        self.overruns.ran("on_command", started);
+                        self.overruns
+                            .ran("on_command", self.backend.watch.step_cpu());
                         answer
                     }
                     Err(e) => Err(e.to_string()),
                 };
                 let frame = wire::reply_to_vec(&answer);
-                if let Err(e) = server.reply(request, &frame) {
+                if let Err(e) = self.backend.watch.ipc(|| server.reply(request, &frame)) {
                     tracing::warn!(service = self.backend.service, "cannot reply: {e}");
                 }
                 let (command, request) = logged;
                 self.backend
                     .log_command(interface, command, request, answer, received_ns);
-                beat_if_due(
-                    &mut self.backend,
-                    &mut self.next_heartbeat,
-                    self.heartbeat_period,
-                );
             }
         }
     }
@@ -491,13 +473,14 @@ impl Harness<'_> {
             let Some(client) = self.backend.clients.get_mut(&interface) else {
                 continue;
             };
-            if client.process()?.is_some() {
+            // A new binding opens the new provider's channel.
+            if self.backend.watch.ipc(|| client.process())?.is_some() {
                 self.fail_calls_of(&interface);
             }
             while let Some(client) = self.backend.clients.get_mut(&interface) {
                 let provider = client.provider().unwrap_or_default().to_owned();
                 let channel = client.data_channel().to_owned();
-                let Some(received) = client.receive()? else {
+                let Some(received) = self.backend.watch.ipc(|| client.receive())? else {
                     break;
                 };
                 let seq = crate::service::decode_header_seq(received.bytes());
@@ -511,12 +494,12 @@ impl Harness<'_> {
                     channel: &channel,
                     bytes: received.bytes(),
                 };
-                let started = Instant::now();
+                self.backend.watch.step();
                 self.service.on_input(
                     &mut event_context(&mut self.state, &mut self.backend),
                     &input,
                 );
-                self.handled("on_input", started);
+                self.handled("on_input");
             }
             self.state.set_inputs(Vec::new());
             while let Some(outcome) = self
@@ -553,12 +536,12 @@ impl Harness<'_> {
                     command,
                     result,
                 };
-                let started = Instant::now();
+                self.backend.watch.step();
                 self.service.on_reply(
                     &mut event_context(&mut self.state, &mut self.backend),
                     &event,
                 );
-                self.handled("on_reply", started);
+                self.handled("on_reply");
             }
         }
         Ok(())
@@ -601,17 +584,6 @@ fn event_context<'a>(state: &'a mut ContextState, backend: &'a mut LiveBackend) 
     state.context(backend)
 }
 
-/// Sends `backend`'s heartbeat when `next` is due, and schedules the one after.
-fn beat_if_due(backend: &mut LiveBackend, next: &mut Option<Instant>, period: Option<Duration>) {
-    let now = Instant::now();
-    if let (Some(at), Some(period)) = (*next, period)
-        && now >= at
-    {
-        backend.heartbeat();
-        *next = Some(advance(at, period, now));
-    }
-}
-
 /// The next time of a periodic event after `at`: one period later, or one period from now
 /// when the loop fell behind (missed periods are skipped, not caught up in a burst).
 fn advance(at: Instant, period: Duration, now: Instant) -> Instant {
@@ -631,17 +603,14 @@ fn advance_ns(at: i64, period: i64, now: i64) -> i64 {
 
 struct LiveBackend {
     service: String,
-    /// The machine's clock: heartbeats.
-    clock: LiveClock,
     /// The service's clock: events, ticks, publish times.
     time: ServiceClock,
     publishers: BTreeMap<String, Publisher>,
     clients: BTreeMap<String, RawClient>,
     calls: BTreeMap<(String, IpcCallId), (CallId, &'static str)>,
-    /// `None` for a program: the broker does not supervise it.
-    health: Option<Publisher>,
-    health_seq: u64,
-    declared: Health,
+    /// The loop's steps, and the heartbeats sent from them (none for a program: the broker
+    /// does not supervise it).
+    watch: heartbeat::LoopWatch,
     /// The fault injected from outside, if any ([`fault`]).
     fault: fault::FaultState,
     /// `/lewis/commands/<service>`: every answered command, for the recorder (`None` for a
@@ -689,31 +658,6 @@ impl LiveBackend {
             received_ns,
         ) {
             tracing::warn!(service = self.service, "cannot publish a command log: {e}");
-        }
-    }
-
-    fn heartbeat(&mut self) {
-        let Some(publisher) = self.health.as_mut() else {
-            return;
-        };
-        let (state, reason) = match self.fault {
-            fault::FaultState::Stalled => return,
-            fault::FaultState::OutOfService => {
-                (HealthState::OutOfService, fault::OUT_OF_SERVICE_REASON)
-            }
-            fault::FaultState::Normal => health_fields(&self.declared),
-        };
-        self.health_seq += 1;
-        let mut message = HealthMessage {
-            state: state.into(),
-            reason: reason.to_owned(),
-            ..HealthMessage::default()
-        };
-        let now_ns = self.clock.now_ns();
-        if let Err(e) =
-            publisher.publish_stamped(&mut message, &self.service, self.health_seq, now_ns)
-        {
-            tracing::warn!(service = self.service, "cannot publish heartbeat: {e}");
         }
     }
 }
@@ -768,8 +712,8 @@ impl Backend for LiveBackend {
             // An injected fault silences the service: the publication is dropped.
             return Ok(());
         }
-        publisher
-            .publish_with(len_bytes, |buf| encode(buf))
+        self.watch
+            .ipc(|| publisher.publish_with(len_bytes, |buf| encode(buf)))
             .map(|_| ())
             .map_err(|e| ContextError::Publish {
                 interface: interface.to_owned(),
@@ -792,22 +736,24 @@ impl Backend for LiveBackend {
                 interface: interface.to_owned(),
             })?;
         let timeout = Duration::from_nanos(u64::try_from(timeout_ns).unwrap_or(0));
-        let id = client.call(frame, timeout).map_err(|e| match e {
-            ClientError::Unbound { .. } | ClientError::Call(CallError::NoServer { .. }) => {
-                CallFailure::NoProvider {
-                    interface: interface.to_owned(),
+        let id = self
+            .watch
+            .ipc(|| client.call(frame, timeout))
+            .map_err(|e| match e {
+                ClientError::Unbound { .. } | ClientError::Call(CallError::NoServer { .. }) => {
+                    CallFailure::NoProvider {
+                        interface: interface.to_owned(),
+                    }
                 }
-            }
-            e => CallFailure::Transport(e.to_string()),
-        })?;
+                e => CallFailure::Transport(e.to_string()),
+            })?;
         self.calls
             .insert((interface.to_owned(), id), (call, command));
         Ok(())
     }
 
     fn health_changed(&mut self, health: &Health) {
-        self.declared = health.clone();
-        self.heartbeat();
+        self.watch.declare(health);
     }
 
     fn log(&mut self, service: &str, level: Level, text: &str) {

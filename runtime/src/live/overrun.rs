@@ -1,12 +1,13 @@
-//! Handlers that run too long. Heartbeats come from the harness's event loop, between
-//! events, so that a heartbeat means "this service is responsive": a handler that blocks
-//! stops them, and the broker counts it as a stall (that is how a hung service is found).
-//! When a handler takes more than half of the deadline it runs under, the harness says so
-//! once per handler, with what to do about it, so that a slow handler is seen before the
-//! broker kills the service for it.
+//! Handlers that run too long. A heartbeat means "this service is responsive": a handler
+//! that uses more CPU than the heartbeat deadline, or blocks past it, stops them, and the
+//! broker counts it as a stall (that is how a hung service is found). When a handler takes
+//! more than half of the deadline it runs under, the harness says so once per handler, with
+//! what to do about it, so that a slow handler is seen before the broker kills the service
+//! for it. `on_start` is measured on the wall clock, as its startup deadline is; every
+//! other handler by the CPU it used, which a busy machine does not stretch.
 
 use std::collections::BTreeSet;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Watches how long each handler of one service takes.
 #[derive(Debug)]
@@ -33,9 +34,9 @@ impl OverrunWatch {
         }
     }
 
-    /// Handler `handler` ran from `started` until now.
-    pub(super) fn ran(&mut self, handler: &'static str, started: Instant) {
-        if let Some(text) = self.judge(handler, started.elapsed()) {
+    /// Handler `handler` took `took`.
+    pub(super) fn ran(&mut self, handler: &'static str, took: Duration) {
+        if let Some(text) = self.judge(handler, took) {
             tracing::warn!(service = self.service, "{text}");
         }
     }
@@ -51,9 +52,10 @@ impl OverrunWatch {
             return None;
         }
         Some(format!(
-            "{}: {handler} took {} ms, more than half of its {which} deadline of {} ms; no \
-             heartbeat is sent while a handler runs, so the broker counts a longer one as a \
-             stall: move blocking device work into a device reader (see Service::device)",
+            "{}: {handler} took {} ms, more than half of its {which} deadline of {} ms; a \
+             handler that uses more CPU than the deadline stops the heartbeats, and the broker \
+             counts it as a stall: move long work or blocking device work into a device reader \
+             (see Service::device)",
             self.service,
             took.as_millis(),
             deadline.as_millis()

@@ -24,6 +24,7 @@
 //!
 //! data_checks = true              # check what providers publish (default: false)
 //! nice = -10                      # run the robot ahead of other work (default: as started)
+//! heartbeat_priority = 1          # SCHED_FIFO priority of heartbeat threads (default 1; 0: none)
 //! # cpu_budget_percent = 150       # optional: CPU the services may use together, in percent
 //! #                                # of one core (measured, or `cost` until measured)
 //!
@@ -70,6 +71,11 @@ pub use checks::{DataChecks, MIN_FROZEN_COUNT, OnCheckFailure};
 pub use error::{Problem, RobotError};
 
 use crate::supervise::RestartPolicy;
+
+/// The heartbeat threads' `SCHED_FIFO` priority unless the robot file says otherwise: the
+/// lowest real-time one, ahead of every normal thread and behind any control loop a robot
+/// team runs at a real-time priority of its own.
+pub const DEFAULT_HEARTBEAT_PRIORITY: u8 = 1;
 
 /// Quality and cost are relative scores within this range (higher quality is better,
 /// lower cost is better).
@@ -143,6 +149,11 @@ pub struct BrokerSettings {
     /// The nice value `lewis up` runs the robot at (broker, recorder, services and programs
     /// inherit it), from -20 (first) to 19 (last); `None` leaves the one it was started with.
     pub nice: Option<i32>,
+    /// The `SCHED_FIFO` priority each service's heartbeat thread asks for (1 to 99; 0 leaves
+    /// it to the normal scheduler), so that a busy machine cannot delay a heartbeat: the
+    /// thread wakes at the heartbeat period for microseconds. Where the machine does not
+    /// allow it, `lewis up` says so and the heartbeats run at normal priority.
+    pub heartbeat_priority: u8,
     /// The CPU the robot's services may use together, in percent of one core (150 is one
     /// and a half cores), when the robot file gives one (`[broker] cpu_budget_percent`):
     /// the broker then chooses providers so that starting one does not go beyond it,
@@ -232,6 +243,7 @@ impl Default for BrokerSettings {
             data_checks: false,
             checks_per_interface: BTreeMap::new(),
             nice: None,
+            heartbeat_priority: DEFAULT_HEARTBEAT_PRIORITY,
             cpu_budget_percent: None,
         }
     }

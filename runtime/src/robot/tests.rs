@@ -212,13 +212,15 @@ heartbeat_deadline = 50
     );
 }
 
+/// A robot of one laser with `broker` as the lines of its `[broker]` table.
+fn robot(broker: &str) -> String {
+    format!(
+        "[robot]\nname = \"x\"\n[broker]\n{broker}\n[[services]]\nname = \"laser\"\nkind = \"test-range\"\nstart = \"always\"\nprovides = []\n"
+    )
+}
+
 #[test]
 fn the_retry_of_failed_services_is_checked_where_it_is_written() {
-    let robot = |broker: &str| {
-        format!(
-            "[robot]\nname = \"x\"\n[broker]\n{broker}\n[[services]]\nname = \"laser\"\nkind = \"test-range\"\nstart = \"always\"\nprovides = []\n"
-        )
-    };
     check(
         &robot("retry_failed_after_ms = 2000\nretry_failed_max_ms = 1000\nretry_probation_ms = 0"),
         &expect![[r#"
@@ -244,11 +246,6 @@ fn the_retry_of_failed_services_is_checked_where_it_is_written() {
 
 #[test]
 fn a_nice_value_out_of_range_is_placed() {
-    let robot = |broker: &str| {
-        format!(
-            "[robot]\nname = \"x\"\n[broker]\n{broker}\n[[services]]\nname = \"laser\"\nkind = \"test-range\"\nstart = \"always\"\nprovides = []\n"
-        )
-    };
     check(
         &robot("nice = -21"),
         &expect![[r#"
@@ -263,6 +260,22 @@ fn a_nice_value_out_of_range_is_placed() {
     );
     let robot = parse(&robot("nice = -10"), Path::new("robot.toml"), &[]).unwrap();
     assert_eq!(robot.broker.nice, Some(-10));
+}
+
+#[test]
+fn a_heartbeat_priority_out_of_range_is_placed_and_the_default_is_the_lowest() {
+    check(
+        &robot("heartbeat_priority = 100"),
+        &expect![[r#"
+            robot.toml:4:22: heartbeat_priority 100 is out of range: real-time priorities run from 1 (lowest) to 99, and 0 leaves heartbeats to the normal scheduler
+        "#]],
+    );
+    let parsed = |text: &str| parse(&robot(text), Path::new("robot.toml"), &[]).unwrap();
+    assert_eq!(
+        parsed("heartbeat_priority = 0").broker.heartbeat_priority,
+        0
+    );
+    assert_eq!(parsed("").broker.heartbeat_priority, 1);
 }
 
 #[test]

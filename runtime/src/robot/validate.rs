@@ -12,8 +12,8 @@ use super::raw::{
     RawBroker, RawChecks, RawProvision, RawRequirement, RawRequirementTable, RawRobot, RawService,
 };
 use super::{
-    BrokerSettings, DataChecks, Kinds, Known, Launch, MIN_FROZEN_COUNT, Provision, RetryPolicy,
-    Robot, SCORE_RANGE, ServiceSpec, StartMode,
+    BrokerSettings, DEFAULT_HEARTBEAT_PRIORITY, DataChecks, Kinds, Known, Launch, MIN_FROZEN_COUNT,
+    Provision, RetryPolicy, Robot, SCORE_RANGE, ServiceSpec, StartMode,
 };
 use crate::supervise::RestartPolicy;
 
@@ -173,6 +173,12 @@ impl Checker<'_> {
             data_checks: raw.data_checks.unwrap_or(false),
             checks_per_interface,
             nice: raw.nice.and_then(|nice| self.nice(&nice)),
+            heartbeat_priority: raw
+                .heartbeat_priority
+                .map_or(Some(DEFAULT_HEARTBEAT_PRIORITY), |p| {
+                    self.heartbeat_priority(&p)
+                })
+                .unwrap_or(DEFAULT_HEARTBEAT_PRIORITY),
         }
     }
 
@@ -185,6 +191,24 @@ impl Checker<'_> {
                     &value.span(),
                     format!(
                         "nice {} is out of range: nice values run from -20 (first) to 19 (last)",
+                        value.get_ref()
+                    ),
+                );
+                None
+            }
+        }
+    }
+
+    /// A `SCHED_FIFO` priority for the heartbeat threads, 1 to 99, or 0 for none.
+    fn heartbeat_priority(&mut self, value: &Spanned<i64>) -> Option<u8> {
+        match u8::try_from(*value.get_ref()) {
+            Ok(priority) if priority <= 99 => Some(priority),
+            _ => {
+                self.report(
+                    &value.span(),
+                    format!(
+                        "heartbeat_priority {} is out of range: real-time priorities run from 1 \
+                         (lowest) to 99, and 0 leaves heartbeats to the normal scheduler",
                         value.get_ref()
                     ),
                 );

@@ -46,6 +46,6 @@ pub use error::{StartError, StopError, SuperviseError};
 pub use event::{ExitStatus, LogLine, Stream, SupervisorEvent};
 pub use output::MAX_LINE_BYTES;
 pub use policy::{RestartDecision, RestartPolicy, RestartTracker};
-pub use priority::{PriorityError, PrioritySet, set_nice};
+pub use priority::{PriorityError, PrioritySet, realtime_allowed, set_nice, set_thread_realtime};
 pub use spec::{ChildSpec, DEFAULT_STOP_GRACE, Restart};
 pub use supervisor::Supervisor;

@@ -29,6 +29,25 @@ pub enum PriorityError {
         /// The nice value asked for.
         nice: i32,
     },
+    /// A real-time priority needs `CAP_SYS_NICE` or a high enough `RLIMIT_RTPRIO`.
+    #[error(
+        "not allowed to run heartbeats at real-time priority (SCHED_FIFO {priority}): give lewis \
+         CAP_SYS_NICE (`setcap cap_sys_nice+ep`), raise its RLIMIT_RTPRIO (`ulimit -r`, \
+         systemd's LimitRTPRIO=), or run it as root"
+    )]
+    RealtimeNotAllowed {
+        /// The priority asked for.
+        priority: u8,
+    },
+    /// The system refused a real-time priority for another reason (a container's
+    /// real-time budget of zero, for one).
+    #[error("cannot run heartbeats at real-time priority (SCHED_FIFO {priority}): {source}")]
+    RealtimeSystem {
+        /// The priority asked for.
+        priority: u8,
+        /// What the system said.
+        source: std::io::Error,
+    },
     /// The threads of this process could not be listed, or the system refused otherwise.
     #[error("cannot set the robot's priority to nice {nice}: {source}")]
     System {
@@ -97,6 +116,52 @@ fn set_session_group_nice(nice: i32) -> Result<Option<i32>, PriorityError> {
     }
 }
 
+/// Runs the calling thread under `SCHED_FIFO` at `priority` (1, lowest, to 99): it runs
+/// whenever it is runnable, ahead of every thread of the normal scheduler. For threads that
+/// wake briefly and often (heartbeats); what they start gets the normal scheduler back
+/// (`SCHED_RESET_ON_FORK`).
+///
+/// # Errors
+/// [`PriorityError::RealtimeNotAllowed`] when the process may not.
+pub fn set_thread_realtime(priority: u8) -> Result<(), PriorityError> {
+    use nix::libc;
+    let param = libc::sched_param {
+        sched_priority: i32::from(priority),
+    };
+    // SAFETY: `param` is a valid sched_param for the call; pid 0 is the calling thread.
+    let set = unsafe {
+        libc::sched_setscheduler(
+            0,
+            libc::SCHED_FIFO | libc::SCHED_RESET_ON_FORK,
+            &raw const param,
+        )
+    };
+    if set == 0 {
+        return Ok(());
+    }
+    let source = std::io::Error::last_os_error();
+    Err(match source.raw_os_error() {
+        Some(libc::EPERM) => PriorityError::RealtimeNotAllowed { priority },
+        _ => PriorityError::RealtimeSystem { priority, source },
+    })
+}
+
+/// Whether this process's threads may run at real-time `priority`: tried on a thread made
+/// for the question, so the caller's own scheduling stays as it is.
+///
+/// # Errors
+/// Why not, as [`set_thread_realtime`] says.
+pub fn realtime_allowed(priority: u8) -> Result<(), PriorityError> {
+    std::thread::scope(|scope| scope.spawn(|| set_thread_realtime(priority)).join()).unwrap_or_else(
+        |_| {
+            Err(PriorityError::RealtimeSystem {
+                priority,
+                source: std::io::Error::other("the thread that tried it panicked"),
+            })
+        },
+    )
+}
+
 /// The nice value in `/proc/self/autogroup`'s text.
 fn autogroup_nice(text: &str) -> Option<i32> {
     text.split_whitespace().last()?.parse().ok()
@@ -130,6 +195,33 @@ fn set_threads_nice(nice: i32) -> Result<(), PriorityError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_real_time_priority_is_set_where_allowed_and_refused_by_name_elsewhere() {
+        match realtime_allowed(1) {
+            Ok(()) => {
+                let policy = std::thread::scope(|scope| {
+                    scope
+                        .spawn(|| {
+                            set_thread_realtime(1).unwrap();
+                            // SAFETY: pid 0 is the calling thread.
+                            unsafe { nix::libc::sched_getscheduler(0) }
+                        })
+                        .join()
+                        .unwrap()
+                });
+                assert_eq!(
+                    policy & !nix::libc::SCHED_RESET_ON_FORK,
+                    nix::libc::SCHED_FIFO
+                );
+            }
+            Err(e) => assert!(
+                e.to_string()
+                    .contains("heartbeats at real-time priority (SCHED_FIFO 1)"),
+                "{e}"
+            ),
+        }
+    }
 
     #[test]
     fn the_session_groups_nice_value_is_read_from_its_line() {

@@ -232,6 +232,20 @@ impl Supervisor {
         }
     }
 
+    /// Waits, at most `timeout`, for the exits of the running children that are dying
+    /// (killed, their threads on the way out, not yet gone): their exits are then events.
+    /// A child that was killed stops its heartbeats at once but is seen gone only when its
+    /// last thread has exited; a deadline judged in between would call its death a stall.
+    pub fn await_dying(&self, timeout: Duration) {
+        for slot in self.children.values() {
+            if let State::Running { process, .. } = &slot.state
+                && dying(process.pid())
+            {
+                let _ = process.wait_exit(timeout);
+            }
+        }
+    }
+
     /// The names of the running children, in start order.
     #[must_use]
     pub fn running(&self) -> Vec<&str> {
@@ -535,5 +549,71 @@ impl Drop for Supervisor {
                 }
             }
         }
+    }
+}
+
+/// Whether process `pid` is on its way out: a zombie, its main thread exiting
+/// (`PF_EXITING` among the flags of `/proc/PID/stat`), or killed and not yet scheduled to
+/// act on it (SIGKILL pending in `/proc/PID/status`). On a machine whose cores are busy a
+/// killed process's threads may wait tens of milliseconds for a core before they begin to
+/// exit, and a deadline judged meanwhile would call the death a stall.
+fn dying(pid: u32) -> bool {
+    const PF_EXITING: u64 = 0x4;
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return false;
+    };
+    let Some((_, after_name)) = stat.rsplit_once(')') else {
+        return false;
+    };
+    // After the name: state, ppid, pgrp, session, tty_nr, tpgid, flags.
+    let mut fields = after_name.split_whitespace();
+    let state = fields.next();
+    let flags = fields.nth(5).and_then(|f| f.parse::<u64>().ok());
+    matches!(state, Some("Z" | "X"))
+        || flags.is_some_and(|f| f & PF_EXITING != 0)
+        || std::fs::read_to_string(format!("/proc/{pid}/status"))
+            .is_ok_and(|status| sigkill_pending(&status))
+}
+
+/// Whether a `/proc/PID/status` text shows SIGKILL pending, for its thread (`SigPnd`) or
+/// its whole process (`ShdPnd`): a fatal signal is queued on every thread at once.
+fn sigkill_pending(status: &str) -> bool {
+    const SIGKILL_BIT: u64 = 1 << (9 - 1);
+    status.lines().any(|line| {
+        line.strip_prefix("SigPnd:")
+            .or_else(|| line.strip_prefix("ShdPnd:"))
+            .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+            .is_some_and(|mask| mask & SIGKILL_BIT != 0)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_zombie_is_dying_and_a_running_process_is_not() {
+        assert!(!dying(std::process::id()));
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let pid = rustix::process::Pid::from_child(&child);
+        let pidfd = rustix::process::pidfd_open(pid, rustix::process::PidfdFlags::empty()).unwrap();
+        // Readable once it has exited; not reaped yet, so a zombie.
+        let mut fds = [rustix::event::PollFd::new(
+            &pidfd,
+            rustix::event::PollFlags::IN,
+        )];
+        rustix::event::poll(&mut fds, None).unwrap();
+        assert!(dying(child.id()));
+        child.wait().unwrap();
+        assert!(!dying(u32::MAX), "no such process: not dying");
+    }
+
+    #[test]
+    fn a_pending_sigkill_is_read_from_either_mask() {
+        let status = |sig: &str, shd: &str| format!("Name:\tlaser\nSigPnd:\t{sig}\nShdPnd:\t{shd}\n");
+        assert!(sigkill_pending(&status("0000000000000100", "0000000000000000")));
+        assert!(sigkill_pending(&status("0000000000000000", "0000000000000100")));
+        assert!(!sigkill_pending(&status("0000000000000000", "0000000000004000")));
+        assert!(!sigkill_pending("SigPnd:\tnot hex\n"));
     }
 }

@@ -361,9 +361,13 @@ impl BrokerCore {
                     return;
                 }
                 let ms = entry.heartbeat_deadline_ns / 1_000_000;
+                // How long it was silent says whether it died or the machine was held up.
+                let silent_ms = (self.now_ns - last_heartbeat_ns) / 1_000_000;
                 self.fail(
                     service,
-                    &format!("{service} stalled: no heartbeat within its deadline of {ms} ms"),
+                    &format!(
+                        "{service} stalled: no heartbeat for {silent_ms} ms (its deadline: {ms} ms)"
+                    ),
                     true,
                     true,
                 );

@@ -361,14 +361,14 @@ fn laser_stall_without_exiting_rebinds_after_the_heartbeat_deadline() {
             @10 laser heartbeat: ok
             @59 sonar heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms
+              laser failed: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
               stop laser: laser has failed: its process must go
-              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              start sonar: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @61 laser exited with signal 9
             @70 sonar ready
             == state
-            service laser: failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service laser: failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
             service sonar: ready, last heartbeat 70 ms, health ok, 0 restarts, 1 clients
             client app RangeFinder -> sonar
             next deadline: 120 ms
@@ -392,12 +392,12 @@ fn a_heartbeat_at_the_deadline_is_late_and_one_before_it_is_in_time() {
             @10 laser heartbeat: ok
             @59 laser heartbeat: ok
             @109 laser heartbeat: ok
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms
+              laser failed: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
               stop laser: laser has failed: its process must go
-              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              start sonar: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             == state
-            service laser: stopping, failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service laser: stopping, failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
             service sonar: starting since 109 ms, health ok, 0 restarts, 1 clients
             client app RangeFinder -> sonar
             next deadline: 1109 ms
@@ -552,10 +552,10 @@ fn fail_back_after_an_operator_restart_of_a_failed_provider() {
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms
+              laser failed: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
               stop laser: laser has failed: its process must go
-              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              start sonar: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @61 laser exited with signal 9
             @65 sonar ready
             @100 operator restarts laser
@@ -565,7 +565,7 @@ fn fail_back_after_an_operator_restart_of_a_failed_provider() {
             @120 laser ready
               rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
             == state
-            service laser: ready, last heartbeat 120 ms, health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service laser: ready, last heartbeat 120 ms, health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
             service sonar: ready, last heartbeat 110 ms, health ok, 0 restarts, 0 clients
             client app RangeFinder -> laser
             next deadline: 160 ms
@@ -1018,10 +1018,10 @@ fn a_retried_service_that_dies_on_trial_gets_no_clients_back() {
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
+              laser failed: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); it will be retried in 100 ms
               stop laser: laser has failed: its process must go
-              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              start sonar: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @61 laser exited with signal 9
             @65 sonar ready
             @100 sonar heartbeat: ok
@@ -1032,7 +1032,7 @@ fn a_retried_service_that_dies_on_trial_gets_no_clients_back() {
             @180 laser exited with signal 9
               restart laser (attempt 1): laser exited with signal 9; restart 1 of at most 2 within 10000 ms, after 20 ms of backoff; its clients stay bound
             == state
-            service laser: restarting at 200 ms (attempt 1), health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service laser: restarting at 200 ms (attempt 1), health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
             service sonar: ready, last heartbeat 140 ms, health ok, 0 restarts, 1 clients
             client app RangeFinder -> sonar
             next deadline: 190 ms
@@ -1072,10 +1072,10 @@ fn a_retried_service_that_stays_up_through_its_probation_gets_its_clients_back()
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
+              laser failed: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); it will be retried in 100 ms
               stop laser: laser has failed: its process must go
-              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              start sonar: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @61 laser exited with signal 9
             @65 sonar ready
             @100 sonar heartbeat: ok
@@ -1090,7 +1090,7 @@ fn a_retried_service_that_stays_up_through_its_probation_gets_its_clients_back()
               rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
             @240 laser heartbeat: ok
             == state
-            service laser: ready, last heartbeat 240 ms, health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service laser: ready, last heartbeat 240 ms, health ok, 0 restarts, 1 clients, last failure: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms)
             service sonar: ready, last heartbeat 215 ms, health ok, 0 restarts, 0 clients
             client app RangeFinder -> laser
             next deadline: 265 ms
@@ -1155,23 +1155,23 @@ fn each_retry_that_fails_on_trial_doubles_the_cool_down_and_a_passed_one_resets_
             @5 laser ready
             @10 laser heartbeat: ok
             @60 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
+              laser failed: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); it will be retried in 100 ms
               stop laser: laser has failed: its process must go
-              start sonar: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              start sonar: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 50 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @61 laser exited with signal 9
             @160 time passed
               start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
             @165 laser ready
             @216 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 200 ms (longer each time a retry fails on trial: 1 so far)
+              laser failed: laser stalled: no heartbeat for 51 ms (its deadline: 50 ms); it will be retried in 200 ms (longer each time a retry fails on trial: 1 so far)
               stop laser: laser has failed: its process must go
             @217 laser exited with signal 9
             @416 time passed
               start laser: retry laser, failed long enough ago; clients fail back to it once it has stayed up 50 ms
             @420 laser ready
             @471 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 300 ms (longer each time a retry fails on trial: 2 so far)
+              laser failed: laser stalled: no heartbeat for 51 ms (its deadline: 50 ms); it will be retried in 300 ms (longer each time a retry fails on trial: 2 so far)
               stop laser: laser has failed: its process must go
             @472 laser exited with signal 9
             @771 time passed
@@ -1182,12 +1182,12 @@ fn each_retry_that_fails_on_trial_doubles_the_cool_down_and_a_passed_one_resets_
               rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
             @826 time passed
             @877 time passed
-              laser failed: laser stalled: no heartbeat within its deadline of 50 ms; it will be retried in 100 ms
+              laser failed: laser stalled: no heartbeat for 52 ms (its deadline: 50 ms); it will be retried in 100 ms
               stop laser: laser has failed: its process must go
-              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat within its deadline of 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: no heartbeat for 52 ms (its deadline: 50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
             @878 laser exited with signal 9
             == state
-            service laser: failed, retry at 977 ms, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat within its deadline of 50 ms
+            service laser: failed, retry at 977 ms, health ok, 0 restarts, 0 clients, last failure: laser stalled: no heartbeat for 52 ms (its deadline: 50 ms)
             service sonar: starting since 60 ms, health ok, 0 restarts, 1 clients
             client app RangeFinder -> sonar
             next deadline: 977 ms

@@ -5,6 +5,7 @@
 
 use lewis_interfaces::dynamic::{Decoder, Value};
 use lewis_interfaces::{Struct, cdr, msg};
+use std::fmt::Write as _;
 
 /// The values check of one interface, compiled once and used for every sample.
 #[derive(Debug, Clone)]
@@ -123,14 +124,16 @@ fn within_max_range(field: &str, readings: &[f64], max_range: f64) -> Result<(),
     }
 }
 
-/// The first number in `value` that is NaN or infinite, its place left in `path`.
+/// The first number in `value` that is NaN or infinite, its place left in `path`. Places
+/// are written into the one buffer, never allocated: a laser scan is hundreds of numbers
+/// many times a second.
 fn first_non_finite(value: &Value, path: &mut String) -> Option<f64> {
     match value {
         Value::Float(x) if !x.is_finite() => Some(*x),
         Value::Array(items) => {
             let len = path.len();
             for (i, item) in items.iter().enumerate() {
-                path.push_str(&format!("[{i}]"));
+                let _ = write!(path, "[{i}]");
                 if let Some(x) = first_non_finite(item, path) {
                     return Some(x);
                 }
@@ -153,5 +156,28 @@ fn first_non_finite(value: &Value, path: &mut String) -> Option<f64> {
             None
         }
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_non_finite_number_is_named_by_its_place() {
+        let point = |x: f64| Value::Struct(vec![("x".into(), Value::Float(x))]);
+        let value = Value::Struct(vec![
+            ("stamp".into(), Value::Int(3)),
+            (
+                "points".into(),
+                Value::Array(vec![point(1.0), point(f64::INFINITY), point(f64::NAN)]),
+            ),
+        ]);
+        let mut path = String::new();
+        assert_eq!(first_non_finite(&value, &mut path), Some(f64::INFINITY));
+        assert_eq!(path, "points[1].x");
+        let mut path = String::new();
+        assert_eq!(first_non_finite(&point(2.0), &mut path), None);
+        assert_eq!(path, "");
     }
 }
