@@ -52,7 +52,9 @@ pub struct ReplayArgs {
     /// recording whose sources are real devices is replayed open loop, and says so.
     #[arg(long)]
     pub all: bool,
-    /// Inject a fault (repeat for several).
+    /// Inject a fault (repeat for several). Its time is within the recording, or, with
+    /// `--all` living a mission again, up to as long again past its end (the mission may
+    /// arrive later than it did live).
     #[arg(long = "inject-fault", value_name = "SPEC", value_parser = parse_fault)]
     pub faults: Vec<FaultSpec>,
     /// Replay with this robot description instead of the one stored in the recording

@@ -155,6 +155,20 @@ pub enum FaultError {
         /// The recording's length, for people.
         duration: String,
     },
+    /// A time falls after the latest a mission lived again may run to.
+    #[error(
+        "fault `{spec}`: {time} is past the end of the replay; choose times from 0s to {latest} (the recording's {duration}, and as long again for the mission lived again to run over)"
+    )]
+    OutsideReplay {
+        /// The SPEC.
+        spec: String,
+        /// The time, for people.
+        time: String,
+        /// The recording's length, for people.
+        duration: String,
+        /// The latest time a fault may take, for people.
+        latest: String,
+    },
 }
 
 impl FromStr for FaultSpec {
@@ -219,11 +233,20 @@ impl FromStr for FaultSpec {
 }
 
 impl FaultSpec {
-    /// Places the fault on a recording of `robot` spanning `start_ns..=end_ns` (log time).
+    /// Places the fault on a recording of `robot` spanning `start_ns..=end_ns` (log time),
+    /// or up to `overtime_ns` past its end: a mission lived again may run on after the
+    /// recording ends (it arrives later than it did live), and a fault may fall there.
     ///
     /// # Errors
-    /// When the robot has no such service or a time is outside the recording.
-    pub fn resolve(&self, robot: &Robot, start_ns: i64, end_ns: i64) -> Result<Fault, FaultError> {
+    /// When the robot has no such service or a time is outside the recording and its
+    /// overtime.
+    pub fn resolve(
+        &self,
+        robot: &Robot,
+        start_ns: i64,
+        end_ns: i64,
+        overtime_ns: i64,
+    ) -> Result<Fault, FaultError> {
         if robot.service(&self.provider).is_none() {
             return Err(FaultError::UnknownProvider {
                 spec: self.text.clone(),
@@ -232,17 +255,29 @@ impl FaultSpec {
             });
         }
         let length_ns = end_ns.saturating_sub(start_ns).max(0);
-        let outside = |t: i64| FaultError::OutsideRecording {
-            spec: self.text.clone(),
-            time: format_seconds(t),
-            duration: format_seconds(length_ns),
+        let latest_ns = length_ns.saturating_add(overtime_ns.max(0));
+        let outside = |t: i64| {
+            if latest_ns == length_ns {
+                FaultError::OutsideRecording {
+                    spec: self.text.clone(),
+                    time: format_seconds(t),
+                    duration: format_seconds(length_ns),
+                }
+            } else {
+                FaultError::OutsideReplay {
+                    spec: self.text.clone(),
+                    time: format_seconds(t),
+                    duration: format_seconds(length_ns),
+                    latest: format_seconds(latest_ns),
+                }
+            }
         };
         let at = self.at_ns.unwrap_or(length_ns / 2);
-        if at > length_ns {
+        if at > latest_ns {
             return Err(outside(at));
         }
         if let Some(until) = self.until_ns
-            && until > length_ns
+            && until > latest_ns
         {
             return Err(outside(until));
         }
@@ -337,16 +372,29 @@ mod tests {
         )
         .unwrap();
         let spec: FaultSpec = "laser".parse().unwrap();
-        let fault = spec.resolve(&robot, 100, 10_000_000_100).unwrap();
+        let fault = spec.resolve(&robot, 100, 10_000_000_100, 0).unwrap();
         assert_eq!(fault.at_ns, 5_000_000_100);
         let late: FaultSpec = "laser@12s".parse().unwrap();
-        let e = late.resolve(&robot, 100, 10_000_000_100).unwrap_err();
+        let e = late.resolve(&robot, 100, 10_000_000_100, 0).unwrap_err();
         assert_eq!(
             e.to_string(),
             "fault `laser@12s`: 12s is outside the recording; choose times from 0s to 10s (its length)"
         );
+        // A mission lived again may run on past the recording's end, and a fault with it.
+        let fault = late
+            .resolve(&robot, 100, 10_000_000_100, 10_000_000_000)
+            .unwrap();
+        assert_eq!(fault.at_ns, 12_000_000_100);
+        let later: FaultSpec = "laser@21s".parse().unwrap();
+        let e = later
+            .resolve(&robot, 100, 10_000_000_100, 10_000_000_000)
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "fault `laser@21s`: 21s is past the end of the replay; choose times from 0s to 20s (the recording's 10s, and as long again for the mission lived again to run over)"
+        );
         let unknown: FaultSpec = "sonar".parse().unwrap();
-        let e = unknown.resolve(&robot, 0, 1).unwrap_err();
+        let e = unknown.resolve(&robot, 0, 1, 0).unwrap_err();
         assert!(e.to_string().contains("it has: laser"), "{e}");
     }
 }

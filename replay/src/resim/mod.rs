@@ -325,11 +325,6 @@ pub fn prepare(
         &options.set,
     )?;
     let robot = &replayed.robot;
-    let faults = options
-        .faults
-        .iter()
-        .map(|spec| spec.resolve(robot, recording.start_ns(), recording.end_ns()))
-        .collect::<Result<Vec<Fault>, _>>()?;
     let mut selection = options.services.clone();
     let closure = if selection == ServiceSelection::All {
         let closure = closure::close(
@@ -350,6 +345,17 @@ pub fn prepare(
             ..closure::Closure::default()
         }
     };
+    let (start_ns, end_ns) = (recording.start_ns(), recording.end_ns());
+    let overtime_ns = if closure.mission.is_some() && closure.loop_kind() == LoopKind::Closed {
+        overtime(start_ns, end_ns)
+    } else {
+        0
+    };
+    let faults = options
+        .faults
+        .iter()
+        .map(|spec| spec.resolve(robot, start_ns, end_ns, overtime_ns))
+        .collect::<Result<Vec<Fault>, _>>()?;
     let resimulated = select_services(
         robot,
         recording,
@@ -399,6 +405,12 @@ const AFTER_MISSION_NS: i64 = 2_000_000_000;
 /// How long a mission lived again may go on past the end of the recording, as a multiple
 /// of the recording's length: a fault may make it slower, not endless.
 const OVERTIME: i64 = 1;
+
+/// How long past the end of a recording spanning `start_ns..=end_ns` a mission lived again
+/// may run (and a fault be placed).
+fn overtime(start_ns: i64, end_ns: i64) -> i64 {
+    (end_ns - start_ns).saturating_mul(OVERTIME)
+}
 
 /// Replays a recording as [`replay`] does; with `--all` and `programs`, a recorded
 /// mission is lived again in the closed loop ([`closure`]).
@@ -499,7 +511,7 @@ pub fn replay_with(
             });
         }
     }
-    let limit_ns = end_ns.saturating_add((end_ns - start_ns).saturating_mul(OVERTIME));
+    let limit_ns = end_ns.saturating_add(overtime(start_ns, end_ns));
     harness.finish_mission(limit_ns, &mut sink);
     let end_of_run = harness
         .mission_over_at()
