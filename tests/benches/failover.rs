@@ -2,8 +2,8 @@
 //! to the first sonar sample at an application bound to RangeFinder, measured at the
 //! application, with the sonar started on demand and as a hot standby:
 //!
-//! - **stall**: the laser stops (no data, no heartbeat; 50 ms heartbeat deadline, with
-//!   heartbeats every 10 ms);
+//! - **stall**: the laser stops (no data, no heartbeat; the shipped robots' 100 ms
+//!   heartbeat deadline, with heartbeats every 10 ms);
 //! - **crash**: the laser aborts with no restart left (the crash beyond its limit);
 //! - **crash loop**: the laser aborts, and again at once after each of its 2 restarts
 //!   (backoff 20 ms then 40 ms), until it is beyond its limit: the whole episode;
@@ -17,7 +17,8 @@
 //! each process's clock; the split is good to a fraction of a millisecond.
 //!
 //! `cargo bench --workspace --bench failover` (`-- --trials N`, default 10; `-- --stress`
-//! runs `stress-ng --cpu 2` beside it all, so that every core is busy with other work).
+//! runs `stress-ng --cpu 2` beside it all, so that every core is busy with other work;
+//! `-- --deadline-ms N` sets another heartbeat deadline).
 
 #![allow(
     clippy::unwrap_used,
@@ -101,19 +102,15 @@ struct Trial {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let trials = args
-        .iter()
-        .position(|a| a == "--trials")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(10_usize);
+    let trials = number_after(&args, "--trials").unwrap_or(10_usize);
+    let deadline_ms = number_after(&args, "--deadline-ms").unwrap_or(SHIPPED_DEADLINE_MS);
     let stress = args
         .iter()
         .any(|a| a == "--stress")
         .then(|| lewis_tests::stress::Stress::cpus(2));
     println!(
         "failover latency, last laser sample -> first sonar sample at the application, \
-         {trials} trials each, milliseconds{}",
+         {trials} trials each, {deadline_ms} ms heartbeat deadline, milliseconds{}",
         if stress.is_some() {
             ", beside stress-ng --cpu 2"
         } else {
@@ -129,7 +126,7 @@ fn main() {
             let mut runs = Vec::new();
             let mut failed = 0;
             for i in 0..trials {
-                match trial(scenario, sonar_start, i) {
+                match trial(scenario, sonar_start, deadline_ms, i) {
                     Ok(run) => runs.push(run),
                     Err(why) => {
                         failed += 1;
@@ -159,6 +156,17 @@ fn main() {
     }
 }
 
+/// The number given after `flag` on the command line, if any.
+fn number_after<T: std::str::FromStr>(args: &[String], flag: &str) -> Option<T> {
+    args.iter()
+        .position(|a| a == flag)
+        .and_then(|i| args.get(i + 1))
+        .and_then(|n| n.parse().ok())
+}
+
+/// The heartbeat deadline of the shipped robots (`robots/sim.toml`, `robots/b21r.toml`).
+const SHIPPED_DEADLINE_MS: u64 = 100;
+
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
@@ -171,14 +179,19 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 /// One `lewis up`, one application; the fault is injected once the application receives
 /// laser data, and the gap is measured at the application. A trial fails (and is counted,
 /// not measured) when no sonar sample comes in time, or when the broker gives up the sonar
-/// too: on a loaded machine a fresh sonar can miss its 50 ms heartbeat deadline.
-fn trial(scenario: Scenario, sonar_start: &str, index: usize) -> Result<Trial, String> {
+/// too: on a loaded machine a fresh sonar could miss a short heartbeat deadline.
+fn trial(
+    scenario: Scenario,
+    sonar_start: &str,
+    deadline_ms: u64,
+    index: usize,
+) -> Result<Trial, String> {
     let dir = tempfile::tempdir().unwrap();
     let fault_file = dir.path().join("laser.fault");
     let robot = test_robot(&TestRobot {
         laser_fault_file: Some(&fault_file),
         sonar_start,
-        heartbeat_deadline_ms: 50,
+        heartbeat_deadline_ms: deadline_ms,
         laser_max_restarts: scenario.laser_max_restarts,
         rate_hz: 100.0,
         data_checks: scenario.data_checks,
