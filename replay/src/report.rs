@@ -5,6 +5,7 @@
 
 use std::fmt;
 
+use lewis_interfaces::msg::BrokerAction;
 use lewis_runtime::broker::{Action, Decision};
 use serde::Serialize;
 
@@ -16,6 +17,8 @@ use crate::lockstep::{Feed, Gap, HarnessStats};
 pub const MAX_REACTIONS: usize = 32;
 /// At most this many takeovers are listed per fault.
 pub const MAX_TAKEOVERS: usize = 32;
+/// At most this many of the broker's failure decisions are listed.
+pub const MAX_FAILURES: usize = 32;
 
 /// The report of one replay.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -50,6 +53,10 @@ pub struct Report {
     pub decisions: u64,
     /// The faults injected and what the broker did about them.
     pub faults: Vec<FaultReport>,
+    /// Every provider the replay's broker failed or degraded, in order (at most
+    /// [`MAX_FAILURES`]), faults or not: a failover that no fault explains shows here, with
+    /// the check or deadline that made it.
+    pub failures: Vec<Failure>,
     /// The longest time a re-simulated client went without data of an interface.
     pub longest_gap: Option<Gap>,
     /// What each re-simulated client received from each provider (times from the start).
@@ -119,6 +126,43 @@ pub struct Reaction {
     pub action: String,
     /// Why.
     pub reason: String,
+}
+
+/// A provider the replay's broker failed or degraded.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Failure {
+    /// When, from the start of the recording.
+    pub at_ns: i64,
+    /// The provider.
+    pub service: String,
+    /// Failed for good, or degraded (still serving, moved from where it can be); its word
+    /// on `/lewis/broker` in the JSON.
+    #[serde(serialize_with = "action_word")]
+    pub action: BrokerAction,
+    /// Why, as the broker said it.
+    pub reason: String,
+}
+
+fn action_word<S: serde::Serializer>(action: &BrokerAction, out: S) -> Result<S::Ok, S::Error> {
+    out.serialize_str(action.as_str())
+}
+
+impl Failure {
+    /// The failure `decision` says, if it is one (its time absolute, as decided).
+    #[must_use]
+    pub fn of(decision: &Decision) -> Option<Self> {
+        let (service, action) = match &decision.action {
+            Action::ServiceFailed { service } => (service, BrokerAction::ServiceFailed),
+            Action::ServiceDegraded { service } => (service, BrokerAction::ServiceDegraded),
+            _ => return None,
+        };
+        Some(Self {
+            at_ns: decision.at_ns,
+            service: service.clone(),
+            action,
+            reason: decision.reason.clone(),
+        })
+    }
 }
 
 /// A client moved to another provider after a fault.
@@ -391,6 +435,20 @@ impl fmt::Display for Report {
                     ms(t.latency_ns)
                 )?;
             }
+        }
+        for failure in &self.failures {
+            writeln!(
+                f,
+                "broker: {} {} at {}: {}",
+                failure.service,
+                if failure.action == BrokerAction::ServiceDegraded {
+                    "degraded"
+                } else {
+                    "failed"
+                },
+                format_seconds(failure.at_ns),
+                failure.reason
+            )?;
         }
         for feed in &self.feeds {
             writeln!(

@@ -444,6 +444,28 @@ fn bad_data_fails_over(fault: &str, check: &str) -> Report {
             .contains(&format!("failed its {check} check")),
         "the report names the check: {report}"
     );
+    // The broker's failures are listed whatever caused them, at the time of the reaction.
+    let failure = report
+        .failures
+        .first()
+        .unwrap_or_else(|| panic!("{report}"));
+    let reaction = fault
+        .reactions
+        .iter()
+        .find(|r| r.action == "laser failed")
+        .unwrap();
+    assert_eq!(
+        (failure.service.as_str(), failure.at_ns, &failure.reason),
+        ("laser", reaction.at_ns, &reaction.reason),
+        "{report}"
+    );
+    assert!(
+        report.to_string().contains(&format!(
+            "broker: laser failed at {}: ",
+            lewis_replay::fault::format_seconds(failure.at_ns)
+        )),
+        "{report}"
+    );
     report
 }
 

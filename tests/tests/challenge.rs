@@ -171,7 +171,13 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         mission["recorded_faults"][0]
             .as_str()
             .is_some_and(|f| f.starts_with("laser@")),
-        "{mission:#}"
+        "the live laser's deaths are applied again: {mission:#}\nthe live broker on the laser:\n{}",
+        decisions
+            .iter()
+            .filter(|d| d.service == "laser")
+            .map(|d| format!("{} {}: {}", d.at_ns, d.action, d.reason))
+            .collect::<Vec<_>>()
+            .join("\n")
     );
 
     closed_loop_verdicts(&run_mcap, dir.path(), &verdict);

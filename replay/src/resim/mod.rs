@@ -48,7 +48,7 @@ use crate::fault::{Fault, FaultError, FaultSpec};
 use crate::lockstep::{Feed, Lockstep, LockstepError, Plan, Programs, Route, route};
 use crate::outcome::{LoopKind, MissionOutcome, MissionReport};
 use crate::recording::{ReadAhead, Recording, RecordingError};
-use crate::report::{CheckOutcome, FaultWatch, Report};
+use crate::report::{CheckOutcome, Failure, FaultWatch, Report};
 use edit::{EditError, ParamEdit, ReplayedRobot, replayed_robot};
 use lookahead::Lookahead;
 use sink::OutputSink;
@@ -557,6 +557,7 @@ pub fn replay_with(
         comparator,
         watches,
         decisions,
+        failures,
         written,
         truth,
         ..
@@ -617,6 +618,13 @@ pub fn replay_with(
         messages_written: written,
         decisions,
         faults: watches.into_iter().map(|w| w.report(start_ns)).collect(),
+        failures: failures
+            .into_iter()
+            .map(|f| Failure {
+                at_ns: f.at_ns - start_ns,
+                ..f
+            })
+            .collect(),
         longest_gap,
         feeds,
         divergence,

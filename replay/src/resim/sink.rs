@@ -19,7 +19,7 @@ use super::{FAULTS_TOPIC, REPLAY_PREFIX, REPLAY_PROVIDER};
 use crate::compare::Comparator;
 use crate::lockstep::{Emitted, Sink};
 use crate::recording::{RecordedMessage, Topic};
-use crate::report::FaultWatch;
+use crate::report::{Failure, FaultWatch, MAX_FAILURES};
 
 /// Writes everything into the output recording, feeds the comparator and the fault
 /// watches.
@@ -47,6 +47,8 @@ pub(super) struct OutputSink {
     pub(super) comparator: Comparator,
     pub(super) watches: Vec<FaultWatch>,
     pub(super) decisions: u64,
+    /// The failures decided, at most [`MAX_FAILURES`].
+    pub(super) failures: Vec<Failure>,
     pub(super) written: u64,
     pub(super) error: Option<RecordError>,
     channels: BTreeMap<String, ChannelId>,
@@ -65,6 +67,7 @@ impl OutputSink {
             watches,
             truth: Truth::default(),
             decisions: 0,
+            failures: Vec::new(),
             written: 0,
             error: None,
             channels: BTreeMap::new(),
@@ -231,6 +234,11 @@ impl Sink for OutputSink {
             }
             Emitted::Decision(decision) => {
                 self.decisions += 1;
+                if self.failures.len() < MAX_FAILURES
+                    && let Some(failure) = Failure::of(decision)
+                {
+                    self.failures.push(failure);
+                }
                 for watch in &mut self.watches {
                     watch.decision(decision);
                 }

@@ -610,10 +610,20 @@ mod tests {
 
     #[test]
     fn a_pending_sigkill_is_read_from_either_mask() {
-        let status = |sig: &str, shd: &str| format!("Name:\tlaser\nSigPnd:\t{sig}\nShdPnd:\t{shd}\n");
-        assert!(sigkill_pending(&status("0000000000000100", "0000000000000000")));
-        assert!(sigkill_pending(&status("0000000000000000", "0000000000000100")));
-        assert!(!sigkill_pending(&status("0000000000000000", "0000000000004000")));
+        let status =
+            |sig: &str, shd: &str| format!("Name:\tlaser\nSigPnd:\t{sig}\nShdPnd:\t{shd}\n");
+        assert!(sigkill_pending(&status(
+            "0000000000000100",
+            "0000000000000000"
+        )));
+        assert!(sigkill_pending(&status(
+            "0000000000000000",
+            "0000000000000100"
+        )));
+        assert!(!sigkill_pending(&status(
+            "0000000000000000",
+            "0000000000004000"
+        )));
         assert!(!sigkill_pending("SigPnd:\tnot hex\n"));
     }
 }
