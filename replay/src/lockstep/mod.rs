@@ -89,7 +89,7 @@ use std::sync::Arc;
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, CommandLog, ProcessCpu};
 use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
-use lewis_runtime::live::health_from_message;
+use lewis_runtime::live::heartbeat_event;
 use lewis_runtime::robot::Robot;
 use lewis_runtime::service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegistry};
 use serde::Serialize;
@@ -479,13 +479,16 @@ impl<'a> Lockstep<'a> {
                     self.stats.undecodable += 1;
                     return;
                 };
-                let health = match self.fault_of(&service) {
+                let event = match self.fault_of(&service) {
                     Some(FaultKind::Stall | FaultKind::Crash) => return,
-                    Some(FaultKind::OutOfService) => faults::injected_out_of_service(),
-                    _ => health_from_message(&health),
+                    Some(FaultKind::OutOfService) => Event::Heartbeat {
+                        service,
+                        health: faults::injected_out_of_service(),
+                    },
+                    // A heartbeat, or the service's word that its loop was stuck, as live.
+                    _ => heartbeat_event(&service, &health),
                 };
-                self.work
-                    .push_back(Work::Broker(Event::Heartbeat { service, health }));
+                self.work.push_back(Work::Broker(event));
             }
             Route::Commands { service } => {
                 if !self.sims.contains_key(&service) {

@@ -43,14 +43,14 @@ use nix::sys::signal::Signal;
 
 use super::cpu::CpuSampler;
 use super::health::DataMonitor;
-use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need, ServiceState};
+use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need, ServiceState};
 use crate::clock::LiveClock;
 use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeCleaner, NodeLiveness, Publisher,
     Subscriber, WaitError, WaitSet, Waitable, WakeMode,
 };
 use crate::live::{CLOCK_ENV, ClockSource};
-use crate::live::{StopSignals, health_from_message};
+use crate::live::{StopSignals, heartbeat_event};
 use crate::names;
 use crate::robot::{DataChecks, Robot};
 use crate::supervise::{
@@ -298,7 +298,7 @@ struct Driver<'r> {
     /// The time of the last event handed to the core.
     last_ns: i64,
     /// Heartbeats read but sent after the time of the last event fed: fed with the next.
-    later_beats: Vec<(i64, String, Health)>,
+    later_beats: Vec<(i64, Event)>,
     /// The process of each client that told it, watched so that a client that dies without
     /// a release loses its bindings.
     client_pids: BTreeMap<String, i32>,
@@ -763,8 +763,7 @@ impl<'r> Driver<'r> {
                 match cdr::from_bytes::<HealthMessage>(sample.bytes()) {
                     Ok(message) => beats.push((
                         message.header.publish_time_ns,
-                        service.clone(),
-                        health_from_message(&message),
+                        heartbeat_event(service, &message),
                     )),
                     Err(e) => tracing::warn!("bad heartbeat from {service}: {e}"),
                 }
@@ -773,7 +772,7 @@ impl<'r> Driver<'r> {
         if later == Later::Wait {
             let (due, after): (Vec<_>, Vec<_>) = beats
                 .into_iter()
-                .partition(|(sent_ns, _, _)| *sent_ns <= until_ns);
+                .partition(|(sent_ns, _)| *sent_ns <= until_ns);
             beats = due;
             self.later_beats = after;
         }
@@ -1076,7 +1075,7 @@ enum Later {
 /// the demo's killed laser a stall, failed for good instead of restarted.
 const DYING_GRACE: Duration = Duration::from_millis(500);
 
-/// Heartbeats drained from the health channels (publish time, service, health), one
+/// Heartbeats drained from the health channels (publish time, event), one
 /// channel after the other, as the core must take them: in the order they were sent across
 /// services (the core judges every deadline at each one's time, so a later heartbeat of one
 /// service taken before an earlier one of another would judge that other too early), each
@@ -1088,17 +1087,15 @@ const DYING_GRACE: Duration = Duration::from_millis(500);
 /// and the next heartbeat's time failed them all. Sorting is stable: one service's
 /// heartbeats keep their order.
 fn heartbeats_in_order(
-    mut beats: Vec<(i64, String, Health)>,
+    mut beats: Vec<(i64, Event)>,
     until_ns: i64,
     now_ns: i64,
 ) -> Vec<(i64, Event)> {
-    beats.sort_by_key(|(sent_ns, _, _)| *sent_ns);
+    beats.sort_by_key(|(sent_ns, _)| *sent_ns);
     let latest_ns = until_ns.max(now_ns);
     beats
         .into_iter()
-        .map(|(sent_ns, service, health)| {
-            (sent_ns.min(latest_ns), Event::Heartbeat { service, health })
-        })
+        .map(|(sent_ns, event)| (sent_ns.min(latest_ns), event))
         .collect()
 }
 
@@ -1222,7 +1219,7 @@ mod tests {
     }
 
     use super::*;
-    use crate::broker::ServiceState;
+    use crate::broker::{Health, ServiceState};
 
     #[test]
     fn decisions_become_broker_messages_with_every_field_in_place() {
@@ -1455,12 +1452,16 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
 
     #[test]
     fn heartbeats_are_taken_in_the_order_they_were_sent_and_never_after_the_event() {
+        let beat = |service: &str, health: Health| Event::Heartbeat {
+            service: service.to_owned(),
+            health,
+        };
         let beats = vec![
-            (30, "laser".to_owned(), Health::Ok),
-            (40, "laser".to_owned(), Health::Degraded("dusty".to_owned())),
-            (10, "sonar".to_owned(), Health::Ok),
-            (35, "sonar".to_owned(), Health::Ok),
-            (50, "sonar".to_owned(), Health::Ok),
+            (30, beat("laser", Health::Ok)),
+            (40, beat("laser", Health::Degraded("dusty".to_owned()))),
+            (10, beat("sonar", Health::Ok)),
+            (35, beat("sonar", Health::Ok)),
+            (50, beat("sonar", Health::Ok)),
         ];
         let order: Vec<(i64, String)> = heartbeats_in_order(beats, 45, 0)
             .into_iter()

@@ -13,6 +13,12 @@
 //! - a step older than the deadline whose thread sleeps in it and has not run since the
 //!   last look (a handler blocked on a lock or a device without timeout).
 //!
+//! Finding the loop stuck, it says so once, a Health message `stalled` with what it saw,
+//! and goes silent. The broker fails the service on that message at once: one deadline
+//! after the step began, plus at most a period between looks. Silence alone would have it
+//! judged twice, by this thread and then by the broker's own deadline (210-220 ms at a
+//! 100 ms deadline). Silence stays the backstop for a process dead or frozen whole.
+//!
 //! Work inside iceoryx2 is not a handler's, and is judged against the startup deadline:
 //! iceoryx2 takes 70-80 ms of CPU to open a command client (measured on the simulated
 //! robot), which the harness does at a client's first call to a provider, inside the
@@ -408,12 +414,12 @@ impl Beater {
         }
     }
 
-    /// Whether the loop is responsive now; says why not, once per step.
-    fn loop_responsive(&mut self) -> bool {
+    /// How the loop looks now.
+    fn look(&mut self) -> Look {
         let word = self.shared.step.load(Ordering::Acquire);
         if word & WAITING != 0 {
             self.seen = None;
-            return true;
+            return Look::Responsive;
         }
         let now = Instant::now();
         let cpu_ns = self.loop_thread.cpu_ns();
@@ -426,7 +432,7 @@ impl Beater {
                     cpu_ns,
                     last_cpu_ns: cpu_ns,
                 });
-                return true;
+                return Look::Responsive;
             }
         };
         let why = stuck(
@@ -440,40 +446,53 @@ impl Beater {
             last_cpu_ns: cpu_ns,
             ..seen
         });
-        let Some(why) = why else {
-            return true;
-        };
-        // Once per stuck step: the broker's stall decision follows, and this says why.
-        if self.withheld_for != Some(word) {
-            self.withheld_for = Some(word);
-            tracing::warn!(
-                service = self.service,
-                "no heartbeat: the event loop is {why} ({} ms)",
-                self.deadlines.step.as_millis()
-            );
+        match why {
+            None => Look::Responsive,
+            Some(_) if self.withheld_for == Some(word) => Look::StillStuck,
+            Some(why) => {
+                self.withheld_for = Some(word);
+                Look::Stuck(why)
+            }
         }
-        false
     }
 
     fn beat(&mut self, publisher: &mut Publisher) {
-        if !self.loop_responsive() {
-            return;
-        }
-        // The loop holds the lock only to store a clone. If it holds it now (preempted
-        // there, perhaps), the value read last time stands and the change goes with the
-        // next beat: retrying at once would spin, ahead of the loop that must let go.
-        if let Ok(declared) = self.shared.declared.try_lock() {
-            self.declared.clone_from(&declared);
-        }
-        let (state, reason) = match fault_of(self.shared.fault.load(Ordering::Acquire)) {
-            FaultState::Stalled => return,
-            FaultState::OutOfService => (HealthState::OutOfService, OUT_OF_SERVICE_REASON),
-            FaultState::Normal => health_fields(&self.declared),
+        let (state, reason) = match self.look() {
+            Look::Responsive => {
+                // The loop holds the lock only to store a clone. If it holds it now
+                // (preempted there, perhaps), the value read last time stands and the
+                // change goes with the next beat: retrying at once would spin, ahead of the
+                // loop that must let go.
+                if let Ok(declared) = self.shared.declared.try_lock() {
+                    self.declared.clone_from(&declared);
+                }
+                match fault_of(self.shared.fault.load(Ordering::Acquire)) {
+                    FaultState::Stalled => return,
+                    FaultState::OutOfService => {
+                        (HealthState::OutOfService, OUT_OF_SERVICE_REASON.to_owned())
+                    }
+                    FaultState::Normal => {
+                        let (state, reason) = health_fields(&self.declared);
+                        (state, reason.to_owned())
+                    }
+                }
+            }
+            // Said once, then silence: the broker fails it on this message, and silence
+            // stays the backstop should the message be lost.
+            Look::Stuck(why) => {
+                let reason = format!(
+                    "its event loop is {why} ({} ms)",
+                    self.deadlines.step.as_millis()
+                );
+                tracing::warn!(service = self.service, "stalled: {reason}");
+                (HealthState::Stalled, reason)
+            }
+            Look::StillStuck => return,
         };
         self.seq += 1;
         let mut message = HealthMessage {
             state: state.into(),
-            reason: reason.to_owned(),
+            reason,
             ..HealthMessage::default()
         };
         let now_ns = self.clock.now_ns();
@@ -481,6 +500,17 @@ impl Beater {
             tracing::warn!(service = self.service, "cannot publish heartbeat: {e}");
         }
     }
+}
+
+/// What the heartbeat thread makes of the loop at one look.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Look {
+    /// Waiting, or in a step within its deadlines: beat.
+    Responsive,
+    /// Stuck in a step, seen now for the first time: say so, once.
+    Stuck(&'static str),
+    /// Stuck in a step already reported: stay silent.
+    StillStuck,
 }
 
 #[cfg(test)]

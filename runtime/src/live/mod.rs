@@ -686,7 +686,26 @@ pub fn health_from_fields(state: &str, reason: &str) -> Health {
         Some(HealthState::Ok) => Health::Ok,
         Some(HealthState::OutOfService) => Health::OutOfService(reason.to_owned()),
         Some(HealthState::Degraded) => Health::Degraded(reason.to_owned()),
+        // Its loop is stuck: it provides nothing now (the broker fails it on the message).
+        Some(HealthState::Stalled) => Health::OutOfService(reason.to_owned()),
         None => Health::Degraded(format!("unknown health state `{state}`: {reason}")),
+    }
+}
+
+/// The broker event a Health message of `service` stands for: a heartbeat with the health
+/// it declares, or, for `stalled`, its heartbeat thread's word that the loop is stuck. The
+/// live broker and replay read heartbeats through this one function, so they decide alike.
+#[must_use]
+pub fn heartbeat_event(service: &str, message: &HealthMessage) -> crate::broker::Event {
+    if HealthState::parse(&message.state) == Some(HealthState::Stalled) {
+        return crate::broker::Event::LoopStuck {
+            service: service.to_owned(),
+            why: message.reason.clone(),
+        };
+    }
+    crate::broker::Event::Heartbeat {
+        service: service.to_owned(),
+        health: health_from_message(message),
     }
 }
 

@@ -51,7 +51,7 @@ impl EventState {
         let level = match HealthState::parse(&health.state) {
             Some(HealthState::Ok) => "INFO",
             Some(HealthState::Degraded) => "WARN",
-            Some(HealthState::OutOfService) | None => "ERROR",
+            Some(HealthState::OutOfService | HealthState::Stalled) | None => "ERROR",
         };
         let reason = if health.reason.is_empty() {
             String::new()

@@ -37,6 +37,7 @@ const MEANINGS: &[(&str, &str, u32)] = &[
     ("bindings", UNBOUND, BAD),
     ("health", HealthState::Ok.as_str(), GOOD),
     ("health", HealthState::Degraded.as_str(), WARN),
+    ("health", HealthState::Stalled.as_str(), BAD),
     ("services", STARTED, GOOD),
     ("services", RESTARTING, WARN),
     ("services", FAILED, BAD),

@@ -89,6 +89,15 @@ pub enum Event {
         /// What it says of itself.
         health: Health,
     },
+    /// A service's heartbeat thread found its event loop stuck in one step (busy past the
+    /// heartbeat deadline, or asleep in a handler past it) and said so, once, before going
+    /// silent: judged at once, not after a deadline of silence more.
+    LoopStuck {
+        /// The service.
+        service: String,
+        /// What its heartbeat thread saw.
+        why: String,
+    },
     /// A service's process ended.
     ProcessExited {
         /// The service.
@@ -153,6 +162,7 @@ impl fmt::Display for Event {
             Self::ProviderStarted { service } => write!(f, "{service} process started"),
             Self::ProviderReady { service } => write!(f, "{service} ready"),
             Self::Heartbeat { service, health } => write!(f, "{service} heartbeat: {health}"),
+            Self::LoopStuck { service, why } => write!(f, "{service} stalled: {why}"),
             Self::ProcessExited { service, status } => write!(f, "{service} exited with {status}"),
             Self::StartFailed { service, error } => write!(f, "{service} could not start: {error}"),
             Self::DataCheckFailed {

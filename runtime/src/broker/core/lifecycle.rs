@@ -54,6 +54,19 @@ impl BrokerCore {
         }
     }
 
+    /// A service's own heartbeat thread says its loop is stuck: failed at once, as a stall
+    /// past its deadline is. The thread says so only of a step already past the deadline,
+    /// so waiting out another deadline of silence would judge the same stall twice.
+    pub(super) fn loop_stuck(&mut self, service: &str, why: &str) {
+        let ready = self
+            .services
+            .get(service)
+            .is_some_and(|entry| matches!(entry.state, ServiceState::Ready { .. }));
+        if ready {
+            self.fail(service, &format!("{service} stalled: {why}"), true, true);
+        }
+    }
+
     /// A failed check of a provider's data: failed as a stall is, or degraded.
     pub(super) fn data_check_failed(
         &mut self,

@@ -201,6 +201,7 @@ impl BrokerCore {
             Event::ProviderStarted { .. } | Event::TimePassed => {}
             Event::ProviderReady { service } => self.heartbeat(service, None),
             Event::Heartbeat { service, health } => self.heartbeat(service, Some(health)),
+            Event::LoopStuck { service, why } => self.loop_stuck(service, why),
             Event::ProcessExited { service, status } => self.exited(service, *status),
             Event::StartFailed { service, error } => self.start_failed(service, error),
             Event::StopService { service } => self.operator_stop(service),

@@ -89,6 +89,7 @@ fn event() -> impl Strategy<Value = Event> {
         1 => name(SERVICES).prop_map(|service| Event::ProviderStarted { service }),
         2 => name(SERVICES).prop_map(|service| Event::ProviderReady { service }),
         4 => (name(SERVICES), health()).prop_map(|(service, health)| Event::Heartbeat { service, health }),
+        1 => (name(SERVICES), ".{0,8}").prop_map(|(service, why)| Event::LoopStuck { service, why }),
         2 => (name(SERVICES), any::<i32>(), any::<bool>()).prop_map(|(service, n, signal)| {
             let status = if signal { ExitStatus::Signal(n) } else { ExitStatus::Code(n) };
             Event::ProcessExited { service, status }
@@ -289,6 +290,10 @@ fn joint_event() -> impl Strategy<Value = Event> {
             status: ExitStatus::Signal(9),
         }),
         1 => name(CAMERAS).prop_map(|service| Event::RestartService { service }),
+        1 => name(CAMERAS).prop_map(|service| Event::LoopStuck {
+            service,
+            why: "its event loop is busy".to_owned(),
+        }),
         1 => (name(CAMERAS), 0u32..800).prop_map(|(service, milli_cores)| Event::CpuMeasured {
             service,
             milli_cores,

@@ -377,6 +377,45 @@ fn laser_stall_without_exiting_rebinds_after_the_heartbeat_deadline() {
 }
 
 #[test]
+fn a_loop_its_heartbeat_thread_reports_stuck_is_failed_at_once() {
+    let stuck = |service: &str| Event::LoopStuck {
+        service: service.to_owned(),
+        why: "its event loop is blocked in one step for longer than its deadline (50 ms)"
+            .to_owned(),
+    };
+    check(
+        LASER_SONAR,
+        &with(
+            laser_serving(),
+            &[
+                (30, stuck("laser")),
+                (31, stuck("laser")),
+                (40, ready("sonar")),
+            ],
+        ),
+        &expect![[r#"
+            @0 client app requests RangeFinder
+              start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+              bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+            @5 laser ready
+            @10 laser heartbeat: ok
+            @30 laser stalled: its event loop is blocked in one step for longer than its deadline (50 ms)
+              laser failed: laser stalled: its event loop is blocked in one step for longer than its deadline (50 ms)
+              stop laser: laser has failed: its process must go
+              start sonar: laser stalled: its event loop is blocked in one step for longer than its deadline (50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+              rebind app from laser to sonar for RangeFinder: laser stalled: its event loop is blocked in one step for longer than its deadline (50 ms); sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @31 laser stalled: its event loop is blocked in one step for longer than its deadline (50 ms)
+            @40 sonar ready
+            == state
+            service laser: stopping, failed, health ok, 0 restarts, 0 clients, last failure: laser stalled: its event loop is blocked in one step for longer than its deadline (50 ms)
+            service sonar: ready, last heartbeat 40 ms, health ok, 0 restarts, 1 clients
+            client app RangeFinder -> sonar
+            next deadline: 90 ms
+        "#]],
+    );
+}
+
+#[test]
 fn a_heartbeat_at_the_deadline_is_late_and_one_before_it_is_in_time() {
     check(
         LASER_SONAR,
