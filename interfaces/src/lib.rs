@@ -12,6 +12,7 @@
 pub mod cdr;
 pub mod dynamic;
 pub mod idl;
+pub(crate) mod non_finite;
 pub mod ros2;
 pub mod speech;
 mod traits;
@@ -66,6 +67,41 @@ pub fn interface_info(name: &str) -> Option<&'static InterfaceInfo> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_first_non_finite_number_is_found_by_its_place_in_field_order() {
+        let pose = |y: f64| msg::Pose3D {
+            y,
+            ..msg::Pose3D::default()
+        };
+        let mut scan = msg::RangeFinder {
+            range_count: 3,
+            ranges: vec![1.0, 2.0, 3.0],
+            max_range: 8.0,
+            sensor_positions: vec![pose(0.0), pose(f64::INFINITY), pose(f64::NAN)],
+            ..msg::RangeFinder::default()
+        };
+        let mut path = String::new();
+        assert_eq!(scan.first_non_finite(&mut path), Some(f64::INFINITY));
+        assert_eq!(path, "sensor_positions[1].y");
+        // An earlier field is found first.
+        scan.ranges[2] = f64::NEG_INFINITY;
+        let mut path = String::new();
+        assert_eq!(scan.first_non_finite(&mut path), Some(f64::NEG_INFINITY));
+        assert_eq!(path, "ranges[2]");
+        scan.theta_separation = f64::NAN;
+        scan.ranges[2] = 3.0;
+        scan.sensor_positions = vec![pose(0.0); 3];
+        let mut path = String::new();
+        assert!(scan.first_non_finite(&mut path).is_some_and(f64::is_nan));
+        assert_eq!(path, "theta_separation");
+        scan.theta_separation = 0.0;
+        let mut path = String::new();
+        assert_eq!(scan.first_non_finite(&mut path), None);
+        assert_eq!(path, "");
+        // A message without numbers has nothing to find.
+        assert_eq!(msg::Health::default().first_non_finite(&mut path), None);
+    }
 
     #[test]
     fn every_reply_has_a_default_that_its_schema_decodes() {

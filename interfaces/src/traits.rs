@@ -36,6 +36,15 @@ pub trait Struct:
     /// # Errors
     /// The first array whose length disagrees.
     fn check_sizes(&self) -> Result<(), SizeMismatch>;
+
+    /// The first number that is NaN or infinite, in field order, its place written into
+    /// `path` (`points[1].x`; left as it was when there is none). Generated for every
+    /// struct that holds numbers, without allocating but for the place of what it finds:
+    /// the broker checks every sample of a checked provider with it.
+    fn first_non_finite(&self, path: &mut String) -> Option<f64> {
+        let _ = path;
+        None
+    }
 }
 
 /// A struct whose arrays of numbers and of plain structs can be written in place in the

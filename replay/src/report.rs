@@ -143,6 +143,8 @@ pub struct Failure {
     pub reason: String,
 }
 
+// serde's `serialize_with` hands the field by reference.
+#[allow(clippy::trivially_copy_pass_by_ref)]
 fn action_word<S: serde::Serializer>(action: &BrokerAction, out: S) -> Result<S::Ok, S::Error> {
     out.serialize_str(action.as_str())
 }

@@ -370,7 +370,11 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
         "    fn check_sizes(&self) -> Result<(), crate::SizeMismatch> {{"
     );
     emit_size_checks(out, idl, ty, |field| format!("self.{}.len()", field.name));
-    let _ = writeln!(out, "        Ok(())\n    }}\n}}\n");
+    let _ = writeln!(out, "        Ok(())\n    }}");
+    if has_floats(idl, ty) {
+        emit_first_non_finite(out, idl, ty);
+    }
+    let _ = writeln!(out, "}}\n");
 
     if ty.has_header() {
         let _ = writeln!(out, "impl crate::Message for {name} {{");
@@ -384,6 +388,76 @@ fn emit_struct(out: &mut String, idl: &Idl, ty: &StructType) {
         );
         let _ = writeln!(out, "}}\n");
     }
+}
+
+/// `first_non_finite`: each floating-point field in turn, arrays element by element,
+/// nested structs that hold numbers whole; the place of the first NaN or infinity is
+/// written into `path` (`points[1].x`), which is left as it was when there is none.
+fn emit_first_non_finite(out: &mut String, idl: &Idl, ty: &StructType) {
+    let _ = writeln!(
+        out,
+        "    fn first_non_finite(&self, path: &mut String) -> Option<f64> {{"
+    );
+    for field in &ty.fields {
+        let f = &field.name;
+        match &field.ty {
+            FieldType::Primitive {
+                primitive: Primitive::Float32 | Primitive::Float64,
+                ..
+            } => {
+                if field.is_array {
+                    let _ = writeln!(
+                        out,
+                        "        if let Some((i, x)) = self.{f}.iter().map(|x| f64::from(*x)).enumerate().find(|(_, x)| !x.is_finite()) {{ crate::non_finite::push_index(path, \"{f}\", i); return Some(x); }}"
+                    );
+                } else {
+                    let _ = writeln!(
+                        out,
+                        "        if !f64::from(self.{f}).is_finite() {{ crate::non_finite::push_field(path, \"{f}\"); return Some(f64::from(self.{f})); }}"
+                    );
+                }
+            }
+            FieldType::Struct(inner) if idl.compound(inner).is_some_and(|t| has_floats(idl, t)) => {
+                if field.is_array {
+                    let _ = writeln!(
+                        out,
+                        "        for (i, item) in self.{f}.iter().enumerate() {{ let len = path.len(); crate::non_finite::push_index(path, \"{f}\", i); if let Some(x) = crate::Struct::first_non_finite(item, path) {{ return Some(x); }} path.truncate(len); }}"
+                    );
+                } else {
+                    let _ = writeln!(
+                        out,
+                        "        {{ let len = path.len(); crate::non_finite::push_field(path, \"{f}\"); if let Some(x) = crate::Struct::first_non_finite(&self.{f}, path) {{ return Some(x); }} path.truncate(len); }}"
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+    let _ = writeln!(out, "        None\n    }}");
+}
+
+/// Whether `ty` holds a floating-point number, itself or in a struct it holds.
+fn has_floats(idl: &Idl, ty: &StructType) -> bool {
+    let mut stack = vec![ty];
+    // The IDL is checked for cycles; the budget only bounds the walk should one slip by.
+    let mut budget = idl.types.len() * 4 + 4;
+    while let Some(ty) = stack.pop() {
+        budget = budget.saturating_sub(1);
+        if budget == 0 {
+            return true;
+        }
+        for field in &ty.fields {
+            match &field.ty {
+                FieldType::Primitive {
+                    primitive: Primitive::Float32 | Primitive::Float64,
+                    ..
+                } => return true,
+                FieldType::Struct(inner) => stack.extend(idl.compound(inner)),
+                FieldType::Primitive { .. } => {}
+            }
+        }
+    }
+    false
 }
 
 /// The checks of every array's length against the field that gives its size, the length

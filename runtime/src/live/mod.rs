@@ -684,10 +684,12 @@ pub fn health_from_message(message: &HealthMessage) -> Health {
 pub fn health_from_fields(state: &str, reason: &str) -> Health {
     match HealthState::parse(state) {
         Some(HealthState::Ok) => Health::Ok,
-        Some(HealthState::OutOfService) => Health::OutOfService(reason.to_owned()),
+        // Stalled: its loop is stuck, it provides nothing now (the broker fails it on the
+        // message itself, `heartbeat_event`).
+        Some(HealthState::OutOfService | HealthState::Stalled) => {
+            Health::OutOfService(reason.to_owned())
+        }
         Some(HealthState::Degraded) => Health::Degraded(reason.to_owned()),
-        // Its loop is stuck: it provides nothing now (the broker fails it on the message).
-        Some(HealthState::Stalled) => Health::OutOfService(reason.to_owned()),
         None => Health::Degraded(format!("unknown health state `{state}`: {reason}")),
     }
 }
