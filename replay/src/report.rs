@@ -150,19 +150,21 @@ fn action_word<S: serde::Serializer>(action: &BrokerAction, out: S) -> Result<S:
 }
 
 impl Failure {
-    /// The failure `decision` says, if it is one (its time absolute, as decided).
+    /// The failure a decision published on `/lewis/broker` says, if it is one (its time
+    /// absolute, as decided).
     #[must_use]
-    pub fn of(decision: &Decision) -> Option<Self> {
-        let (service, action) = match &decision.action {
-            Action::ServiceFailed { service } => (service, BrokerAction::ServiceFailed),
-            Action::ServiceDegraded { service } => (service, BrokerAction::ServiceDegraded),
-            _ => return None,
-        };
+    pub fn of(message: &lewis_interfaces::msg::Broker) -> Option<Self> {
+        let action = BrokerAction::parse(&message.action).filter(|a| {
+            matches!(
+                a,
+                BrokerAction::ServiceFailed | BrokerAction::ServiceDegraded
+            )
+        })?;
         Some(Self {
-            at_ns: decision.at_ns,
-            service: service.clone(),
+            at_ns: message.at_ns,
+            service: message.service.clone(),
             action,
-            reason: decision.reason.clone(),
+            reason: message.reason.clone(),
         })
     }
 }

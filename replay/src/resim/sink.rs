@@ -234,16 +234,16 @@ impl Sink for OutputSink {
             }
             Emitted::Decision(decision) => {
                 self.decisions += 1;
-                if self.failures.len() < MAX_FAILURES
-                    && let Some(failure) = Failure::of(decision)
-                {
-                    self.failures.push(failure);
-                }
                 for watch in &mut self.watches {
                     watch.decision(decision);
                 }
                 let topic = format!("{REPLAY_PREFIX}{}", names::BROKER_CHANNEL);
                 let message: BrokerMessage = decision_message(decision);
+                if self.failures.len() < MAX_FAILURES
+                    && let Some(failure) = Failure::of(&message)
+                {
+                    self.failures.push(failure);
+                }
                 self.own(&topic, names::BROKER_NODE, decision.at_ns, message);
             }
             Emitted::Health {

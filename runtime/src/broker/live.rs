@@ -43,7 +43,7 @@ use nix::sys::signal::Signal;
 
 use super::cpu::CpuSampler;
 use super::health::DataMonitor;
-use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need, ServiceState};
+use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need};
 use crate::clock::LiveClock;
 use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeCleaner, NodeLiveness, Publisher,
@@ -731,19 +731,11 @@ impl<'r> Driver<'r> {
     /// machine, a 100 ms deadline) was judged a stall first, and a crash that should have
     /// been restarted was failed for good.
     fn death_time(&self, service: &str, seen_ns: i64) -> i64 {
-        let last_beat = self
-            .core
-            .snapshot()
-            .services
-            .into_iter()
-            .find(|s| s.name == service)
-            .and_then(|s| match s.state {
-                ServiceState::Ready { last_heartbeat_ns } => Some(last_heartbeat_ns),
-                _ => None,
-            });
-        last_beat.map_or(seen_ns, |beat_ns| {
-            seen_ns.min(beat_ns.saturating_add(1).max(self.last_ns))
-        })
+        self.core
+            .last_heartbeat_ns(service)
+            .map_or(seen_ns, |beat_ns| {
+                seen_ns.min(beat_ns.saturating_add(1).max(self.last_ns))
+            })
     }
 
     /// Feeds every heartbeat waiting on the health channels, in the order they were sent

@@ -10,10 +10,10 @@
 //! signals. SIGTERM or SIGINT end it cleanly: `on_stop` runs, the process exits with 0.
 //!
 //! A heartbeat means "this service is responsive". A thread of its own sends them
-//! (`heartbeat.rs`), watching the steps of this loop: it stops when a step has used more
-//! CPU than the heartbeat deadline or has slept in a handler past it, so a service stuck in
-//! a handler sends no heartbeat and that is how the broker sees a stall, while one that
-//! only waits for a core on a busy machine keeps beating. The first heartbeat (the service
+//! (`heartbeat.rs`), watching the steps of this loop: when a step has used more CPU than
+//! the heartbeat deadline or has slept in a handler past it, it says `stalled` once and
+//! stops, and that is how the broker sees a service stuck in a handler, while one that only
+//! waits for a core on a busy machine keeps beating. The first heartbeat (the service
 //! is ready) goes once `on_start` has returned: `on_start` may block (open a device, probe
 //! its baud rate) for up to the startup deadline. After that every handler must use well
 //! under the heartbeat deadline; one that uses more than half of it is reported once

@@ -178,6 +178,15 @@ impl BrokerCore {
             .is_some_and(Entry::ready_to_serve)
     }
 
+    /// When `service`'s last heartbeat was taken, while it is ready.
+    #[must_use]
+    pub fn last_heartbeat_ns(&self, service: &str) -> Option<i64> {
+        match self.services.get(service)?.state {
+            ServiceState::Ready { last_heartbeat_ns } => Some(last_heartbeat_ns),
+            _ => None,
+        }
+    }
+
     /// Whether the robot has a service with this name (for the operator's commands).
     #[must_use]
     pub fn has_service(&self, name: &str) -> bool {
