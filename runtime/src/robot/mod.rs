@@ -55,6 +55,7 @@
 
 mod checks;
 mod error;
+mod hosts;
 mod raw;
 mod validate;
 
@@ -69,6 +70,7 @@ use serde::Deserialize;
 
 pub use checks::{DataChecks, MIN_FROZEN_COUNT, OnCheckFailure};
 pub use error::{Problem, RobotError};
+pub use hosts::{Endpoint, HostSpec, NetworkSettings};
 
 use crate::supervise::RestartPolicy;
 
@@ -92,6 +94,11 @@ pub struct Robot {
     pub broker: BrokerSettings,
     /// The services, in the order the file declares them (the start order at boot).
     pub services: Vec<ServiceSpec>,
+    /// The computers it runs on (`[[hosts]]`), the robot's own first; empty for a robot
+    /// on one machine.
+    pub hosts: Vec<HostSpec>,
+    /// How its hosts talk (`[network]`).
+    pub network: NetworkSettings,
 }
 
 impl Robot {
@@ -108,6 +115,39 @@ impl Robot {
         self.services
             .iter()
             .find_map(|s| s.parameters.get("world").and_then(toml::Value::as_str))
+    }
+
+    /// The host whose broker decides for the robot: the first of `[[hosts]]`, `None` for a
+    /// robot on one machine.
+    #[must_use]
+    pub fn robot_host(&self) -> Option<&HostSpec> {
+        self.hosts.first()
+    }
+
+    /// The host with this name.
+    #[must_use]
+    pub fn host(&self, name: &str) -> Option<&HostSpec> {
+        self.hosts.iter().find(|h| h.name == name)
+    }
+
+    /// The host `service` runs on: the one it names, else the robot host; `None` for a
+    /// robot on one machine or a service it does not have.
+    #[must_use]
+    pub fn host_of(&self, service: &str) -> Option<&str> {
+        let spec = self.service(service)?;
+        spec.host
+            .as_deref()
+            .or_else(|| self.robot_host().map(|h| h.name.as_str()))
+    }
+
+    /// The names of its hosts, comma-separated, for an error about an unknown host.
+    #[must_use]
+    pub fn host_names(&self) -> String {
+        self.hosts
+            .iter()
+            .map(|h| h.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// The names of its services, comma-separated: what an error about an unknown service
@@ -281,6 +321,9 @@ pub struct ServiceSpec {
     pub start: StartMode,
     /// Environment variables set for its process (on top of the broker's own).
     pub environment: BTreeMap<String, String>,
+    /// The host it runs on, where the file names one (`host = "workstation"`); else the
+    /// robot host ([`Robot::host_of`]).
+    pub host: Option<String>,
 }
 
 impl ServiceSpec {

@@ -18,6 +18,29 @@ pub(super) struct RawRobot {
     pub broker: RawBroker,
     #[serde(default)]
     pub services: Vec<RawService>,
+    #[serde(default)]
+    pub hosts: Vec<Spanned<RawHost>>,
+    pub network: Option<Spanned<RawNetwork>>,
+}
+
+/// One computer of the robot (`[[hosts]]`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawHost {
+    pub name: Spanned<String>,
+    #[serde(default)]
+    pub description: String,
+    #[serde(default)]
+    pub listen: Vec<Spanned<String>>,
+    pub connect: Option<Vec<Spanned<String>>>,
+}
+
+/// How the hosts talk (`[network]`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawNetwork {
+    pub key_file: Option<Spanned<String>>,
+    pub link_deadline_ms: Option<Spanned<i64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -88,6 +111,7 @@ pub(super) struct RawService {
     pub start: StartMode,
     #[serde(default)]
     pub environment: BTreeMap<Spanned<String>, Spanned<String>>,
+    pub host: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -207,7 +207,7 @@ provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
 heartbeat_deadline = 50
 "#,
         &expect![[r#"
-            robot.toml:8:1: unknown field `heartbeat_deadline`, expected one of `name`, `description`, `kind`, `command`, `parameters`, `provides`, `requires`, `excludes`, `restart`, `heartbeat_deadline_ms`, `startup_deadline_ms`, `start`, `environment`
+            robot.toml:8:1: unknown field `heartbeat_deadline`, expected one of `name`, `description`, `kind`, `command`, `parameters`, `provides`, `requires`, `excludes`, `restart`, `heartbeat_deadline_ms`, `startup_deadline_ms`, `start`, `environment`, `host`
         "#]],
     );
 }

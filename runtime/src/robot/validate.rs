@@ -51,16 +51,16 @@ pub(super) fn parse(text: &str, origin: &Path, known: Known<'_>) -> Result<Robot
     }
 }
 
-struct Checker<'a> {
-    text: &'a str,
-    origin: &'a Path,
+pub(super) struct Checker<'a> {
+    pub(super) text: &'a str,
+    pub(super) origin: &'a Path,
     known: BTreeSet<&'a str>,
     kinds: Option<&'a dyn Kinds>,
     problems: Vec<(usize, Problem)>,
 }
 
 impl Checker<'_> {
-    fn report(&mut self, span: &Range<usize>, message: impl Into<String>) {
+    pub(super) fn report(&mut self, span: &Range<usize>, message: impl Into<String>) {
         let (line, column) = line_column(self.text, span.start);
         self.problems.push((
             span.start,
@@ -89,6 +89,11 @@ impl Checker<'_> {
         let mut services = Vec::with_capacity(raw.services.len());
         let mut requirement_spans = Vec::with_capacity(raw.services.len());
         let mut seen: BTreeMap<String, usize> = BTreeMap::new();
+        let host_spans: Vec<Option<Range<usize>>> = raw
+            .services
+            .iter()
+            .map(|s| s.host.as_ref().map(Spanned::span))
+            .collect();
         for service in raw.services {
             let name = service.name.clone();
             if let Some(first_line) = seen.get(name.get_ref()) {
@@ -106,11 +111,16 @@ impl Checker<'_> {
             requirement_spans.push(spans);
         }
         self.requirements(&services, &requirement_spans);
+        let hosts = self.hosts(raw.hosts);
+        self.service_hosts(&services, &hosts, &host_spans);
+        let network = self.network(raw.network, &broker, &hosts);
         Robot {
             name: header.name.into_inner(),
             description: header.description,
             broker,
             services,
+            hosts,
+            network,
         }
     }
 
@@ -455,6 +465,7 @@ impl Checker<'_> {
             startup_deadline_ms,
             start: raw.start,
             environment,
+            host: raw.host.map(Spanned::into_inner),
         };
         (spec, requirement_spans)
     }
@@ -638,7 +649,7 @@ impl Checker<'_> {
     }
 
     /// The value in milliseconds when given and positive; `None` (and a problem) when not positive.
-    fn positive_ms(&mut self, value: &Spanned<i64>, what: &str) -> Option<u64> {
+    pub(super) fn positive_ms(&mut self, value: &Spanned<i64>, what: &str) -> Option<u64> {
         match u64::try_from(*value.get_ref()) {
             Ok(ms) if ms > 0 => Some(ms),
             _ => {
@@ -670,7 +681,7 @@ impl Checker<'_> {
     }
 
     /// Whether `name` is a valid name; a problem when it is not.
-    fn identifier(&mut self, name: &Spanned<String>, what: &str) -> bool {
+    pub(super) fn identifier(&mut self, name: &Spanned<String>, what: &str) -> bool {
         let n = name.get_ref();
         let valid = n.len() <= MAX_NAME_LEN
             && n.starts_with(|c: char| c.is_ascii_alphabetic())
