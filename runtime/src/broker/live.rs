@@ -43,7 +43,8 @@ use nix::sys::signal::Signal;
 
 use super::cpu::CpuSampler;
 use super::health::DataMonitor;
-use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need};
+use super::remote::{HostEvent, RemoteHosts};
+use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need, ServiceState};
 use crate::clock::LiveClock;
 use crate::ipc::{
     CommandServer, FdSource, Ipc, IpcError, Namespace, NodeCleaner, NodeLiveness, Publisher,
@@ -52,7 +53,7 @@ use crate::ipc::{
 use crate::live::{CLOCK_ENV, ClockSource};
 use crate::live::{StopSignals, heartbeat_event};
 use crate::names;
-use crate::robot::{DataChecks, Robot};
+use crate::robot::{DataChecks, Robot, ServiceSpec};
 use crate::supervise::{
     ChildSpec, ExitStatus as ProcessExit, LogLine, SuperviseError, Supervisor, SupervisorEvent,
 };
@@ -242,9 +243,26 @@ pub fn run_up(
     stop: &StopSignals,
     before_close: &mut dyn FnMut(),
 ) -> Result<UpSummary, UpError> {
+    run_up_with_hosts(robot, options, stop, before_close, None)
+}
+
+/// As [`run_up`], for the robot host of a robot on more than one: the services of the other
+/// hosts are started and stopped through `remote`, and their exits and the hosts' comings
+/// and goings come from it. Until a host has joined, its services can be neither chosen nor
+/// started.
+///
+/// # Errors
+/// When IPC or supervision cannot be set up.
+pub fn run_up_with_hosts<'a>(
+    robot: &'a Robot,
+    options: &'a UpOptions,
+    stop: &StopSignals,
+    before_close: &mut dyn FnMut(),
+    remote: Option<&'a mut (dyn RemoteHosts + 'a)>,
+) -> Result<UpSummary, UpError> {
     let (log_tx, log_rx) = sync_channel(LOG_QUEUE);
     let forwarder = spawn_log_forwarder(options.namespace.clone(), log_rx)?;
-    let mut driver = Driver::new(robot, options, Supervisor::with_log_sink(log_tx)?)?;
+    let mut driver = Driver::new(robot, options, Supervisor::with_log_sink(log_tx)?, remote)?;
     let end = options.duration.map(|d| Instant::now() + d);
     let ended_by = driver.run(stop, end)?;
     let summary = UpSummary {
@@ -271,9 +289,31 @@ pub fn run_up(
     Ok(summary)
 }
 
+/// How a service of the robot is spawned: its command line, the namespace and clock it
+/// runs in, its environment; `None` for an empty command line. What the broker starts on
+/// its host, and another host's supervisor on its own.
+#[must_use]
+pub fn service_child(spec: &ServiceSpec, options: &UpOptions) -> Option<ChildSpec> {
+    let argv = spec.argv(&options.lewis_exe, &options.robot_path);
+    let (program, args) = argv.split_first()?;
+    let mut child = ChildSpec::new(&spec.name, Path::new(program))
+        .args(args.iter().cloned())
+        .env(crate::ipc::NAMESPACE_ENV, options.namespace.as_str())
+        .env(CLOCK_ENV, options.clock.as_str())
+        .stop_grace(options.stop_grace);
+    for (key, value) in &spec.environment {
+        child = child.env(key, value);
+    }
+    Some(child)
+}
+
 struct Driver<'r> {
     robot: &'r Robot,
     options: &'r UpOptions,
+    /// The other hosts, for a robot on more than one.
+    remote: Option<&'r mut (dyn RemoteHosts + 'r)>,
+    /// The robot host's name, for a robot on more than one.
+    local_host: Option<String>,
     /// The robot file's text, served to whoever asks (`robot`).
     robot_toml: String,
     clock: LiveClock,
@@ -319,6 +359,7 @@ impl<'r> Driver<'r> {
         robot: &'r Robot,
         options: &'r UpOptions,
         supervisor: Supervisor,
+        remote: Option<&'r mut (dyn RemoteHosts + 'r)>,
     ) -> Result<Self, UpError> {
         let robot_toml =
             std::fs::read_to_string(&options.robot_path).map_err(|source| UpError::RobotFile {
@@ -367,6 +408,8 @@ impl<'r> Driver<'r> {
         Ok(Self {
             robot,
             options,
+            remote,
+            local_host: robot.robot_host().map(|h| h.name.clone()),
             robot_toml,
             clock: LiveClock::new(),
             core: BrokerCore::new(robot),
@@ -403,6 +446,13 @@ impl<'r> Driver<'r> {
             namespace = self.options.namespace.as_str(),
             "broker up"
         );
+        // The other hosts' services wait for their host to join.
+        for host in self.robot.hosts.iter().skip(1) {
+            self.feed(Event::HostLost {
+                host: host.name.clone(),
+                why: "not connected yet".to_owned(),
+            });
+        }
         self.feed(Event::BrokerStarted);
         loop {
             if signals.take_requested() {
@@ -418,6 +468,7 @@ impl<'r> Driver<'r> {
             // Every event is fed after the heartbeats sent before it (`feed_at`), so the
             // order of these steps does not matter to deadlines.
             self.take_exits()?;
+            self.take_remote_events();
             self.serve_requests();
             let now_ns = self.clock.now_ns();
             if self.core.next_deadline().is_some_and(|d| now_ns >= d) {
@@ -425,6 +476,8 @@ impl<'r> Driver<'r> {
                 // death, must come before the deadline its silence would miss.
                 self.supervisor.await_dying(DYING_GRACE);
                 self.take_exits()?;
+                self.take_remote_events();
+                self.judge_quiet_hosts(now_ns);
                 // Now, not `now_ns`: waiting for the dying and restarting took time.
                 self.feed(Event::TimePassed);
             } else {
@@ -472,7 +525,9 @@ impl<'r> Driver<'r> {
     fn wait(&self, signals: &StopSignals, deadline: Option<Instant>) -> Result<(), UpError> {
         let signal_fd = FdSource::new(signals.as_fd());
         let supervisor_fd = FdSource::new(self.supervisor.as_fd());
+        let remote_fd = self.remote.as_ref().map(|r| FdSource::new(r.wake_fd()));
         let mut sources: Vec<&dyn Waitable> = vec![&signal_fd, &supervisor_fd, &self.server];
+        sources.extend(remote_fd.as_ref().map(|fd| fd as &dyn Waitable));
         sources.extend(self.health.iter().map(|(_, s)| s as &dyn Waitable));
         self.waits.wait(&sources, deadline)?;
         Ok(())
@@ -612,8 +667,71 @@ impl<'r> Driver<'r> {
         }
     }
 
+    /// The host `service` runs on when that is another than this one.
+    fn remote_host_of(&self, service: &str) -> Option<String> {
+        let host = self.robot.host_of(service)?;
+        (Some(host) != self.local_host.as_deref()).then(|| host.to_owned())
+    }
+
+    /// Feeds what the other hosts reported: hosts joined or lost, exits of their services.
+    fn take_remote_events(&mut self) {
+        while let Some(event) = self.remote.as_mut().and_then(|r| r.take_event()) {
+            match event {
+                HostEvent::Joined { host } => {
+                    tracing::info!(subject = "broker", "host {host} joined");
+                    self.feed(Event::HostJoined { host });
+                }
+                HostEvent::Lost { host, why } => {
+                    tracing::warn!(subject = "broker", "host {host} lost: {why}");
+                    self.feed(Event::HostLost { host, why });
+                }
+                HostEvent::Exited { service, status } => {
+                    let died_ns = self.death_time(&service, self.clock.now_ns());
+                    self.feed_in_the_past(died_ns, Event::ProcessExited { service, status });
+                }
+            }
+        }
+    }
+
+    /// A service of another host past its deadline, whose whole host went quiet with it
+    /// (not even the host's own beat came for one and a half heartbeat periods), was not
+    /// stalled: its host is lost, and that is what its clients are told.
+    fn judge_quiet_hosts(&mut self, now_ns: i64) {
+        let Some(remote) = self.remote.as_ref() else {
+            return;
+        };
+        let quiet = Duration::from_millis(self.robot.broker.heartbeat_period_ms * 3 / 2);
+        let mut lost = BTreeSet::new();
+        for service in self.core.due_services(now_ns) {
+            let Some(host) = self.remote_host_of(service) else {
+                continue;
+            };
+            if let Some(silence) = remote.silence(&host)
+                && silence >= quiet
+            {
+                lost.insert((host, silence));
+            }
+        }
+        for (host, silence) in lost {
+            let why = format!(
+                "nothing heard from it for {} ms, its services' heartbeats included",
+                silence.as_millis()
+            );
+            tracing::warn!(subject = "broker", "host {host} lost: {why}");
+            if let Some(remote) = self.remote.as_mut() {
+                remote.mark_lost(&host);
+            }
+            self.feed(Event::HostLost { host, why });
+        }
+    }
+
     /// Does what an action asks; returns the event that follows from it at once, if any.
     fn carry_out(&mut self, action: &Action) -> Option<Event> {
+        if let Action::Start { service } | Action::Stop { service } = action
+            && let Some(host) = self.remote_host_of(service)
+        {
+            return self.carry_out_remote(action, &host, service);
+        }
         match action {
             Action::Start { service } => Some(self.start(service)),
             Action::Stop { service } => {
@@ -631,6 +749,29 @@ impl<'r> Driver<'r> {
         }
     }
 
+    /// A start or a stop of a service of another host, by its supervisor.
+    fn carry_out_remote(&mut self, action: &Action, host: &str, service: &str) -> Option<Event> {
+        let remote = self.remote.as_mut()?;
+        match action {
+            Action::Start { .. } => Some(match remote.start(host, service) {
+                Ok(pid) => {
+                    tracing::debug!(service, "started on {host} (pid {pid})");
+                    Event::ProviderStarted {
+                        service: service.to_owned(),
+                    }
+                }
+                Err(error) => Event::StartFailed {
+                    service: service.to_owned(),
+                    error,
+                },
+            }),
+            _ => {
+                remote.stop(host, service);
+                None
+            }
+        }
+    }
+
     fn start(&mut self, service: &str) -> Event {
         let Some(spec) = self.robot.service(service) else {
             return Event::StartFailed {
@@ -638,21 +779,12 @@ impl<'r> Driver<'r> {
                 error: "not in the robot file".to_owned(),
             };
         };
-        let argv = spec.argv(&self.options.lewis_exe, &self.options.robot_path);
-        let Some((program, args)) = argv.split_first() else {
+        let Some(child) = service_child(spec, self.options) else {
             return Event::StartFailed {
                 service: service.to_owned(),
                 error: "empty command line".to_owned(),
             };
         };
-        let mut child = ChildSpec::new(service, Path::new(program))
-            .args(args.iter().cloned())
-            .env(crate::ipc::NAMESPACE_ENV, self.options.namespace.as_str())
-            .env(CLOCK_ENV, self.options.clock.as_str())
-            .stop_grace(self.options.stop_grace);
-        for (key, value) in &spec.environment {
-            child = child.env(key, value);
-        }
         // A service started again may meet one dead predecessor's ports (its channels
         // have a publisher and a server slot to spare for it: `names::command_config`),
         // not two: the cleanup after the exit before the last one must be over. It
@@ -901,7 +1033,9 @@ impl<'r> Driver<'r> {
     fn answer(&mut self, command: BrokerCommand) -> Vec<u8> {
         match command {
             BrokerCommand::Request(request) => {
-                if request.pid > 0 {
+                // Another host's process is not this host's to look for: its host's loss
+                // takes its bindings.
+                if request.pid > 0 && self.remote_host_of(&request.client).is_none() {
                     self.client_pids.insert(request.client.clone(), request.pid);
                 }
                 let decisions = self.feed(Event::ClientRequest {
@@ -995,6 +1129,28 @@ impl<'r> Driver<'r> {
             .collect::<Vec<_>>();
         // Whatever is left (nothing, unless a process is not running): reverse start order.
         results.extend(self.supervisor.stop_all());
+        // The other hosts' services, without waiting: each host stops what is left of the
+        // robot once it has lost this broker.
+        let remote: Vec<(String, String)> = self
+            .core
+            .snapshot()
+            .services
+            .iter()
+            .filter(|s| {
+                matches!(
+                    s.state,
+                    ServiceState::Starting { .. }
+                        | ServiceState::Ready { .. }
+                        | ServiceState::Stopping { .. }
+                )
+            })
+            .filter_map(|s| Some((self.remote_host_of(&s.name)?, s.name.clone())))
+            .collect();
+        if let Some(hosts) = self.remote.as_mut() {
+            for (host, service) in remote {
+                hosts.stop(&host, &service);
+            }
+        }
         for (name, result) in results {
             match result {
                 Ok(Some(status)) => tracing::debug!(service = name, "stopped: {status}"),
@@ -1328,7 +1484,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
     fn an_exit_seen_after_the_deadline_is_a_crash_restarted_not_a_stall() {
         let dir = tempfile::tempdir().unwrap();
         let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "late-exit");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
+        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
         let services = Ipc::open(&options.namespace, "services").unwrap();
         let mut laser = services
             .publisher(&names::health_channel("laser"), &names::health_config())
@@ -1379,7 +1535,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
     fn heartbeats_sent_while_the_loop_was_held_up_are_taken_before_the_next_event() {
         let dir = tempfile::tempdir().unwrap();
         let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "held-up");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
+        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
         let services = Ipc::open(&options.namespace, "services").unwrap();
         let health = |name: &str| {
             services
@@ -1475,7 +1631,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
     fn heartbeats_sent_after_a_stale_event_time_keep_their_own_times() {
         let dir = tempfile::tempdir().unwrap();
         let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "stale-now");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap()).unwrap();
+        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
         let services = Ipc::open(&options.namespace, "services").unwrap();
         let mut sonar = services
             .publisher(&names::health_channel("sonar"), &names::health_config())

@@ -13,6 +13,7 @@ mod core;
 pub mod cpu;
 pub mod health;
 pub mod live;
+pub mod remote;
 pub mod status;
 
 pub use self::core::{

@@ -105,6 +105,21 @@ pub enum Event {
         /// How it ended.
         status: ExitStatus,
     },
+    /// Another host of the robot can no longer be reached (its session closed, or it was
+    /// silent past the link deadline): its services can neither serve nor be started until
+    /// it joins again, and those that ran are failed (their host stops them).
+    HostLost {
+        /// The host.
+        host: String,
+        /// What was seen.
+        why: String,
+    },
+    /// Another host of the robot is reachable (again): its services may be chosen and
+    /// started; those lost with it rejoin through the broker, never by themselves.
+    HostJoined {
+        /// The host.
+        host: String,
+    },
     /// A service's process could not be spawned (the program does not exist, is not
     /// executable, ...). Not retried: it would fail the same way.
     StartFailed {
@@ -164,6 +179,8 @@ impl fmt::Display for Event {
             Self::Heartbeat { service, health } => write!(f, "{service} heartbeat: {health}"),
             Self::LoopStuck { service, why } => write!(f, "{service} stalled: {why}"),
             Self::ProcessExited { service, status } => write!(f, "{service} exited with {status}"),
+            Self::HostLost { host, why } => write!(f, "host {host} lost: {why}"),
+            Self::HostJoined { host } => write!(f, "host {host} joined"),
             Self::StartFailed { service, error } => write!(f, "{service} could not start: {error}"),
             Self::DataCheckFailed {
                 service,

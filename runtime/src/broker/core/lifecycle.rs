@@ -13,7 +13,11 @@ impl BrokerCore {
             let Some(entry) = self.services.get(&name) else {
                 continue;
             };
-            if entry.state == ServiceState::Idle && entry.start != StartMode::OnDemand {
+            // A service of a host not joined yet starts when it joins (`host_joined`).
+            if entry.state == ServiceState::Idle
+                && entry.start != StartMode::OnDemand
+                && !entry.host_down
+            {
                 let mode = match entry.start {
                     StartMode::Always => "it must always run",
                     _ => "it is a hot standby",

@@ -59,6 +59,7 @@
 mod bindings;
 mod decision;
 mod event;
+mod hosts;
 mod lifecycle;
 mod plan;
 mod service;
@@ -114,7 +115,11 @@ impl BrokerCore {
             services: robot
                 .services
                 .iter()
-                .map(|spec| (spec.name.clone(), Entry::new(spec)))
+                .map(|spec| {
+                    let mut entry = Entry::new(spec);
+                    entry.host = robot.host_of(&spec.name).map(str::to_owned);
+                    (spec.name.clone(), entry)
+                })
                 .collect(),
             boot_order: robot.services.iter().map(|s| s.name.clone()).collect(),
             fail_back_default: robot.broker.fail_back,
@@ -169,6 +174,16 @@ impl BrokerCore {
         self.services.values().filter_map(Entry::deadline).min()
     }
 
+    /// The services whose deadline is at or before `now_ns`.
+    #[must_use]
+    pub fn due_services(&self, now_ns: i64) -> Vec<&str> {
+        self.services
+            .iter()
+            .filter(|(_, e)| e.deadline().is_some_and(|d| d <= now_ns))
+            .map(|(name, _)| name.as_str())
+            .collect()
+    }
+
     /// Whether `service`'s published data is to be checked now: it is ready and not out of
     /// service (a provider that says it cannot serve is expected to fall silent).
     #[must_use]
@@ -211,6 +226,8 @@ impl BrokerCore {
             Event::ProviderReady { service } => self.heartbeat(service, None),
             Event::Heartbeat { service, health } => self.heartbeat(service, Some(health)),
             Event::LoopStuck { service, why } => self.loop_stuck(service, why),
+            Event::HostLost { host, why } => self.host_lost(host, why),
+            Event::HostJoined { host } => self.host_joined(host),
             Event::ProcessExited { service, status } => self.exited(service, *status),
             Event::StartFailed { service, error } => self.start_failed(service, error),
             Event::StopService { service } => self.operator_stop(service),

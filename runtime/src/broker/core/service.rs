@@ -92,6 +92,12 @@ pub(super) struct Entry {
     /// What it was measured to use, smoothed, in thousandths of a core; `None` until its
     /// process was first measured.
     pub measured_milli_cores: Option<u32>,
+    /// The host it runs on, for a robot on more than one.
+    pub host: Option<String>,
+    /// Whether its host is unreachable: it can neither serve nor be started.
+    pub host_down: bool,
+    /// Whether it failed because its host was lost: it rejoins when the host is back.
+    pub lost_with_host: bool,
 }
 
 /// A retried service's trial: clients fail back to it only once it has stayed up.
@@ -147,6 +153,9 @@ impl Entry {
             excludes: spec.excludes.clone(),
             declared_milli_cores: spec.declared_cpu_percent().saturating_mul(10),
             measured_milli_cores: None,
+            host: None,
+            host_down: false,
+            lost_with_host: false,
         }
     }
 
@@ -199,12 +208,15 @@ impl Entry {
 
     /// Whether clients may stay bound to it: running or coming back, and not out of service.
     pub fn serves(&self) -> bool {
-        self.is_active() && !self.health.is_out_of_service()
+        self.is_active() && !self.health.is_out_of_service() && !self.host_down
     }
 
     /// Whether it may be chosen for a new binding (perhaps by starting it).
     pub fn can_serve(&self) -> bool {
-        self.serves() || (self.state == ServiceState::Idle && !self.health.is_out_of_service())
+        self.serves()
+            || (self.state == ServiceState::Idle
+                && !self.health.is_out_of_service()
+                && !self.host_down)
     }
 
     /// Whether it is ready now and not out of service.

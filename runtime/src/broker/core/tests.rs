@@ -115,7 +115,7 @@ pub(super) fn invariants(core: &BrokerCore) -> Result<(), String> {
                         then: AfterStop::Stopped | AfterStop::Failed { .. }
                     }
             );
-            if gone || entry.health.is_out_of_service() {
+            if gone || entry.health.is_out_of_service() || entry.host_down {
                 return Err(format!(
                     "{client} bound to {service} which cannot serve ({:?}, {:?})",
                     entry.state, entry.health
@@ -1704,6 +1704,90 @@ fn no_fail_back_to_a_camera_too_slow_for_one_of_the_clients_it_would_take() {
             client blobs ImageSource -> camera2
             client signs ImageSource -> camera2
             next deadline: 53 ms
+        "#]],
+    );
+}
+
+/// The laser (quality 10, always running) on the workstation, the sonar (quality 5) on the
+/// robot host; clients fail back.
+const TWO_HOSTS: &str = r#"
+[robot]
+name = "bench"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+startup_deadline_ms = 1000
+fail_back = true
+[[hosts]]
+name = "robot"
+listen = ["tcp/10.0.0.1:7447"]
+[[hosts]]
+name = "workstation"
+[[services]]
+name = "laser"
+kind = "test-range"
+host = "workstation"
+start = "always"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 2 }]
+[[services]]
+name = "sonar"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
+"#;
+
+#[test]
+fn a_host_lost_takes_its_providers_and_they_rejoin_through_the_broker() {
+    let lost = |why: &str| Event::HostLost {
+        host: "workstation".to_owned(),
+        why: why.to_owned(),
+    };
+    let joined = || Event::HostJoined {
+        host: "workstation".to_owned(),
+    };
+    check(
+        TWO_HOSTS,
+        &[
+            (0, lost("not connected yet")),
+            (0, Event::BrokerStarted),
+            (0, req("app", "RangeFinder")),
+            (5, ready("sonar")),
+            (10, joined()),
+            (15, ready("laser")),
+            (20, beat("sonar")),
+            (30, lost("silent for 50 ms")),
+            (31, lost("its session closed")),
+            (35, beat("sonar")),
+            (60, joined()),
+            (62, beat("sonar")),
+            (65, ready("laser")),
+        ],
+        &expect![[r#"
+            @0 host workstation lost: not connected yet
+            @0 broker started
+            @0 client app requests RangeFinder
+              start sonar: app needs RangeFinder and sonar is its best provider (quality 5, cost 1)
+              bind app to sonar for RangeFinder: sonar is the best provider of RangeFinder (quality 5, cost 1)
+            @5 sonar ready
+            @10 host workstation joined
+              start laser: host workstation joined and it must always run
+            @15 laser ready
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            @20 sonar heartbeat: ok
+            @30 host workstation lost: silent for 50 ms
+              laser failed: laser runs on host workstation, which is lost: silent for 50 ms; its clients move, and it rejoins through the broker when workstation is back
+              rebind app from laser to sonar for RangeFinder: laser runs on host workstation, which is lost: silent for 50 ms; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+            @31 host workstation lost: its session closed
+            @35 sonar heartbeat: ok
+            @60 host workstation joined
+              start laser: host workstation joined and it must always run
+            @62 sonar heartbeat: ok
+            @65 laser ready
+              rebind app from sonar to laser for RangeFinder: fail back: laser is ready and better for RangeFinder (quality 10, cost 2) than sonar (quality 5, cost 1)
+            == state
+            service laser: ready, last heartbeat 65 ms, health ok, 0 restarts, 1 clients, last failure: laser runs on host workstation, which is lost: silent for 50 ms
+            service sonar: ready, last heartbeat 62 ms, health ok, 0 restarts, 0 clients
+            client app RangeFinder -> laser
+            next deadline: 112 ms
         "#]],
     );
 }
