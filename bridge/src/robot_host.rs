@@ -1,0 +1,360 @@
+//! The robot host's side: its bridge, and the broker's hold on the other hosts
+//! ([`RemoteHosts`]): orders to their supervisors as Zenoh queries, their exits, and
+//! whether each host is there (its liveliness token and its beat).
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::os::fd::{AsFd as _, BorrowedFd};
+use std::os::unix::net::UnixStream;
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use lewis_runtime::broker::ExitStatus;
+use lewis_runtime::broker::remote::{HostEvent, RemoteHosts};
+use lewis_runtime::ipc::Namespace;
+use lewis_runtime::robot::Robot;
+use zenoh::Session;
+use zenoh::Wait as _;
+use zenoh::sample::SampleKind;
+
+use crate::forward::{Wake, drain};
+use crate::{BridgeError, ForwardOptions, Forwarder, Heard, Schemas, keys, routes, session};
+
+/// How long the robot host waits for another host's answer to a start.
+const ORDER_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// How often the watcher looks whether each host is still there.
+const WATCH_PERIOD: Duration = Duration::from_millis(10);
+
+#[derive(Debug, Default)]
+struct State {
+    /// Hosts whose liveliness token is there.
+    tokens: BTreeSet<String>,
+    /// Whether each host is taken as joined.
+    joined: BTreeMap<String, bool>,
+    /// Hosts whose beat says another protocol version, with it.
+    refused: BTreeMap<String, String>,
+    events: VecDeque<HostEvent>,
+}
+
+type Shared = Arc<Mutex<State>>;
+
+fn lock(shared: &Shared) -> std::sync::MutexGuard<'_, State> {
+    shared.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// The robot host's bridge and its hold on the other hosts, for the broker.
+pub struct RobotHost {
+    session: Session,
+    robot: String,
+    heard: Heard,
+    shared: Shared,
+    wake_rx: UnixStream,
+    stop: Arc<AtomicBool>,
+    watcher: Option<JoinHandle<()>>,
+    _forwarder: Forwarder,
+    _declarations: Vec<Box<dyn std::any::Any + Send>>,
+}
+
+impl std::fmt::Debug for RobotHost {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RobotHost")
+            .field("robot", &self.robot)
+            .finish_non_exhaustive()
+    }
+}
+
+impl RobotHost {
+    /// Opens the robot host's session, starts its bridge in `namespace`, and begins to
+    /// watch the other hosts. `scratch` is a folder of this run's own.
+    ///
+    /// # Errors
+    /// When the session, a key or a channel cannot be opened.
+    pub fn start(
+        robot: &Robot,
+        namespace: &Namespace,
+        scratch: &Path,
+    ) -> Result<Self, BridgeError> {
+        let Some(hub) = robot.robot_host() else {
+            return Err(BridgeError::UnknownHost {
+                host: String::new(),
+                hint: String::new(),
+                hosts: "none".to_owned(),
+            });
+        };
+        let session = session::open(robot, hub, scratch)?;
+        let heard = Heard::default();
+        let forwarder = Forwarder::start(
+            &session,
+            ForwardOptions {
+                robot: robot.name.clone(),
+                host: hub.name.clone(),
+                routes: routes::routes(robot, &hub.name),
+                namespace: namespace.clone(),
+                beat_period: Duration::from_millis(robot.broker.heartbeat_period_ms),
+                schemas: Schemas::of(robot),
+            },
+            heard.clone(),
+        )?;
+        let zenoh_error = |what: &str, e: zenoh::Error| BridgeError::Zenoh {
+            what: what.to_owned(),
+            reason: e.to_string(),
+        };
+        let (wake, wake_rx) = Wake::pair().map_err(BridgeError::Thread)?;
+        let shared: Shared = Arc::default();
+        let mut declarations: Vec<Box<dyn std::any::Any + Send>> = Vec::new();
+        let name = robot.name.clone();
+        let token = session
+            .liveliness()
+            .declare_token(keys::host_token(&name, &hub.name))
+            .wait()
+            .map_err(|e| zenoh_error("host token", e))?;
+        declarations.push(Box::new(token));
+        let (tokens, robot_name) = (Arc::clone(&shared), name.clone());
+        let liveliness = session
+            .liveliness()
+            .declare_subscriber(format!("lewis/{name}/@hosts/*"))
+            .history(true)
+            .callback(move |sample| {
+                let Some(host) = keys::host_of_token(&robot_name, sample.key_expr().as_str())
+                else {
+                    return;
+                };
+                let mut state = lock(&tokens);
+                match sample.kind() {
+                    SampleKind::Put => state.tokens.insert(host.to_owned()),
+                    SampleKind::Delete => state.tokens.remove(host),
+                };
+            })
+            .wait()
+            .map_err(|e| zenoh_error("host tokens", e))?;
+        declarations.push(Box::new(liveliness));
+        let (beats_heard, refused) = (heard.clone(), Arc::clone(&shared));
+        let beats = session
+            .declare_subscriber(format!("lewis/{name}/*/@beat"))
+            .callback(move |sample| {
+                let Some(host) = sample.key_expr().as_str().split('/').nth(2) else {
+                    return;
+                };
+                let said = sample.payload().try_to_string().unwrap_or_default();
+                if said == session::PROTOCOL.to_string() {
+                    beats_heard.hear(host);
+                } else {
+                    lock(&refused)
+                        .refused
+                        .insert(host.to_owned(), said.into_owned());
+                }
+            })
+            .wait()
+            .map_err(|e| zenoh_error("beats", e))?;
+        declarations.push(Box::new(beats));
+        let (exits, exits_wake) = (Arc::clone(&shared), wake.clone());
+        let exit_subscriber = session
+            .declare_subscriber(format!("lewis/{name}/*/@exits"))
+            .callback(move |sample| {
+                let text = sample.payload().try_to_string().unwrap_or_default();
+                if let Some(event) = parse_exit(&text) {
+                    lock(&exits).events.push_back(event);
+                    exits_wake.wake();
+                }
+            })
+            .wait()
+            .map_err(|e| zenoh_error("exits", e))?;
+        declarations.push(Box::new(exit_subscriber));
+        let stop = Arc::new(AtomicBool::new(false));
+        let watcher = {
+            let others: Vec<String> = robot.hosts.iter().skip(1).map(|h| h.name.clone()).collect();
+            let deadline = Duration::from_millis(robot.network.link_deadline_ms);
+            let (shared, heard, stop) = (Arc::clone(&shared), heard.clone(), Arc::clone(&stop));
+            std::thread::Builder::new()
+                .name("lewis-hosts".to_owned())
+                .spawn(move || {
+                    while !stop.load(Ordering::Acquire) {
+                        watch(&others, deadline, &shared, &heard, &wake);
+                        std::thread::sleep(WATCH_PERIOD);
+                    }
+                })
+                .map_err(BridgeError::Thread)?
+        };
+        Ok(Self {
+            session,
+            robot: name,
+            heard,
+            shared,
+            wake_rx,
+            stop,
+            watcher: Some(watcher),
+            _forwarder: forwarder,
+            _declarations: declarations,
+        })
+    }
+}
+
+impl Drop for RobotHost {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(watcher) = self.watcher.take() {
+            let _ = watcher.join();
+        }
+    }
+}
+
+/// Whether each other host is there: its token, and a beat within the link deadline.
+fn watch(others: &[String], deadline: Duration, shared: &Shared, heard: &Heard, wake: &Wake) {
+    let mut state = lock(shared);
+    let mut woke = false;
+    for host in others {
+        let token = state.tokens.contains(host);
+        let silence = heard.silence(host);
+        let refused = state.refused.get(host).cloned();
+        let up = token && refused.is_none() && silence.is_some_and(|s| s < deadline);
+        let was = state.joined.get(host).copied().unwrap_or(false);
+        if up == was {
+            if let Some(version) = refused
+                && state.joined.insert(host.clone(), false).is_none()
+            {
+                tracing::error!(
+                    "host {host} speaks bridge protocol {version}, this one {}: it is not joined; run the same lewis on every host",
+                    session::PROTOCOL
+                );
+            }
+            continue;
+        }
+        state.joined.insert(host.clone(), up);
+        let event = if up {
+            HostEvent::Joined { host: host.clone() }
+        } else if !token {
+            HostEvent::Lost {
+                host: host.clone(),
+                why: "its Zenoh session closed".to_owned(),
+            }
+        } else {
+            HostEvent::Lost {
+                host: host.clone(),
+                why: format!(
+                    "nothing heard from it for {} ms (its link deadline)",
+                    silence.unwrap_or_default().as_millis()
+                ),
+            }
+        };
+        state.events.push_back(event);
+        woke = true;
+    }
+    drop(state);
+    if woke {
+        wake.wake();
+    }
+}
+
+/// `SERVICE code N` or `SERVICE signal N`, as another host's supervisor reports an exit.
+fn parse_exit(text: &str) -> Option<HostEvent> {
+    let mut words = text.split_whitespace();
+    let service = words.next()?.to_owned();
+    let how = words.next()?;
+    let number: i32 = words.next()?.parse().ok()?;
+    let status = match how {
+        "code" => ExitStatus::Code(number),
+        "signal" => ExitStatus::Signal(number),
+        _ => return None,
+    };
+    Some(HostEvent::Exited { service, status })
+}
+
+/// How another host's supervisor reports an exit ([`parse_exit`] reads it).
+#[must_use]
+pub(crate) fn exit_text(service: &str, status: ExitStatus) -> String {
+    match status {
+        ExitStatus::Code(code) => format!("{service} code {code}"),
+        ExitStatus::Signal(signal) => format!("{service} signal {signal}"),
+    }
+}
+
+impl RemoteHosts for RobotHost {
+    fn start(&mut self, host: &str, service: &str) -> Result<u32, String> {
+        let replies = self
+            .session
+            .get(keys::control(&self.robot, host))
+            .payload(format!("start {service}"))
+            .timeout(ORDER_TIMEOUT)
+            .wait()
+            .map_err(|e| format!("cannot ask host {host}: {e}"))?;
+        let reply = replies
+            .recv()
+            .map_err(|_| format!("host {host} did not answer within {ORDER_TIMEOUT:?}"))?;
+        let sample = reply.result().map_err(|e| {
+            format!(
+                "host {host}: {}",
+                e.payload().try_to_string().unwrap_or_default()
+            )
+        })?;
+        let text = sample.payload().try_to_string().unwrap_or_default();
+        match text.split_once(' ') {
+            Some(("ok", pid)) => pid
+                .trim()
+                .parse()
+                .map_err(|_| format!("host {host} said `{text}`")),
+            Some(("error", why)) => Err(format!("host {host}: {why}")),
+            _ => Err(format!("host {host} said `{text}`")),
+        }
+    }
+
+    fn stop(&mut self, host: &str, service: &str) {
+        let sent = self
+            .session
+            .get(keys::control(&self.robot, host))
+            .payload(format!("stop {service}"))
+            .timeout(ORDER_TIMEOUT)
+            .callback(|_| {})
+            .wait();
+        if let Err(e) = sent {
+            tracing::debug!("cannot ask host {host} to stop {service}: {e}");
+        }
+    }
+
+    fn take_event(&mut self) -> Option<HostEvent> {
+        drain(&self.wake_rx);
+        lock(&self.shared).events.pop_front()
+    }
+
+    fn silence(&self, host: &str) -> Option<Duration> {
+        let joined = lock(&self.shared)
+            .joined
+            .get(host)
+            .copied()
+            .unwrap_or(false);
+        if joined {
+            self.heard.silence(host)
+        } else {
+            None
+        }
+    }
+
+    fn mark_lost(&mut self, host: &str) {
+        lock(&self.shared).joined.insert(host.to_owned(), false);
+    }
+
+    fn wake_fd(&self) -> BorrowedFd<'_> {
+        self.wake_rx.as_fd()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exits_are_read_as_they_are_written() {
+        for status in [ExitStatus::Code(3), ExitStatus::Signal(9)] {
+            assert_eq!(
+                parse_exit(&exit_text("blobfinder", status)),
+                Some(HostEvent::Exited {
+                    service: "blobfinder".to_owned(),
+                    status
+                })
+            );
+        }
+        assert_eq!(parse_exit("blobfinder died"), None);
+    }
+}

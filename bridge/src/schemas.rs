@@ -1,0 +1,35 @@
+//! The schema of each channel of a robot, for the tools that ask a host for one: the same
+//! ros2msg names and texts the recorder writes into MCAP, from the recorder's own list.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use lewis_runtime::robot::Robot;
+
+/// Channel name to schema name and ros2msg text.
+#[derive(Debug, Clone, Default)]
+pub struct Schemas(Arc<BTreeMap<String, (String, String)>>);
+
+impl Schemas {
+    /// The schemas of every channel of `robot` the recorder would record.
+    #[must_use]
+    pub fn of(robot: &Robot) -> Self {
+        Self(Arc::new(
+            lewis_recorder::live::robot_channels(Some(robot))
+                .into_iter()
+                .map(|c| {
+                    (
+                        c.spec.topic.clone(),
+                        (c.spec.schema_name.clone(), c.spec.schema_text.clone()),
+                    )
+                })
+                .collect(),
+        ))
+    }
+
+    /// The schema name and text of `channel`.
+    #[must_use]
+    pub fn get(&self, channel: &str) -> Option<&(String, String)> {
+        self.0.get(channel)
+    }
+}
