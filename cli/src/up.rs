@@ -64,12 +64,26 @@ pub struct UpArgs {
     /// How the supervisor is asked and where the records go.
     #[command(flatten)]
     pub how: MissionArgs,
+    /// For a robot on more than one host (`[[hosts]]`): the host this is. The first host
+    /// (the default) runs the broker, the recorder and the mission; another runs its own
+    /// services on the broker's orders.
+    #[arg(long, value_name = "NAME")]
+    pub host: Option<String>,
 }
 
 /// Runs `lewis up`: exit 0 when the goal or the mission succeeded (or, without either,
 /// when the robot ran until it was stopped), 1 when it did not.
 pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
     let robot = lewis_services::load_robot(&args.robot)?;
+    let robot_host = robot.robot_host().map(|h| h.name.clone());
+    match (&args.host, &robot_host) {
+        (Some(host), None) => anyhow::bail!(
+            "{} runs on one machine (it has no [[hosts]]): run it without --host {host}",
+            args.robot.display()
+        ),
+        (Some(host), Some(first)) if host != first => return run_other_host(args, &robot, host),
+        _ => {}
+    }
     let mission = match &args.script {
         Some(script) => Some(MissionPlan {
             script: script.clone(),
@@ -78,12 +92,13 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
         }),
         None => None,
     };
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let options = LaunchOptions {
         up: UpOptions {
             // Services get an absolute path: they may run in another directory.
             robot_path: std::path::absolute(&args.robot)
                 .with_context(|| format!("cannot resolve {}", args.robot.display()))?,
-            namespace: Namespace::from_arg(args.namespace.as_deref())?,
+            namespace: namespace.clone(),
             lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
             duration: args.duration,
             stop_grace: args
@@ -98,7 +113,17 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
         goal: args.goal.plan(&robot)?,
         mission,
     };
-    let report = Launch::new(robot, options)?.run()?;
+    let report = match robot_host {
+        Some(host) => {
+            let launch = Launch::new(robot.clone(), options)?;
+            let _ = lewis_runtime::ipc::wipe_stale(&namespace);
+            let scratch = scratch_dir(&namespace, &host)?;
+            let mut hosts = lewis_bridge::RobotHost::start(&robot, &namespace, &scratch)?;
+            tracing::info!("host {host} of robot {}: bridge up", robot.name);
+            launch.run_with_hosts(Some(&mut hosts))?
+        }
+        None => Launch::new(robot, options)?.run()?,
+    };
     if let Some(outcome) = &report.mission {
         crate::seq::report(outcome);
     }
@@ -107,4 +132,48 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// Another host of a robot on more than one: its services on the broker's orders, its
+/// bridge, until Ctrl-C or SIGTERM.
+fn run_other_host(
+    args: &UpArgs,
+    robot: &lewis_runtime::robot::Robot,
+    host: &str,
+) -> anyhow::Result<ExitCode> {
+    if args.script.is_some() || args.goal.plan(robot)?.is_some() {
+        anyhow::bail!(
+            "a mission or a goal runs on the robot host ({}), not on {host}",
+            robot.robot_host().map_or("", |h| h.name.as_str())
+        );
+    }
+    let namespace = Namespace::from_arg(args.namespace.as_deref())?;
+    let _ = lewis_runtime::ipc::wipe_stale(&namespace);
+    let signals =
+        lewis_runtime::live::StopSignals::install().context("cannot catch the stop signals")?;
+    let options = lewis_bridge::HostOptions {
+        host: host.to_owned(),
+        robot_path: std::path::absolute(&args.robot)
+            .with_context(|| format!("cannot resolve {}", args.robot.display()))?,
+        namespace: namespace.clone(),
+        lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
+        stop_grace: args
+            .stop_grace_ms
+            .map_or(DEFAULT_STOP_GRACE, Duration::from_millis),
+        scratch: scratch_dir(&namespace, host)?,
+    };
+    lewis_bridge::run_host(robot, &options, &signals)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A folder of this run's own, readable by its user only: the shared key's dictionary.
+fn scratch_dir(namespace: &Namespace, host: &str) -> anyhow::Result<PathBuf> {
+    use std::os::unix::fs::DirBuilderExt as _;
+    let dir = std::env::temp_dir().join(format!("lewis-{}-{host}", namespace.as_str()));
+    std::fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(&dir)
+        .with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
 }

@@ -17,7 +17,8 @@ use std::path::{Path, PathBuf};
 use lewis_motion::goal::{GoalPlan, GoalRun, GoalRunError, Outcome as GoalOutcome};
 use lewis_recorder::companion::CompanionOptions;
 use lewis_recorder::live::child::{ChildError, ChildOptions, RecorderChild};
-use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up};
+use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up_with_hosts};
+use lewis_runtime::broker::remote::RemoteHosts;
 use lewis_runtime::live::{RECORDING_ENV, StopHandle, StopSignals};
 use lewis_runtime::robot::Robot;
 use lewis_sequencer::Mission;
@@ -132,6 +133,18 @@ impl Launch {
     /// # Errors
     /// When the broker, the recorder, the goal or the mission could not run.
     pub fn run(self) -> Result<LaunchReport, LaunchError> {
+        self.run_with_hosts(None)
+    }
+
+    /// As [`Launch::run`], on the robot host of a robot on more than one: the broker
+    /// reaches the other hosts through `remote`.
+    ///
+    /// # Errors
+    /// When the broker, the recorder, the goal or the mission could not run.
+    pub fn run_with_hosts(
+        self,
+        remote: Option<&mut dyn RemoteHosts>,
+    ) -> Result<LaunchReport, LaunchError> {
         let Self {
             mut robot,
             options,
@@ -228,7 +241,9 @@ impl Launch {
                 recorder.stop();
             }
         };
-        let up = run_up(&robot, &options.up, &signals, &mut finish);
+        // Reborrowed for the run's own borrows of the robot and its options.
+        let remote = remote.map(|r| -> &mut dyn RemoteHosts { r });
+        let up = run_up_with_hosts(&robot, &options.up, &signals, &mut finish, remote);
         // When the broker could not run, `finish` has not run yet.
         finish();
         let goal = goal.map(GoalRun::finish).transpose();

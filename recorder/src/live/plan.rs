@@ -134,8 +134,25 @@ pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
         "log",
         &names::log_config(),
     ));
+    // A robot on more than one host: which host published each channel (the robot host
+    // for the broker's, the sequencer's and the log).
+    if let Some(robot) = robot
+        && let Some(hub) = robot.robot_host()
+    {
+        for channel in &mut channels {
+            let host = robot.host_of(&channel.spec.provider).unwrap_or(&hub.name);
+            channel
+                .spec
+                .extra_metadata
+                .insert(META_HOST.to_owned(), host.to_owned());
+        }
+    }
     channels
 }
+
+/// Channel metadata key naming the host that published a channel, for a robot on more
+/// than one.
+pub const META_HOST: &str = "host";
 
 /// A `--topics` glob that does not parse.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
