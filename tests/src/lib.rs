@@ -81,6 +81,7 @@ pub fn doctor(file: &Path) {
 pub mod broker;
 pub mod browser;
 pub mod fake_device;
+pub mod hosts;
 pub mod robot;
 pub mod small_disk;
 pub mod stress;

@@ -1,0 +1,253 @@
+//! A robot on two hosts, each in its own network, IPC and mount namespace: the simulated
+//! robot on `robot`, its perception (blobfinder, sign_detector) on `workstation`, over
+//! Zenoh. The workstation's services start on the robot host's broker's orders, their
+//! publications are recorded on the robot host, a tool without Lewis listens to the robot's
+//! laser over Zenoh, and when the workstation's `lewis up` is killed its providers are
+//! failed with that reason and the on-board blobfinder takes over.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+#[path = "hosts_harness.rs"]
+mod harness;
+
+use std::fs::File;
+use std::path::Path;
+use std::process::{Child, Stdio};
+use std::time::{Duration, Instant};
+
+use lewis_tests::hosts::Hosts;
+use lewis_tests::{doctor, hosts_or_skip, lewis_exe, python_tool, repo_root, run_ok};
+
+/// The simulated robot with its perception on the workstation, and an on-board blobfinder
+/// (quality 5) that stands in when the workstation is gone.
+fn robot_file(dir: &Path) -> std::path::PathBuf {
+    let sim = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
+    let first_service = sim.find("[[services]]").unwrap();
+    let hosts = "[[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\n\
+                 [[hosts]]\nname = \"workstation\"\nlisten = [\"tcp/10.0.0.2:7447\"]\n\n";
+    let mut text = format!("{}{hosts}{}", &sim[..first_service], &sim[first_service..]);
+    for service in ["blobfinder", "sign_detector"] {
+        text = text.replacen(
+            &format!("name = \"{service}\"\n"),
+            &format!("name = \"{service}\"\nhost = \"workstation\"\n"),
+            1,
+        );
+    }
+    text.push_str(
+        r#"
+[[services]]
+name = "blobfinder_onboard"
+kind = "blobfinder"
+start = "on-demand"
+requires = ["ImageSource"]
+provides = [{ interface = "Blobs", quality = 5, cost = 3, data_rate_hz = 5.0 }]
+
+[services.parameters]
+colors = "robots/colors/conference.txt"
+min_area_px = 20
+max_blobs_per_color = 16
+"#,
+    );
+    let path = dir.join("two-hosts.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn up(hosts: &Hosts, host: &str, args: &[&str], log: &Path) -> Child {
+    let log = File::create(log).unwrap();
+    hosts
+        .host(host)
+        .command(lewis_exe())
+        .current_dir(repo_root())
+        .args(args)
+        .stdout(Stdio::from(log.try_clone().unwrap()))
+        .stderr(Stdio::from(log))
+        .spawn()
+        .unwrap()
+}
+
+/// Waits until `log` holds `needle`, or fails with the log.
+fn wait_log(log: &Path, needle: &str, limit: Duration) {
+    let start = Instant::now();
+    loop {
+        let text = std::fs::read_to_string(log).unwrap_or_default();
+        if text.contains(needle) {
+            return;
+        }
+        assert!(
+            start.elapsed() < limit,
+            "no `{needle}` in {} within {limit:?}:\n{text}",
+            log.display()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Waits until `lewis status` on the robot host shows `needle`.
+fn wait_status(hosts: &Hosts, needle: &str) {
+    let start = Instant::now();
+    loop {
+        let out = hosts
+            .host("robot")
+            .command(lewis_exe())
+            .args(["status", "--namespace", "two"])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        if text.contains(needle) {
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no `{needle}` in the status within 30 s:\n{text}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies() {
+    let hosts = hosts_or_skip!(&["robot", "workstation"]);
+    let dir = tempfile::tempdir().unwrap();
+    let robot = robot_file(dir.path());
+    let robot = robot.to_str().unwrap();
+    let mcap = dir.path().join("run.mcap");
+    let (robot_log, ws_log) = (dir.path().join("robot.log"), dir.path().join("ws.log"));
+    let mut on_robot = up(
+        &hosts,
+        "robot",
+        &[
+            "up",
+            robot,
+            "-v",
+            "--namespace",
+            "two",
+            "--duration",
+            "60s",
+            "-o",
+            mcap.to_str().unwrap(),
+        ],
+        &robot_log,
+    );
+    let mut on_ws = up(
+        &hosts,
+        "workstation",
+        &[
+            "up",
+            robot,
+            "-v",
+            "--host",
+            "workstation",
+            "--namespace",
+            "two",
+        ],
+        &ws_log,
+    );
+    wait_log(
+        &robot_log,
+        "host workstation joined",
+        Duration::from_secs(30),
+    );
+    wait_log(
+        &ws_log,
+        "started blobfinder on the broker's order",
+        Duration::from_secs(30),
+    );
+    wait_status(&hosts, "service blobfinder: ready");
+    wait_status(&hosts, "service sign_detector: ready");
+    // A few seconds of the off-board perception's work (5 Hz) into the recording.
+    std::thread::sleep(Duration::from_secs(2));
+
+    // A tool without Lewis, on the workstation, hears the robot's laser over Zenoh.
+    let python = python_tool("python").get_program().to_owned();
+    let heard = run_ok(
+        hosts
+            .host("workstation")
+            .command(python)
+            .arg(repo_root().join("tests/python/zenoh_listen.py"))
+            .args([
+                "--connect",
+                "tcp/10.0.0.1:7447",
+                "--key",
+                "lewis/sim/robot/laser/RangeFinder",
+                "--count",
+                "3",
+                "--timeout",
+                "30",
+            ]),
+    );
+    assert_eq!(heard.lines().count(), 3, "{heard}");
+    assert!(heard.contains("\"range_count\": 361"), "{heard}");
+
+    // The workstation dies whole: its providers are failed for that reason, the on-board
+    // blobfinder takes over, and nothing of the workstation's is left running.
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(i32::try_from(on_ws.id()).unwrap()),
+        nix::sys::signal::Signal::SIGKILL,
+    )
+    .unwrap();
+    let _ = on_ws.wait();
+    wait_log(&robot_log, "host workstation lost", Duration::from_secs(10));
+    wait_log(&robot_log, "blobfinder_onboard", Duration::from_secs(10));
+    let ws = hosts.host("workstation");
+    let start = Instant::now();
+    while !ws.processes().is_empty() {
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "left on the workstation: {:?}",
+            ws.processes()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Blobs from the on-board blobfinder for a while, then the robot stops.
+    wait_log(&robot_log, "started (pid", Duration::from_secs(10));
+    std::thread::sleep(Duration::from_secs(2));
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(i32::try_from(on_robot.id()).unwrap()),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .unwrap();
+    let status = on_robot.wait().unwrap();
+    let log = std::fs::read_to_string(&robot_log).unwrap();
+    assert!(
+        status.success(),
+        "lewis up on the robot host: {status}\n{log}"
+    );
+
+    // One recording, on the robot host, with both hosts' channels and who published them.
+    doctor(&mcap);
+    let counts = run_ok(python_tool("python").arg("-c").arg(CHECK).arg(&mcap));
+    for needle in [
+        "/blobfinder/Blobs workstation",
+        "/sign_detector/Signs workstation",
+        "/lewis/health/blobfinder workstation",
+        "/laser/RangeFinder robot",
+        "/blobfinder_onboard/Blobs robot",
+        "lost: which is lost",
+    ] {
+        assert!(
+            counts.contains(needle),
+            "no `{needle}` in the recording:\n{counts}\n{log}"
+        );
+    }
+}
+
+/// Prints each channel with messages, its host and count, and whether a broker decision
+/// says a host was lost (decoded with mcap-ros2-support).
+const CHECK: &str = r#"
+import sys
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+counts = {}
+lost = False
+with open(sys.argv[1], "rb") as f:
+    reader = make_reader(f, decoder_factories=[DecoderFactory()])
+    for schema, channel, message, decoded in reader.iter_decoded_messages():
+        key = (channel.topic, channel.metadata.get("host", "?"))
+        counts[key] = counts.get(key, 0) + 1
+        if channel.topic == "/lewis/broker" and "which is lost" in decoded.reason:
+            lost = True
+for (topic, host), n in sorted(counts.items()):
+    print(topic, host, n)
+print("lost:", "which is lost" if lost else "no")
+"#;
