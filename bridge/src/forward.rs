@@ -36,6 +36,10 @@ use crate::{BridgeError, Heard};
 /// The longest a call across hosts waits for its reply.
 const CALL_TIMEOUT: Duration = Duration::from_secs(2);
 
+/// How often a host's bridge says it is there: often enough that a host that missed a few
+/// beats when one of its services misses its heartbeat deadline was cut off, not slow.
+pub const BEAT_PERIOD: Duration = Duration::from_millis(10);
+
 /// The iceoryx2 node of a host's bridge.
 pub const BRIDGE_NODE: &str = "lewis-bridge";
 
@@ -342,7 +346,13 @@ impl Thread {
         while !stop.load(Ordering::Acquire) {
             let now = Instant::now();
             if now >= self.next_beat {
-                let _ = self.beat.put(crate::session::PROTOCOL.to_string()).wait();
+                // Stamped with this host's clock (Zenoh's hybrid logical clock, from the
+                // system clock): the robot host reads the clocks' offset from it.
+                let _ = self
+                    .beat
+                    .put(crate::session::PROTOCOL.to_string())
+                    .timestamp(self.session.new_timestamp())
+                    .wait();
                 self.next_beat = now + self.beat_period;
             }
             drain(rx);

@@ -72,7 +72,7 @@ pub fn run_host(
             host: me.name.clone(),
             routes: routes::routes(robot, &me.name),
             namespace: options.namespace.clone(),
-            beat_period: Duration::from_millis(robot.broker.heartbeat_period_ms),
+            beat_period: crate::forward::BEAT_PERIOD,
             schemas: Schemas::of(robot),
         },
         heard.clone(),

@@ -9,21 +9,27 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use lewis_runtime::broker::ExitStatus;
-use lewis_runtime::broker::remote::{HostEvent, RemoteHosts};
+use lewis_runtime::broker::remote::{HostEvent, RemoteHosts, RemoteStartError};
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::robot::Robot;
 use zenoh::Session;
 use zenoh::Wait as _;
 use zenoh::sample::SampleKind;
 
-use crate::forward::{Wake, drain};
+use crate::forward::{BEAT_PERIOD, Wake, drain};
 use crate::{BridgeError, ForwardOptions, Forwarder, Heard, Schemas, keys, routes, session};
 
 /// How long the robot host waits for another host's answer to a start.
-const ORDER_TIMEOUT: Duration = Duration::from_secs(2);
+const ORDER_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// How long a host must be heard without a miss before it joins (again).
+const JOIN_STEADY: Duration = Duration::from_millis(500);
+
+/// A host that missed this many of its beats in a row is quiet.
+const QUIET_BEATS: u32 = 3;
 
 /// How often the watcher looks whether each host is still there.
 const WATCH_PERIOD: Duration = Duration::from_millis(10);
@@ -34,8 +40,14 @@ struct State {
     tokens: BTreeSet<String>,
     /// Whether each host is taken as joined.
     joined: BTreeMap<String, bool>,
+    /// Since when each host has been heard without missing its beats.
+    steady_since: BTreeMap<String, Instant>,
     /// Hosts whose beat says another protocol version, with it.
     refused: BTreeMap<String, String>,
+    /// Per host, the least of (this host's clock at a beat's arrival minus the sender's
+    /// clock in its timestamp) over every beat heard: the offset of the clocks plus the least
+    /// one-way latency, in nanoseconds.
+    clock_offsets: BTreeMap<String, i64>,
     events: VecDeque<HostEvent>,
 }
 
@@ -93,7 +105,7 @@ impl RobotHost {
                 host: hub.name.clone(),
                 routes: routes::routes(robot, &hub.name),
                 namespace: namespace.clone(),
-                beat_period: Duration::from_millis(robot.broker.heartbeat_period_ms),
+                beat_period: crate::forward::BEAT_PERIOD,
                 schemas: Schemas::of(robot),
             },
             heard.clone(),
@@ -141,6 +153,11 @@ impl RobotHost {
                 let said = sample.payload().try_to_string().unwrap_or_default();
                 if said == session::PROTOCOL.to_string() {
                     beats_heard.hear(host);
+                    if let Some(offset) = sample.timestamp().and_then(clock_offset_ns) {
+                        let mut state = lock(&refused);
+                        let least = state.clock_offsets.entry(host.to_owned()).or_insert(offset);
+                        *least = (*least).min(offset);
+                    }
                 } else {
                     lock(&refused)
                         .refused
@@ -209,8 +226,27 @@ fn watch(others: &[String], deadline: Duration, shared: &Shared, heard: &Heard, 
         let token = state.tokens.contains(host);
         let silence = heard.silence(host);
         let refused = state.refused.get(host).cloned();
-        let up = token && refused.is_none() && silence.is_some_and(|s| s < deadline);
         let was = state.joined.get(host).copied().unwrap_or(false);
+        // A link that comes back may flap while the hosts' sessions are made again: a host
+        // joins once it has been heard steadily for a while, and is lost past the deadline.
+        if silence.is_some_and(|s| s < BEAT_PERIOD * QUIET_BEATS) {
+            state
+                .steady_since
+                .entry(host.clone())
+                .or_insert_with(Instant::now);
+        } else {
+            state.steady_since.remove(host);
+        }
+        let steady = state
+            .steady_since
+            .get(host)
+            .is_some_and(|since| since.elapsed() >= JOIN_STEADY);
+        let heard = if was {
+            silence.is_some_and(|s| s < deadline)
+        } else {
+            steady
+        };
+        let up = token && refused.is_none() && heard;
         if up == was {
             if let Some(version) = refused
                 && state.joined.insert(host.clone(), false).is_none()
@@ -224,6 +260,12 @@ fn watch(others: &[String], deadline: Duration, shared: &Shared, heard: &Heard, 
         }
         state.joined.insert(host.clone(), up);
         let event = if up {
+            if let Some(offset) = state.clock_offsets.get(host) {
+                tracing::info!(
+                    "host {host}: its clock reads {:.1} ms behind this one's, one-way latency included (from its beats' Zenoh timestamps)",
+                    *offset as f64 / 1e6
+                );
+            }
             HostEvent::Joined { host: host.clone() }
         } else if !token {
             HostEvent::Lost {
@@ -245,6 +287,16 @@ fn watch(others: &[String], deadline: Duration, shared: &Shared, heard: &Heard, 
     drop(state);
     if woke {
         wake.wake();
+    }
+}
+
+/// This host's clock now minus the clock in `timestamp`, in nanoseconds.
+fn clock_offset_ns(timestamp: &zenoh::time::Timestamp) -> Option<i64> {
+    let sent = timestamp.get_time().to_system_time();
+    let now = std::time::SystemTime::now();
+    match now.duration_since(sent) {
+        Ok(ahead) => i64::try_from(ahead.as_nanos()).ok(),
+        Err(behind) => i64::try_from(behind.duration().as_nanos()).ok().map(|n| -n),
     }
 }
 
@@ -272,31 +324,34 @@ pub(crate) fn exit_text(service: &str, status: ExitStatus) -> String {
 }
 
 impl RemoteHosts for RobotHost {
-    fn start(&mut self, host: &str, service: &str) -> Result<u32, String> {
+    fn start(&mut self, host: &str, service: &str) -> Result<u32, RemoteStartError> {
+        let unreachable = |why: String| RemoteStartError::Unreachable(why);
         let replies = self
             .session
             .get(keys::control(&self.robot, host))
             .payload(format!("start {service}"))
             .timeout(ORDER_TIMEOUT)
             .wait()
-            .map_err(|e| format!("cannot ask host {host}: {e}"))?;
-        let reply = replies
-            .recv()
-            .map_err(|_| format!("host {host} did not answer within {ORDER_TIMEOUT:?}"))?;
+            .map_err(|e| unreachable(format!("cannot ask it to start {service}: {e}")))?;
+        let reply = replies.recv().map_err(|_| {
+            unreachable(format!(
+                "it did not answer the order to start {service} within {} ms",
+                ORDER_TIMEOUT.as_millis()
+            ))
+        })?;
         let sample = reply.result().map_err(|e| {
-            format!(
-                "host {host}: {}",
-                e.payload().try_to_string().unwrap_or_default()
-            )
+            RemoteStartError::Refused(e.payload().try_to_string().unwrap_or_default().into_owned())
         })?;
         let text = sample.payload().try_to_string().unwrap_or_default();
         match text.split_once(' ') {
             Some(("ok", pid)) => pid
                 .trim()
                 .parse()
-                .map_err(|_| format!("host {host} said `{text}`")),
-            Some(("error", why)) => Err(format!("host {host}: {why}")),
-            _ => Err(format!("host {host} said `{text}`")),
+                .map_err(|_| RemoteStartError::Refused(format!("host {host} said `{text}`"))),
+            Some(("error", why)) => Err(RemoteStartError::Refused(format!("on {host}: {why}"))),
+            _ => Err(RemoteStartError::Refused(format!(
+                "host {host} said `{text}`"
+            ))),
         }
     }
 
@@ -318,17 +373,14 @@ impl RemoteHosts for RobotHost {
         lock(&self.shared).events.pop_front()
     }
 
-    fn silence(&self, host: &str) -> Option<Duration> {
+    fn quiet_for(&self, host: &str) -> Option<Duration> {
         let joined = lock(&self.shared)
             .joined
             .get(host)
             .copied()
             .unwrap_or(false);
-        if joined {
-            self.heard.silence(host)
-        } else {
-            None
-        }
+        let silence = self.heard.silence(host)?;
+        (joined && silence >= BEAT_PERIOD * QUIET_BEATS).then_some(silence)
     }
 
     fn mark_lost(&mut self, host: &str) {

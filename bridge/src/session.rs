@@ -49,6 +49,10 @@ fn config(robot: &Robot, host: &HostSpec, scratch: &Path) -> Result<Config, Brid
             "{period_init_ms: 100, period_max_ms: 1000, period_increase_factor: 2}".to_owned(),
         ),
         ("scouting/multicast/enabled", "false".to_owned()),
+        // A link cut for a second closes the session, and the host connects afresh when the
+        // link is back, rather than waiting out TCP's retransmission backoff on the old one.
+        ("transport/link/tx/lease", "1000".to_owned()),
+        ("transport/link/tx/keep_alive", "4".to_owned()),
     ];
     if let Some(key_file) = &robot.network.key_file {
         let key = read_key(key_file)?;

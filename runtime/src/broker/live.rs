@@ -43,7 +43,7 @@ use nix::sys::signal::Signal;
 
 use super::cpu::CpuSampler;
 use super::health::DataMonitor;
-use super::remote::{HostEvent, RemoteHosts};
+use super::remote::{HostEvent, RemoteHosts, RemoteStartError};
 use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need, ServiceState};
 use crate::clock::LiveClock;
 use crate::ipc::{
@@ -694,21 +694,18 @@ impl<'r> Driver<'r> {
     }
 
     /// A service of another host past its deadline, whose whole host went quiet with it
-    /// (not even the host's own beat came for one and a half heartbeat periods), was not
-    /// stalled: its host is lost, and that is what its clients are told.
+    /// (not even the host's own beat came), was not stalled: its host is lost, and that is
+    /// what its clients are told.
     fn judge_quiet_hosts(&mut self, now_ns: i64) {
         let Some(remote) = self.remote.as_ref() else {
             return;
         };
-        let quiet = Duration::from_millis(self.robot.broker.heartbeat_period_ms * 3 / 2);
         let mut lost = BTreeSet::new();
         for service in self.core.due_services(now_ns) {
             let Some(host) = self.remote_host_of(service) else {
                 continue;
             };
-            if let Some(silence) = remote.silence(&host)
-                && silence >= quiet
-            {
+            if let Some(silence) = remote.quiet_for(&host) {
                 lost.insert((host, silence));
             }
         }
@@ -760,10 +757,19 @@ impl<'r> Driver<'r> {
                         service: service.to_owned(),
                     }
                 }
-                Err(error) => Event::StartFailed {
+                Err(RemoteStartError::Refused(error)) => Event::StartFailed {
                     service: service.to_owned(),
                     error,
                 },
+                // Not the service's fault: its host is cut off, and the service starts again
+                // when the host is back.
+                Err(RemoteStartError::Unreachable(why)) => {
+                    remote.mark_lost(host);
+                    Event::HostLost {
+                        host: host.to_owned(),
+                        why,
+                    }
+                }
             }),
             _ => {
                 remote.stop(host, service);

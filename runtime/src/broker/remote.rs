@@ -34,14 +34,25 @@ pub enum HostEvent {
     },
 }
 
+/// Why a service of another host was not started.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RemoteStartError {
+    /// The host answered that it could not (the spawn failed, no such service there).
+    Refused(String),
+    /// The host did not answer: the order or its answer was lost on the way.
+    Unreachable(String),
+}
+
 /// The robot host's hold on the other hosts: orders to their supervisors, and what they
 /// report.
 pub trait RemoteHosts {
-    /// Asks `host`'s supervisor to start `service`, waiting for its answer.
+    /// Asks `host`'s supervisor to start `service`, waiting for its answer; returns the
+    /// process id there.
     ///
     /// # Errors
-    /// Why the service was not started (the host cannot be reached, the spawn failed).
-    fn start(&mut self, host: &str, service: &str) -> Result<u32, String>;
+    /// Why the service was not started: the host refused or could not spawn it, or the
+    /// host did not answer (then it is taken as lost).
+    fn start(&mut self, host: &str, service: &str) -> Result<u32, RemoteStartError>;
 
     /// Asks `host`'s supervisor to stop `service` (SIGTERM, then SIGKILL after the grace),
     /// without waiting: its exit comes back as [`HostEvent::Exited`].
@@ -50,9 +61,10 @@ pub trait RemoteHosts {
     /// The next thing heard from the other hosts, if any.
     fn take_event(&mut self) -> Option<HostEvent>;
 
-    /// How long each host has been silent (neither its own beat nor anything else heard),
-    /// for hosts that joined.
-    fn silence(&self, host: &str) -> Option<Duration>;
+    /// How long `host` (one that joined) has been quiet, when it has missed several of
+    /// its own beats: nothing heard from it, its beat and its services' heartbeats
+    /// included. `None` while it is heard.
+    fn quiet_for(&self, host: &str) -> Option<Duration>;
 
     /// The broker judged `host` lost itself (a service past its deadline, its whole host
     /// quiet): it is reported joined again once it is heard from.

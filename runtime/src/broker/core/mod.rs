@@ -159,7 +159,11 @@ impl BrokerCore {
     /// ignored.
     pub fn handle(&mut self, now_ns: i64, event: &Event) -> Vec<Decision> {
         self.now_ns = now_ns;
-        self.run_deadlines();
+        // A host lost is what its services' deadlines at this instant stand for: judged
+        // first, they would be failed as stalled, each with its own restart and stop.
+        if !matches!(event, Event::HostLost { .. }) {
+            self.run_deadlines();
+        }
         self.apply(event);
         self.run_deadlines();
         self.reconcile();
