@@ -20,7 +20,7 @@ use lewis_tests::{doctor, hosts_or_skip, lewis_exe, python_tool, repo_root, run_
 
 /// The simulated robot with its perception on the workstation, and an on-board blobfinder
 /// (quality 5) that stands in when the workstation is gone.
-fn robot_file(dir: &Path) -> std::path::PathBuf {
+fn robot_file(dir: &Path, extra: &str) -> std::path::PathBuf {
     let sim = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
     let first_service = sim.find("[[services]]").unwrap();
     let hosts = "[[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\n\
@@ -48,6 +48,7 @@ min_area_px = 20
 max_blobs_per_color = 16
 "#,
     );
+    text.push_str(extra);
     let path = dir.join("two-hosts.toml");
     std::fs::write(&path, text).unwrap();
     path
@@ -66,18 +67,21 @@ fn up(hosts: &Hosts, host: &str, args: &[&str], log: &Path) -> Child {
         .unwrap()
 }
 
-/// Waits until `log` holds `needle`, or fails with the log.
-fn wait_log(log: &Path, needle: &str, limit: Duration) {
+/// Waits until `log` holds `needle` `times` times, or fails with the log.
+fn wait_log(log: &Path, needle: &str, times: usize, other: &Path) {
+    let limit = Duration::from_secs(30);
     let start = Instant::now();
     loop {
         let text = std::fs::read_to_string(log).unwrap_or_default();
-        if text.contains(needle) {
+        if text.matches(needle).count() >= times {
             return;
         }
         assert!(
             start.elapsed() < limit,
-            "no `{needle}` in {} within {limit:?}:\n{text}",
-            log.display()
+            "no `{needle}` ({times} times) in {} within {limit:?}:\n{text}\n--- {}:\n{}",
+            log.display(),
+            other.display(),
+            std::fs::read_to_string(other).unwrap_or_default()
         );
         std::thread::sleep(Duration::from_millis(50));
     }
@@ -105,63 +109,133 @@ fn wait_status(hosts: &Hosts, needle: &str) {
     }
 }
 
+/// The two hosts running the robot, recorded on the robot host, perception ready on the
+/// workstation.
+struct Run {
+    hosts: Hosts,
+    dir: tempfile::TempDir,
+    robot: Child,
+    workstation: Child,
+}
+
+impl Run {
+    /// Starts both hosts (the robot file with `extra` appended) and waits until the
+    /// workstation's perception is ready and has worked a moment. `None` where namespaces
+    /// are forbidden.
+    fn start(hosts: Hosts, extra: &str) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let robot = robot_file(dir.path(), extra);
+        let robot = robot.to_str().unwrap();
+        let mcap = dir.path().join("run.mcap");
+        let on_robot = up(
+            &hosts,
+            "robot",
+            &[
+                "up",
+                robot,
+                "-v",
+                "--namespace",
+                "two",
+                "--duration",
+                "90s",
+                "-o",
+                mcap.to_str().unwrap(),
+            ],
+            &dir.path().join("robot.log"),
+        );
+        let on_ws = up(
+            &hosts,
+            "workstation",
+            &[
+                "up",
+                robot,
+                "-v",
+                "--host",
+                "workstation",
+                "--namespace",
+                "two",
+            ],
+            &dir.path().join("ws.log"),
+        );
+        let run = Self {
+            hosts,
+            dir,
+            robot: on_robot,
+            workstation: on_ws,
+        };
+        run.wait_robot_log("broker: host workstation joined", 1);
+        wait_status(&run.hosts, "service blobfinder: ready");
+        wait_status(&run.hosts, "service sign_detector: ready");
+        // A few seconds of the off-board perception's work (5 Hz) into the recording.
+        std::thread::sleep(Duration::from_secs(2));
+        run
+    }
+
+    fn robot_log(&self) -> std::path::PathBuf {
+        self.dir.path().join("robot.log")
+    }
+
+    fn wait_robot_log(&self, needle: &str, times: usize) {
+        wait_log(
+            &self.robot_log(),
+            needle,
+            times,
+            &self.dir.path().join("ws.log"),
+        );
+    }
+
+    fn wait_ws_log(&self, needle: &str, times: usize) {
+        wait_log(
+            &self.dir.path().join("ws.log"),
+            needle,
+            times,
+            &self.robot_log(),
+        );
+    }
+
+    /// Stops the robot host and reads its recording back with independent readers: each
+    /// channel with messages, its host and count, and the broker's reasons.
+    fn finish(mut self) -> String {
+        signal(&self.robot, nix::sys::signal::Signal::SIGINT);
+        let status = self.robot.wait().unwrap();
+        let log = std::fs::read_to_string(self.robot_log()).unwrap();
+        assert!(
+            status.success(),
+            "lewis up on the robot host: {status}\n{log}"
+        );
+        // Killed already, where the test killed it.
+        let _ = nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(i32::try_from(self.workstation.id()).unwrap()),
+            nix::sys::signal::Signal::SIGINT,
+        );
+        let _ = self.workstation.wait();
+        let mcap = self.dir.path().join("run.mcap");
+        doctor(&mcap);
+        let read = run_ok(python_tool("python").arg("-c").arg(CHECK).arg(&mcap));
+        format!("{read}\n--- robot host's log\n{log}")
+    }
+}
+
+fn signal(child: &Child, signal: nix::sys::signal::Signal) {
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).unwrap());
+    nix::sys::signal::kill(pid, signal).unwrap();
+}
+
+fn assert_has(text: &str, needles: &[&str]) {
+    for needle in needles {
+        assert!(text.contains(needle), "no `{needle}` in:\n{text}");
+    }
+}
+
 #[test]
 fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies() {
     let hosts = hosts_or_skip!(&["robot", "workstation"]);
-    let dir = tempfile::tempdir().unwrap();
-    let robot = robot_file(dir.path());
-    let robot = robot.to_str().unwrap();
-    let mcap = dir.path().join("run.mcap");
-    let (robot_log, ws_log) = (dir.path().join("robot.log"), dir.path().join("ws.log"));
-    let mut on_robot = up(
-        &hosts,
-        "robot",
-        &[
-            "up",
-            robot,
-            "-v",
-            "--namespace",
-            "two",
-            "--duration",
-            "60s",
-            "-o",
-            mcap.to_str().unwrap(),
-        ],
-        &robot_log,
-    );
-    let mut on_ws = up(
-        &hosts,
-        "workstation",
-        &[
-            "up",
-            robot,
-            "-v",
-            "--host",
-            "workstation",
-            "--namespace",
-            "two",
-        ],
-        &ws_log,
-    );
-    wait_log(
-        &robot_log,
-        "host workstation joined",
-        Duration::from_secs(30),
-    );
-    wait_log(
-        &ws_log,
-        "started blobfinder on the broker's order",
-        Duration::from_secs(30),
-    );
-    wait_status(&hosts, "service blobfinder: ready");
-    wait_status(&hosts, "service sign_detector: ready");
-    // A few seconds of the off-board perception's work (5 Hz) into the recording.
-    std::thread::sleep(Duration::from_secs(2));
+    let mut run = Run::start(hosts, "");
 
     // A tool without Lewis, on the workstation, hears the robot's laser over Zenoh.
     let python = python_tool("python").get_program().to_owned();
     let heard = run_ok(
-        hosts
+        run.hosts
             .host("workstation")
             .command(python)
             .arg(repo_root().join("tests/python/zenoh_listen.py"))
@@ -181,15 +255,14 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
 
     // The workstation dies whole: its providers are failed for that reason, the on-board
     // blobfinder takes over, and nothing of the workstation's is left running.
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(i32::try_from(on_ws.id()).unwrap()),
-        nix::sys::signal::Signal::SIGKILL,
-    )
-    .unwrap();
-    let _ = on_ws.wait();
-    wait_log(&robot_log, "host workstation lost", Duration::from_secs(10));
-    wait_log(&robot_log, "blobfinder_onboard", Duration::from_secs(10));
-    let ws = hosts.host("workstation");
+    signal(&run.workstation, nix::sys::signal::Signal::SIGKILL);
+    let _ = run.workstation.wait();
+    run.wait_robot_log("host workstation lost: its Zenoh session closed", 1);
+    run.wait_robot_log(
+        "rebind blobfinder3d from blobfinder to blobfinder_onboard",
+        1,
+    );
+    let ws = run.hosts.host("workstation");
     let start = Instant::now();
     while !ws.processes().is_empty() {
         assert!(
@@ -199,37 +272,55 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-    // Blobs from the on-board blobfinder for a while, then the robot stops.
-    wait_log(&robot_log, "started (pid", Duration::from_secs(10));
-    std::thread::sleep(Duration::from_secs(2));
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(i32::try_from(on_robot.id()).unwrap()),
-        nix::sys::signal::Signal::SIGINT,
-    )
-    .unwrap();
-    let status = on_robot.wait().unwrap();
-    let log = std::fs::read_to_string(&robot_log).unwrap();
-    assert!(
-        status.success(),
-        "lewis up on the robot host: {status}\n{log}"
-    );
+    wait_status(&run.hosts, "service blobfinder_onboard: ready");
+    std::thread::sleep(Duration::from_secs(1));
 
     // One recording, on the robot host, with both hosts' channels and who published them.
-    doctor(&mcap);
-    let counts = run_ok(python_tool("python").arg("-c").arg(CHECK).arg(&mcap));
-    for needle in [
-        "/blobfinder/Blobs workstation",
-        "/sign_detector/Signs workstation",
-        "/lewis/health/blobfinder workstation",
-        "/laser/RangeFinder robot",
-        "/blobfinder_onboard/Blobs robot",
-        "lost: which is lost",
-    ] {
-        assert!(
-            counts.contains(needle),
-            "no `{needle}` in the recording:\n{counts}\n{log}"
-        );
-    }
+    let read = run.finish();
+    assert_has(
+        &read,
+        &[
+            "/blobfinder/Blobs workstation",
+            "/sign_detector/Signs workstation",
+            "/lewis/health/blobfinder workstation",
+            "/laser/RangeFinder robot",
+            "/blobfinder_onboard/Blobs robot",
+            "lost: which is lost",
+        ],
+    );
+}
+
+#[test]
+fn a_cut_link_fails_the_off_board_perception_over_and_back() {
+    let hosts = hosts_or_skip!(&["robot", "workstation"]);
+    let run = Run::start(hosts, "\n[broker.interfaces.Blobs]\nfail_back = true\n");
+
+    run.hosts.link_down("robot", "workstation");
+    // The robot host fails the workstation's providers, saying why, and moves their
+    // clients on board; the workstation, without its broker, stops its services.
+    run.wait_robot_log(
+        "runs on host workstation, which is lost: nothing heard from it",
+        1,
+    );
+    run.wait_robot_log(
+        "rebind blobfinder3d from blobfinder to blobfinder_onboard",
+        1,
+    );
+    run.wait_ws_log("lost the robot host robot: stopping", 1);
+
+    // Back: the workstation joins again, its perception starts on the broker's order, and
+    // the clients fail back to it (fail_back is on for Blobs).
+    run.hosts.link_up("robot", "workstation");
+    run.wait_robot_log("broker: host workstation joined", 2);
+    run.wait_robot_log(
+        "rebind blobfinder3d from blobfinder_onboard to blobfinder for Blobs: fail back",
+        1,
+    );
+    let read = run.finish();
+    assert_has(
+        &read,
+        &["lost: which is lost", "/blobfinder/Blobs workstation"],
+    );
 }
 
 /// Prints each channel with messages, its host and count, and whether a broker decision
