@@ -161,7 +161,8 @@ impl Checker<'_> {
                 seen.insert(host.name.get_ref().clone(), line);
             }
             let listen = self.endpoints(&host.listen);
-            if index == 0 && listen.is_empty() {
+            // An endpoint that does not parse is reported as such, not as none.
+            if index == 0 && host.listen.is_empty() {
                 self.report(
                     &table_span,
                     format!(

@@ -800,3 +800,55 @@ provides = [{ interface = "Signs", quality = 5, cost = 5 }]
         "#]],
     );
 }
+
+#[test]
+fn hosts_are_checked_where_they_are_written() {
+    check(
+        r#"
+[robot]
+name = "x"
+[[hosts]]
+name = "robot"
+listen = ["tpc/10.0.0.1:7447"]
+[[hosts]]
+name = "workstation"
+connect = ["tcp/10.0.0.1"]
+[[hosts]]
+name = "robot"
+listen = ["tcp/10.0.0.3:7447"]
+[[services]]
+name = "laser"
+kind = "test-range"
+host = "workstaton"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+"#,
+        &expect![[r#"
+            robot.toml:6:11: endpoint `tpc/10.0.0.1:7447` names protocol `tpc`: did you mean `tcp`? Lewis speaks tcp, tls, udp, quic
+            robot.toml:9:12: endpoint `tcp/10.0.0.1` has no port: write it as `tcp/ADDRESS:PORT`
+            robot.toml:11:8: duplicate host name `robot` (first declared on line 5): give each host its own name
+            robot.toml:16:8: service `laser` runs on host `workstaton`, which the robot does not have: did you mean `workstation`? its hosts are robot, workstation, robot
+        "#]],
+    );
+}
+
+#[test]
+fn a_host_without_hosts_is_an_error() {
+    check(
+        r#"
+[robot]
+name = "x"
+[network]
+link_deadline_ms = 0
+[[services]]
+name = "laser"
+kind = "test-range"
+host = "workstation"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+"#,
+        &expect![[r#"
+            robot.toml:4:1: [network] is for a robot on more than one host, and this one has no [[hosts]]
+            robot.toml:5:20: [network] link_deadline_ms is 0: give a positive number of milliseconds
+            robot.toml:9:8: service `laser` runs on host `workstation`, but the robot has no [[hosts]]: declare the hosts, or remove `host`
+        "#]],
+    );
+}
