@@ -23,9 +23,12 @@ use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 use zenoh::sample::SampleKind;
 
-use crate::forward::{Wake, drain};
+use crate::forward::{BEAT_PERIOD, Wake, drain};
 use crate::robot_host::exit_text;
 use crate::{BridgeError, ForwardOptions, Forwarder, Heard, Schemas, keys, routes, session};
+
+/// How long a host waits for the robot host before it says it cannot reach it.
+const UNREACHED_AFTER: Duration = Duration::from_secs(5);
 
 /// How often the host looks whether the robot host is still there.
 const WATCH_PERIOD: Duration = Duration::from_millis(10);
@@ -72,7 +75,7 @@ pub fn run_host(
             host: me.name.clone(),
             routes: routes::routes(robot, &me.name),
             namespace: options.namespace.clone(),
-            beat_period: crate::forward::BEAT_PERIOD,
+            beat_period: BEAT_PERIOD,
             schemas: Schemas::of(robot),
         },
         heard.clone(),
@@ -141,6 +144,7 @@ pub fn run_host(
         cleaner: NodeCleaner::start(&options.namespace, "lewis-host-cleaner")?,
         kills: BTreeMap::new(),
         hub_up: false,
+        ever_up: false,
     };
     tracing::info!(
         host = me.name,
@@ -153,6 +157,8 @@ pub fn run_host(
             .join(", ")
     );
     let link_deadline = Duration::from_millis(robot.network.link_deadline_ms);
+    let started = Instant::now();
+    let mut said_unreached = false;
     let waits = WaitSet::new(WakeMode::Event);
     loop {
         if stop.take() || stop.take_requested() {
@@ -182,6 +188,19 @@ pub fn run_host(
         let token = *hub_token.lock().unwrap_or_else(PoisonError::into_inner);
         let hub_up = token && heard.silence(&hub.name).is_some_and(|s| s < link_deadline);
         host.robot_host_is(hub_up, &hub.name);
+        if !hub_up && !host.ever_up && !said_unreached && started.elapsed() >= UNREACHED_AFTER {
+            said_unreached = true;
+            tracing::warn!(
+                "not connected to the robot host {} after {} s: is its `lewis up` running, and do this host's connect endpoints ({}) and the robot file's key file match its own?",
+                hub.name,
+                UNREACHED_AFTER.as_secs(),
+                me.connect
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
         host.kill_overdue();
         let signal_fd = FdSource::new(stop.as_fd());
         let supervisor_fd = FdSource::new(host.supervisor.as_fd());
@@ -234,6 +253,8 @@ struct Host<'r> {
     kills: BTreeMap<String, Instant>,
     /// Whether the robot host is there.
     hub_up: bool,
+    /// Whether it ever was.
+    ever_up: bool,
 }
 
 impl Host<'_> {
@@ -293,6 +314,7 @@ impl Host<'_> {
             return;
         }
         self.hub_up = up;
+        self.ever_up |= up;
         if up {
             tracing::info!("the robot host {hub} is there: its broker decides what runs here");
             return;

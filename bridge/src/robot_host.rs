@@ -105,7 +105,7 @@ impl RobotHost {
                 host: hub.name.clone(),
                 routes: routes::routes(robot, &hub.name),
                 namespace: namespace.clone(),
-                beat_period: crate::forward::BEAT_PERIOD,
+                beat_period: BEAT_PERIOD,
                 schemas: Schemas::of(robot),
             },
             heard.clone(),
