@@ -64,3 +64,13 @@ pub enum BridgeError {
     #[error("cannot start the bridge's thread: {0}")]
     Thread(std::io::Error),
 }
+
+impl BridgeError {
+    /// The error of a Zenoh declaration of `what` (a channel, a key) that failed.
+    pub(crate) fn zenoh(what: &str) -> impl FnOnce(zenoh::Error) -> Self + '_ {
+        move |e| Self::Zenoh {
+            what: what.to_owned(),
+            reason: e.to_string(),
+        }
+    }
+}

@@ -21,6 +21,7 @@ use lewis_runtime::ipc::{
     WaitSet, Waitable, WakeMode,
 };
 use lewis_runtime::names;
+use lewis_runtime::robot::Robot;
 use zenoh::Session;
 use zenoh::Wait as _;
 use zenoh::bytes::{Encoding, ZBytes};
@@ -109,6 +110,22 @@ pub struct ForwardOptions {
     pub beat_period: Duration,
     /// The schemas of the robot's channels, for the tools that ask.
     pub schemas: Schemas,
+}
+
+impl ForwardOptions {
+    /// What `host` of `robot` forwards, in `namespace`: its routes, its beat, the robot's
+    /// schemas.
+    #[must_use]
+    pub fn of_host(robot: &Robot, host: &str, namespace: &Namespace) -> Self {
+        Self {
+            robot: robot.name.clone(),
+            host: host.to_owned(),
+            routes: crate::routes::routes(robot, host),
+            namespace: namespace.clone(),
+            beat_period: BEAT_PERIOD,
+            schemas: Schemas::of(robot),
+        }
+    }
 }
 
 impl Forwarder {
@@ -214,10 +231,6 @@ impl Thread {
         wake: &Wake,
         heard: &Heard,
     ) -> Result<Self, BridgeError> {
-        let zenoh_error = |what: &str, e: zenoh::Error| BridgeError::Zenoh {
-            what: what.to_owned(),
-            reason: e.to_string(),
-        };
         let ipc = Ipc::open(&options.namespace, BRIDGE_NODE)?;
         let robot = &options.robot;
         let mut exports = Vec::new();
@@ -241,7 +254,7 @@ impl Thread {
                 .encoding(encoding)
                 .congestion_control(congestion)
                 .wait()
-                .map_err(|e| zenoh_error(channel, e))?;
+                .map_err(BridgeError::zenoh(channel))?;
             exports.push(Export {
                 subscriber: ipc.subscriber(channel, &names::channel_config(channel))?,
                 publisher,
@@ -269,7 +282,7 @@ impl Thread {
                     );
                 })
                 .wait()
-                .map_err(|e| zenoh_error(&route.channel, e))?;
+                .map_err(BridgeError::zenoh(&route.channel))?;
             declarations.push(Box::new(subscriber));
         }
         let mut answers = Vec::new();
@@ -288,7 +301,7 @@ impl Thread {
                 .declare_queryable(keys::command(robot, &options.host, channel))
                 .callback(move |query| push(&queue, &wake, Inbound::Call(index, query)))
                 .wait()
-                .map_err(|e| zenoh_error(channel, e))?;
+                .map_err(BridgeError::zenoh(channel))?;
             declarations.push(Box::new(queryable));
         }
         let mut proxies = Vec::new();
@@ -319,13 +332,13 @@ impl Thread {
                 }
             })
             .wait()
-            .map_err(|e| zenoh_error("schemas", e))?;
+            .map_err(BridgeError::zenoh("schemas"))?;
         declarations.push(Box::new(queryable));
         let beat = session
             .declare_publisher(keys::beat(robot, &options.host))
             .congestion_control(CongestionControl::Drop)
             .wait()
-            .map_err(|e| zenoh_error("beat", e))?;
+            .map_err(BridgeError::zenoh("beat"))?;
         Ok(Self {
             session: session.clone(),
             exports,

@@ -23,9 +23,9 @@ use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 use zenoh::sample::SampleKind;
 
-use crate::forward::{BEAT_PERIOD, Wake, drain};
+use crate::forward::{Wake, drain};
 use crate::robot_host::exit_text;
-use crate::{BridgeError, ForwardOptions, Forwarder, Heard, Schemas, keys, routes, session};
+use crate::{BridgeError, ForwardOptions, Forwarder, Heard, keys, session};
 
 /// How long a host waits for the robot host before it says it cannot reach it.
 const UNREACHED_AFTER: Duration = Duration::from_secs(5);
@@ -70,26 +70,15 @@ pub fn run_host(
     let heard = Heard::default();
     let _forwarder = Forwarder::start(
         &session,
-        ForwardOptions {
-            robot: robot.name.clone(),
-            host: me.name.clone(),
-            routes: routes::routes(robot, &me.name),
-            namespace: options.namespace.clone(),
-            beat_period: BEAT_PERIOD,
-            schemas: Schemas::of(robot),
-        },
+        ForwardOptions::of_host(robot, &me.name, &options.namespace),
         heard.clone(),
     )?;
-    let zenoh_error = |what: &str, e: zenoh::Error| BridgeError::Zenoh {
-        what: what.to_owned(),
-        reason: e.to_string(),
-    };
     let name = &robot.name;
     let _token = session
         .liveliness()
         .declare_token(keys::host_token(name, &me.name))
         .wait()
-        .map_err(|e| zenoh_error("host token", e))?;
+        .map_err(BridgeError::zenoh("host token"))?;
     let (wake, wake_rx) = Wake::pair().map_err(BridgeError::Thread)?;
     let orders: Arc<Mutex<VecDeque<Query>>> = Arc::default();
     let (queue, order_wake) = (Arc::clone(&orders), wake.clone());
@@ -103,19 +92,19 @@ pub fn run_host(
             order_wake.wake();
         })
         .wait()
-        .map_err(|e| zenoh_error("control", e))?;
+        .map_err(BridgeError::zenoh("control"))?;
     let exits = session
         .declare_publisher(keys::exits(name, &me.name))
         .congestion_control(CongestionControl::Block)
         .wait()
-        .map_err(|e| zenoh_error("exits", e))?;
+        .map_err(BridgeError::zenoh("exits"))?;
     let hub_heard = heard.clone();
     let hub_name = hub.name.clone();
     let _hub_beat = session
         .declare_subscriber(keys::beat(name, &hub.name))
         .callback(move |_| hub_heard.hear(&hub_name))
         .wait()
-        .map_err(|e| zenoh_error("beats", e))?;
+        .map_err(BridgeError::zenoh("beats"))?;
     let hub_token: Arc<Mutex<bool>> = Arc::default();
     let token_seen = Arc::clone(&hub_token);
     let _hub_liveliness = session
@@ -127,7 +116,7 @@ pub fn run_host(
                 sample.kind() == SampleKind::Put;
         })
         .wait()
-        .map_err(|e| zenoh_error("host tokens", e))?;
+        .map_err(BridgeError::zenoh("host tokens"))?;
     let up = UpOptions {
         robot_path: options.robot_path.clone(),
         namespace: options.namespace.clone(),

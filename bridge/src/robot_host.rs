@@ -20,7 +20,7 @@ use zenoh::Wait as _;
 use zenoh::sample::SampleKind;
 
 use crate::forward::{BEAT_PERIOD, Wake, drain};
-use crate::{BridgeError, ForwardOptions, Forwarder, Heard, Schemas, keys, routes, session};
+use crate::{BridgeError, ForwardOptions, Forwarder, Heard, keys, session};
 
 /// How long the robot host waits for another host's answer to a start.
 const ORDER_TIMEOUT: Duration = Duration::from_secs(1);
@@ -100,20 +100,9 @@ impl RobotHost {
         let heard = Heard::default();
         let forwarder = Forwarder::start(
             &session,
-            ForwardOptions {
-                robot: robot.name.clone(),
-                host: hub.name.clone(),
-                routes: routes::routes(robot, &hub.name),
-                namespace: namespace.clone(),
-                beat_period: BEAT_PERIOD,
-                schemas: Schemas::of(robot),
-            },
+            ForwardOptions::of_host(robot, &hub.name, namespace),
             heard.clone(),
         )?;
-        let zenoh_error = |what: &str, e: zenoh::Error| BridgeError::Zenoh {
-            what: what.to_owned(),
-            reason: e.to_string(),
-        };
         let (wake, wake_rx) = Wake::pair().map_err(BridgeError::Thread)?;
         let shared: Shared = Arc::default();
         let mut declarations: Vec<Box<dyn std::any::Any + Send>> = Vec::new();
@@ -122,7 +111,7 @@ impl RobotHost {
             .liveliness()
             .declare_token(keys::host_token(&name, &hub.name))
             .wait()
-            .map_err(|e| zenoh_error("host token", e))?;
+            .map_err(BridgeError::zenoh("host token"))?;
         declarations.push(Box::new(token));
         let (tokens, robot_name) = (Arc::clone(&shared), name.clone());
         let liveliness = session
@@ -141,7 +130,7 @@ impl RobotHost {
                 };
             })
             .wait()
-            .map_err(|e| zenoh_error("host tokens", e))?;
+            .map_err(BridgeError::zenoh("host tokens"))?;
         declarations.push(Box::new(liveliness));
         let (beats_heard, refused) = (heard.clone(), Arc::clone(&shared));
         let beats = session
@@ -165,7 +154,7 @@ impl RobotHost {
                 }
             })
             .wait()
-            .map_err(|e| zenoh_error("beats", e))?;
+            .map_err(BridgeError::zenoh("beats"))?;
         declarations.push(Box::new(beats));
         let (exits, exits_wake) = (Arc::clone(&shared), wake.clone());
         let exit_subscriber = session
@@ -178,7 +167,7 @@ impl RobotHost {
                 }
             })
             .wait()
-            .map_err(|e| zenoh_error("exits", e))?;
+            .map_err(BridgeError::zenoh("exits"))?;
         declarations.push(Box::new(exit_subscriber));
         let stop = Arc::new(AtomicBool::new(false));
         let watcher = {
