@@ -29,12 +29,4 @@ impl Heard {
             .get(host)
             .map(Instant::elapsed)
     }
-
-    /// Forgets `host`: silent until heard again.
-    pub fn forget(&self, host: &str) {
-        self.0
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .remove(host);
-    }
 }

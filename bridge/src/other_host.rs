@@ -16,7 +16,7 @@ use lewis_runtime::broker::live::{UpOptions, service_child};
 use lewis_runtime::ipc::{FdSource, NodeCleaner, WaitSet, Waitable, WakeMode};
 use lewis_runtime::live::{ClockSource, StopSignals};
 use lewis_runtime::robot::Robot;
-use lewis_runtime::supervise::{ExitStatus as ProcessExit, Supervisor, SupervisorEvent};
+use lewis_runtime::supervise::{Supervisor, SupervisorEvent};
 use nix::sys::signal::Signal;
 use zenoh::Wait as _;
 use zenoh::qos::CongestionControl;
@@ -166,10 +166,7 @@ pub fn run_host(
             if let SupervisorEvent::Exited { name, status, .. } = event {
                 host.kills.remove(&name);
                 host.cleaner.request();
-                let status = match status {
-                    ProcessExit::Exited { code } => ExitStatus::Code(code),
-                    ProcessExit::Signalled { signal, .. } => ExitStatus::Signal(signal),
-                };
+                let status = ExitStatus::from(status);
                 tracing::debug!(service = name, "exited: {status}");
                 let _ = exits.put(exit_text(&name, status)).wait();
             }

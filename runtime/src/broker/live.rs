@@ -54,9 +54,7 @@ use crate::live::{CLOCK_ENV, ClockSource};
 use crate::live::{StopSignals, heartbeat_event};
 use crate::names;
 use crate::robot::{DataChecks, Robot, ServiceSpec};
-use crate::supervise::{
-    ChildSpec, ExitStatus as ProcessExit, LogLine, SuperviseError, Supervisor, SupervisorEvent,
-};
+use crate::supervise::{ChildSpec, LogLine, SuperviseError, Supervisor, SupervisorEvent};
 use crate::wire;
 
 /// Log lines waiting to be published before new ones are dropped (and counted by the
@@ -845,10 +843,7 @@ impl<'r> Driver<'r> {
                 let ticket = self.cleaner.request();
                 let cleanups = self.exit_cleanups.entry(name.clone()).or_default();
                 cleanups.before_last = cleanups.last.replace(ticket);
-                let status = match status {
-                    ProcessExit::Exited { code } => ExitStatus::Code(code),
-                    ProcessExit::Signalled { signal, .. } => ExitStatus::Signal(signal),
-                };
+                let status = ExitStatus::from(status);
                 let died_ns = self.death_time(&name, seen_ns);
                 self.feed_in_the_past(
                     died_ns,

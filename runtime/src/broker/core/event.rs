@@ -44,6 +44,16 @@ pub enum ExitStatus {
     Signal(i32),
 }
 
+impl From<crate::supervise::ExitStatus> for ExitStatus {
+    /// How the supervisor saw a process end, as the broker counts it.
+    fn from(status: crate::supervise::ExitStatus) -> Self {
+        match status {
+            crate::supervise::ExitStatus::Exited { code } => Self::Code(code),
+            crate::supervise::ExitStatus::Signalled { signal, .. } => Self::Signal(signal),
+        }
+    }
+}
+
 impl fmt::Display for ExitStatus {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
