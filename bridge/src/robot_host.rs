@@ -376,6 +376,10 @@ impl RemoteHosts for RobotHost {
         lock(&self.shared).joined.insert(host.to_owned(), false);
     }
 
+    fn clock_offset_ns(&self, host: &str) -> Option<i64> {
+        lock(&self.shared).clock_offsets.get(host).copied()
+    }
+
     fn wake_fd(&self) -> BorrowedFd<'_> {
         self.wake_rx.as_fd()
     }

@@ -17,9 +17,9 @@ mod tests {
     use std::str::FromStr;
 
     use crate::msg::{
-        BrokerAction, BrokerRequestReplyStatus, CommandLogStatus, HealthState, LogLineLevel,
-        LogLineStream, MoverStatus, SequencerEntry, SequencerKind, SequencerSupervision,
-        UnansweredCallStatus,
+        BrokerAction, BrokerRequestReplyStatus, CommandLogStatus, HealthState, HostLinkEvent,
+        LogLineLevel, LogLineStream, MoverStatus, SequencerEntry, SequencerKind,
+        SequencerSupervision, UnansweredCallStatus,
     };
 
     /// Every value of a vocabulary goes to its word and back, by `parse`, `FromStr` and
@@ -47,6 +47,7 @@ mod tests {
             BrokerRequestReplyStatus,
             CommandLogStatus,
             HealthState,
+            HostLinkEvent,
             LogLineLevel,
             LogLineStream,
             MoverStatus,

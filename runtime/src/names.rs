@@ -11,6 +11,7 @@
 //! | calls a client sent that got no answer | `/lewis/calls` | `UnansweredCall` |
 //! | broker decisions | `/lewis/broker` | `Broker` |
 //! | the CPU each service's process used, measured by the broker | `/lewis/broker/cpu` | `ProcessCpu` |
+//! | the other hosts of a robot on more than one, as the broker hears them | `/lewis/hosts` | `HostLink` |
 //! | requests to the broker | `/lewis/broker/cmd` | `Broker` commands |
 //! | services' output lines | `/lewis/log` | `LogLine` |
 //! | the sequencer's records | `/lewis/sequencer` | `Sequencer` |
@@ -30,6 +31,9 @@ pub const BROKER_CHANNEL: &str = "/lewis/broker";
 
 /// The channel of the CPU the broker measured of each service's process.
 pub const CPU_CHANNEL: &str = "/lewis/broker/cpu";
+
+/// The channel on which the robot host's broker says what it hears of the other hosts.
+pub const HOSTS_CHANNEL: &str = "/lewis/hosts";
 
 /// The command channel of the broker (`request`, `release`, `status`).
 pub const BROKER_COMMAND: &str = "/lewis/broker/cmd";
@@ -173,6 +177,14 @@ pub fn cpu_config() -> ChannelConfig {
     }
 }
 
+/// The settings of `/lewis/hosts`: a few records a second per host, every one owed to the
+/// recorder (replay loses and joins the hosts with them), none worth slowing the broker
+/// for.
+#[must_use]
+pub fn hosts_config() -> ChannelConfig {
+    cpu_config()
+}
+
 /// The settings of `/lewis/log`: a deep buffer, the oldest dropped (logs must not stall
 /// the broker).
 #[must_use]
@@ -261,6 +273,7 @@ pub fn channel_config(channel: &str) -> ChannelConfig {
         CLOCK_CHANNEL => clock_config(),
         CALLS_CHANNEL => calls_config(),
         CPU_CHANNEL => cpu_config(),
+        HOSTS_CHANNEL => hosts_config(),
         _ if channel.starts_with("/lewis/health/") => health_config(),
         _ if channel.starts_with("/lewis/commands/") => command_log_config(),
         // A provider's data channel is `/<provider>/<Interface>`.

@@ -4,7 +4,7 @@
 use globset::{GlobBuilder, GlobSet, GlobSetBuilder};
 use lewis_interfaces::Interface;
 use lewis_interfaces::msg::{
-    Broker, CommandLog, Health, LogLine, ProcessCpu, Sequencer, UnansweredCall,
+    Broker, CommandLog, Health, HostLink, LogLine, ProcessCpu, Sequencer, UnansweredCall,
 };
 use lewis_runtime::ipc::ChannelConfig;
 use lewis_runtime::names;
@@ -134,11 +134,18 @@ pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
         "log",
         &names::log_config(),
     ));
-    // A robot on more than one host: which host published each channel (the robot host
-    // for the broker's, the sequencer's and the log).
+    // A robot on more than one host: what its broker heard of the other hosts, and which
+    // host published each channel (the robot host for the broker's, the sequencer's and
+    // the log).
     if let Some(robot) = robot
         && let Some(hub) = robot.robot_host()
     {
+        channels.push(TapChannel::of::<HostLink>(
+            names::BROKER_NODE,
+            names::HOSTS_CHANNEL,
+            "hosts",
+            &names::hosts_config(),
+        ));
         for channel in &mut channels {
             let host = robot.host_of(&channel.spec.provider).unwrap_or(&hub.name);
             channel
@@ -223,25 +230,56 @@ mod tests {
     use super::*;
 
     fn robot() -> Robot {
-        let text = r#"
+        robot_with("", "")
+    }
+
+    /// The test robot with `hosts` before its services, the sonar on `sonar_host`.
+    fn robot_with(hosts: &str, sonar_host: &str) -> Robot {
+        let text = format!(
+            r#"
 [robot]
 name = "t"
-
+{hosts}
 [[services]]
 name = "laser"
 command = ["/bin/true"]
-provides = [{ interface = "RangeFinder", quality = 1, cost = 1 }, { interface = "Distance", quality = 1, cost = 1 }]
+provides = [{{ interface = "RangeFinder", quality = 1, cost = 1 }}, {{ interface = "Distance", quality = 1, cost = 1 }}]
 
 [[services]]
 name = "sonar"
+{sonar_host}
 command = ["/bin/true"]
-provides = [{ interface = "Distance", quality = 1, cost = 1 }]
-"#;
+provides = [{{ interface = "Distance", quality = 1, cost = 1 }}]
+"#
+        );
         let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
             .iter()
             .map(|i| i.name)
             .collect();
-        lewis_runtime::robot::parse(text, std::path::Path::new("t.toml"), &known).unwrap()
+        lewis_runtime::robot::parse(&text, std::path::Path::new("t.toml"), &known).unwrap()
+    }
+
+    #[test]
+    fn a_robot_on_two_hosts_names_each_channel_s_host_and_keeps_what_its_broker_heard() {
+        let robot = robot_with(
+            "[[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\
+             [[hosts]]\nname = \"workstation\"\n",
+            "host = \"workstation\"",
+        );
+        let channels = robot_channels(Some(&robot));
+        let host = |topic: &str| {
+            let c = channels.iter().find(|c| c.topic() == topic).unwrap();
+            c.spec.metadata()[META_HOST].clone()
+        };
+        assert_eq!(host("/sonar/Distance"), "workstation");
+        assert_eq!(host("/lewis/health/sonar"), "workstation");
+        assert_eq!(host("/laser/Distance"), "robot");
+        assert_eq!(host("/lewis/hosts"), "robot");
+        assert!(
+            robot_channels(Some(&self::robot()))
+                .iter()
+                .all(|c| c.topic() != "/lewis/hosts")
+        );
     }
 
     #[test]

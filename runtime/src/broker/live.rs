@@ -23,6 +23,10 @@
 //!   publishes it on `/lewis/broker/cpu` (recorded, so replay decides the same) and hands it
 //!   to the core as an [`Event::CpuMeasured`].
 //!
+//! - for a robot on more than one host, it says on `/lewis/hosts` each host joined or lost
+//!   and each joined host's clock offset ([`host_link`](super::host_link)), recorded so that
+//!   replay loses and joins the hosts when it did.
+//!
 //! Everything waits on one [`WaitSet`]: the stop signals, the supervisor's descriptor, the
 //! command server and the health channels, with the earliest deadline.
 
@@ -43,6 +47,7 @@ use nix::sys::signal::Signal;
 
 use super::cpu::CpuSampler;
 use super::health::DataMonitor;
+use super::host_link::HostLinks;
 use super::remote::{HostEvent, RemoteHosts, RemoteStartError};
 use super::{Action, Binding, BrokerCore, Decision, Event, ExitStatus, Need, ServiceState};
 use crate::clock::LiveClock;
@@ -350,6 +355,8 @@ struct Driver<'r> {
     cpu_seq: u64,
     /// When the processes are measured next.
     next_cpu_sample: Instant,
+    /// Where the other hosts' comings and goings are said, for a robot on more than one.
+    host_links: Option<HostLinks>,
 }
 
 impl<'r> Driver<'r> {
@@ -368,6 +375,10 @@ impl<'r> Driver<'r> {
         let cleaner = NodeCleaner::start(&options.namespace, names::BROKER_CLEANER_NODE)?;
         let decisions_out = ipc.publisher(names::BROKER_CHANNEL, &names::broker_config())?;
         let cpu_out = ipc.publisher(names::CPU_CHANNEL, &names::cpu_config())?;
+        let host_links = remote
+            .is_some()
+            .then(|| HostLinks::open(&ipc))
+            .transpose()?;
         let server = ipc.command_server(names::BROKER_COMMAND, &names::broker_command_config())?;
         let health = robot
             .services
@@ -431,6 +442,7 @@ impl<'r> Driver<'r> {
             cpu_out,
             cpu_seq: 0,
             next_cpu_sample: Instant::now() + CPU_SAMPLE_PERIOD,
+            host_links,
         })
     }
 
@@ -489,6 +501,9 @@ impl<'r> Driver<'r> {
             }
             if now >= self.next_cpu_sample {
                 self.measure_cpu();
+                if let (Some(links), Some(remote)) = (&mut self.host_links, &self.remote) {
+                    links.heard(&**remote, self.clock.now_ns());
+                }
                 self.next_cpu_sample = now + CPU_SAMPLE_PERIOD;
             }
             let sweep = (!self.client_pids.is_empty()).then_some(self.next_client_sweep);
@@ -574,6 +589,9 @@ impl<'r> Driver<'r> {
         let at_ns = at_ns.max(self.last_ns);
         self.last_ns = at_ns;
         while let Some(event) = queue.pop_front() {
+            if let Some(links) = &mut self.host_links {
+                links.on_event(&event, self.remote.as_deref().map(|r| r as _), at_ns);
+            }
             // Events caused by decisions (a spawn, a failed spawn) are taken at the time of
             // the decision, not after it was carried out: a spawn can take tens of ms on a
             // loaded machine, and judging the deadlines at its end, before the heartbeats

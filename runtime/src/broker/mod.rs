@@ -12,6 +12,7 @@
 mod core;
 pub mod cpu;
 pub mod health;
+mod host_link;
 pub mod live;
 pub mod remote;
 pub mod status;

@@ -70,6 +70,11 @@ pub trait RemoteHosts {
     /// quiet): it is reported joined again once it is heard from.
     fn mark_lost(&mut self, host: &str);
 
+    /// This host's clock minus `host`'s, plus the least one-way latency seen (the least,
+    /// over the host's beats, of their arrival here minus the time they were sent with);
+    /// `None` before a beat was heard.
+    fn clock_offset_ns(&self, host: &str) -> Option<i64>;
+
     /// A descriptor that becomes readable when an event waits.
     fn wake_fd(&self) -> BorrowedFd<'_>;
 }

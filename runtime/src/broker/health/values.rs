@@ -60,6 +60,7 @@ fn typed(interface: &str, bytes: &[u8]) -> Result<(), String> {
         Egomotion,
         GroundTruth,
         Health,
+        HostLink,
         ImageSource,
         LogLine,
         Mover,
