@@ -21,9 +21,11 @@ use crate::service::registry;
 #[derive(Debug, Args)]
 #[command(
     after_help = "Fault SPECs: PROVIDER[@START[-END]][:KIND], KIND one of \
-    crash, stall (the default), garbage, frozen, slow, out-of-service; times from the start of the \
-    recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser half-way \
-    through; `laser@12.5s-20s:crash` crashes it for a window, then lets it recover.\n\n\
+    crash, stall (the default), garbage, frozen, slow, out-of-service, host-lost; times from the \
+    start of the recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser \
+    half-way through; `laser@12.5s-20s:crash` crashes it for a window, then lets it recover. \
+    A robot on more than one host loses a host named: `workstation@12s-20s` cuts it off, \
+    its services with it, and it joins again at 20 s.\n\n\
     Regression check of a change: `lewis replay RUN.mcap --check` replays the services as \
     the recording stores them; `--robot robots/sim.toml` replays with the repository's \
     robot file instead, `--set obstacle_avoider.clearance_m=0.3` with one parameter \

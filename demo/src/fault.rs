@@ -234,7 +234,7 @@ impl Watch {
                     self.log.error = Some(e.to_string());
                 }
             }
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {
+            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow | FaultKind::HostLost => {
                 let kind = self.fault.kind;
                 self.log.error = Some(format!("{kind} cannot be injected live"));
             }

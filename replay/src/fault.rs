@@ -14,7 +14,9 @@
 //! | `frozen` | publishes its last good payload again (new headers) | its frozen check fails |
 //! | `slow` | drops two samples of three | its rate check fails |
 //! | `out-of-service` | no data; heartbeats declare it out of service | clients moved away at once |
+//! | `host-lost` | a host of a robot on more than one (PROVIDER names it): none of its services is heard | its services failed, clients moved; from END it joins again |
 //!
+//! A host is lost by naming it: `workstation@12s-20s` (the kind may be left out).
 //! Heartbeats go on under `garbage`, `frozen` and `slow`: only the broker's checks of the
 //! data see them (where the robot file has them on for the interface).
 
@@ -40,11 +42,15 @@ pub enum FaultKind {
     Slow,
     /// No data; the heartbeats declare the provider out of service.
     OutOfService,
+    /// A whole host cut off (its name given as the provider): nothing of its services is
+    /// heard, the broker is told the host is lost, and it joins again at the fault's end.
+    HostLost,
 }
 
 impl FaultKind {
     /// Every kind's name, as written in a SPEC.
-    pub const NAMES: &'static str = "crash, stall, garbage, frozen, slow, out-of-service";
+    pub const NAMES: &'static str =
+        "crash, stall, garbage, frozen, slow, out-of-service, host-lost";
 
     /// The kind of `name`, as written in a SPEC.
     #[must_use]
@@ -56,6 +62,7 @@ impl FaultKind {
             Self::Frozen,
             Self::Slow,
             Self::OutOfService,
+            Self::HostLost,
         ]
         .into_iter()
         .find(|k| k.name() == name)
@@ -71,6 +78,7 @@ impl FaultKind {
             Self::Frozen => "frozen",
             Self::Slow => "slow",
             Self::OutOfService => "out-of-service",
+            Self::HostLost => "host-lost",
         }
     }
 }
@@ -94,6 +102,8 @@ pub struct FaultSpec {
     pub until_ns: Option<i64>,
     /// How it fails.
     pub kind: FaultKind,
+    /// Whether the kind was written (else it is the default: a stall, or a host lost).
+    pub kind_given: bool,
 }
 
 /// A fault placed on the recording's clock.
@@ -128,6 +138,15 @@ pub enum FaultError {
         kinds = FaultKind::NAMES
     )]
     Syntax {
+        /// The SPEC.
+        spec: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A host named where only a service fails that way, or the robot host, which holds
+    /// the broker and cannot be lost.
+    #[error("fault `{spec}`: {reason}")]
+    Host {
         /// The SPEC.
         spec: String,
         /// What is wrong.
@@ -179,13 +198,14 @@ impl FromStr for FaultSpec {
             spec: text.to_owned(),
             reason: reason.to_owned(),
         };
-        let (rest, kind) = match text.split_once(':') {
+        let (rest, kind, kind_given) = match text.split_once(':') {
             Some((rest, kind)) => (
                 rest,
                 FaultKind::from_name(kind)
                     .ok_or_else(|| syntax(&format!("unknown kind `{kind}`")))?,
+                true,
             ),
-            None => (text, FaultKind::Stall),
+            None => (text, FaultKind::Stall, false),
         };
         let (provider, window) = match rest.split_once('@') {
             Some((provider, window)) => (provider, Some(window)),
@@ -196,7 +216,7 @@ impl FromStr for FaultSpec {
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
         {
-            return Err(syntax("the provider must be a service name"));
+            return Err(syntax("the provider must be a service or host name"));
         }
         let (at_ns, until_ns) = match window {
             None => (None, None),
@@ -228,6 +248,7 @@ impl FromStr for FaultSpec {
             at_ns,
             until_ns,
             kind,
+            kind_given,
         })
     }
 }
@@ -247,7 +268,8 @@ impl FaultSpec {
         end_ns: i64,
         overtime_ns: i64,
     ) -> Result<Fault, FaultError> {
-        if robot.service(&self.provider).is_none() {
+        let kind = self.kind_of(robot)?;
+        if kind != FaultKind::HostLost && robot.service(&self.provider).is_none() {
             return Err(FaultError::UnknownProvider {
                 spec: self.text.clone(),
                 provider: self.provider.clone(),
@@ -284,10 +306,54 @@ impl FaultSpec {
         Ok(Fault {
             spec: self.text.clone(),
             provider: self.provider.clone(),
-            kind: self.kind,
+            kind,
             at_ns: start_ns.saturating_add(at),
             until_ns: self.until_ns.map(|u| start_ns.saturating_add(u)),
         })
+    }
+}
+
+impl FaultSpec {
+    /// The kind of fault on `robot`: a host's name means the host is lost.
+    fn kind_of(&self, robot: &Robot) -> Result<FaultKind, FaultError> {
+        let host_error = |reason: String| FaultError::Host {
+            spec: self.text.clone(),
+            reason,
+        };
+        let name = &self.provider;
+        if robot.service(name).is_some() {
+            if self.kind == FaultKind::HostLost {
+                return Err(host_error(format!(
+                    "`{name}` is a service; host-lost takes a host, one of: {}",
+                    robot.host_names()
+                )));
+            }
+            return Ok(self.kind);
+        }
+        if robot.host(name).is_none() {
+            if self.kind != FaultKind::HostLost {
+                // Neither: the caller says the robot has no such service.
+                return Ok(self.kind);
+            }
+            let known = robot.host_names();
+            return Err(host_error(if known.is_empty() {
+                format!("the recorded robot has no host `{name}`: it runs on one")
+            } else {
+                format!("the recorded robot has no host `{name}`; its hosts are {known}")
+            }));
+        }
+        if self.kind_given && self.kind != FaultKind::HostLost {
+            return Err(host_error(format!(
+                "`{name}` is a host: a host can only be lost (`{name}@12s-20s`, or `:host-lost`); {} is a service's fault",
+                self.kind
+            )));
+        }
+        if robot.robot_host().is_some_and(|h| h.name == *name) {
+            return Err(host_error(format!(
+                "`{name}` is the robot host, where the broker and the recorder run: it cannot be lost; name another host"
+            )));
+        }
+        Ok(FaultKind::HostLost)
     }
 }
 
@@ -358,7 +424,7 @@ mod tests {
             Err("`12.5` is not a time (it has no unit)"),
         );
         check("laser@5s-2s", Err("ends before it starts"));
-        check("@5s", Err("the provider must be a service name"));
+        check("@5s", Err("the provider must be a service or host name"));
         check("laser@-1s", Err("is not a time"));
         check("laser:x", Err("e.g. laser@12.5s:crash"));
     }
@@ -396,5 +462,65 @@ mod tests {
         let unknown: FaultSpec = "sonar".parse().unwrap();
         let e = unknown.resolve(&robot, 0, 1, 0).unwrap_err();
         assert!(e.to_string().contains("it has: laser"), "{e}");
+        let host: FaultSpec = "workstation@0s:host-lost".parse().unwrap();
+        let e = host.resolve(&robot, 0, 1, 0).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "fault `workstation@0s:host-lost`: the recorded robot has no host `workstation`: it runs on one"
+        );
+    }
+
+    #[test]
+    fn a_host_named_is_lost_and_only_lost() {
+        let robot = lewis_runtime::robot::parse(
+            "[robot]\nname = \"r\"\n\
+             [[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\
+             [[hosts]]\nname = \"workstation\"\n\
+             [[services]]\nname = \"laser\"\nkind = \"k\"\nhost = \"workstation\"\n\
+             provides = [{ interface = \"RangeFinder\", quality = 1, cost = 1 }]\n",
+            std::path::Path::new("r.toml"),
+            &["RangeFinder"],
+        )
+        .unwrap();
+        let resolve = |text: &str| {
+            text.parse::<FaultSpec>()
+                .unwrap()
+                .resolve(&robot, 0, 30_000_000_000, 0)
+        };
+        let lost = resolve("workstation@12s-20s").unwrap();
+        assert_eq!(
+            (lost.kind, lost.at_ns, lost.until_ns),
+            (FaultKind::HostLost, 12_000_000_000, Some(20_000_000_000))
+        );
+        assert_eq!(
+            resolve("workstation@1s:host-lost").unwrap().kind,
+            FaultKind::HostLost
+        );
+        assert_eq!(resolve("laser@1s").unwrap().kind, FaultKind::Stall);
+        let e = |text: &str| resolve(text).unwrap_err().to_string();
+        assert!(
+            e("workstation@1s:crash").contains(
+                "`workstation` is a host: a host can only be lost (`workstation@12s-20s`, or `:host-lost`); crash is a service's fault"
+            ),
+            "{}",
+            e("workstation@1s:crash")
+        );
+        assert!(
+            e("robot@1s").contains("`robot` is the robot host, where the broker and the recorder run: it cannot be lost"),
+            "{}",
+            e("robot@1s")
+        );
+        assert!(
+            e("laser@1s:host-lost").contains(
+                "`laser` is a service; host-lost takes a host, one of: robot, workstation"
+            ),
+            "{}",
+            e("laser@1s:host-lost")
+        );
+        assert!(
+            e("moon@1s:host-lost").contains("no host `moon`; its hosts are robot, workstation"),
+            "{}",
+            e("moon@1s:host-lost")
+        );
     }
 }

@@ -7,6 +7,7 @@ use std::fmt;
 
 use lewis_interfaces::msg::BrokerAction;
 use lewis_runtime::broker::{Action, Decision};
+use lewis_runtime::robot::Robot;
 use serde::Serialize;
 
 use crate::compare::ChannelDivergence;
@@ -222,6 +223,8 @@ impl CheckOutcome {
 #[derive(Debug, Clone)]
 pub struct FaultWatch {
     fault: Fault,
+    /// The services the fault strikes: its provider, or every service of a host lost.
+    providers: Vec<String>,
     reactions: Vec<Reaction>,
     takeovers: Vec<Takeover>,
     /// Clients unbound from the faulty provider and not yet bound again.
@@ -229,11 +232,22 @@ pub struct FaultWatch {
 }
 
 impl FaultWatch {
-    /// Starts watching for the reactions to `fault`.
+    /// Starts watching for the reactions to `fault` on `robot`.
     #[must_use]
-    pub fn new(fault: Fault) -> Self {
+    pub fn new(fault: Fault, robot: &Robot) -> Self {
+        let providers = if fault.kind == FaultKind::HostLost {
+            robot
+                .services
+                .iter()
+                .filter(|s| robot.host_of(&s.name) == Some(fault.provider.as_str()))
+                .map(|s| s.name.clone())
+                .collect()
+        } else {
+            vec![fault.provider.clone()]
+        };
         Self {
             fault,
+            providers,
             reactions: Vec::new(),
             takeovers: Vec::new(),
             unbound: Vec::new(),
@@ -246,34 +260,35 @@ impl FaultWatch {
         if decision.at_ns < fault.at_ns || fault.until_ns.is_some_and(|end| decision.at_ns >= end) {
             return;
         }
-        let provider = fault.provider.as_str();
+        let struck = |service: &str| self.providers.iter().any(|p| p == service);
         let mut took_over = None;
         let concerns = match &decision.action {
             Action::Start { service }
             | Action::Stop { service }
             | Action::RestartScheduled { service, .. }
             | Action::ServiceFailed { service }
-            | Action::ServiceDegraded { service } => service == provider,
+            | Action::ServiceDegraded { service } => struck(service),
             Action::Rebind {
                 client,
                 interface,
                 from,
                 to,
             } => {
-                if from == provider {
+                if struck(from) {
                     took_over = Some((client, interface, to));
                 }
-                from == provider
+                struck(from)
             }
             Action::Unbind {
                 client,
                 interface,
                 service,
             } => {
-                if service == provider && self.unbound.len() < MAX_TAKEOVERS {
+                let struck = struck(service);
+                if struck && self.unbound.len() < MAX_TAKEOVERS {
                     self.unbound.push((client.clone(), interface.clone()));
                 }
-                service == provider
+                struck
             }
             Action::Bind {
                 client,
@@ -285,7 +300,7 @@ impl FaultWatch {
                     .iter()
                     .position(|(c, i)| c == client && i == interface);
                 if let Some(i) = back
-                    && service != provider
+                    && !struck(service)
                 {
                     self.unbound.remove(i);
                     took_over = Some((client, interface, service));

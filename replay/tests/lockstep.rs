@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use lewis_emulators::testing::range::{Params, Room, SyntheticScanner};
 use lewis_interfaces::msg::{
-    CommandLog, Distance, Health as HealthMessage, RangeFinder, RangeFinderGetGeometry,
+    CommandLog, Distance, Health as HealthMessage, HostLink, RangeFinder, RangeFinderGetGeometry,
     RangeFinderGetGeometryReply,
 };
 use lewis_interfaces::{Interface, Message, cdr};
@@ -168,19 +168,56 @@ fn stamp<T: Message>(mut message: T, provider: &str, seq: u64, time_ns: i64) -> 
 /// Writes a recording of `duration_ms` of a live run of the robot, the consumer using
 /// `offset_m`.
 fn make_recording(dir: &Path, duration_ms: i64, offset_m: f64) -> PathBuf {
+    make_recording_of(dir, ROBOT, duration_ms, offset_m, &[])
+}
+
+/// The robot on two hosts: the laser on the workstation, the rest on the robot host.
+fn two_hosts_robot() -> String {
+    let hosts = "[[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\n\
+                 [[hosts]]\nname = \"workstation\"\n\n";
+    let first = ROBOT.find("[[services]]").unwrap();
+    format!("{}{hosts}{}", &ROBOT[..first], &ROBOT[first..]).replacen(
+        "name = \"laser\"\n",
+        "name = \"laser\"\nhost = \"workstation\"\n",
+        1,
+    )
+}
+
+/// As [`make_recording`] of `robot`, with what the broker heard of the other hosts on
+/// `/lewis/hosts`: (time from the start, host, event, reason).
+fn make_recording_of(
+    dir: &Path,
+    robot: &str,
+    duration_ms: i64,
+    offset_m: f64,
+    hosts: &[(i64, &str, &str, &str)],
+) -> PathBuf {
     let path = dir.join("run.mcap");
     let mut options = RecorderOptions::new(&path);
     options.sync_on_flush = false;
     options.disk_reserve_bytes = 0;
     options.robot_description = Some(RobotDescription {
         file_name: "bench.toml".into(),
-        toml: ROBOT.into(),
+        toml: robot.into(),
     });
     let mut w = Writer {
         recorder: Recorder::create(options).unwrap(),
     };
     let broker =
         w.channel::<lewis_interfaces::msg::Broker>(names::BROKER_NODE, names::BROKER_CHANNEL);
+    if !hosts.is_empty() {
+        let links = w.channel::<HostLink>(names::BROKER_NODE, names::HOSTS_CHANNEL);
+        for (seq, (after_ns, host, event, reason)) in (1..).zip(hosts) {
+            let at_ns = T0 + after_ns;
+            let heard = HostLink {
+                host: (*host).into(),
+                event: (*event).into(),
+                reason: (*reason).into(),
+                ..HostLink::default()
+            };
+            w.write(links, at_ns, &stamp(heard, names::BROKER_NODE, seq, at_ns));
+        }
+    }
     let laser_health = w.channel::<HealthMessage>("laser", &names::health_channel("laser"));
     let consumer_health =
         w.channel::<HealthMessage>("consumer", &names::health_channel("consumer"));
@@ -413,6 +450,83 @@ fn a_crash_window_restarts_the_laser_and_the_client_stays_with_it() {
             .reactions
             .iter()
             .any(|r| r.action.starts_with("restart laser")),
+        "{report}"
+    );
+}
+
+/// The laser on the workstation: a replay joins the host when the recording says the live
+/// broker heard it join, and loses it when it was lost, or when a fault says so.
+fn replay_two_hosts(dir: &Path, hosts: &[(i64, &str, &str, &str)], faults: &[&str]) -> Report {
+    let input = make_recording_of(dir, &two_hosts_robot(), 2000, 0.25, hosts);
+    run(
+        &input,
+        &dir.join("out.mcap"),
+        faults,
+        ServiceSelection::NonSources,
+    )
+    .unwrap()
+}
+
+#[test]
+fn a_recording_of_two_hosts_replays_as_one_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let joined = [(0, "workstation", "joined", "")];
+    let report = replay_two_hosts(dir.path(), &joined, &[]);
+    assert!(report.check.passed, "{report}");
+    assert_eq!(report.divergence[0].resimulated, 19, "{report}");
+}
+
+#[test]
+fn a_host_lost_in_the_recording_is_lost_again_and_its_clients_move() {
+    let dir = tempfile::tempdir().unwrap();
+    let hosts = [
+        (0, "workstation", "joined", ""),
+        (1000 * MS, "workstation", "lost", "its Zenoh session closed"),
+    ];
+    let report = replay_two_hosts(dir.path(), &hosts, &[]);
+    let text = report.to_string();
+    assert!(
+        text.contains(
+            "laser failed at 1s: laser runs on host workstation, which is lost: its Zenoh session closed"
+        ),
+        "{report}"
+    );
+    assert!(
+        text.contains("consumer got RangeFinder from sonar"),
+        "{report}"
+    );
+    // Without the host's word, its services never run: as live, they wait for it to join.
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_two_hosts(dir.path(), &[], &[]);
+    assert!(
+        !report
+            .to_string()
+            .contains("consumer got RangeFinder from laser"),
+        "{report}"
+    );
+}
+
+#[test]
+fn a_host_injected_lost_takes_its_providers_and_joins_again_at_the_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let joined = [(0, "workstation", "joined", "")];
+    let report = replay_two_hosts(dir.path(), &joined, &["workstation@1s-1.5s"]);
+    let fault = &report.faults[0];
+    assert_eq!(fault.kind, lewis_replay::fault::FaultKind::HostLost);
+    let takeover = &fault.takeovers[0];
+    assert_eq!(
+        (
+            takeover.client.as_str(),
+            takeover.provider.as_str(),
+            takeover.latency_ns
+        ),
+        ("consumer", "sonar", 0),
+        "{report}"
+    );
+    assert!(
+        report.to_string().contains(
+            "laser runs on host workstation, which is lost: injected fault workstation@1s-1.5s"
+        ),
         "{report}"
     );
 }

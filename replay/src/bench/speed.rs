@@ -392,7 +392,8 @@ impl DirectServices {
                     let _ = instance.on_command(&mut state.context(backend), &command);
                     events += 1;
                 }
-                Route::Health { .. } | Route::Broker | Route::Cpu | Route::Other => {}
+                Route::Health { .. } | Route::Broker | Route::Cpu | Route::Hosts | Route::Other => {
+                }
             }
         }
         events

@@ -287,6 +287,9 @@ impl Lockstep<'_> {
     fn run(&mut self, work: Work, sink: &mut dyn Sink) {
         match work {
             Work::Broker(event) => {
+                if let Event::HostLost { host, .. } = &event {
+                    self.host_lost(host);
+                }
                 for decision in self.core.handle(self.now_ns, &event) {
                     sink.emit(Emitted::Decision(&decision));
                     self.carry_out(&decision.action, sink);

@@ -15,11 +15,16 @@ use crate::fault::FaultKind;
 pub(super) const SIGABRT: i32 = 6;
 
 impl Lockstep<'_> {
-    /// The kind of the fault `provider` suffers now, if any.
+    /// The kind of the fault `provider` suffers now, if any: its own, or its host's loss.
     pub(super) fn fault_of(&self, provider: &str) -> Option<FaultKind> {
+        let host = self.robot.host_of(provider);
         self.faults
             .iter()
-            .find(|f| f.provider == provider && f.active_at(self.now_ns))
+            .find(|f| {
+                f.active_at(self.now_ns)
+                    && (f.provider == provider
+                        || (f.kind == FaultKind::HostLost && Some(f.provider.as_str()) == host))
+            })
             .map(|f| f.kind)
     }
 
@@ -66,7 +71,9 @@ impl Lockstep<'_> {
                     None
                 }
             }
-            Some(FaultKind::Stall | FaultKind::Crash | FaultKind::OutOfService) => {
+            Some(
+                FaultKind::Stall | FaultKind::Crash | FaultKind::OutOfService | FaultKind::HostLost,
+            ) => {
                 self.stats.faulted_publications += 1;
                 None
             }
@@ -105,6 +112,12 @@ impl Lockstep<'_> {
                     health: injected_out_of_service(),
                 }));
             }
+            FaultKind::HostLost => {
+                self.work.push_back(Work::Broker(Event::HostLost {
+                    host: provider,
+                    why: format!("injected fault {}", fault.spec),
+                }));
+            }
             FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
         }
     }
@@ -132,7 +145,24 @@ impl Lockstep<'_> {
                     health,
                 }));
             }
+            FaultKind::HostLost => {
+                self.work.push_back(Work::Broker(Event::HostJoined {
+                    host: fault.provider,
+                }));
+            }
             FaultKind::Crash | FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
+        }
+    }
+
+    /// `host` is lost: its services' processes are out of reach. The broker sends them no
+    /// stop (their host stops them itself), so they end here without an exit.
+    pub(super) fn host_lost(&mut self, host: &str) {
+        for (name, sim) in &mut self.sims {
+            if self.robot.host_of(name) == Some(host) && sim.instance.take().is_some() {
+                sim.stalled = false;
+                sim.generation += 1;
+                sim.held.clear();
+            }
         }
     }
 }

@@ -87,7 +87,9 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, CommandLog, ProcessCpu};
+use lewis_interfaces::msg::{
+    Broker as BrokerMessage, BrokerAction, CommandLog, HostLink, HostLinkEvent, ProcessCpu,
+};
 use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
 use lewis_runtime::live::heartbeat_event;
 use lewis_runtime::robot::Robot;
@@ -404,6 +406,13 @@ impl<'a> Lockstep<'a> {
     /// standby and always services.
     pub fn start(&mut self, at_ns: i64, sink: &mut dyn Sink) {
         self.now_ns = at_ns;
+        // As live, the other hosts' services wait for their host to join (`/lewis/hosts`).
+        for host in self.robot.hosts.iter().skip(1) {
+            self.work.push_back(Work::Broker(Event::HostLost {
+                host: host.name.clone(),
+                why: "not connected yet".to_owned(),
+            }));
+        }
         self.work.push_back(Work::Broker(Event::BrokerStarted));
         self.pump(sink);
     }
@@ -450,7 +459,7 @@ impl<'a> Lockstep<'a> {
                         .expect_call(&service, &caller, &log.request, taken);
                 }
             }
-            Route::Health { .. } | Route::Broker | Route::Cpu | Route::Other => {}
+            Route::Health { .. } | Route::Broker | Route::Cpu | Route::Hosts | Route::Other => {}
         }
     }
 
@@ -480,7 +489,7 @@ impl<'a> Lockstep<'a> {
                     return;
                 };
                 let event = match self.fault_of(&service) {
-                    Some(FaultKind::Stall | FaultKind::Crash) => return,
+                    Some(FaultKind::Stall | FaultKind::Crash | FaultKind::HostLost) => return,
                     Some(FaultKind::OutOfService) => Event::Heartbeat {
                         service,
                         health: faults::injected_out_of_service(),
@@ -546,6 +555,27 @@ impl<'a> Lockstep<'a> {
                     service: measured.service,
                     milli_cores: u32::try_from(measured.milli_cores).unwrap_or(0),
                 }));
+            }
+            Route::Hosts => {
+                let Ok(heard) = cdr::from_bytes::<HostLink>(&message.data) else {
+                    self.stats.undecodable += 1;
+                    return;
+                };
+                // The live broker's word on its hosts, as it was fed: replay loses and
+                // joins them when it did.
+                match HostLinkEvent::parse(&heard.event) {
+                    Some(HostLinkEvent::Joined) => {
+                        self.work
+                            .push_back(Work::Broker(Event::HostJoined { host: heard.host }));
+                    }
+                    Some(HostLinkEvent::Lost) => {
+                        self.work.push_back(Work::Broker(Event::HostLost {
+                            host: heard.host,
+                            why: heard.reason,
+                        }));
+                    }
+                    Some(HostLinkEvent::Heard) | None => {}
+                }
             }
             Route::Other => {}
         }

@@ -28,6 +28,8 @@ pub enum Route {
     Broker,
     /// The CPU the broker measured of each service's process (`/lewis/broker/cpu`).
     Cpu,
+    /// What the robot host's broker heard of the other hosts (`/lewis/hosts`).
+    Hosts,
     /// Anything else (logs, the recorder's stats, topics of other programs).
     Other,
 }
@@ -53,6 +55,9 @@ pub fn route(topic: &str, robot: &Robot) -> Route {
     }
     if topic == names::CPU_CHANNEL {
         return Route::Cpu;
+    }
+    if topic == names::HOSTS_CHANNEL {
+        return Route::Hosts;
     }
     let mut parts = topic.strip_prefix('/').unwrap_or("").splitn(2, '/');
     if let (Some(service), Some(interface)) = (parts.next(), parts.next())
@@ -101,6 +106,7 @@ mod tests {
         );
         check("/lewis/broker", Route::Broker);
         check("/lewis/broker/cpu", Route::Cpu);
+        check("/lewis/hosts", Route::Hosts);
         check("/laser/Distance", Route::Other);
         check("/lewis/health/sonar", Route::Other);
         check("/lewis/log", Route::Other);

@@ -234,7 +234,7 @@ pub fn select_services(
             Route::Data { service, .. }
             | Route::Health { service }
             | Route::Commands { service } => Some(service),
-            Route::Broker | Route::Cpu | Route::Other => None,
+            Route::Broker | Route::Cpu | Route::Hosts | Route::Other => None,
         })
         .collect();
     let mut chosen = BTreeSet::new();
@@ -469,7 +469,10 @@ pub fn replay_with(
         options,
         start_ns,
     );
-    let watches = faults.iter().cloned().map(FaultWatch::new).collect();
+    let watches = faults
+        .iter()
+        .map(|f| FaultWatch::new(f.clone(), robot))
+        .collect();
     let mut sink = OutputSink::new(recorder, comparator, watches);
 
     let mut harness = Lockstep::new(robot, registry, plan)?;
