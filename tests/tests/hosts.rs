@@ -1,9 +1,10 @@
 //! A robot on two hosts, each in its own network, IPC and mount namespace: the simulated
 //! robot on `robot`, its perception (blobfinder, sign_detector) on `workstation`, over
-//! Zenoh. The workstation's services start on the robot host's broker's orders, their
-//! publications are recorded on the robot host, a tool without Lewis listens to the robot's
-//! laser over Zenoh, and when the workstation's `lewis up` is killed its providers are
-//! failed with that reason and the on-board blobfinder takes over.
+//! Zenoh. The robot drives to a goal while the workstation's services, started on the
+//! robot host's broker's orders, detect the signs; their publications are recorded on the
+//! robot host, a tool without Lewis listens to the robot's laser over Zenoh, and when the
+//! workstation's `lewis up` is killed its providers are failed with that reason and the
+//! on-board blobfinder takes over. The recording replays as one robot, the host lost again.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -123,28 +124,16 @@ impl Run {
     /// to the off-board blobfinder) and waits until the workstation's perception is ready,
     /// serves, and has worked a moment. `None` where namespaces
     /// are forbidden.
-    fn start(hosts: Hosts, extra: &str) -> Self {
+    fn start(hosts: Hosts, extra: &str, run_for: &[&str]) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let extra = format!("\n[broker.interfaces.Blobs]\nfail_back = true\n{extra}");
         let robot = robot_file(dir.path(), &extra);
         let robot = robot.to_str().unwrap();
         let mcap = dir.path().join("run.mcap");
-        let on_robot = up(
-            &hosts,
-            "robot",
-            &[
-                "up",
-                robot,
-                "-v",
-                "--namespace",
-                "two",
-                "--duration",
-                "90s",
-                "-o",
-                mcap.to_str().unwrap(),
-            ],
-            &dir.path().join("robot.log"),
-        );
+        let mut args = vec!["up", robot, "-v", "--namespace", "two"];
+        args.extend(run_for);
+        args.extend(["-o", mcap.to_str().unwrap()]);
+        let on_robot = up(&hosts, "robot", &args, &dir.path().join("robot.log"));
         let on_ws = up(
             &hosts,
             "workstation",
@@ -197,11 +186,14 @@ impl Run {
         );
     }
 
-    /// Stops the robot host and reads its recording back with independent readers: each
-    /// channel with messages, its host and count, and the broker's reasons.
-    fn finish(mut self) -> String {
-        signal(&self.robot, nix::sys::signal::Signal::SIGINT);
-        let status = self.robot.wait().unwrap();
+    /// Stops the robot host (or, `by_itself`, waits for it to end) and reads its recording
+    /// back with independent readers: each channel with messages, its host and count, the
+    /// broker's reasons, the signs seen; then replays it.
+    fn finish(mut self, by_itself: bool) -> Finished {
+        if !by_itself {
+            signal(&self.robot, nix::sys::signal::Signal::SIGINT);
+        }
+        let status = lewis_tests::wait_child_within(&mut self.robot, Duration::from_secs(90));
         let log = std::fs::read_to_string(self.robot_log()).unwrap();
         assert!(
             status.success(),
@@ -216,8 +208,26 @@ impl Run {
         let mcap = self.dir.path().join("run.mcap");
         doctor(&mcap);
         let read = run_ok(python_tool("python").arg("-c").arg(CHECK).arg(&mcap));
-        format!("{read}\n--- robot host's log\n{log}")
+        let replayed = run_ok(
+            std::process::Command::new(lewis_exe())
+                .current_dir(repo_root())
+                .arg("replay")
+                .arg(&mcap)
+                .arg("-o")
+                .arg(self.dir.path().join("run.replay.mcap")),
+        );
+        Finished {
+            read: format!("{read}\n--- robot host's log\n{log}"),
+            replayed,
+        }
     }
+}
+
+/// What a run left: its recording read back (with the robot host's log), and its replay's
+/// report.
+struct Finished {
+    read: String,
+    replayed: String,
 }
 
 fn signal(child: &Child, signal: nix::sys::signal::Signal) {
@@ -234,7 +244,8 @@ fn assert_has(text: &str, needles: &[&str]) {
 #[test]
 fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies() {
     let hosts = hosts_or_skip!(&["robot", "workstation"]);
-    let mut run = Run::start(hosts, "");
+    // From the lobby through the entrance door into the corridor, about 9 m.
+    let mut run = Run::start(hosts, "", &["--goal", "12,13", "--goal-timeout", "80s"]);
 
     // A tool without Lewis, on the workstation, hears the robot's laser over Zenoh.
     let python = python_tool("python").get_program().to_owned();
@@ -277,19 +288,39 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
         std::thread::sleep(Duration::from_millis(50));
     }
     wait_status(&run.hosts, "service blobfinder_onboard: ready");
-    std::thread::sleep(Duration::from_secs(1));
 
-    // One recording, on the robot host, with both hosts' channels and who published them.
-    let read = run.finish();
+    // The robot arrives without its workstation. One recording, on the robot host, with
+    // both hosts' channels and who published them, and the signs seen off board.
+    let finished = run.finish(true);
+    let read = &finished.read;
     assert_has(
-        &read,
+        read,
         &[
+            "goal reached",
             "/blobfinder/Blobs workstation",
             "/sign_detector/Signs workstation",
             "/lewis/health/blobfinder workstation",
             "/laser/RangeFinder robot",
             "/blobfinder_onboard/Blobs robot",
+            "/lewis/hosts robot",
             "lost: which is lost",
+        ],
+    );
+    let signs: usize = read
+        .lines()
+        .find_map(|l| l.strip_prefix("signs seen off board: "))
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap_or(0);
+    assert!(signs > 0, "no sign detected on the workstation:\n{read}");
+
+    // Replayed as one robot: the workstation is lost again when it was live, and the
+    // on-board blobfinder serves blobfinder3d again.
+    assert_has(
+        &finished.replayed,
+        &[
+            "blobfinder runs on host workstation, which is lost: its Zenoh session closed",
+            "blobfinder3d got Blobs from blobfinder_onboard",
+            "blobfinder3d got Blobs from blobfinder:",
         ],
     );
 }
@@ -297,7 +328,7 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
 #[test]
 fn a_cut_link_fails_the_off_board_perception_over_and_back() {
     let hosts = hosts_or_skip!(&["robot", "workstation"]);
-    let run = Run::start(hosts, "");
+    let run = Run::start(hosts, "", &["--duration", "90s"]);
 
     let cut_ns = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -324,7 +355,7 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
         "rebind blobfinder3d from blobfinder_onboard to blobfinder for Blobs: fail back",
         1,
     );
-    let read = run.finish();
+    let read = run.finish(false).read;
     assert_has(
         &read,
         &["lost: which is lost", "/blobfinder/Blobs workstation"],
@@ -341,14 +372,16 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
     );
 }
 
-/// Prints each channel with messages, its host and count, and whether a broker decision
-/// says a host was lost (decoded with mcap-ros2-support).
+/// Prints each channel with messages, its host and count, whether a broker decision says a
+/// host was lost, and how many signs the sign detector saw (decoded with
+/// mcap-ros2-support).
 const CHECK: &str = r#"
 import sys
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 counts = {}
 lost = False
+signs = 0
 with open(sys.argv[1], "rb") as f:
     reader = make_reader(f, decoder_factories=[DecoderFactory()])
     for schema, channel, message, decoded in reader.iter_decoded_messages():
@@ -356,6 +389,8 @@ with open(sys.argv[1], "rb") as f:
         counts[key] = counts.get(key, 0) + 1
         if channel.topic == "/lewis/broker" and "which is lost" in decoded.reason:
             lost = True
+        if channel.topic == "/sign_detector/Signs":
+            signs += decoded.sign_count
         if (channel.topic == "/lewis/broker" and decoded.action == "rebind"
                 and decoded.client == "blobfinder3d" and "which is lost" in decoded.reason
                 and "moved_ns" not in counts):
@@ -365,6 +400,7 @@ for (topic, host), n in sorted(counts.items()):
     print(topic, host, n)
 print("moved at", moved_ns)
 print("lost:", "which is lost" if lost else "no")
+print("signs seen off board:", signs)
 "#;
 
 /// `lewis up` of `robot` with `args`, outside any namespace: its exit and stderr.
