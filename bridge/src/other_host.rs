@@ -100,9 +100,17 @@ pub fn run_host(
         .map_err(BridgeError::zenoh("exits"))?;
     let hub_heard = heard.clone();
     let hub_name = hub.name.clone();
+    // The version the robot host's beat says, when it is not this one's.
+    let hub_refused: Arc<Mutex<Option<String>>> = Arc::default();
+    let refused = Arc::clone(&hub_refused);
     let _hub_beat = session
         .declare_subscriber(keys::beat(name, &hub.name))
-        .callback(move |_| hub_heard.hear(&hub_name))
+        .callback(
+            move |sample| match session::beat_protocol(sample.payload()) {
+                Ok(()) => hub_heard.hear(&hub_name),
+                Err(said) => *refused.lock().unwrap_or_else(PoisonError::into_inner) = Some(said),
+            },
+        )
         .wait()
         .map_err(BridgeError::zenoh("beats"))?;
     let hub_token: Arc<Mutex<bool>> = Arc::default();
@@ -148,6 +156,7 @@ pub fn run_host(
     let link_deadline = Duration::from_millis(robot.network.link_deadline_ms);
     let started = Instant::now();
     let mut said_unreached = false;
+    let mut said_refused = false;
     let waits = WaitSet::new(WakeMode::Event);
     loop {
         if stop.take() || stop.take_requested() {
@@ -170,6 +179,18 @@ pub fn run_host(
                 tracing::debug!(service = name, "exited: {status}");
                 let _ = exits.put(exit_text(&name, status)).wait();
             }
+        }
+        if !said_refused
+            && let Some(said) = hub_refused
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .as_deref()
+        {
+            said_refused = true;
+            tracing::error!(
+                "the robot host {}; its orders are not taken",
+                session::other_protocol(&hub.name, said)
+            );
         }
         let token = *hub_token.lock().unwrap_or_else(PoisonError::into_inner);
         let hub_up = token && heard.silence(&hub.name).is_some_and(|s| s < link_deadline);

@@ -139,18 +139,19 @@ impl RobotHost {
                 let Some(host) = sample.key_expr().as_str().split('/').nth(2) else {
                     return;
                 };
-                let said = sample.payload().try_to_string().unwrap_or_default();
-                if said == session::PROTOCOL.to_string() {
-                    beats_heard.hear(host);
-                    if let Some(offset) = sample.timestamp().and_then(clock_offset_ns) {
-                        let mut state = lock(&refused);
-                        let least = state.clock_offsets.entry(host.to_owned()).or_insert(offset);
-                        *least = (*least).min(offset);
+                match session::beat_protocol(sample.payload()) {
+                    Ok(()) => {
+                        beats_heard.hear(host);
+                        if let Some(offset) = sample.timestamp().and_then(clock_offset_ns) {
+                            let mut state = lock(&refused);
+                            let least =
+                                state.clock_offsets.entry(host.to_owned()).or_insert(offset);
+                            *least = (*least).min(offset);
+                        }
                     }
-                } else {
-                    lock(&refused)
-                        .refused
-                        .insert(host.to_owned(), said.into_owned());
+                    Err(said) => {
+                        lock(&refused).refused.insert(host.to_owned(), said);
+                    }
                 }
             })
             .wait()
@@ -241,8 +242,8 @@ fn watch(others: &[String], deadline: Duration, shared: &Shared, heard: &Heard, 
                 && state.joined.insert(host.clone(), false).is_none()
             {
                 tracing::error!(
-                    "host {host} speaks bridge protocol {version}, this one {}: it is not joined; run the same lewis on every host",
-                    session::PROTOCOL
+                    "host {}; it is not joined",
+                    session::other_protocol(host, &version)
                 );
             }
             continue;

@@ -16,6 +16,29 @@ use crate::BridgeError;
 /// differ refuse each other with a clear error instead of misreading each other.
 pub const PROTOCOL: u32 = 1;
 
+/// What a host's beat says: `Ok` when it speaks this [`PROTOCOL`], else the version it
+/// says (or its text, from a peer that is no Lewis bridge).
+pub(crate) fn beat_protocol(payload: &zenoh::bytes::ZBytes) -> Result<(), String> {
+    let said = payload.try_to_string().unwrap_or_default();
+    if said == PROTOCOL.to_string() {
+        Ok(())
+    } else {
+        let said: String = said.chars().take(32).collect();
+        Err(if said.is_empty() {
+            "unknown".to_owned()
+        } else {
+            said
+        })
+    }
+}
+
+/// Why `host`, whose beat says `said`, is not one this host works with.
+pub(crate) fn other_protocol(host: &str, said: &str) -> String {
+    format!(
+        "{host} speaks bridge protocol `{said}`, this one {PROTOCOL}: run the same lewis on every host"
+    )
+}
+
 /// Opens `host`'s session of `robot`. `scratch` is a folder of this run's own where the
 /// key's dictionary is written (readable by its owner only).
 ///
@@ -125,4 +148,22 @@ fn write_private(path: &PathBuf, text: &str) -> std::io::Result<()> {
         .mode(0o600)
         .open(path)?;
     file.write_all(text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_beat_of_another_version_or_of_no_lewis_says_what_it_said() {
+        let beat = |text: &str| beat_protocol(&zenoh::bytes::ZBytes::from(text));
+        assert_eq!(beat(&PROTOCOL.to_string()), Ok(()));
+        assert_eq!(beat("99"), Err("99".to_owned()));
+        assert_eq!(beat(""), Err("unknown".to_owned()));
+        assert_eq!(beat(&"x".repeat(1000)).unwrap_err().len(), 32);
+        assert_eq!(
+            other_protocol("workstation", "99"),
+            "workstation speaks bridge protocol `99`, this one 1: run the same lewis on every host"
+        );
+    }
 }

@@ -506,3 +506,135 @@ fn a_host_with_another_key_never_joins_and_says_why() {
         );
     }
 }
+
+/// Runs `tests/python/NAME` on `host` of `hosts` with `args`, its output into `log`.
+fn python_on(hosts: &Hosts, host: &str, name: &str, args: &[&str], log: &Path) -> Child {
+    let python = python_tool("python").get_program().to_owned();
+    let log = File::create(log).unwrap();
+    hosts
+        .host(host)
+        .command(python)
+        .arg(repo_root().join("tests/python").join(name))
+        .args(args)
+        .stdout(Stdio::from(log.try_clone().unwrap()))
+        .stderr(Stdio::from(log))
+        .spawn()
+        .unwrap()
+}
+
+/// Interrupts `child` (a `lewis up`), which must end well, and checks that nothing is left
+/// on `host`.
+fn interrupt_and_check(hosts: &Hosts, host: &str, child: &mut Child, log: &Path) {
+    signal(child, nix::sys::signal::Signal::SIGINT);
+    let status = lewis_tests::wait_child_within(child, Duration::from_secs(30));
+    assert!(
+        status.success(),
+        "lewis up on {host}: {status}\n{}",
+        std::fs::read_to_string(log).unwrap_or_default()
+    );
+    assert_eq!(
+        hosts.host(host).processes(),
+        Vec::<u32>::new(),
+        "left on {host}"
+    );
+}
+
+#[test]
+fn a_peer_of_another_protocol_version_or_none_is_refused_and_says_why() {
+    let hosts = hosts_or_skip!(&["robot", "workstation"]);
+    let dir = tempfile::tempdir().unwrap();
+    let robot = robot_file(dir.path(), "");
+    let robot = robot.to_str().unwrap();
+    let (robot_log, ws_log) = (dir.path().join("robot.log"), dir.path().join("ws.log"));
+    let peer_log = dir.path().join("peer.log");
+
+    // The robot host meets bytes that are no Zenoh, then a host of another version.
+    let mut on_robot = up(
+        &hosts,
+        "robot",
+        &["up", robot, "-v", "--no-record", "--namespace", "proto"],
+        &robot_log,
+    );
+    wait_log(&robot_log, "broker up", 1, &peer_log);
+    let python = python_tool("python").get_program().to_owned();
+    let _ = run_ok(hosts.host("workstation").command(&python).args([
+        "-c",
+        "import socket\n\
+         s = socket.create_connection(('10.0.0.1', 7447), timeout=5)\n\
+         s.sendall(b'GET / HTTP/1.0\\r\\n\\r\\n')\n\
+         try:\n    s.recv(64)\nexcept OSError:\n    pass\n",
+    ]));
+    let mut impostor = python_on(
+        &hosts,
+        "workstation",
+        "zenoh_impostor.py",
+        &[
+            "--robot",
+            "sim",
+            "--host",
+            "workstation",
+            "--connect",
+            "tcp/10.0.0.1:7447",
+            "--version",
+            "99",
+            "--seconds",
+            "30",
+        ],
+        &peer_log,
+    );
+    wait_log(
+        &robot_log,
+        "host workstation speaks bridge protocol `99`, this one 1: run the same lewis on every host; it is not joined",
+        1,
+        &peer_log,
+    );
+    let _ = impostor.kill();
+    let _ = impostor.wait();
+    let log = std::fs::read_to_string(&robot_log).unwrap();
+    assert!(!log.contains("host workstation joined"), "{log}");
+    interrupt_and_check(&hosts, "robot", &mut on_robot, &robot_log);
+
+    // A host meets a robot host of another version: it takes no orders from it.
+    let mut impostor = python_on(
+        &hosts,
+        "robot",
+        "zenoh_impostor.py",
+        &[
+            "--robot",
+            "sim",
+            "--host",
+            "robot",
+            "--listen",
+            "tcp/10.0.0.1:7447",
+            "--version",
+            "0",
+            "--seconds",
+            "30",
+        ],
+        &peer_log,
+    );
+    wait_log(&peer_log, "beating", 1, &ws_log);
+    let mut on_ws = up(
+        &hosts,
+        "workstation",
+        &[
+            "up",
+            robot,
+            "-v",
+            "--host",
+            "workstation",
+            "--namespace",
+            "proto",
+        ],
+        &ws_log,
+    );
+    wait_log(
+        &ws_log,
+        "the robot host robot speaks bridge protocol `0`, this one 1: run the same lewis on every host; its orders are not taken",
+        1,
+        &peer_log,
+    );
+    interrupt_and_check(&hosts, "workstation", &mut on_ws, &ws_log);
+    let _ = impostor.kill();
+    let _ = impostor.wait();
+}
