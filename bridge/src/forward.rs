@@ -6,6 +6,12 @@
 //! where its clients and its recorder read them as if the publisher were local. A command
 //! call crosses as a Zenoh query to the host that serves it, whose bridge calls the provider
 //! there and answers with the reply's bytes.
+//!
+//! A channel of another host is subscribed to on Zenoh only while a process of this host
+//! reads it (its shared-memory channel has a subscriber): Zenoh then sends it
+//! here, and stops when the last reader goes, so a camera whose client failed over to
+//! another host's provider stops crossing the link. The robot host's recorder and broker
+//! read every channel of the others, so everything they publish reaches it.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::io::{Read as _, Write as _};
@@ -25,7 +31,7 @@ use lewis_runtime::robot::Robot;
 use zenoh::Session;
 use zenoh::Wait as _;
 use zenoh::bytes::{Encoding, ZBytes};
-use zenoh::pubsub::Publisher as ZPublisher;
+use zenoh::pubsub::{Publisher as ZPublisher, Subscriber as ZSubscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::query::{Query, QueryTarget};
 
@@ -40,6 +46,9 @@ const CALL_TIMEOUT: Duration = Duration::from_secs(2);
 /// How often a host's bridge says it is there: often enough that a host that missed a few
 /// beats when one of its services misses its heartbeat deadline was cut off, not slow.
 pub const BEAT_PERIOD: Duration = Duration::from_millis(10);
+
+/// How often the bridge looks whether each channel of another host is read here.
+const INTEREST_PERIOD: Duration = Duration::from_millis(50);
 
 /// The iceoryx2 node of a host's bridge.
 pub const BRIDGE_NODE: &str = "lewis-bridge";
@@ -192,6 +201,18 @@ struct Export {
     publisher: ZPublisher<'static>,
 }
 
+/// A channel of another host published here again.
+struct Import {
+    /// Its publisher here.
+    publisher: Publisher,
+    /// Its key on Zenoh.
+    key: String,
+    /// The host it comes from.
+    host: String,
+    /// Zenoh's subscription, while a process here reads the channel.
+    subscriber: Option<ZSubscriber<()>>,
+}
+
 struct Answer {
     client: CommandClient,
     pending: BTreeMap<CallId, Query>,
@@ -206,7 +227,10 @@ struct Proxy {
 struct Thread {
     session: Session,
     exports: Vec<Export>,
-    imports: Vec<Publisher>,
+    imports: Vec<Import>,
+    /// When the imports' readers are looked at next.
+    next_interest_look: Instant,
+    heard: Heard,
     answers: Vec<Answer>,
     proxies: Vec<Proxy>,
     /// Proxied calls waiting for their reply: the proxy, the request to answer, and until
@@ -262,28 +286,13 @@ impl Thread {
         }
         let mut declarations: Vec<Box<dyn std::any::Any + Send>> = Vec::new();
         let mut imports = Vec::new();
-        for (index, route) in options.routes.imports.iter().enumerate() {
-            imports.push(ipc.publisher(&route.channel, &names::channel_config(&route.channel))?);
-            let key = keys::channel(robot, &route.host, &route.channel);
-            let (queue, wake, heard, host) = (
-                Arc::clone(queue),
-                wake.clone(),
-                heard.clone(),
-                route.host.clone(),
-            );
-            let subscriber = session
-                .declare_subscriber(key)
-                .callback(move |sample| {
-                    heard.hear(&host);
-                    push(
-                        &queue,
-                        &wake,
-                        Inbound::Sample(index, sample.payload().clone()),
-                    );
-                })
-                .wait()
-                .map_err(BridgeError::zenoh(&route.channel))?;
-            declarations.push(Box::new(subscriber));
+        for route in &options.routes.imports {
+            imports.push(Import {
+                publisher: ipc.publisher(&route.channel, &names::channel_config(&route.channel))?,
+                key: keys::channel(robot, &route.host, &route.channel),
+                host: route.host.clone(),
+                subscriber: None,
+            });
         }
         let mut answers = Vec::new();
         for (index, channel) in options.routes.answers.iter().enumerate() {
@@ -343,6 +352,8 @@ impl Thread {
             session: session.clone(),
             exports,
             imports,
+            next_interest_look: Instant::now(),
+            heard: heard.clone(),
             answers,
             proxies,
             waiting: BTreeMap::new(),
@@ -371,6 +382,10 @@ impl Thread {
                     .wait();
                 self.next_beat = now + self.beat_period;
             }
+            if now >= self.next_interest_look {
+                self.follow_readers();
+                self.next_interest_look = now + INTEREST_PERIOD;
+            }
             drain(rx);
             let inbound: Vec<Inbound> = queue
                 .lock()
@@ -394,7 +409,7 @@ impl Thread {
                 .waiting
                 .values()
                 .map(|(_, _, until)| *until)
-                .chain([self.next_beat])
+                .chain([self.next_beat, self.next_interest_look])
                 .min();
             if let Err(e) = waits.wait(&sources, deadline) {
                 tracing::warn!("the bridge cannot wait: {e}");
@@ -415,10 +430,10 @@ impl Thread {
                         at += slice.len();
                     }
                 };
-                if let Some(publisher) = self.imports.get_mut(index)
-                    && let Err(e) = publisher.publish_with(bytes.len(), copy)
+                if let Some(import) = self.imports.get_mut(index)
+                    && let Err(e) = import.publisher.publish_with(bytes.len(), copy)
                 {
-                    tracing::debug!("cannot publish {} here: {e}", publisher.channel());
+                    tracing::debug!("cannot publish {} here: {e}", import.publisher.channel());
                 }
             }
             Inbound::Call(index, query) => {
@@ -446,6 +461,53 @@ impl Thread {
                     && let Err(e) = proxy.server.reply(request, &bytes)
                 {
                     tracing::debug!("cannot hand a reply from another host back: {e}");
+                }
+            }
+        }
+    }
+
+    /// Subscribes on Zenoh to each channel of another host that a process here reads, and
+    /// no longer to one nobody reads.
+    fn follow_readers(&mut self) {
+        for (index, import) in self.imports.iter_mut().enumerate() {
+            let read = import.publisher.subscribers() > 0;
+            if read == import.subscriber.is_some() {
+                continue;
+            }
+            let channel = import.publisher.channel();
+            if !read {
+                import.subscriber = None;
+                tracing::debug!(
+                    "{channel} of host {}: read by none here, no longer crosses",
+                    import.host
+                );
+                continue;
+            }
+            let (queue, wake, heard, host) = (
+                Arc::clone(&self.queue),
+                self.wake.clone(),
+                self.heard.clone(),
+                import.host.clone(),
+            );
+            match self
+                .session
+                .declare_subscriber(import.key.clone())
+                .callback(move |sample| {
+                    heard.hear(&host);
+                    push(
+                        &queue,
+                        &wake,
+                        Inbound::Sample(index, sample.payload().clone()),
+                    );
+                })
+                .wait()
+            {
+                Ok(subscriber) => {
+                    tracing::debug!("{channel} of host {}: read here, crosses", import.host);
+                    import.subscriber = Some(subscriber);
+                }
+                Err(e) => {
+                    tracing::warn!("cannot subscribe to {channel} of host {}: {e}", import.host)
                 }
             }
         }

@@ -17,7 +17,7 @@ use iceoryx2::port::{BackpressureAction, BackpressureInfo};
 use iceoryx2::prelude::{AllocationStrategy, BackpressureStrategy, ZeroCopySend, ipc};
 use iceoryx2::sample::Sample;
 use iceoryx2::sample_mut::SampleMut;
-use iceoryx2::service::port_factory::{event, publish_subscribe};
+use iceoryx2::service::port_factory::{PortFactory as _, event, publish_subscribe};
 
 use lewis_interfaces::{Message, cdr};
 
@@ -224,6 +224,8 @@ type Loan = SampleMut<ipc::Service, [u8], FrameHeader>;
 /// The sending end of a data channel.
 pub struct Publisher {
     channel: String,
+    /// The channel itself, which knows who is attached to it.
+    service: PubSubFactory,
     port: IoxPublisher<ipc::Service, [u8], FrameHeader>,
     notifier: Notifier<ipc::Service>,
     next_seq: u64,
@@ -250,6 +252,13 @@ impl fmt::Debug for Publisher {
 }
 
 impl Publisher {
+    /// How many subscribers the channel has now, in every process of the namespace: a
+    /// bridge forwards a channel from another host only while someone here reads it.
+    #[must_use]
+    pub fn subscribers(&self) -> usize {
+        self.service.dynamic_config().number_of_subscribers()
+    }
+
     /// Publishes a message of exactly `len_bytes` bytes: `encode` writes it in place into
     /// loaned shared memory (no copy), then it is sent and the subscribers are woken.
     pub fn publish_with<F: FnOnce(&mut [u8])>(
@@ -655,6 +664,7 @@ impl Ipc {
             .and_then(|file| file.slot(channel, port.id().value()));
         Ok(Publisher {
             channel: channel.to_owned(),
+            service: data,
             port,
             notifier,
             next_seq: 0,
