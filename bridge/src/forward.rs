@@ -7,11 +7,13 @@
 //! call crosses as a Zenoh query to the host that serves it, whose bridge calls the provider
 //! there and answers with the reply's bytes.
 //!
-//! A channel of another host is subscribed to on Zenoh only while a process of this host
-//! reads it (its shared-memory channel has a subscriber): Zenoh then sends it
-//! here, and stops when the last reader goes, so a camera whose client failed over to
-//! another host's provider stops crossing the link. The robot host's recorder and broker
-//! read every channel of the others, so everything they publish reaches it.
+//! Nothing crosses that nobody reads. A channel of another host is subscribed to on Zenoh
+//! only while a process of this host reads it (its shared-memory channel has a
+//! subscriber), so a camera whose client failed over to another host's provider stops
+//! crossing the link; the robot host's recorder and broker read every channel of the
+//! others, so everything they publish reaches it. And a channel of this host is read only
+//! while a subscriber on Zenoh wants it (its publisher's matching status), so the robot
+//! host's bridge does not wake for every heartbeat of a channel no tool listens to.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::io::{Read as _, Write as _};
@@ -196,9 +198,14 @@ impl Drop for Forwarder {
     }
 }
 
+/// A channel of this host that other hosts may subscribe to.
 struct Export {
-    subscriber: Subscriber,
+    channel: String,
+    /// Its subscription here, while a subscriber on Zenoh wants it.
+    subscriber: Option<Subscriber>,
     publisher: ZPublisher<'static>,
+    /// Whether Zenoh has a subscriber for it, as its matching listener last said.
+    matched: Arc<AtomicBool>,
 }
 
 /// A channel of another host published here again.
@@ -244,7 +251,7 @@ struct Thread {
     queue: Queue,
     // Zenoh's declarations live as long as the thread.
     _declarations: Vec<Box<dyn std::any::Any + Send>>,
-    _ipc: Ipc,
+    ipc: Ipc,
 }
 
 impl Thread {
@@ -279,9 +286,22 @@ impl Thread {
                 .congestion_control(congestion)
                 .wait()
                 .map_err(BridgeError::zenoh(channel))?;
+            let matched = Arc::new(AtomicBool::new(false));
+            let (flag, wake) = (Arc::clone(&matched), wake.clone());
+            publisher
+                .matching_listener()
+                .callback(move |status| {
+                    flag.store(status.matching(), Ordering::Release);
+                    wake.wake();
+                })
+                .background()
+                .wait()
+                .map_err(BridgeError::zenoh(channel))?;
             exports.push(Export {
-                subscriber: ipc.subscriber(channel, &names::channel_config(channel))?,
+                channel: channel.clone(),
+                subscriber: None,
                 publisher,
+                matched,
             });
         }
         let mut declarations: Vec<Box<dyn std::any::Any + Send>> = Vec::new();
@@ -364,7 +384,7 @@ impl Thread {
             wake: wake.clone(),
             queue: Arc::clone(queue),
             _declarations: declarations,
-            _ipc: ipc,
+            ipc,
         })
     }
 
@@ -386,6 +406,7 @@ impl Thread {
                 self.follow_readers();
                 self.next_interest_look = now + INTEREST_PERIOD;
             }
+            self.follow_listeners();
             drain(rx);
             let inbound: Vec<Inbound> = queue
                 .lock()
@@ -401,7 +422,11 @@ impl Thread {
             self.expire_waiting(now);
             let fd = FdSource::new(rx.as_fd());
             let mut sources: Vec<&dyn Waitable> = vec![&fd];
-            sources.extend(self.exports.iter().map(|e| &e.subscriber as &dyn Waitable));
+            sources.extend(
+                self.exports
+                    .iter()
+                    .filter_map(|e| e.subscriber.as_ref().map(|s| s as &dyn Waitable)),
+            );
             sources.extend(self.proxies.iter().map(|p| &p.server as &dyn Waitable));
             sources.extend(self.answers.iter().map(|a| &a.client as &dyn Waitable));
             sources.truncate(lewis_runtime::ipc::MAX_WAIT_SOURCES);
@@ -507,17 +532,47 @@ impl Thread {
                     import.subscriber = Some(subscriber);
                 }
                 Err(e) => {
-                    tracing::warn!("cannot subscribe to {channel} of host {}: {e}", import.host)
+                    tracing::warn!("cannot subscribe to {channel} of host {}: {e}", import.host);
                 }
+            }
+        }
+    }
+
+    /// Reads each channel of this host that a subscriber on Zenoh wants, and no longer one
+    /// nobody there wants: a channel nobody listens to costs the bridge nothing.
+    fn follow_listeners(&mut self) {
+        for export in &mut self.exports {
+            let wanted = export.matched.load(Ordering::Acquire);
+            if wanted == export.subscriber.is_some() {
+                continue;
+            }
+            let channel = &export.channel;
+            if !wanted {
+                export.subscriber = None;
+                tracing::debug!("{channel}: no subscriber on another host, no longer crosses");
+                continue;
+            }
+            match self
+                .ipc
+                .subscriber(channel, &names::channel_config(channel))
+            {
+                Ok(subscriber) => {
+                    tracing::debug!("{channel}: a subscriber on another host, crosses");
+                    export.subscriber = Some(subscriber);
+                }
+                Err(e) => tracing::warn!("cannot read {channel} for another host: {e}"),
             }
         }
     }
 
     fn forward_exports(&mut self) {
         for export in &mut self.exports {
-            while let Ok(Some(sample)) = export.subscriber.receive() {
+            let Some(subscriber) = &mut export.subscriber else {
+                continue;
+            };
+            while let Ok(Some(sample)) = subscriber.receive() {
                 if let Err(e) = export.publisher.put(sample.bytes()).wait() {
-                    tracing::debug!("cannot send {}: {e}", export.subscriber.channel());
+                    tracing::debug!("cannot send {}: {e}", export.channel);
                 }
             }
         }

@@ -1,7 +1,9 @@
-//! A channel of another host crosses only while a process of this host reads it: the
-//! bridge subscribes to it on Zenoh when its shared-memory channel here gets a reader, and
-//! stops when the last reader goes. The other host is a plain Zenoh publisher of the
-//! channel's key, whose matching status says whether anyone subscribes.
+//! Nothing crosses that nobody reads. A channel of another host crosses only while a
+//! process of this host reads it: the bridge subscribes to it on Zenoh when its
+//! shared-memory channel here gets a reader, and stops when the last reader goes. A channel
+//! of this host is read by the bridge only while a subscriber on Zenoh wants it. The other
+//! host is a plain Zenoh session: its publisher's matching status says whether anyone
+//! subscribes, and the channel's subscriber count here whether the bridge reads.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -16,6 +18,7 @@ use lewis_runtime::names;
 use zenoh::{Config, Session, Wait as _};
 
 const CHANNEL: &str = "/laser/RangeFinder";
+const EXPORTED: &str = "/laser/Distance";
 const LIMIT: Duration = Duration::from_secs(10);
 
 fn session(listen: Option<&str>, connect: Option<&str>) -> Session {
@@ -51,6 +54,7 @@ fn a_channel_of_another_host_crosses_only_while_it_is_read_here() {
                 channel: CHANNEL.to_owned(),
                 host: "robot".to_owned(),
             }],
+            exports: vec![EXPORTED.to_owned()],
             ..Routes::default()
         },
         namespace: namespace.clone(),
@@ -97,4 +101,41 @@ fn a_channel_of_another_host_crosses_only_while_it_is_read_here() {
     drop(reader);
     let status = matching.recv_timeout(LIMIT).unwrap().expect("a change");
     assert!(!status.matching());
+
+    // The other way: the bridge reads a channel of this host only while another host's
+    // subscriber wants it.
+    let mut exported = ipc
+        .publisher(EXPORTED, &names::channel_config(EXPORTED))
+        .unwrap();
+    assert_eq!(exported.subscribers(), 0);
+    let listener = there
+        .declare_subscriber(keys::channel("r", "workstation", EXPORTED))
+        .wait()
+        .unwrap();
+    wait_for_readers(&exported, 1);
+    let distance = cdr::to_vec(&lewis_interfaces::msg::Distance {
+        min_distance: 1.5,
+        ..lewis_interfaces::msg::Distance::default()
+    });
+    exported
+        .publish_with(distance.len(), |buf| buf.copy_from_slice(&distance))
+        .unwrap();
+    let sample = listener.recv_timeout(LIMIT).unwrap().expect("the distance");
+    assert_eq!(sample.payload().to_bytes().as_ref(), &distance[..]);
+    drop(listener);
+    wait_for_readers(&exported, 0);
+}
+
+/// Waits (at most [`LIMIT`]) until `exported` has `count` subscribers here. iceoryx2 says
+/// nothing when a port comes or goes, so it is looked at every millisecond.
+fn wait_for_readers(exported: &lewis_runtime::ipc::Publisher, count: usize) {
+    let start = Instant::now();
+    while exported.subscribers() != count {
+        assert!(
+            start.elapsed() < LIMIT,
+            "{EXPORTED} has {} readers here, not {count}",
+            exported.subscribers()
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
 }

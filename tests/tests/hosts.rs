@@ -19,39 +19,11 @@ use std::time::{Duration, Instant};
 use lewis_tests::hosts::Hosts;
 use lewis_tests::{doctor, hosts_or_skip, lewis_exe, python_tool, repo_root, run_ok};
 
-/// The simulated robot with its perception on the workstation, and an on-board blobfinder
-/// (quality 5) that stands in when the workstation is gone.
+/// The simulated robot on two hosts ([`lewis_tests::robot::sim_on_two_hosts`]), written into
+/// `dir`.
 fn robot_file(dir: &Path, extra: &str) -> std::path::PathBuf {
-    let sim = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
-    let first_service = sim.find("[[services]]").unwrap();
-    let hosts = "[[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\n\
-                 [[hosts]]\nname = \"workstation\"\nlisten = [\"tcp/10.0.0.2:7447\"]\n\n";
-    let mut text = format!("{}{hosts}{}", &sim[..first_service], &sim[first_service..]);
-    for service in ["blobfinder", "sign_detector"] {
-        text = text.replacen(
-            &format!("name = \"{service}\"\n"),
-            &format!("name = \"{service}\"\nhost = \"workstation\"\n"),
-            1,
-        );
-    }
-    text.push_str(
-        r#"
-[[services]]
-name = "blobfinder_onboard"
-kind = "blobfinder"
-start = "on-demand"
-requires = ["ImageSource"]
-provides = [{ interface = "Blobs", quality = 5, cost = 3, data_rate_hz = 5.0 }]
-
-[services.parameters]
-colors = "robots/colors/conference.txt"
-min_area_px = 20
-max_blobs_per_color = 16
-"#,
-    );
-    text.push_str(extra);
     let path = dir.join("two-hosts.toml");
-    std::fs::write(&path, text).unwrap();
+    std::fs::write(&path, lewis_tests::robot::sim_on_two_hosts(extra)).unwrap();
     path
 }
 
