@@ -161,7 +161,7 @@ impl Run {
     /// Stops the robot host (or, `by_itself`, waits for it to end) and reads its recording
     /// back with independent readers: each channel with messages, its host and count, the
     /// broker's reasons, the signs seen; then replays it.
-    fn finish(mut self, by_itself: bool) -> Finished {
+    fn finish(mut self, by_itself: bool, cut: Option<(u128, Option<u128>)>) -> Finished {
         if !by_itself {
             signal(&self.robot, nix::sys::signal::Signal::SIGINT);
         }
@@ -179,7 +179,13 @@ impl Run {
         let _ = self.workstation.wait();
         let mcap = self.dir.path().join("run.mcap");
         doctor(&mcap);
-        let read = run_ok(python_tool("python").arg("-c").arg(CHECK).arg(&mcap));
+        let mut check = python_tool("python");
+        check.arg("-c").arg(CHECK).arg(&mcap);
+        if let Some((cut_ns, back_ns)) = cut {
+            check.arg(cut_ns.to_string());
+            check.args(back_ns.map(|b| b.to_string()));
+        }
+        let read = run_ok(&mut check);
         let replayed = run_ok(
             std::process::Command::new(lewis_exe())
                 .current_dir(repo_root())
@@ -200,6 +206,14 @@ impl Run {
 struct Finished {
     read: String,
     replayed: String,
+}
+
+/// The wall clock, as the recorder stamps log times.
+fn now_ns() -> u128 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos()
 }
 
 fn signal(child: &Child, signal: nix::sys::signal::Signal) {
@@ -242,6 +256,7 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
 
     // The workstation dies whole: its providers are failed for that reason, the on-board
     // blobfinder takes over, and nothing of the workstation's is left running.
+    let killed_ns = now_ns();
     signal(&run.workstation, nix::sys::signal::Signal::SIGKILL);
     let _ = run.workstation.wait();
     run.wait_robot_log("host workstation lost: its Zenoh session closed", 1);
@@ -263,7 +278,7 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
 
     // The robot arrives without its workstation. One recording, on the robot host, with
     // both hosts' channels and who published them, and the signs seen off board.
-    let finished = run.finish(true);
+    let finished = run.finish(true, Some((killed_ns, None)));
     let read = &finished.read;
     assert_has(
         read,
@@ -276,6 +291,7 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
             "/blobfinder_onboard/Blobs robot",
             "/lewis/hosts robot",
             "lost: which is lost",
+            "crossed while cut off: 0 \n",
         ],
     );
     let signs: usize = read
@@ -302,10 +318,7 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
     let hosts = hosts_or_skip!(&["robot", "workstation"]);
     let run = Run::start(hosts, "", &["--duration", "90s"]);
 
-    let cut_ns = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos();
+    let cut_ns = now_ns();
     run.hosts.link_down("robot", "workstation");
     // The robot host fails the workstation's providers, saying why, and moves their
     // clients on board; the workstation, without its broker, stops its services.
@@ -321,17 +334,21 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
 
     // Back: the workstation joins again, its perception starts on the broker's order, and
     // the clients fail back to it (fail_back is on for Blobs).
+    let back_ns = now_ns();
     run.hosts.link_up("robot", "workstation");
     run.wait_robot_log("broker: host workstation joined", 2);
     run.wait_robot_log(
         "rebind blobfinder3d from blobfinder_onboard to blobfinder for Blobs: fail back",
         1,
     );
-    let read = run.finish(false).read;
+    let read = run.finish(false, Some((cut_ns, Some(back_ns)))).read;
     assert_has(
         &read,
         &["lost: which is lost", "/blobfinder/Blobs workstation"],
     );
+    // Nothing of the workstation's reached the robot host while the link was down: its
+    // shared memory is its own, and Zenoh was the only way across.
+    assert_has(&read, &["crossed while cut off: 0 \n"]);
     // Said, not asserted: a figure for people (the hosts share one clock).
     let moved_ns: u128 = read
         .lines()
@@ -345,8 +362,10 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
 }
 
 /// Prints each channel with messages, its host and count, whether a broker decision says a
-/// host was lost, and how many signs the sign detector saw (decoded with
-/// mcap-ros2-support).
+/// host was lost, how many signs the sign detector saw, and how many messages of the
+/// workstation's channels were recorded after `/lewis/hosts` says it was lost once cut off
+/// at the time of its second argument, and before the time of its third, if any (decoded
+/// with mcap-ros2-support).
 const CHECK: &str = r#"
 import sys
 from mcap.reader import make_reader
@@ -354,11 +373,23 @@ from mcap_ros2.decoder import DecoderFactory
 counts = {}
 lost = False
 signs = 0
+# The workstation cut off at argv[2] (ns) and back at argv[3] (never, if not given): the
+# messages of its channels recorded after the broker lost it and before it was back.
+cut_ns = int(sys.argv[2]) if len(sys.argv) > 2 else None
+back_ns = int(sys.argv[3]) if len(sys.argv) > 3 else 2**63
+lost_ns = None
+logged = []
 with open(sys.argv[1], "rb") as f:
     reader = make_reader(f, decoder_factories=[DecoderFactory()])
-    for schema, channel, message, decoded in reader.iter_decoded_messages():
+    for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
         key = (channel.topic, channel.metadata.get("host", "?"))
         counts[key] = counts.get(key, 0) + 1
+        if (channel.topic == "/lewis/hosts" and decoded.host == "workstation"
+                and decoded.event == "lost" and cut_ns is not None
+                and message.log_time > cut_ns and lost_ns is None):
+            lost_ns = message.log_time
+        if channel.metadata.get("host") == "workstation":
+            logged.append((message.log_time, channel.topic))
         if channel.topic == "/lewis/broker" and "which is lost" in decoded.reason:
             lost = True
         if channel.topic == "/sign_detector/Signs":
@@ -373,6 +404,9 @@ for (topic, host), n in sorted(counts.items()):
 print("moved at", moved_ns)
 print("lost:", "which is lost" if lost else "no")
 print("signs seen off board:", signs)
+if lost_ns is not None:
+    crossed = sorted({topic for t, topic in logged if lost_ns < t < back_ns})
+    print("crossed while cut off:", len(crossed), " ".join(crossed))
 "#;
 
 /// `lewis up` of `robot` with `args`, outside any namespace: its exit and stderr.
