@@ -25,6 +25,14 @@ pub enum BridgeError {
         /// What is wrong.
         reason: String,
     },
+    /// A file of `[network.tls]` cannot be used.
+    #[error("TLS file {}: {reason}", path.display())]
+    Tls {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
     /// A file of the run's own could not be written.
     #[error("cannot write {}: {source}", path.display())]
     Scratch {

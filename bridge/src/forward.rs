@@ -34,7 +34,7 @@ use zenoh::Session;
 use zenoh::Wait as _;
 use zenoh::bytes::{Encoding, ZBytes};
 use zenoh::pubsub::{Publisher as ZPublisher, Subscriber as ZSubscriber};
-use zenoh::qos::CongestionControl;
+use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::{Query, QueryTarget};
 
 use crate::keys;
@@ -274,16 +274,19 @@ impl Thread {
                     Encoding::APPLICATION_CDR.with_schema(name.clone())
                 });
             // A sensor's old sample is worth less than the next one; decisions and
-            // heartbeats are never dropped on the way.
-            let congestion = if channel.starts_with("/lewis/") {
-                CongestionControl::Block
+            // heartbeats are never dropped on the way, and go ahead of the sensors' data: a
+            // heartbeat queued behind a camera frame on a slow link made its service look
+            // stalled.
+            let (congestion, priority) = if channel.starts_with("/lewis/") {
+                (CongestionControl::Block, Priority::InteractiveHigh)
             } else {
-                CongestionControl::Drop
+                (CongestionControl::Drop, Priority::Data)
             };
             let publisher = session
                 .declare_publisher(key)
                 .encoding(encoding)
                 .congestion_control(congestion)
+                .priority(priority)
                 .wait()
                 .map_err(BridgeError::zenoh(channel))?;
             let matched = Arc::new(AtomicBool::new(false));
@@ -366,6 +369,9 @@ impl Thread {
         let beat = session
             .declare_publisher(keys::beat(robot, &options.host))
             .congestion_control(CongestionControl::Drop)
+            // Ahead of everything: a beat late behind data is a host taken for lost.
+            .priority(Priority::RealTime)
+            .express(true)
             .wait()
             .map_err(BridgeError::zenoh("beat"))?;
         Ok(Self {

@@ -7,7 +7,7 @@ use std::io::Write as _;
 use std::os::unix::fs::{MetadataExt as _, OpenOptionsExt as _};
 use std::path::{Path, PathBuf};
 
-use lewis_runtime::robot::{Endpoint, HostSpec, Robot};
+use lewis_runtime::robot::{Endpoint, HostSpec, Robot, TlsFiles};
 use zenoh::{Config, Session, Wait as _};
 
 use crate::BridgeError;
@@ -93,6 +93,9 @@ fn config(robot: &Robot, host: &HostSpec, scratch: &Path) -> Result<Config, Brid
             json(&dictionary.to_string_lossy()),
         ));
     }
+    if let Some(tls) = &robot.network.tls {
+        settings.extend(tls_settings(tls)?);
+    }
     for (key, value) in settings {
         config
             .insert_json5(key, &value)
@@ -114,22 +117,7 @@ fn read_key(path: &Path) -> Result<String, BridgeError> {
         path: path.to_path_buf(),
         reason,
     };
-    let meta = fs::metadata(path).map_err(|e| error(e.to_string()))?;
-    if meta.mode() & 0o077 != 0 {
-        return Err(error(format!(
-            "others may read it (mode {:o}): `chmod 600 {}`",
-            meta.mode() & 0o777,
-            path.display()
-        )));
-    }
-    // The owner of this process's own /proc entry is the user running it.
-    let uid = fs::metadata("/proc/self").map_or(meta.uid(), |m| m.uid());
-    if meta.uid() != uid {
-        return Err(error(format!(
-            "it belongs to user {}, not to the user running lewis ({uid})",
-            meta.uid()
-        )));
-    }
+    check_private(path).map_err(error)?;
     let text = fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
     let key = text.lines().next().unwrap_or("").trim().to_owned();
     if key.is_empty() || key.contains(':') {
@@ -138,6 +126,61 @@ fn read_key(path: &Path) -> Result<String, BridgeError> {
         ));
     }
     Ok(key)
+}
+
+/// A secret's file must be the user's, readable by them only, as an ssh key; else why not.
+fn check_private(path: &Path) -> Result<(), String> {
+    let meta = fs::metadata(path).map_err(|e| e.to_string())?;
+    if meta.mode() & 0o077 != 0 {
+        return Err(format!(
+            "others may read it (mode {:o}): `chmod 600 {}`",
+            meta.mode() & 0o777,
+            path.display()
+        ));
+    }
+    // The owner of this process's own /proc entry is the user running it.
+    let uid = fs::metadata("/proc/self").map_or(meta.uid(), |m| m.uid());
+    if meta.uid() != uid {
+        return Err(format!(
+            "it belongs to user {}, not to the user running lewis ({uid})",
+            meta.uid()
+        ));
+    }
+    Ok(())
+}
+
+/// Zenoh's settings of mutual TLS from `[network.tls]`: the files must be there, the
+/// private key readable by its owner only.
+fn tls_settings(tls: &TlsFiles) -> Result<Vec<(&'static str, String)>, BridgeError> {
+    let error = |path: &Path, reason: String| BridgeError::Tls {
+        path: path.to_path_buf(),
+        reason,
+    };
+    for path in [&tls.ca, &tls.certificate] {
+        fs::metadata(path).map_err(|e| error(path, e.to_string()))?;
+    }
+    check_private(&tls.private_key).map_err(|reason| error(&tls.private_key, reason))?;
+    let path = |p: &Path| json(&p.to_string_lossy());
+    Ok(vec![
+        ("transport/link/tls/root_ca_certificate", path(&tls.ca)),
+        (
+            "transport/link/tls/listen_certificate",
+            path(&tls.certificate),
+        ),
+        (
+            "transport/link/tls/listen_private_key",
+            path(&tls.private_key),
+        ),
+        (
+            "transport/link/tls/connect_certificate",
+            path(&tls.certificate),
+        ),
+        (
+            "transport/link/tls/connect_private_key",
+            path(&tls.private_key),
+        ),
+        ("transport/link/tls/enable_mtls", "true".to_owned()),
+    ])
 }
 
 fn write_private(path: &PathBuf, text: &str) -> std::io::Result<()> {

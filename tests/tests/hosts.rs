@@ -62,12 +62,17 @@ fn wait_log(log: &Path, needle: &str, times: usize, other: &Path) {
 
 /// Waits until `lewis status` on the robot host shows `needle`.
 fn wait_status(hosts: &Hosts, needle: &str) {
+    wait_status_in(hosts, "two", needle);
+}
+
+/// Waits until `lewis status` of namespace `namespace` on the robot host shows `needle`.
+fn wait_status_in(hosts: &Hosts, namespace: &str, needle: &str) {
     let start = Instant::now();
     loop {
         let out = hosts
             .host("robot")
             .command(lewis_exe())
-            .args(["status", "--namespace", "two"])
+            .args(["status", "--namespace", namespace])
             .output()
             .unwrap();
         let text = String::from_utf8_lossy(&out.stdout);
@@ -643,4 +648,122 @@ fn a_peer_of_another_protocol_version_or_none_is_refused_and_says_why() {
     interrupt_and_check(&hosts, "workstation", &mut on_ws, &ws_log);
     let _ = impostor.kill();
     let _ = impostor.wait();
+}
+
+/// A certificate authority and one certificate it signed for both test hosts' addresses
+/// (10.0.0.1 and 10.0.0.2), made with `openssl` in `dir`: the `[network.tls]` table naming
+/// them.
+fn certificates(dir: &Path) -> String {
+    let openssl = |args: &[&str]| {
+        let out = std::process::Command::new("openssl")
+            .current_dir(dir)
+            .args(args)
+            .output()
+            .expect("openssl is installed (.ci/run installs it)");
+        assert!(
+            out.status.success(),
+            "openssl {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let ec = [
+        "-newkey",
+        "ec",
+        "-pkeyopt",
+        "ec_paramgen_curve:prime256v1",
+        "-nodes",
+    ];
+    openssl(
+        &[
+            &["req", "-x509"][..],
+            &ec,
+            &["-keyout", "ca.key", "-out", "ca.pem"],
+            &["-days", "2", "-subj", "/CN=lewis test CA"],
+        ]
+        .concat(),
+    );
+    openssl(
+        &[
+            &["req"][..],
+            &ec,
+            &["-keyout", "host.key", "-out", "host.csr"],
+            &["-subj", "/CN=lewis test host"],
+        ]
+        .concat(),
+    );
+    std::fs::write(
+        dir.join("host.ext"),
+        "subjectAltName = IP:10.0.0.1, IP:10.0.0.2\n\
+         extendedKeyUsage = serverAuth, clientAuth\n\
+         basicConstraints = CA:FALSE\n",
+    )
+    .unwrap();
+    openssl(&[
+        "x509",
+        "-req",
+        "-in",
+        "host.csr",
+        "-CA",
+        "ca.pem",
+        "-CAkey",
+        "ca.key",
+        "-CAcreateserial",
+        "-out",
+        "host.pem",
+        "-days",
+        "2",
+        "-extfile",
+        "host.ext",
+    ]);
+    std::fs::set_permissions(
+        dir.join("host.key"),
+        std::os::unix::fs::PermissionsExt::from_mode(0o600),
+    )
+    .unwrap();
+    format!(
+        "\n[network.tls]\nca = \"{0}/ca.pem\"\ncertificate = \"{0}/host.pem\"\nprivate_key = \"{0}/host.key\"\n",
+        dir.display()
+    )
+}
+
+#[test]
+fn hosts_on_tls_endpoints_join_with_certificates_of_one_authority() {
+    let hosts = hosts_or_skip!(&["robot", "workstation"]);
+    let dir = tempfile::tempdir().unwrap();
+    let extra = format!(
+        "\n[broker.interfaces.Blobs]\nfail_back = true\n{}",
+        certificates(dir.path())
+    );
+    let robot = robot_file(dir.path(), &extra).to_str().unwrap().to_owned();
+    let text = std::fs::read_to_string(&robot)
+        .unwrap()
+        .replace("\"tcp/10.0.0.", "\"tls/10.0.0.");
+    std::fs::write(&robot, text).unwrap();
+    let (robot_log, ws_log) = (dir.path().join("robot.log"), dir.path().join("ws.log"));
+    let mut on_robot = up(
+        &hosts,
+        "robot",
+        &["up", &robot, "-v", "--no-record", "--namespace", "tls"],
+        &robot_log,
+    );
+    let mut on_ws = up(
+        &hosts,
+        "workstation",
+        &[
+            "up",
+            &robot,
+            "-v",
+            "--host",
+            "workstation",
+            "--namespace",
+            "tls",
+        ],
+        &ws_log,
+    );
+    wait_log(&robot_log, "broker: host workstation joined", 1, &ws_log);
+    // The workstation's perception runs on the broker's order and beats over the TLS link.
+    wait_status_in(&hosts, "tls", "service blobfinder: ready");
+    wait_status_in(&hosts, "tls", "client blobfinder3d Blobs -> blobfinder\n");
+    interrupt_and_check(&hosts, "workstation", &mut on_ws, &ws_log);
+    interrupt_and_check(&hosts, "robot", &mut on_robot, &robot_log);
 }

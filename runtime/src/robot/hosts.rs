@@ -20,6 +20,11 @@
 //! key_file = "/etc/lewis/robot.key" # optional: hosts prove they share this key
 //! link_deadline_ms = 200            # a host silent this long is lost (default: the
 //!                                   # broker's heartbeat deadline)
+//!
+//! [network.tls]                     # needed by `tls/` endpoints: mutual TLS
+//! ca = "/etc/lewis/ca.pem"          # the authority every host's certificate is signed by
+//! certificate = "/etc/lewis/host.pem" # this host's certificate (each host its own file
+//! private_key = "/etc/lewis/host.key" # at the same path), and its key
 //! ```
 
 use std::collections::BTreeMap;
@@ -31,7 +36,7 @@ use std::path::PathBuf;
 use toml::Spanned;
 
 use super::error::line_column;
-use super::raw::{RawHost, RawNetwork};
+use super::raw::{RawHost, RawNetwork, RawTls};
 use super::validate::Checker;
 use super::{BrokerSettings, ServiceSpec};
 
@@ -137,6 +142,33 @@ pub struct NetworkSettings {
     /// A host silent this long (no heartbeat of its own or of its services) is lost, in
     /// milliseconds: its providers are failed and their clients move.
     pub link_deadline_ms: u64,
+    /// The files of mutual TLS, for `tls/` endpoints.
+    pub tls: Option<TlsFiles>,
+}
+
+/// The files of TLS between the hosts (`[network.tls]`): every host proves itself with a
+/// certificate signed by the same authority, and checks the others' the same way.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TlsFiles {
+    /// The authority's certificate (PEM).
+    pub ca: PathBuf,
+    /// This host's certificate (PEM), for the address the others reach it at.
+    pub certificate: PathBuf,
+    /// This host's private key (PEM); readable by its owner only.
+    pub private_key: PathBuf,
+}
+
+/// The span of the first `tls/` endpoint of the hosts, if any: such an endpoint needs
+/// `[network.tls]`.
+pub(super) fn first_tls_endpoint(hosts: &[Spanned<RawHost>]) -> Option<Range<usize>> {
+    hosts
+        .iter()
+        .flat_map(|h| {
+            let h = h.get_ref();
+            h.listen.iter().chain(h.connect.iter().flatten())
+        })
+        .find(|e| e.get_ref().starts_with("tls/"))
+        .map(Spanned::span)
 }
 
 impl Checker<'_> {
@@ -194,6 +226,18 @@ impl Checker<'_> {
         hosts
     }
 
+    /// A path the file gives, relative to the file's folder.
+    fn beside_file(&self, path: &Spanned<String>) -> PathBuf {
+        let given = PathBuf::from(path.get_ref());
+        if given.is_relative() {
+            self.origin
+                .parent()
+                .map_or(given.clone(), |dir| dir.join(&given))
+        } else {
+            given
+        }
+    }
+
     fn endpoints(&mut self, raw: &[Spanned<String>]) -> Vec<Endpoint> {
         raw.iter()
             .filter_map(|text| match Endpoint::parse(text.get_ref()) {
@@ -246,12 +290,23 @@ impl Checker<'_> {
         raw: Option<Spanned<RawNetwork>>,
         broker: &BrokerSettings,
         hosts: &[HostSpec],
+        first_tls: Option<&Range<usize>>,
     ) -> NetworkSettings {
         let mut network = NetworkSettings {
             key_file: None,
             link_deadline_ms: broker.heartbeat_deadline_ms,
+            tls: None,
+        };
+        let needs_tls = |checker: &mut Self, network: &NetworkSettings| {
+            if let (Some(span), None) = (first_tls, &network.tls) {
+                checker.report(
+                    span,
+                    "a `tls/` endpoint needs the certificates of [network.tls]: `ca`, `certificate` and `private_key` files",
+                );
+            }
         };
         let Some(raw) = raw else {
+            needs_tls(self, &network);
             return network;
         };
         if hosts.is_empty() {
@@ -261,16 +316,13 @@ impl Checker<'_> {
             );
         }
         let raw = raw.into_inner();
-        if let Some(path) = raw.key_file {
-            let given = PathBuf::from(path.get_ref());
-            network.key_file = Some(if given.is_relative() {
-                self.origin
-                    .parent()
-                    .map_or(given.clone(), |dir| dir.join(&given))
-            } else {
-                given
-            });
-        }
+        network.key_file = raw.key_file.map(|path| self.beside_file(&path));
+        network.tls = raw.tls.map(|tls: RawTls| TlsFiles {
+            ca: self.beside_file(&tls.ca),
+            certificate: self.beside_file(&tls.certificate),
+            private_key: self.beside_file(&tls.private_key),
+        });
+        needs_tls(self, &network);
         if let Some(ms) = raw.link_deadline_ms
             && let Some(ms) = self.positive_ms(&ms, "[network] link_deadline_ms")
         {

@@ -70,7 +70,7 @@ use serde::Deserialize;
 
 pub use checks::{DataChecks, MIN_FROZEN_COUNT, OnCheckFailure};
 pub use error::{Problem, RobotError};
-pub use hosts::{Endpoint, HostSpec, NetworkSettings};
+pub use hosts::{Endpoint, HostSpec, NetworkSettings, TlsFiles};
 
 use crate::supervise::RestartPolicy;
 

@@ -41,6 +41,16 @@ pub(super) struct RawHost {
 pub(super) struct RawNetwork {
     pub key_file: Option<Spanned<String>>,
     pub link_deadline_ms: Option<Spanned<i64>>,
+    pub tls: Option<RawTls>,
+}
+
+/// The files of TLS between the hosts (`[network.tls]`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawTls {
+    pub ca: Spanned<String>,
+    pub certificate: Spanned<String>,
+    pub private_key: Spanned<String>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -852,3 +852,44 @@ provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
         "#]],
     );
 }
+
+#[test]
+fn a_tls_endpoint_needs_the_certificates() {
+    check(
+        r#"
+[robot]
+name = "x"
+[[hosts]]
+name = "robot"
+listen = ["tls/10.0.0.1:7447"]
+[[hosts]]
+name = "workstation"
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+"#,
+        &expect![[r#"
+            robot.toml:6:11: a `tls/` endpoint needs the certificates of [network.tls]: `ca`, `certificate` and `private_key` files
+        "#]],
+    );
+    check(
+        r#"
+[robot]
+name = "x"
+[[hosts]]
+name = "robot"
+listen = ["tcp/10.0.0.1:7447"]
+[network.tls]
+ca = "ca.pem"
+certificate = "host.pem"
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+"#,
+        &expect![[r#"
+            robot.toml:7:1: missing field `private_key`
+        "#]],
+    );
+}
