@@ -358,7 +358,18 @@ fn run(
 }
 
 fn replay_default(dir: &Path, faults: &[&str]) -> Report {
-    let input = make_recording(dir, 2000, 0.25);
+    replay_robot(dir, ROBOT, &[], faults)
+}
+
+/// Replays 2 s of `robot` (with `hosts` on `/lewis/hosts`, see [`make_recording_of`]),
+/// re-simulating every service but the sources, with `faults`.
+fn replay_robot(
+    dir: &Path,
+    robot: &str,
+    hosts: &[(i64, &str, &str, &str)],
+    faults: &[&str],
+) -> Report {
+    let input = make_recording_of(dir, robot, 2000, 0.25, hosts);
     run(
         &input,
         &dir.join("out.mcap"),
@@ -457,14 +468,7 @@ fn a_crash_window_restarts_the_laser_and_the_client_stays_with_it() {
 /// The laser on the workstation: a replay joins the host when the recording says the live
 /// broker heard it join, and loses it when it was lost, or when a fault says so.
 fn replay_two_hosts(dir: &Path, hosts: &[(i64, &str, &str, &str)], faults: &[&str]) -> Report {
-    let input = make_recording_of(dir, &two_hosts_robot(), 2000, 0.25, hosts);
-    run(
-        &input,
-        &dir.join("out.mcap"),
-        faults,
-        ServiceSelection::NonSources,
-    )
-    .unwrap()
+    replay_robot(dir, &two_hosts_robot(), hosts, faults)
 }
 
 #[test]
