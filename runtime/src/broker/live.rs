@@ -24,7 +24,7 @@
 //!   to the core as an [`Event::CpuMeasured`].
 //!
 //! - for a robot on more than one host, it says on `/lewis/hosts` each host joined or lost
-//!   and each joined host's clock offset ([`host_link`](super::host_link)), recorded so that
+//!   and each joined host's clock offset (`broker/host_link.rs`), recorded so that
 //!   replay loses and joins the hosts when it did.
 //!
 //! Everything waits on one [`WaitSet`]: the stop signals, the supervisor's descriptor, the
