@@ -41,14 +41,13 @@ pub fn routes(robot: &Robot, host: &str) -> Routes {
     let Some(hub) = robot.robot_host().map(|h| h.name.as_str()) else {
         return Routes::default();
     };
-    let on = |service: &str, h: &str| robot.host_of(service) == Some(h);
     // The interfaces with commands a service of `h` requires, and their providers elsewhere.
     let needed_from = |h: &str, from: &str| {
         let mut data = Vec::new();
         let mut commands = Vec::new();
-        for client in robot.services.iter().filter(|s| on(&s.name, h)) {
+        for client in robot.services_on(h) {
             for interface in &client.requires {
-                for provider in robot.services.iter().filter(|s| on(&s.name, from)) {
+                for provider in robot.services_on(from) {
                     if provider.provision(interface).is_none() {
                         continue;
                     }
@@ -125,11 +124,7 @@ pub fn routes(robot: &Robot, host: &str) -> Routes {
 /// Every channel the services of `host` publish: their data, heartbeats, command logs.
 fn published_by(robot: &Robot, host: &str) -> Vec<String> {
     let mut channels = Vec::new();
-    for service in robot
-        .services
-        .iter()
-        .filter(|s| robot.host_of(&s.name) == Some(host))
-    {
+    for service in robot.services_on(host) {
         for provision in &service.provides {
             channels.push(names::data_channel(&service.name, &provision.interface));
         }

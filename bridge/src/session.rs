@@ -20,7 +20,8 @@ pub const PROTOCOL: u32 = 1;
 /// says (or its text, from a peer that is no Lewis bridge).
 pub(crate) fn beat_protocol(payload: &zenoh::bytes::ZBytes) -> Result<(), String> {
     let said = payload.try_to_string().unwrap_or_default();
-    if said == PROTOCOL.to_string() {
+    // Read, not formatted: it runs for every beat heard.
+    if said.parse::<u32>() == Ok(PROTOCOL) {
         Ok(())
     } else {
         let said: String = said.chars().take(32).collect();

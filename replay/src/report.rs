@@ -237,9 +237,7 @@ impl FaultWatch {
     pub fn new(fault: Fault, robot: &Robot) -> Self {
         let providers = if fault.kind == FaultKind::HostLost {
             robot
-                .services
-                .iter()
-                .filter(|s| robot.host_of(&s.name) == Some(fault.provider.as_str()))
+                .services_on(&fault.provider)
                 .map(|s| s.name.clone())
                 .collect()
         } else {

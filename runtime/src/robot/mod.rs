@@ -140,6 +140,14 @@ impl Robot {
             .or_else(|| self.robot_host().map(|h| h.name.as_str()))
     }
 
+    /// The services that run on `host` ([`Robot::host_of`] each), in the file's order.
+    pub fn services_on<'a>(&'a self, host: &'a str) -> impl Iterator<Item = &'a ServiceSpec> {
+        let hub = self.robot_host().map(|h| h.name.as_str());
+        self.services
+            .iter()
+            .filter(move |s| s.host.as_deref().or(hub) == Some(host))
+    }
+
     /// The names of its hosts, comma-separated, for an error about an unknown host.
     #[must_use]
     pub fn host_names(&self) -> String {
