@@ -1,33 +1,42 @@
 //! One host's side of the bridge benchmark (`tests/benches/bridge.rs`), run inside a host of
-//! [`lewis_tests::hosts`]: `lewis-bridge-peer ROLE TRANSPORT ADDRESS [--frames N]`.
+//! [`lewis_tests::hosts`]: `lewis-bridge-peer ROLE ADDRESS [--frames N]`.
 //!
-//! - `ROLE` `a` listens on `tcp/ADDRESS:7447`, measures round trips (64 B, 64 KiB, 1 MiB)
-//!   and then sends a camera: `FRAMES` frames of 921,600 B at 30 Hz. `ROLE` `b` connects
-//!   to `tcp/ADDRESS:7447`, echoes every ping back as a pong and counts the camera's frames.
-//! - `TRANSPORT` `raw`: plain Zenoh publishers and subscribers (`bench/ping`, `bench/pong`,
-//!   `bench/camera`), the pong put from the subscriber's callback. `bridge`: the same
-//!   through Lewis, IPC to IPC: each host has a [`Forwarder`] on a Zenoh session of the
-//!   same settings, and the program publishes and subscribes in the host's shared memory
-//!   (`/bench/ping` exported by `a`, `/bench/pong` by `b`, `/camera/ImageSource` by `a`),
-//!   with the channel settings the bridge takes from the names
-//!   ([`names::channel_config`]), as iceoryx2 requires.
+//! Each peer runs both transports at once, each on its own Zenoh session:
+//!
+//! - `raw`: plain Zenoh publishers and subscribers (`bench/ping`, `bench/pong`,
+//!   `bench/camera`), the pong put from the subscriber's callback; `a` listens on
+//!   `tcp/ADDRESS:7447`.
+//! - `bridge`: the same through Lewis, IPC to IPC: each host has a [`Forwarder`] on a Zenoh
+//!   session of the same settings, and the program publishes and subscribes in the host's
+//!   shared memory (`/bench/ping` exported by `a`, `/bench/pong` by `b`,
+//!   `/camera/ImageSource` by `a`), with the channel settings the bridge takes from the
+//!   names ([`names::channel_config`]), as iceoryx2 requires; `a` listens on
+//!   `tcp/ADDRESS:7448`.
+//!
+//! `ROLE` `a` measures round trips (64 B, 64 KiB, 1 MiB), a raw one and a bridge one in
+//! turn, so that both see the same machine at the same moments (on a shared machine the
+//! latency drifts by more than the difference measured); then it sends a camera, raw and
+//! then through the bridge: `FRAMES` frames of 921,600 B at 30 Hz each. `ROLE` `b`
+//! connects to `a`, echoes every ping back as a pong and counts the camera's frames, the
+//! raw ones on a thread of their own.
 //!
 //! Every payload carries its sequence number in its first 8 bytes (and a camera frame the
 //! wall-clock time it was sent, in ns, in the next 8: both hosts share the kernel's clock).
-//! It says what it measured on stdout, one line each:
+//! It says what it measured on stdout, one line each (`T`: `raw` or `bridge`):
 //!
-//! - `ready` once its side is set up (both roles);
-//! - `latency SIZE ROUNDS TIMEOUTS P50_NS P99_NS MIN_NS` (`a`: one way, half the round trip);
-//! - `camera-sent FRAMES ELAPSED_NS MAX_LATE_NS` then `done` (`a`);
-//! - `camera-received RECEIVED MISSING DISORDERED ELAPSED_NS P50_NS P99_NS MAX_NS` (`b`:
+//! - `ready` once both transports are set up (both roles);
+//! - `latency T SIZE ROUNDS TIMEOUTS P50_NS P99_NS MIN_NS` (`a`: one way, half the round
+//!   trip);
+//! - `camera-sent T FRAMES ELAPSED_NS MAX_LATE_NS` for each, then `done` (`a`);
+//! - `camera-received T RECEIVED MISSING DISORDERED ELAPSED_NS P50_NS P99_NS MAX_NS` (`b`:
 //!   from the first to the last frame; latencies from send to receipt).
 //!
-//! Either role runs until its stdin closes (the benchmark's end), so that `a`'s session is
-//! still up while `b` receives the last frames.
+//! Either role runs until its stdin closes (the benchmark's end), so that `a`'s sessions
+//! are still up while `b` receives the last frames.
 
 use std::io::{Read as _, Write as _};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -40,8 +49,10 @@ use zenoh::{Config, Session, Wait as _};
 
 type Res<T> = Result<T, Box<dyn std::error::Error + Send + Sync>>;
 
-/// The port `a` listens on.
-const PORT: u16 = 7447;
+/// The port `a` listens on for raw Zenoh.
+const RAW_PORT: u16 = 7447;
+/// The port `a`'s bridge listens on.
+const BRIDGE_PORT: u16 = 7448;
 /// The payload sizes of the round trips, with how many are measured after the warm-up.
 const SIZES: [(usize, usize); 3] = [(64, 1000), (64 << 10, 1000), (1 << 20, 200)];
 /// Round trips before the measured ones, at each size.
@@ -54,8 +65,7 @@ const FRAME_PERIOD: Duration = Duration::from_nanos(1_000_000_000 / 30);
 const ROUND_TIMEOUT: Duration = Duration::from_secs(1);
 /// The longest the first round trip (the link coming up) may take.
 const LINK_TIMEOUT: Duration = Duration::from_secs(20);
-/// `b` reports the camera once this long passed without a frame (or, before the first
-/// frame, without a ping).
+/// `b` reports a camera once this long passed without a frame after its first.
 const CAMERA_QUIET: Duration = Duration::from_secs(3);
 
 /// The IPC channels of the bridge transport.
@@ -67,8 +77,8 @@ const ROBOT: &str = "bench";
 
 fn main() -> Res<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: lewis-bridge-peer a|b raw|bridge ADDRESS [--frames N]";
-    let [role, transport, address, rest @ ..] = args.as_slice() else {
+    let usage = "usage: lewis-bridge-peer a|b ADDRESS [--frames N]";
+    let [role, address, rest @ ..] = args.as_slice() else {
         return Err(usage.into());
     };
     let frames = match rest {
@@ -76,7 +86,8 @@ fn main() -> Res<()> {
         [flag, n] if flag == "--frames" => n.parse()?,
         _ => return Err(usage.into()),
     };
-    let endpoint = format!("tcp/{address}:{PORT}");
+    let raw = format!("tcp/{address}:{RAW_PORT}");
+    let bridge = format!("tcp/{address}:{BRIDGE_PORT}");
     // Ends with stdin: the benchmark closes it when it has read both sides.
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
@@ -84,11 +95,28 @@ fn main() -> Res<()> {
         let _ = std::io::stdin().read_to_end(&mut Vec::new());
         flag.store(true, Ordering::Release);
     });
-    match (role.as_str(), transport.as_str()) {
-        ("a", "raw") => run_a(&mut RawA::open(&endpoint)?, frames, &stop),
-        ("a", "bridge") => run_a(&mut BridgeA::open(&endpoint)?, frames, &stop),
-        ("b", "raw") => run_b(&mut RawB::open(&endpoint)?, frames, &stop),
-        ("b", "bridge") => run_b(&mut BridgeB::open(&endpoint)?, frames, &stop),
+    match role.as_str() {
+        "a" => run_a(
+            &mut RawA::open(&raw)?,
+            &mut BridgeA::open(&bridge)?,
+            frames,
+            &stop,
+        ),
+        "b" => {
+            let mut raw = RawB::open(&raw)?;
+            let mut bridge = BridgeB::open(&bridge)?;
+            say("ready")?;
+            // The raw frames on a thread of their own: a wait for one transport must not
+            // delay the other's frames. iceoryx2's ports stay on this thread.
+            std::thread::scope(|scope| {
+                let raw_side = scope.spawn(|| count_camera("raw", &mut raw, frames, &stop));
+                let bridged = count_camera("bridge", &mut bridge, frames, &stop);
+                raw_side
+                    .join()
+                    .map_err(|_| "the raw camera's thread panicked")??;
+                bridged
+            })
+        }
         _ => Err(usage.into()),
     }
 }
@@ -186,51 +214,73 @@ enum Got {
 trait SideB {
     /// Echoes what pings came, and returns the next frame if one comes before `deadline`.
     fn next(&mut self, deadline: Instant) -> Res<Got>;
-    /// How many pings it echoed so far.
-    fn echoed(&self) -> u64;
 }
 
-fn run_a(side: &mut impl SideA, frames: u64, stop: &AtomicBool) -> Res<()> {
+fn run_a(raw: &mut RawA, bridge: &mut BridgeA, frames: u64, stop: &AtomicBool) -> Res<()> {
     say("ready")?;
     let mut seq = 0_u64;
-    // The link and every subscription are up once a round trip went through.
+    for side in [raw as &mut dyn SideA, bridge] {
+        link_up(side, &mut seq)?;
+    }
+    for (size, rounds) in SIZES {
+        let mut buf = payload(size, 0);
+        // Per transport: the one-way times and how many round trips timed out.
+        let mut measured: [(Vec<Duration>, u64); 2] = Default::default();
+        for i in 0..WARMUP + rounds {
+            let sides = [&mut *raw as &mut dyn SideA, &mut *bridge];
+            for (side, (one_way, timeouts)) in sides.into_iter().zip(&mut measured) {
+                seq += 1;
+                stamp(&mut buf, seq);
+                match round(side, &buf, seq, ROUND_TIMEOUT)? {
+                    Some(rtt) if i >= WARMUP => one_way.push(rtt / 2),
+                    Some(_) => {}
+                    None => *timeouts += 1,
+                }
+            }
+        }
+        for (name, (mut one_way, timeouts)) in ["raw", "bridge"].into_iter().zip(measured) {
+            one_way.sort_unstable();
+            let pct = |p: usize| {
+                one_way
+                    .get((one_way.len() * p / 100).min(one_way.len().saturating_sub(1)))
+                    .map_or(0, Duration::as_nanos)
+            };
+            say(&format!(
+                "latency {name} {size} {} {timeouts} {} {} {}",
+                one_way.len(),
+                pct(50),
+                pct(99),
+                pct(0)
+            ))?;
+        }
+    }
+    for (name, side) in [("raw", raw as &mut dyn SideA), ("bridge", bridge)] {
+        send_camera(name, side, frames)?;
+    }
+    say("done")?;
+    while !stop.load(Ordering::Acquire) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    Ok(())
+}
+
+/// Round trips of 64 B until one goes through: then the link and every subscription of
+/// `side` are up.
+fn link_up(side: &mut dyn SideA, seq: &mut u64) -> Res<()> {
     let start = Instant::now();
     loop {
-        seq += 1;
-        if round(side, &payload(64, seq), seq, Duration::from_millis(200))?.is_some() {
-            break;
+        *seq += 1;
+        if round(side, &payload(64, *seq), *seq, Duration::from_millis(200))?.is_some() {
+            return Ok(());
         }
         if start.elapsed() > LINK_TIMEOUT {
             return Err(format!("no pong within {LINK_TIMEOUT:?}").into());
         }
     }
-    for (size, rounds) in SIZES {
-        let mut buf = payload(size, 0);
-        let mut one_way = Vec::with_capacity(rounds);
-        let mut timeouts = 0;
-        for i in 0..WARMUP + rounds {
-            seq += 1;
-            stamp(&mut buf, seq);
-            match round(side, &buf, seq, ROUND_TIMEOUT)? {
-                Some(rtt) if i >= WARMUP => one_way.push(rtt / 2),
-                Some(_) => {}
-                None => timeouts += 1,
-            }
-        }
-        one_way.sort_unstable();
-        let pct = |p: usize| {
-            one_way
-                .get((one_way.len() * p / 100).min(one_way.len().saturating_sub(1)))
-                .map_or(0, Duration::as_nanos)
-        };
-        say(&format!(
-            "latency {size} {} {timeouts} {} {} {}",
-            one_way.len(),
-            pct(50),
-            pct(99),
-            pct(0)
-        ))?;
-    }
+}
+
+/// `frames` camera frames at the camera's rate over `side`.
+fn send_camera(name: &str, side: &mut dyn SideA, frames: u64) -> Res<()> {
     let mut frame = payload(FRAME_BYTES, 0);
     let start = Instant::now();
     let mut max_late = Duration::ZERO;
@@ -245,25 +295,15 @@ fn run_a(side: &mut impl SideA, frames: u64, stop: &AtomicBool) -> Res<()> {
         side.frame(&frame)?;
     }
     say(&format!(
-        "camera-sent {frames} {} {}",
+        "camera-sent {name} {frames} {} {}",
         start.elapsed().as_nanos(),
         max_late.as_nanos()
-    ))?;
-    say("done")?;
-    while !stop.load(Ordering::Acquire) {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    Ok(())
+    ))
 }
 
 /// One round trip of `bytes` (numbered `seq`): its time, or `None` when its pong did not
 /// come within `timeout`. Pongs of earlier pings (late ones) are skipped.
-fn round(
-    side: &mut impl SideA,
-    bytes: &[u8],
-    seq: u64,
-    timeout: Duration,
-) -> Res<Option<Duration>> {
+fn round(side: &mut dyn SideA, bytes: &[u8], seq: u64, timeout: Duration) -> Res<Option<Duration>> {
     let sent = Instant::now();
     side.ping(bytes)?;
     let deadline = sent + timeout;
@@ -278,8 +318,9 @@ fn round(
     Ok(None)
 }
 
-fn run_b(side: &mut impl SideB, frames: u64, stop: &AtomicBool) -> Res<()> {
-    say("ready")?;
+/// Echoes `side`'s pings and counts its camera frames, then says what came: once the last
+/// frame came, or nothing came for a while after the first, or the benchmark ends.
+fn count_camera(name: &str, side: &mut dyn SideB, frames: u64, stop: &AtomicBool) -> Res<()> {
     let mut received = 0_u64;
     let mut disordered = 0_u64;
     let mut last: Option<u64> = None;
@@ -287,39 +328,27 @@ fn run_b(side: &mut impl SideB, frames: u64, stop: &AtomicBool) -> Res<()> {
     let mut latencies = Vec::new();
     let mut first_at = None;
     let mut last_at = Instant::now();
-    // Until the first frame: when the last ping came.
-    let (mut echoed, mut pinged_at) = (0, None);
     let mut reported = false;
-    while !stop.load(Ordering::Acquire) {
+    loop {
         let deadline = Instant::now() + Duration::from_millis(50);
-        match side.next(deadline)? {
-            Got::Frame(seq, sent_ns) => {
-                let now = Instant::now();
-                latencies.push(wall_ns().saturating_sub(sent_ns));
-                first_at.get_or_insert(now);
-                last_at = now;
-                received += 1;
-                if last.is_some_and(|l| seq <= l) {
-                    disordered += 1;
-                }
-                last = Some(seq);
-                if let Some(slot) = usize::try_from(seq).ok().and_then(|s| seen.get_mut(s)) {
-                    *slot = true;
-                }
+        if let Got::Frame(seq, sent_ns) = side.next(deadline)? {
+            let now = Instant::now();
+            latencies.push(wall_ns().saturating_sub(sent_ns));
+            first_at.get_or_insert(now);
+            last_at = now;
+            received += 1;
+            if last.is_some_and(|l| seq <= l) {
+                disordered += 1;
             }
-            Got::Nothing => {}
-        }
-        if side.echoed() != echoed {
-            echoed = side.echoed();
-            pinged_at = Some(Instant::now());
+            last = Some(seq);
+            if let Some(slot) = usize::try_from(seq).ok().and_then(|s| seen.get_mut(s)) {
+                *slot = true;
+            }
         }
         let complete = last == Some(frames.saturating_sub(1));
-        let quiet = if first_at.is_some() {
-            last_at.elapsed() > CAMERA_QUIET
-        } else {
-            pinged_at.is_some_and(|at: Instant| at.elapsed() > CAMERA_QUIET)
-        };
-        if !reported && (complete || quiet) {
+        let quiet = first_at.is_some() && last_at.elapsed() > CAMERA_QUIET;
+        let ending = stop.load(Ordering::Acquire);
+        if !reported && (complete || quiet || ending) {
             reported = true;
             latencies.sort_unstable();
             let pct = |p: usize| {
@@ -331,15 +360,17 @@ fn run_b(side: &mut impl SideB, frames: u64, stop: &AtomicBool) -> Res<()> {
             let missing = seen.iter().filter(|s| !**s).count();
             let elapsed = first_at.map_or(Duration::ZERO, |f| last_at.duration_since(f));
             say(&format!(
-                "camera-received {received} {missing} {disordered} {} {} {} {}",
+                "camera-received {name} {received} {missing} {disordered} {} {} {} {}",
                 elapsed.as_nanos(),
                 pct(50),
                 pct(99),
                 latencies.last().copied().unwrap_or(0)
             ))?;
         }
+        if ending {
+            return Ok(());
+        }
     }
-    Ok(())
 }
 
 /// `a` on plain Zenoh.
@@ -395,7 +426,6 @@ impl SideA for RawA {
 /// `b` on plain Zenoh: the pong is put from the ping subscriber's callback.
 struct RawB {
     frames: Receiver<([u64; 2], usize)>,
-    echoed: Arc<AtomicU64>,
     _ping: zenoh::pubsub::Subscriber<()>,
     _camera: zenoh::pubsub::Subscriber<()>,
     _session: Session,
@@ -405,13 +435,10 @@ impl RawB {
     fn open(endpoint: &str) -> Res<Self> {
         let session = session(None, Some(endpoint))?;
         let pong = session.declare_publisher("bench/pong").wait()?;
-        let echoed = Arc::new(AtomicU64::new(0));
-        let count = Arc::clone(&echoed);
         let ping = session
             .declare_subscriber("bench/ping")
             .callback(move |sample| {
                 let _ = pong.put(sample.payload().clone()).wait();
-                count.fetch_add(1, Ordering::Relaxed);
             })
             .wait()?;
         let (tx, frames): (Sender<([u64; 2], usize)>, _) = channel();
@@ -424,7 +451,6 @@ impl RawB {
             .wait()?;
         Ok(Self {
             frames,
-            echoed,
             _ping: ping,
             _camera: camera,
             _session: session,
@@ -441,10 +467,6 @@ impl SideB for RawB {
             Err(RecvTimeoutError::Timeout) => Ok(Got::Nothing),
             Err(RecvTimeoutError::Disconnected) => Err("the camera subscriber is gone".into()),
         }
-    }
-
-    fn echoed(&self) -> u64 {
-        self.echoed.load(Ordering::Relaxed)
     }
 }
 
@@ -541,7 +563,6 @@ struct BridgeB {
     pong: Publisher,
     camera: Subscriber,
     waits: WaitSet,
-    echoed: u64,
     _ipc: Ipc,
     _forwarder: Forwarder,
     _session: Session,
@@ -565,7 +586,6 @@ impl BridgeB {
             pong,
             camera,
             waits: WaitSet::new(WakeMode::Event),
-            echoed: 0,
             _ipc: ipc,
             _forwarder: forwarder,
             _session: session,
@@ -578,7 +598,6 @@ impl SideB for BridgeB {
         loop {
             while let Some(sample) = self.ping.receive()? {
                 self.pong.publish(sample.bytes())?;
-                self.echoed += 1;
             }
             if let Some(sample) = self.camera.receive()? {
                 let bytes = sample.bytes();
@@ -594,9 +613,5 @@ impl SideB for BridgeB {
                 return Ok(Got::Nothing);
             }
         }
-    }
-
-    fn echoed(&self) -> u64 {
-        self.echoed
     }
 }
