@@ -2,8 +2,9 @@
 //! crosses ([`Routes`]), between its shared memory and Zenoh.
 //!
 //! A publication crosses as its CDR bytes, unchanged: header and provenance travel as
-//! they are, and the importing host publishes the same bytes into its own shared memory,
-//! where its clients and its recorder read them as if the publisher were local. A command
+//! they are, and the importing host publishes the same bytes into its own shared memory
+//! from Zenoh's callback ([`Imported`]), where its clients and its recorder read them as if
+//! the publisher were local. A command
 //! call crosses as a Zenoh query to the host that serves it, whose bridge calls the provider
 //! there and answers with the reply's bytes.
 //!
@@ -25,18 +26,19 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use lewis_runtime::ipc::{
-    CallId, CommandClient, CommandServer, FdSource, Ipc, Namespace, Publisher, Request, Subscriber,
-    WaitSet, Waitable, WakeMode,
+    CallId, CommandClient, CommandServer, FdSource, Ipc, Namespace, Request, Subscriber, WaitSet,
+    Waitable, WakeMode,
 };
 use lewis_runtime::names;
 use lewis_runtime::robot::Robot;
 use zenoh::Session;
 use zenoh::Wait as _;
-use zenoh::bytes::{Encoding, ZBytes};
+use zenoh::bytes::Encoding;
 use zenoh::pubsub::{Publisher as ZPublisher, Subscriber as ZSubscriber};
 use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::{Query, QueryTarget};
 
+use crate::imported::Imported;
 use crate::keys;
 use crate::routes::Routes;
 use crate::schemas::Schemas;
@@ -81,8 +83,6 @@ pub(crate) fn drain(rx: &UnixStream) {
 
 /// What Zenoh's callbacks hand the thread.
 enum Inbound {
-    /// A publication of import `index` (Zenoh's buffers, shared, not copied).
-    Sample(usize, ZBytes),
     /// A call a client of another host made to a command served here (answer `index`).
     Call(usize, Query),
     /// The reply to a proxied call (`None`: none came).
@@ -208,10 +208,9 @@ struct Export {
     matched: Arc<AtomicBool>,
 }
 
-/// A channel of another host published here again.
+/// A channel of another host published here again (by [`Imported`]).
 struct Import {
-    /// Its publisher here.
-    publisher: Publisher,
+    channel: String,
     /// Its key on Zenoh.
     key: String,
     /// The host it comes from.
@@ -235,6 +234,7 @@ struct Thread {
     session: Session,
     exports: Vec<Export>,
     imports: Vec<Import>,
+    imported: Imported,
     /// When the imports' readers are looked at next.
     next_interest_look: Instant,
     heard: Heard,
@@ -311,7 +311,7 @@ impl Thread {
         let mut imports = Vec::new();
         for route in &options.routes.imports {
             imports.push(Import {
-                publisher: ipc.publisher(&route.channel, &names::channel_config(&route.channel))?,
+                channel: route.channel.clone(),
                 key: keys::channel(robot, &route.host, &route.channel),
                 host: route.host.clone(),
                 subscriber: None,
@@ -376,6 +376,15 @@ impl Thread {
             .map_err(BridgeError::zenoh("beat"))?;
         Ok(Self {
             session: session.clone(),
+            imported: Imported::open(
+                &options.namespace,
+                &options
+                    .routes
+                    .imports
+                    .iter()
+                    .map(|r| r.channel.clone())
+                    .collect::<Vec<_>>(),
+            )?,
             exports,
             imports,
             next_interest_look: Instant::now(),
@@ -451,22 +460,6 @@ impl Thread {
 
     fn take(&mut self, item: Inbound) {
         match item {
-            Inbound::Sample(index, bytes) => {
-                // Straight from Zenoh's buffers into shared memory: one copy, not two (a
-                // camera frame copied into a vector first cost 50 us more per frame).
-                let copy = |buf: &mut [u8]| {
-                    let mut at = 0;
-                    for slice in bytes.slices() {
-                        buf[at..at + slice.len()].copy_from_slice(slice);
-                        at += slice.len();
-                    }
-                };
-                if let Some(import) = self.imports.get_mut(index)
-                    && let Err(e) = import.publisher.publish_with(bytes.len(), copy)
-                {
-                    tracing::debug!("cannot publish {} here: {e}", import.publisher.channel());
-                }
-            }
             Inbound::Call(index, query) => {
                 let Some(answer) = self.answers.get_mut(index) else {
                     return;
@@ -501,11 +494,11 @@ impl Thread {
     /// no longer to one nobody reads.
     fn follow_readers(&mut self) {
         for (index, import) in self.imports.iter_mut().enumerate() {
-            let read = import.publisher.subscribers() > 0;
+            let read = self.imported.readers(index) > 0;
             if read == import.subscriber.is_some() {
                 continue;
             }
-            let channel = import.publisher.channel();
+            let channel = &import.channel;
             if !read {
                 import.subscriber = None;
                 tracing::debug!(
@@ -514,9 +507,8 @@ impl Thread {
                 );
                 continue;
             }
-            let (queue, wake, heard, host) = (
-                Arc::clone(&self.queue),
-                self.wake.clone(),
+            let (imported, heard, host) = (
+                self.imported.clone(),
                 self.heard.clone(),
                 import.host.clone(),
             );
@@ -525,11 +517,7 @@ impl Thread {
                 .declare_subscriber(import.key.clone())
                 .callback(move |sample| {
                     heard.hear(&host);
-                    push(
-                        &queue,
-                        &wake,
-                        Inbound::Sample(index, sample.payload().clone()),
-                    );
+                    imported.publish(index, sample.payload());
                 })
                 .wait()
             {

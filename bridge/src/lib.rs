@@ -13,6 +13,7 @@
 mod error;
 mod forward;
 mod heard;
+mod imported;
 pub mod keys;
 mod other_host;
 mod robot_host;
