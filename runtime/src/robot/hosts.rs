@@ -21,7 +21,7 @@
 //! link_deadline_ms = 200            # a host silent this long is lost (default: the
 //!                                   # broker's heartbeat deadline)
 //!
-//! [network.tls]                     # needed by `tls/` endpoints: mutual TLS
+//! [network.tls]                     # needed by `quic/` endpoints: mutual TLS 1.3
 //! ca = "/etc/lewis/ca.pem"          # the authority every host's certificate is signed by
 //! certificate = "/etc/lewis/host.pem" # this host's certificate (each host its own file
 //! private_key = "/etc/lewis/host.key" # at the same path), and its key
@@ -54,10 +54,11 @@ pub struct HostSpec {
 }
 
 /// A network endpoint as the robot file writes it, `PROTOCOL/ADDRESS:PORT`
-/// (`tcp/10.0.0.1:7447`, `tls/robot.local:7447`, `[::1]` in brackets): the form Zenoh reads.
+/// (`tcp/10.0.0.1:7447`, `quic/robot.local:7447`, `[::1]` in brackets): the form Zenoh
+/// reads.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Endpoint {
-    /// `tcp`, `tls`, `udp` or `quic`.
+    /// `tcp` or `quic`.
     pub protocol: String,
     /// The IP address or DNS name.
     pub address: String,
@@ -65,8 +66,25 @@ pub struct Endpoint {
     pub port: u16,
 }
 
-/// The protocols an endpoint may name: the ones the bridge's Zenoh is built with.
-pub const PROTOCOLS: &[&str] = &["tcp", "tls", "udp", "quic"];
+/// The protocols an endpoint may name: the ones the bridge's Zenoh is built with. `quic`
+/// is TCP's encrypted alternative: TLS 1.3 inside QUIC, over UDP.
+pub const PROTOCOLS: &[&str] = &["tcp", "quic"];
+
+/// Zenoh's protocols Lewis does not offer, and why: what a robot file naming one is told.
+const REFUSED: &[(&str, &str)] = &[
+    (
+        "tls",
+        "Zenoh 1.10's TLS link reads and writes one TLS stream from two threads at once \
+         (eclipse-zenoh/zenoh#2557), and with data crossing both ways the link broke and its \
+         host was lost every few seconds; use `quic`, which encrypts with TLS 1.3 and the \
+         same [network.tls]",
+    ),
+    (
+        "udp",
+        "Zenoh's UDP link drops what does not arrive, decisions and heartbeats included; use \
+         `tcp`, or `quic` for an encrypted link",
+    ),
+];
 
 impl Endpoint {
     /// Reads `PROTOCOL/ADDRESS:PORT`; the error says what is wrong.
@@ -80,6 +98,12 @@ impl Endpoint {
                 text.escape_debug()
             ));
         };
+        if let Some((_, why)) = REFUSED.iter().find(|(refused, _)| *refused == protocol) {
+            return Err(format!(
+                "endpoint `{}` names protocol `{protocol}`, which Lewis does not offer: {why}",
+                text.escape_debug(),
+            ));
+        }
         if !PROTOCOLS.contains(&protocol) {
             let hint = lewis_stdx::closest(protocol, PROTOCOLS.iter().copied())
                 .map_or_else(String::new, |near| format!("did you mean `{near}`? "));
@@ -142,7 +166,7 @@ pub struct NetworkSettings {
     /// A host silent this long (no heartbeat of its own or of its services) is lost, in
     /// milliseconds: its providers are failed and their clients move.
     pub link_deadline_ms: u64,
-    /// The files of mutual TLS, for `tls/` endpoints.
+    /// The files of mutual TLS, for `quic/` endpoints.
     pub tls: Option<TlsFiles>,
 }
 
@@ -158,16 +182,16 @@ pub struct TlsFiles {
     pub private_key: PathBuf,
 }
 
-/// The span of the first `tls/` endpoint of the hosts, if any: such an endpoint needs
+/// The span of the first `quic/` endpoint of the hosts, if any: such an endpoint needs
 /// `[network.tls]`.
-pub(super) fn first_tls_endpoint(hosts: &[Spanned<RawHost>]) -> Option<Range<usize>> {
+pub(super) fn first_encrypted_endpoint(hosts: &[Spanned<RawHost>]) -> Option<Range<usize>> {
     hosts
         .iter()
         .flat_map(|h| {
             let h = h.get_ref();
             h.listen.iter().chain(h.connect.iter().flatten())
         })
-        .find(|e| e.get_ref().starts_with("tls/"))
+        .find(|e| e.get_ref().starts_with("quic/"))
         .map(Spanned::span)
 }
 
@@ -290,7 +314,7 @@ impl Checker<'_> {
         raw: Option<Spanned<RawNetwork>>,
         broker: &BrokerSettings,
         hosts: &[HostSpec],
-        first_tls: Option<&Range<usize>>,
+        first_encrypted: Option<&Range<usize>>,
     ) -> NetworkSettings {
         let mut network = NetworkSettings {
             key_file: None,
@@ -298,10 +322,10 @@ impl Checker<'_> {
             tls: None,
         };
         let needs_tls = |checker: &mut Self, network: &NetworkSettings| {
-            if let (Some(span), None) = (first_tls, &network.tls) {
+            if let (Some(span), None) = (first_encrypted, &network.tls) {
                 checker.report(
                     span,
-                    "a `tls/` endpoint needs the certificates of [network.tls]: `ca`, `certificate` and `private_key` files",
+                    "a `quic/` endpoint needs the certificates of [network.tls]: `ca`, `certificate` and `private_key` files",
                 );
             }
         };
@@ -340,8 +364,8 @@ mod tests {
     fn endpoints_are_read_and_written_back() {
         for text in [
             "tcp/10.77.0.1:7447",
-            "tls/robot.local:7448",
-            "udp/[::1]:7447",
+            "quic/robot.local:7448",
+            "tcp/[::1]:7447",
         ] {
             assert_eq!(
                 Endpoint::parse(text).map(|e| e.to_string()),

@@ -823,7 +823,7 @@ host = "workstaton"
 provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
 "#,
         &expect![[r#"
-            robot.toml:6:11: endpoint `tpc/10.0.0.1:7447` names protocol `tpc`: did you mean `tcp`? Lewis speaks tcp, tls, udp, quic
+            robot.toml:6:11: endpoint `tpc/10.0.0.1:7447` names protocol `tpc`: did you mean `tcp`? Lewis speaks tcp, quic
             robot.toml:9:12: endpoint `tcp/10.0.0.1` has no port: write it as `tcp/ADDRESS:PORT`
             robot.toml:11:8: duplicate host name `robot` (first declared on line 5): give each host its own name
             robot.toml:16:8: service `laser` runs on host `workstaton`, which the robot does not have: did you mean `workstation`? its hosts are robot, workstation, robot
@@ -854,14 +854,14 @@ provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
 }
 
 #[test]
-fn a_tls_endpoint_needs_the_certificates() {
+fn a_quic_endpoint_needs_the_certificates() {
     check(
         r#"
 [robot]
 name = "x"
 [[hosts]]
 name = "robot"
-listen = ["tls/10.0.0.1:7447"]
+listen = ["quic/10.0.0.1:7447"]
 [[hosts]]
 name = "workstation"
 [[services]]
@@ -870,7 +870,7 @@ kind = "test-range"
 provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
 "#,
         &expect![[r#"
-            robot.toml:6:11: a `tls/` endpoint needs the certificates of [network.tls]: `ca`, `certificate` and `private_key` files
+            robot.toml:6:11: a `quic/` endpoint needs the certificates of [network.tls]: `ca`, `certificate` and `private_key` files
         "#]],
     );
     check(
@@ -890,6 +890,30 @@ provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
 "#,
         &expect![[r#"
             robot.toml:7:1: missing field `private_key`
+        "#]],
+    );
+}
+
+#[test]
+fn zenohs_tls_and_udp_links_are_refused_with_the_reason() {
+    check(
+        r#"
+[robot]
+name = "x"
+[[hosts]]
+name = "robot"
+listen = ["tls/10.0.0.1:7447"]
+[[hosts]]
+name = "workstation"
+connect = ["udp/10.0.0.1:7447"]
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 1 }]
+"#,
+        &expect![[r#"
+            robot.toml:6:11: endpoint `tls/10.0.0.1:7447` names protocol `tls`, which Lewis does not offer: Zenoh 1.10's TLS link reads and writes one TLS stream from two threads at once (eclipse-zenoh/zenoh#2557), and with data crossing both ways the link broke and its host was lost every few seconds; use `quic`, which encrypts with TLS 1.3 and the same [network.tls]
+            robot.toml:9:12: endpoint `udp/10.0.0.1:7447` names protocol `udp`, which Lewis does not offer: Zenoh's UDP link drops what does not arrive, decisions and heartbeats included; use `tcp`, or `quic` for an encrypted link
         "#]],
     );
 }
