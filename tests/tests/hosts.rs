@@ -367,10 +367,11 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
 }
 
 /// Prints each channel with messages, its host and count, whether a broker decision says a
-/// host was lost, how many signs the sign detector saw, and how many messages of the
-/// workstation's channels were recorded after `/lewis/hosts` says it was lost once cut off
-/// at the time of its second argument, and before the time of its third, if any (decoded
-/// with mcap-ros2-support).
+/// host was lost, how many signs the sign detector saw, and how many messages the
+/// workstation published after `/lewis/hosts` says it was lost once cut off at the time of
+/// its second argument were recorded before the time of its third, if any (decoded with
+/// mcap-ros2-support). By publication time, not log time: a message sent before the cut
+/// may reach the recording late, and that is no crossing.
 const CHECK: &str = r#"
 import sys
 from mcap.reader import make_reader
@@ -379,7 +380,8 @@ counts = {}
 lost = False
 signs = 0
 # The workstation cut off at argv[2] (ns) and back at argv[3] (never, if not given): the
-# messages of its channels recorded after the broker lost it and before it was back.
+# messages of its channels published after the broker lost it (the hosts share one clock)
+# and recorded before it was back.
 cut_ns = int(sys.argv[2]) if len(sys.argv) > 2 else None
 back_ns = int(sys.argv[3]) if len(sys.argv) > 3 else 2**63
 lost_ns = None
@@ -394,7 +396,9 @@ with open(sys.argv[1], "rb") as f:
                 and message.log_time > cut_ns and lost_ns is None):
             lost_ns = message.log_time
         if channel.metadata.get("host") == "workstation":
-            logged.append((message.log_time, channel.topic))
+            header = getattr(decoded, "header", None)
+            published = header.publish_time_ns if header is not None else message.log_time
+            logged.append((message.log_time, published, channel.topic))
         if channel.topic == "/lewis/broker" and "which is lost" in decoded.reason:
             lost = True
         if channel.topic == "/sign_detector/Signs":
@@ -410,7 +414,7 @@ print("moved at", moved_ns)
 print("lost:", "which is lost" if lost else "no")
 print("signs seen off board:", signs)
 if lost_ns is not None:
-    crossed = sorted({topic for t, topic in logged if lost_ns < t < back_ns})
+    crossed = sorted({topic for t, p, topic in logged if lost_ns < p and t < back_ns})
     print("crossed while cut off:", len(crossed), " ".join(crossed))
 "#;
 
