@@ -8,6 +8,13 @@
 //! provider of another host, or the broker, at the same channel as on one host, and the
 //! bridge carries the call and its reply. Zenoh sends a publication only to a host that
 //! subscribed to it, so a channel no client of another host needs stays home.
+//!
+//! Two other hosts talk through the hub too: every host is linked to the robot host, and
+//! not necessarily to each other. A client on one whose provider is on another gets the
+//! data the robot host imported anyway (for its recorder and broker), offered again under
+//! the robot host's key, and its calls carried on by the robot host's bridge. So no
+//! client is bound to a provider whose data has no way to it, and a host cut off from
+//! the robot host is cut off from all.
 
 use lewis_runtime::names;
 use lewis_runtime::robot::Robot;
@@ -64,9 +71,10 @@ pub fn routes(robot: &Robot, host: &str) -> Routes {
         commands.dedup();
         (data, commands)
     };
+    let others = || robot.hosts.iter().skip(1).map(|h| h.name.as_str());
     let mut routes = Routes::default();
     if host == hub {
-        for other in robot.hosts.iter().skip(1).map(|h| h.name.as_str()) {
+        for other in others() {
             for channel in published_by(robot, other) {
                 routes.imports.push(Route {
                     channel,
@@ -88,6 +96,20 @@ pub fn routes(robot: &Robot, host: &str) -> Routes {
         routes.exports = published_by(robot, hub);
         routes.exports.push(names::BROKER_CHANNEL.to_owned());
         routes.answers.push(names::BROKER_COMMAND.to_owned());
+        // Between two other hosts: their data offered again, their calls carried on.
+        for client_host in others() {
+            for provider_host in others().filter(|p| *p != client_host) {
+                let (data, commands) = needed_from(client_host, provider_host);
+                routes.exports.extend(data);
+                routes.answers.extend(commands.iter().cloned());
+                routes
+                    .proxies
+                    .extend(commands.into_iter().map(|channel| Route {
+                        channel,
+                        host: provider_host.to_owned(),
+                    }));
+            }
+        }
     } else {
         routes.exports = published_by(robot, host);
         let (data, commands) = needed_from(host, hub);
@@ -109,6 +131,18 @@ pub fn routes(robot: &Robot, host: &str) -> Routes {
         );
         let (_, answers) = needed_from(hub, host);
         routes.answers = answers;
+        // From and to the other hosts, through the hub.
+        for other in others().filter(|o| *o != host) {
+            let (data, commands) = needed_from(host, other);
+            let through_hub = |channel| Route {
+                channel,
+                host: hub.to_owned(),
+            };
+            routes.imports.extend(data.into_iter().map(through_hub));
+            routes.proxies.extend(commands.into_iter().map(through_hub));
+            let (_, answers) = needed_from(other, host);
+            routes.answers.extend(answers);
+        }
     }
     for list in [&mut routes.exports, &mut routes.answers] {
         list.sort();
@@ -241,5 +275,66 @@ provides = [{ interface = "Blobs3D", quality = 10, cost = 1 }]
             routes.proxies,
             [route("/blobfinder/Blobs/cmd", "workstation")]
         );
+    }
+
+    /// The blob finder on a third host: its blobs reach the workstation's blobfinder3d
+    /// through the robot host, and so do the calls to it.
+    const THREE: &str = r#"
+[robot]
+name = "three"
+[[hosts]]
+name = "robot"
+listen = ["tcp/10.0.0.1:7447"]
+[[hosts]]
+name = "workstation"
+[[hosts]]
+name = "gpu"
+[[services]]
+name = "camera"
+kind = "sim-camera"
+provides = [{ interface = "ImageSource", quality = 10, cost = 1 }]
+[[services]]
+name = "blobfinder"
+kind = "blobfinder"
+host = "gpu"
+requires = ["ImageSource"]
+provides = [{ interface = "Blobs", quality = 10, cost = 1 }]
+[[services]]
+name = "blobfinder3d"
+kind = "blobfinder3d"
+host = "workstation"
+requires = ["Blobs"]
+provides = [{ interface = "Blobs3D", quality = 10, cost = 1 }]
+"#;
+
+    #[test]
+    fn two_other_hosts_talk_through_the_robot_host() {
+        let known = lewis_interfaces::interface_names();
+        let robot = lewis_runtime::robot::parse(THREE, Path::new("three.toml"), &known)
+            .unwrap_or_else(|e| panic!("{e}"));
+        let hub = routes(&robot, "robot");
+        assert!(hub.imports.contains(&route("/blobfinder/Blobs", "gpu")));
+        assert!(hub.exports.contains(&"/blobfinder/Blobs".to_owned()));
+        assert!(hub.proxies.contains(&route("/blobfinder/Blobs/cmd", "gpu")));
+        assert!(hub.answers.contains(&"/blobfinder/Blobs/cmd".to_owned()));
+        let workstation = routes(&robot, "workstation");
+        assert!(
+            workstation
+                .imports
+                .contains(&route("/blobfinder/Blobs", "robot"))
+        );
+        assert!(
+            workstation
+                .proxies
+                .contains(&route("/blobfinder/Blobs/cmd", "robot"))
+        );
+        let gpu = routes(&robot, "gpu");
+        assert!(gpu.exports.contains(&"/blobfinder/Blobs".to_owned()));
+        assert_eq!(gpu.answers, ["/blobfinder/Blobs/cmd"]);
+        // Nothing goes straight from one other host to the other.
+        for (from, to) in [(&workstation, "gpu"), (&gpu, "workstation")] {
+            assert!(from.imports.iter().all(|r| r.host != to));
+            assert!(from.proxies.iter().all(|r| r.host != to));
+        }
     }
 }

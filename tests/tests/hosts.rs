@@ -5,6 +5,8 @@
 //! robot host, a tool without Lewis listens to the robot's laser over Zenoh, and when the
 //! workstation's `lewis up` is killed its providers are failed with that reason and the
 //! on-board blobfinder takes over. The recording replays as one robot, the host lost again.
+//! On three hosts, a client on one and its provider on another talk through the robot
+//! host.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -781,4 +783,111 @@ fn hosts_on_quic_endpoints_join_and_stay_joined_with_certificates_of_one_authori
     wait_status_in(&hosts, "quic", "client blobfinder3d Blobs -> blobfinder\n");
     interrupt_and_check(&hosts, "workstation", &mut on_ws, &ws_log);
     interrupt_and_check(&hosts, "robot", &mut on_robot, &robot_log);
+}
+
+/// Reads a recording of the three-host robot: the host of each of the two channels, and
+/// how many of blobfinder3d's outputs name blobfinder's blobs among their inputs.
+const THROUGH_THE_HUB: &str = r#"
+import sys
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+hosts = {}
+through = 0
+with open(sys.argv[1], "rb") as f:
+    reader = make_reader(f, decoder_factories=[DecoderFactory()])
+    for schema, channel, message, decoded in reader.iter_decoded_messages(
+            topics=["/blobfinder/Blobs", "/blobfinder3d/Blobs3D"]):
+        hosts[channel.topic] = channel.metadata.get("host", "?")
+        if (channel.topic == "/blobfinder3d/Blobs3D"
+                and any(i.channel == "/blobfinder/Blobs" for i in decoded.header.inputs)):
+            through += 1
+for topic, host in sorted(hosts.items()):
+    print(topic, "on", host)
+print("Blobs3D made of the gpu's Blobs:", through)
+"#;
+
+#[test]
+fn two_other_hosts_talk_through_the_robot_host() {
+    let hosts = hosts_or_skip!(&["robot", "workstation", "gpu"]);
+    let dir = tempfile::tempdir().unwrap();
+    // The blob finder on a third host, its client blobfinder3d on the workstation: the
+    // two are linked to the robot host only.
+    let text = lewis_tests::robot::sim_on_two_hosts("\n[[hosts]]\nname = \"gpu\"\n")
+        .replacen(
+            "name = \"blobfinder\"\nhost = \"workstation\"\n",
+            "name = \"blobfinder\"\nhost = \"gpu\"\n",
+            1,
+        )
+        .replacen(
+            "name = \"blobfinder3d\"\n",
+            "name = \"blobfinder3d\"\nhost = \"workstation\"\n",
+            1,
+        );
+    let robot = dir.path().join("three-hosts.toml");
+    std::fs::write(&robot, text).unwrap();
+    let robot = robot.to_str().unwrap();
+    let mcap = dir.path().join("run.mcap");
+    let log = |host: &str| dir.path().join(format!("{host}.log"));
+    let mut on_robot = up(
+        &hosts,
+        "robot",
+        &[
+            "up",
+            robot,
+            "-v",
+            "--namespace",
+            "three",
+            "-o",
+            mcap.to_str().unwrap(),
+        ],
+        &log("robot"),
+    );
+    let mut others: Vec<(&str, Child)> = ["workstation", "gpu"]
+        .into_iter()
+        .map(|host| {
+            let child = up(
+                &hosts,
+                host,
+                &["up", robot, "-v", "--host", host, "--namespace", "three"],
+                &log(host),
+            );
+            (host, child)
+        })
+        .collect();
+    for host in ["workstation", "gpu"] {
+        wait_log(
+            &log("robot"),
+            &format!("broker: host {host} joined"),
+            1,
+            &log(host),
+        );
+    }
+    wait_status_in(&hosts, "three", "service blobfinder3d: ready");
+    wait_status_in(&hosts, "three", "client blobfinder3d Blobs -> blobfinder\n");
+    // A few seconds of blobs from the gpu turned into 3D on the workstation (5 Hz).
+    std::thread::sleep(Duration::from_secs(3));
+    for (host, child) in &mut others {
+        interrupt_and_check(&hosts, host, child, &log(host));
+    }
+    interrupt_and_check(&hosts, "robot", &mut on_robot, &log("robot"));
+    doctor(&mcap);
+    let read = run_ok(
+        python_tool("python")
+            .arg("-c")
+            .arg(THROUGH_THE_HUB)
+            .arg(&mcap),
+    );
+    assert_has(
+        &read,
+        &[
+            "/blobfinder/Blobs on gpu",
+            "/blobfinder3d/Blobs3D on workstation",
+        ],
+    );
+    let through: usize = read
+        .lines()
+        .find_map(|l| l.strip_prefix("Blobs3D made of the gpu's Blobs: "))
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap_or(0);
+    assert!(through > 0, "no Blobs3D made of the gpu's blobs:\n{read}");
 }
