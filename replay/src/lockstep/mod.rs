@@ -406,13 +406,7 @@ impl<'a> Lockstep<'a> {
     /// standby and always services.
     pub fn start(&mut self, at_ns: i64, sink: &mut dyn Sink) {
         self.now_ns = at_ns;
-        // As live, the other hosts' services wait for their host to join (`/lewis/hosts`).
-        for host in self.robot.hosts.iter().skip(1) {
-            self.work.push_back(Work::Broker(Event::HostLost {
-                host: host.name.clone(),
-                why: "not connected yet".to_owned(),
-            }));
-        }
+        // The core starts the other hosts lost, as live; `/lewis/hosts` joins them.
         self.work.push_back(Work::Broker(Event::BrokerStarted));
         self.pump(sink);
     }

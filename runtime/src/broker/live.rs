@@ -456,13 +456,6 @@ impl<'r> Driver<'r> {
             namespace = self.options.namespace.as_str(),
             "broker up"
         );
-        // The other hosts' services wait for their host to join.
-        for host in self.robot.hosts.iter().skip(1) {
-            self.feed(Event::HostLost {
-                host: host.name.clone(),
-                why: "not connected yet".to_owned(),
-            });
-        }
         self.feed(Event::BrokerStarted);
         loop {
             if signals.take_requested() {

@@ -118,6 +118,10 @@ impl BrokerCore {
                 .map(|spec| {
                     let mut entry = Entry::new(spec);
                     entry.host = robot.host_of(&spec.name).map(str::to_owned);
+                    // The other hosts start lost: their services wait for their host to
+                    // join (`Event::HostJoined`).
+                    entry.host_down =
+                        entry.host.as_deref() != robot.robot_host().map(|h| h.name.as_str());
                     (spec.name.clone(), entry)
                 })
                 .collect(),
