@@ -147,6 +147,24 @@ impl Run {
         self.dir.path().join("robot.log")
     }
 
+    /// How many times the robot host's log says `needle` so far: what a wait for the next
+    /// one counts from. A host may have been lost and joined again before (a loaded machine
+    /// can starve the link past its deadline), and that must not pass for what comes.
+    fn robot_log_count(&self, needle: &str) -> usize {
+        std::fs::read_to_string(self.robot_log())
+            .unwrap_or_default()
+            .matches(needle)
+            .count()
+    }
+
+    /// As [`Run::robot_log_count`], in the workstation's log.
+    fn ws_log_count(&self, needle: &str) -> usize {
+        std::fs::read_to_string(self.dir.path().join("ws.log"))
+            .unwrap_or_default()
+            .matches(needle)
+            .count()
+    }
+
     fn wait_robot_log(&self, needle: &str, times: usize) {
         wait_log(
             &self.robot_log(),
@@ -263,14 +281,13 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
 
     // The workstation dies whole: its providers are failed for that reason, the on-board
     // blobfinder takes over, and nothing of the workstation's is left running.
+    let moved = "rebind blobfinder3d from blobfinder to blobfinder_onboard";
+    let moved_before = run.robot_log_count(moved);
     let killed_ns = now_ns();
     signal(&run.workstation, nix::sys::signal::Signal::SIGKILL);
     let _ = run.workstation.wait();
     run.wait_robot_log("host workstation lost: its Zenoh session closed", 1);
-    run.wait_robot_log(
-        "rebind blobfinder3d from blobfinder to blobfinder_onboard",
-        1,
-    );
+    run.wait_robot_log(moved, moved_before + 1);
     let ws = run.hosts.host("workstation");
     let start = Instant::now();
     while !ws.processes().is_empty() {
@@ -325,29 +342,31 @@ fn a_cut_link_fails_the_off_board_perception_over_and_back() {
     let hosts = hosts_or_skip!(&["robot", "workstation"]);
     let run = Run::start(hosts, "", &["--duration", "90s"]);
 
+    let (lost, moved, joined, back) = (
+        "runs on host workstation, which is lost: nothing heard from it",
+        "rebind blobfinder3d from blobfinder to blobfinder_onboard",
+        "broker: host workstation joined",
+        "rebind blobfinder3d from blobfinder_onboard to blobfinder for Blobs: fail back",
+    );
+    let stopping = "lost the robot host robot: stopping";
+    let before = |needle| run.robot_log_count(needle);
+    let (lost_before, moved_before, joined_before, back_before) =
+        (before(lost), before(moved), before(joined), before(back));
+    let stopping_before = run.ws_log_count(stopping);
     let cut_ns = now_ns();
     run.hosts.link_down("robot", "workstation");
     // The robot host fails the workstation's providers, saying why, and moves their
     // clients on board; the workstation, without its broker, stops its services.
-    run.wait_robot_log(
-        "runs on host workstation, which is lost: nothing heard from it",
-        1,
-    );
-    run.wait_robot_log(
-        "rebind blobfinder3d from blobfinder to blobfinder_onboard",
-        1,
-    );
-    run.wait_ws_log("lost the robot host robot: stopping", 1);
+    run.wait_robot_log(lost, lost_before + 1);
+    run.wait_robot_log(moved, moved_before + 1);
+    run.wait_ws_log(stopping, stopping_before + 1);
 
     // Back: the workstation joins again, its perception starts on the broker's order, and
     // the clients fail back to it (fail_back is on for Blobs).
     let back_ns = now_ns();
     run.hosts.link_up("robot", "workstation");
-    run.wait_robot_log("broker: host workstation joined", 2);
-    run.wait_robot_log(
-        "rebind blobfinder3d from blobfinder_onboard to blobfinder for Blobs: fail back",
-        1,
-    );
+    run.wait_robot_log(joined, joined_before + 1);
+    run.wait_robot_log(back, back_before + 1);
     let read = run.finish(false, Some((cut_ns, Some(back_ns)))).read;
     assert_has(
         &read,
@@ -407,6 +426,7 @@ with open(sys.argv[1], "rb") as f:
             signs += decoded.sign_count
         if (channel.topic == "/lewis/broker" and decoded.action == "rebind"
                 and decoded.client == "blobfinder3d" and "which is lost" in decoded.reason
+                and (cut_ns is None or decoded.header.publish_time_ns > cut_ns)
                 and "moved_ns" not in counts):
             counts["moved_ns"] = decoded.header.publish_time_ns
 moved_ns = counts.pop("moved_ns", 0)
