@@ -39,7 +39,11 @@ fn drive_and_check(mut up: Up, recorder: RecordProcess, output: &std::path::Path
     assert_every_run_complete(&recording, "/laser/RangeFinder");
     assert!(recording.of("/laser/RangeFinder").len() >= 20);
     // A provider the broker never started is tapped too (a failover would start it).
-    assert!(recording.channels.contains_key("/sonar/RangeFinder"));
+    assert!(
+        recording.channels.contains_key("/sonar/RangeFinder"),
+        "/sonar/RangeFinder is not in the file: {:?}\nthe recorder said:\n{out}",
+        recording.channels.keys()
+    );
     assert!(!recording.of("/lewis/broker").is_empty());
     assert_eq!(
         recording.metadata[lewis_recorder::ROBOT_METADATA]["robot.toml"],
