@@ -378,12 +378,7 @@ impl Thread {
             session: session.clone(),
             imported: Imported::open(
                 &options.namespace,
-                &options
-                    .routes
-                    .imports
-                    .iter()
-                    .map(|r| r.channel.clone())
-                    .collect::<Vec<_>>(),
+                imports.iter().map(|i| i.channel.as_str()),
             )?,
             exports,
             imports,

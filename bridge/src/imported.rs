@@ -41,10 +41,13 @@ impl Imported {
     ///
     /// # Errors
     /// When a channel cannot be opened.
-    pub(crate) fn open(namespace: &Namespace, channels: &[String]) -> Result<Self, BridgeError> {
+    pub(crate) fn open<'a>(
+        namespace: &Namespace,
+        channels: impl IntoIterator<Item = &'a str>,
+    ) -> Result<Self, BridgeError> {
         let ipc = Ipc::open(namespace, NODE)?;
         let publishers = channels
-            .iter()
+            .into_iter()
             .map(|channel| ipc.publisher(channel, &names::channel_config(channel)))
             .collect::<Result<_, _>>()?;
         Ok(Self(Arc::new(Mutex::new(Ports {

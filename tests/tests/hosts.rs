@@ -42,19 +42,27 @@ fn up(hosts: &Hosts, host: &str, args: &[&str], log: &Path) -> Child {
         .unwrap()
 }
 
+/// How many times `log` says `needle` so far (none while it is not there).
+fn log_count(log: &Path, needle: &str) -> usize {
+    std::fs::read_to_string(log)
+        .unwrap_or_default()
+        .matches(needle)
+        .count()
+}
+
 /// Waits until `log` holds `needle` `times` times, or fails with the log.
 fn wait_log(log: &Path, needle: &str, times: usize, other: &Path) {
     let limit = Duration::from_secs(30);
     let start = Instant::now();
     loop {
-        let text = std::fs::read_to_string(log).unwrap_or_default();
-        if text.matches(needle).count() >= times {
+        if log_count(log, needle) >= times {
             return;
         }
         assert!(
             start.elapsed() < limit,
-            "no `{needle}` ({times} times) in {} within {limit:?}:\n{text}\n--- {}:\n{}",
+            "no `{needle}` ({times} times) in {} within {limit:?}:\n{}\n--- {}:\n{}",
             log.display(),
+            std::fs::read_to_string(log).unwrap_or_default(),
             other.display(),
             std::fs::read_to_string(other).unwrap_or_default()
         );
@@ -151,18 +159,12 @@ impl Run {
     /// one counts from. A host may have been lost and joined again before (a loaded machine
     /// can starve the link past its deadline), and that must not pass for what comes.
     fn robot_log_count(&self, needle: &str) -> usize {
-        std::fs::read_to_string(self.robot_log())
-            .unwrap_or_default()
-            .matches(needle)
-            .count()
+        log_count(&self.robot_log(), needle)
     }
 
     /// As [`Run::robot_log_count`], in the workstation's log.
     fn ws_log_count(&self, needle: &str) -> usize {
-        std::fs::read_to_string(self.dir.path().join("ws.log"))
-            .unwrap_or_default()
-            .matches(needle)
-            .count()
+        log_count(&self.dir.path().join("ws.log"), needle)
     }
 
     fn wait_robot_log(&self, needle: &str, times: usize) {
