@@ -491,25 +491,29 @@ fn drain(
     write_delay: Duration,
     mut clock: impl FnMut() -> i64,
 ) -> Result<RecordingReport, RecordError> {
+    let mut ids = TapIds::of(&recorder);
     let mut drops_seen: Vec<Swept> = Vec::new();
     let mut since_sweep = 0_u32;
     loop {
         match receiver.recv_timeout(IDLE_TICK) {
             Ok(Entry::Batch(batch)) => {
                 for sample in batch.iter() {
-                    if usize::try_from(sample.channel.0).unwrap_or(usize::MAX)
-                        >= recorder.channel_count()
-                    {
-                        add_new_channels(&mut recorder, shared)?;
-                    }
-                    recorder.write(&sample)?;
+                    let channel = match ids.get(sample.channel) {
+                        Some(id) => id,
+                        None => {
+                            ids.add_new(&mut recorder, shared)?;
+                            // A channel the tap never registered: the recorder refuses it.
+                            ids.get(sample.channel).unwrap_or(sample.channel)
+                        }
+                    };
+                    recorder.write(&Sample { channel, ..sample })?;
                     if !write_delay.is_zero() {
                         std::thread::sleep(write_delay);
                     }
                     since_sweep += 1;
                     if since_sweep >= DROP_SWEEP_EVERY {
                         since_sweep = 0;
-                        sweep_drops(&mut recorder, shared, &mut drops_seen);
+                        sweep_drops(&mut recorder, shared, &ids, &mut drops_seen);
                     }
                 }
                 shared.release(batch.bytes.len(), batch.messages.len());
@@ -517,35 +521,61 @@ fn drain(
             }
             Ok(Entry::Stop) | Err(RecvTimeoutError::Disconnected) => break,
             Err(RecvTimeoutError::Timeout) => {
-                add_new_channels(&mut recorder, shared)?;
-                sweep_drops(&mut recorder, shared, &mut drops_seen);
+                ids.add_new(&mut recorder, shared)?;
+                sweep_drops(&mut recorder, shared, &ids, &mut drops_seen);
                 recorder.tick(clock())?;
             }
         }
     }
-    add_new_channels(&mut recorder, shared)?;
-    sweep_drops(&mut recorder, shared, &mut drops_seen);
+    ids.add_new(&mut recorder, shared)?;
+    sweep_drops(&mut recorder, shared, &ids, &mut drops_seen);
     recorder.close()
 }
 
-/// Registers with the recorder the channels the tap registered since, after the robot
-/// description handed over before them.
-fn add_new_channels(recorder: &mut Recorder, shared: &Shared) -> Result<(), RecordError> {
-    let new: Vec<ChannelSpec> = shared
-        .channels()
-        .iter()
-        .skip(recorder.channel_count())
-        .map(|c| c.spec.clone())
-        .collect();
-    // Taken after the channels: a description handed over before a channel was
-    // registered is seen with it.
-    if let Some(robot) = shared.take_robot() {
-        recorder.set_robot_description(robot)?;
+/// The recorder's id of each channel the tap registered, by the tap's id.
+///
+/// The two differ once the recorder adds channels of its own (the companions it derives
+/// from messages), so a channel the tap registers after that gets a later id in the file.
+struct TapIds(Vec<ChannelId>);
+
+impl TapIds {
+    /// The channels the recorder had when the tap was made: the tap registered them first,
+    /// in the same order.
+    fn of(recorder: &Recorder) -> Self {
+        Self(
+            (0..recorder.channel_count())
+                .map(|i| ChannelId(u32::try_from(i).unwrap_or(u32::MAX)))
+                .collect(),
+        )
     }
-    for spec in new {
-        recorder.add_channel(spec)?;
+
+    /// The recorder's id of the tap's `channel`, once the recorder has it.
+    fn get(&self, channel: ChannelId) -> Option<ChannelId> {
+        usize::try_from(channel.0)
+            .ok()
+            .and_then(|i| self.0.get(i))
+            .copied()
     }
-    Ok(())
+
+    /// Registers with the recorder the channels the tap registered since, after the robot
+    /// description handed over before them.
+    fn add_new(&mut self, recorder: &mut Recorder, shared: &Shared) -> Result<(), RecordError> {
+        let new: Vec<ChannelSpec> = shared
+            .channels()
+            .iter()
+            .skip(self.0.len())
+            .map(|c| c.spec.clone())
+            .collect();
+        // Taken after the channels: a description handed over before a channel was
+        // registered is seen with it.
+        if let Some(robot) = shared.take_robot() {
+            recorder.set_robot_description(robot)?;
+        }
+        for spec in new {
+            self.0.push(recorder.add_channel(spec)?);
+        }
+        Ok(())
+    }
 }
 
 /// The counts of one channel already passed to the recorder.
@@ -556,15 +586,11 @@ struct Swept {
 }
 
 /// Passes the tap's new drop and loss counts to the recorder.
-fn sweep_drops(recorder: &mut Recorder, shared: &Shared, seen: &mut Vec<Swept>) {
+fn sweep_drops(recorder: &mut Recorder, shared: &Shared, ids: &TapIds, seen: &mut Vec<Swept>) {
     let channels = shared.channels();
     // Counts of a channel the recorder does not know yet are passed once it does.
-    seen.resize(
-        recorder.channel_count().min(channels.len()),
-        Swept::default(),
-    );
-    for (i, (channel, seen)) in channels.iter().zip(seen.iter_mut()).enumerate() {
-        let id = ChannelId(u32::try_from(i).unwrap_or(u32::MAX));
+    seen.resize(ids.0.len().min(channels.len()), Swept::default());
+    for ((&id, channel), seen) in ids.0.iter().zip(channels.iter()).zip(seen.iter_mut()) {
         let dropped = channel.dropped.load(Ordering::Relaxed);
         if dropped > seen.dropped {
             recorder.note_dropped(id, dropped - seen.dropped);

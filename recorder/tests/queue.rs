@@ -10,7 +10,10 @@ use std::sync::mpsc;
 
 use common::traffic::{self, Msg};
 use common::{Digests, options, python_read, sample};
-use lewis_recorder::{Compression, Dropped, QueueOptions, Recorder, SECOND_NS, spawn};
+use lewis_interfaces::cdr;
+use lewis_interfaces::msg::{Header, RangeFinder};
+use lewis_recorder::companion::CompanionOptions;
+use lewis_recorder::{ChannelSpec, Compression, Dropped, QueueOptions, Recorder, SECOND_NS, spawn};
 use lewis_tests::doctor;
 
 #[test]
@@ -283,4 +286,70 @@ fn a_batch_handed_to_a_stopped_writer_is_dropped_and_counted_whole() {
     writer.finish().unwrap();
     assert_eq!(batch.flush(), Err(Dropped::Stopped));
     assert_eq!((batch.dropped(), tap.dropped(id)), (10, 10));
+}
+
+#[test]
+fn a_channel_registered_after_the_recorder_added_companions_keeps_its_own_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("grown.mcap");
+    let mut options = options(&path);
+    options.companions = Some(CompanionOptions::default());
+    let recorder = Recorder::create(options).unwrap();
+    let (gate, clock) = gated_clock();
+    let (tap, writer) = spawn(recorder, QueueOptions::default(), clock).unwrap();
+    let range_finder = lewis_interfaces::interface_info("RangeFinder").unwrap();
+    let scan = |seq: u64| {
+        cdr::to_vec(&RangeFinder {
+            header: Header {
+                provider: "laser".to_owned(),
+                seq,
+                publish_time_ns: 0,
+                inputs: Vec::new(),
+            },
+            ranges: vec![1.0, 2.5],
+            range_count: 2,
+            max_range: 8.0,
+            uniform: true,
+            theta_separation: 0.5,
+            ..RangeFinder::default()
+        })
+    };
+    let laser = tap.register(ChannelSpec::publication(
+        range_finder,
+        "laser",
+        "/laser/RangeFinder",
+    ));
+    let first = Msg {
+        channel: 0,
+        seq: 1,
+        publish_time_ns: 0,
+        log_time_ns: 0,
+        data: scan(1),
+    };
+    tap.try_record(&sample(laser, &first)).unwrap();
+    // Idle twice: whether or not the scan was queued at the first, it is written by the
+    // second, and with it its companions (its frame and /laser/scan).
+    gate.held.recv().unwrap();
+    gate.release.send(()).unwrap();
+    gate.held.recv().unwrap();
+    let sonar = tap.register(ChannelSpec::publication(
+        range_finder,
+        "sonar",
+        "/sonar/RangeFinder",
+    ));
+    gate.release.send(()).unwrap();
+    tap.try_record(&sample(sonar, &first)).unwrap();
+    drop(gate);
+    writer.finish().unwrap();
+
+    let bytes = std::fs::read(&path).unwrap();
+    let mut topics: BTreeMap<String, usize> = BTreeMap::new();
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        *topics
+            .entry(message.unwrap().channel.topic.clone())
+            .or_default() += 1;
+    }
+    assert_eq!(topics.get("/laser/RangeFinder"), Some(&1), "{topics:?}");
+    assert_eq!(topics.get("/sonar/RangeFinder"), Some(&1), "{topics:?}");
+    assert_eq!(topics.get("/laser/scan"), Some(&1), "{topics:?}");
 }
