@@ -112,6 +112,7 @@ pub const WATCHDOG: Duration = Duration::from_secs(30);
 /// When the binary cannot be built.
 #[must_use]
 pub fn lewis_exe() -> PathBuf {
+    wipe_ended_test_namespaces();
     static EXE: OnceLock<PathBuf> = OnceLock::new();
     EXE.get_or_init(|| {
         if let Some(exe) = std::env::var_os("LEWIS_EXE") {
@@ -515,12 +516,30 @@ pub fn descendants(pid: u32) -> Vec<u32> {
     found
 }
 
+/// Removes, once per test process, what the namespaces of earlier test runs left in
+/// `/dev/shm` and `/tmp/iceoryx2` once those runs have ended: nothing else removes it, and
+/// it adds up run after run. Called on the ways every end-to-end test takes into IPC
+/// ([`lewis_exe`], [`open_ipc`]); a namespace some live process uses stays.
+pub fn wipe_ended_test_namespaces() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let report = lewis_runtime::ipc::wipe_orphaned_namespaces();
+        if report.removed > 0 {
+            eprintln!(
+                "removed {} leftovers of {} namespaces of ended test runs",
+                report.removed, report.wiped
+            );
+        }
+    });
+}
+
 /// Opens an IPC node in `namespace` for a test.
 ///
 /// # Panics
 /// When it cannot be opened.
 #[must_use]
 pub fn open_ipc(namespace: &Namespace, name: &str) -> Rc<Ipc> {
+    wipe_ended_test_namespaces();
     Rc::new(Ipc::open(namespace, name).expect("the test's IPC node opens"))
 }
 

@@ -20,6 +20,8 @@
 //! - [`LedgerReader`]: what each publisher of a process that died had sent (every
 //!   publisher notes its count in a small mapped file that outlives it), so that a reader
 //!   counts the samples a killed provider sent that never arrived.
+//! - [`wipe_stale`] / [`wipe_orphaned_namespaces`]: what runs that died left in a namespace,
+//!   or in the namespaces of test runs that have ended, removed.
 //! - [`baseline`]: raw iceoryx2, none of the above, for the latency benchmarks to compare
 //!   with.
 
@@ -30,6 +32,7 @@ mod command;
 mod ledger;
 mod liveness;
 mod namespace;
+mod orphans;
 mod predict;
 mod stale;
 mod wait;
@@ -48,6 +51,7 @@ pub use liveness::{CleanupReport, LivenessError, NodeInfo, NodeLiveness};
 pub use namespace::{
     DEFAULT_NAMESPACE, MAX_NAMESPACE_LEN, NAMESPACE_ENV, Namespace, NamespaceError,
 };
+pub use orphans::{OrphanReport, wipe_orphaned_namespaces};
 pub use stale::{WipeReport, remove_abandoned_channels, remove_abandoned_memory, wipe_stale};
 pub(crate) use wait::SPINS_PER_CLOCK_READ;
 pub use wait::{FdSource, Fired, MAX_WAIT_SOURCES, WaitError, WaitSet, Waitable, WakeMode, Woken};

@@ -21,6 +21,12 @@ pub const DEFAULT_NAMESPACE: &str = "default";
 /// well under the file-name limit.
 pub const MAX_NAMESPACE_LEN: usize = 48;
 
+/// What every file name of every namespace starts with, before the namespace's name.
+const FILE_PREFIX_START: &str = "lewis.";
+
+/// The longest tag [`Namespace::unique`] keeps.
+const UNIQUE_TAG_LEN: usize = 20;
+
 /// Why a namespace name was refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum NamespaceError {
@@ -109,13 +115,44 @@ impl Namespace {
                     '-'
                 }
             })
-            .take(20)
+            .take(UNIQUE_TAG_LEN)
             .collect();
         let tag = if clean.is_empty() { "ns" } else { &clean };
         Self(format!(
             "{tag}-{pid}-{count}-{nanos:x}",
             pid = std::process::id()
         ))
+    }
+
+    /// The id of the process that made this namespace with [`Namespace::unique`], read
+    /// back from its name (`TAG-PID-COUNT-HEX`), so that the namespaces of ended test runs
+    /// can be told apart; `None` for a name of any other shape. A name chosen by hand may
+    /// have that shape too: the id is a hint, not a proof of who uses the namespace.
+    pub fn unique_maker(&self) -> Option<u32> {
+        // From the right: the tag may hold `-` itself.
+        let mut parts = self.0.rsplitn(4, '-');
+        let (nanos, count, pid, tag) = (parts.next()?, parts.next()?, parts.next()?, parts.next()?);
+        // `nanos` is below 10^9: at most 8 hex digits, in lower case as `{:x}` writes them.
+        let hex = |s: &str| {
+            (1..=8).contains(&s.len())
+                && s.bytes()
+                    .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+        };
+        let tag_ok = (1..=UNIQUE_TAG_LEN).contains(&tag.len())
+            && tag.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-');
+        // Digits checked before `parse`: it takes a leading `+`, which `unique` never writes.
+        if !(tag_ok && hex(nanos) && decimal(count) && decimal(pid)) {
+            return None;
+        }
+        pid.parse::<u32>().ok().filter(|&pid| pid != 0)
+    }
+
+    /// The namespace a file of some namespace (`lewis.NAME.rest`, in `/dev/shm` or
+    /// `/tmp/iceoryx2`) belongs to, for finding the namespaces that left files behind;
+    /// `None` for a name that is no namespace's.
+    pub fn of_file_name(file_name: &str) -> Option<Self> {
+        let (name, _rest) = file_name.strip_prefix(FILE_PREFIX_START)?.split_once('.')?;
+        Self::new(name).ok()
     }
 
     /// The name itself.
@@ -126,7 +163,7 @@ impl Namespace {
     /// The iceoryx2 file prefix for this namespace. The `.` separators cannot appear in a
     /// namespace, so two namespaces never produce overlapping prefixes.
     pub fn iceoryx2_prefix(&self) -> String {
-        format!("lewis.{}.", self.0)
+        format!("{FILE_PREFIX_START}{}.", self.0)
     }
 
     /// The iceoryx2 configuration that confines everything to this namespace.
@@ -151,6 +188,11 @@ impl Namespace {
             .subscriber_expired_connection_buffer = EXPIRED_CONNECTION_SLOTS;
         Ok(config)
     }
+}
+
+/// Whether `s` is a plain decimal number: digits only, no sign.
+fn decimal(s: &str) -> bool {
+    !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())
 }
 
 /// Slots a subscriber keeps for the connections of publishers that left (see
@@ -222,6 +264,58 @@ mod tests {
         assert_ne!(a, b);
         for ns in [a, b, Namespace::unique("")] {
             assert_eq!(Namespace::new(ns.as_str()), Ok(ns.clone()));
+        }
+    }
+
+    #[test]
+    fn the_maker_of_a_unique_namespace_is_read_back_and_other_shapes_give_none() {
+        let own = Some(std::process::id());
+        assert_eq!(
+            Namespace::unique("record-discover-late").unique_maker(),
+            own
+        );
+        assert_eq!(Namespace::unique("").unique_maker(), own);
+        assert_eq!(Namespace::unique("a_b.c").unique_maker(), own);
+        let maker = |name: &str| Namespace::new(name).ok().and_then(|ns| ns.unique_maker());
+        assert_eq!(maker("record-discover-late-12278-31-16832040"), Some(12278));
+        assert_eq!(maker("--7-0-0"), Some(7), "a tag of dashes only");
+        for name in [
+            "default",
+            "chal1",
+            "a-1-2",
+            "-1-2-3",
+            "a-0-1-f",
+            "a-+1-2-f",
+            "a-1-+2-f",
+            "a-1-2-F",
+            "a-1-2-123456789",
+            "a-1-2-g",
+            "a-1--f",
+            "a-99999999999-2-f",
+            "a_b-1-2-f",
+            "abcdefghijklmnopqrstu-1-2-f",
+        ] {
+            assert_eq!(maker(name), None, "{name}");
+        }
+    }
+
+    #[test]
+    fn the_namespace_of_a_file_is_read_from_its_name() {
+        let of = |name: &str| Namespace::of_file_name(name).map(|ns| ns.0);
+        assert_eq!(of("lewis.default.ledgers").as_deref(), Some("default"));
+        assert_eq!(
+            of("lewis.b21r-bump-12278-0-3b24fd59.9204dd18_node.0_10_0.global_mgmt").as_deref(),
+            Some("b21r-bump-12278-0-3b24fd59")
+        );
+        for name in [
+            "lewis.default",
+            "lewis..x",
+            "lewis.",
+            "other.ns.x",
+            "lewis.a b.x",
+            "",
+        ] {
+            assert_eq!(of(name), None, "{name}");
         }
     }
 

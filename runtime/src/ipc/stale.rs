@@ -21,7 +21,7 @@ use iceoryx2::prelude::{CallbackProgression, ipc};
 use super::Namespace;
 
 /// Where iceoryx2 keeps its files and its shared memory on Linux.
-const ROOTS: [&str; 2] = ["/tmp/iceoryx2", "/dev/shm"];
+pub(super) const ROOTS: [&str; 2] = ["/tmp/iceoryx2", "/dev/shm"];
 
 /// How recently changed an entry must be to belong to a process joining right now.
 const JOINING: Duration = Duration::from_secs(1);
@@ -42,7 +42,7 @@ pub fn wipe_stale(namespace: &Namespace) -> WipeReport {
     wipe_stale_under(namespace, &ROOTS.map(PathBuf::from))
 }
 
-fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
+pub(super) fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
     let Ok(config) = namespace.iceoryx2_config() else {
         return WipeReport::default();
     };
@@ -77,7 +77,7 @@ fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
 }
 
 /// Where iceoryx2 keeps the static configuration of each service (channel).
-const SERVICES: &str = "/tmp/iceoryx2/services";
+pub(super) const SERVICES: &str = "/tmp/iceoryx2/services";
 
 /// How long a channel may stay half made before it counts as abandoned: its maker writes
 /// and finalises it within milliseconds.
