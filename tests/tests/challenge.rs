@@ -280,6 +280,12 @@ fn course(mission: &serde_json::Value) -> Vec<String> {
 /// registering needs no range.
 fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) {
     let (same, text) = replay_all(run, &["--check"], &dir.join("same.mcap"));
+    // What the replayed broker gave up on, beside the printed summary: a closed loop that
+    // goes another way than live shows it there first.
+    let text = format!(
+        "{text}\nthe replay's failures: {}\nrecorded deaths: {}",
+        same["failures"], same["mission"]["recorded_faults"]
+    );
     let mission = &same["mission"];
     assert_eq!(mission["loop"], "closed", "{text}");
     let live_course: Vec<String> = live
