@@ -21,8 +21,8 @@ use crate::service::registry;
 #[derive(Debug, Args)]
 #[command(
     after_help = "Fault SPECs: PROVIDER[@START[-END]][:KIND], KIND one of \
-    crash, stall (the default), garbage, frozen, slow, out-of-service, host-lost; times from the \
-    start of the recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser \
+    crash, stall (the default), garbage, frozen, slow, out-of-service, stuck, host-lost; times \
+    from the start of the recording (12.5s, 12.5 or 500ms). `laser` stalls the provider named laser \
     half-way through; `laser@12.5s-20s:crash` crashes it for a window, then lets it recover. \
     A robot on more than one host loses a host named: `workstation@12s-20s` cuts it off, \
     its services with it, and it joins again at 20 s.\n\n\
@@ -93,7 +93,8 @@ pub struct ReplayArgs {
     /// How many fault times a sweep tries, spread evenly across the run.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..), requires = "sweep_fault")]
     pub steps: u32,
-    /// How a sweep's providers fail: crash, stall, garbage, frozen, slow or out-of-service.
+    /// How a sweep's providers fail: crash, stall, garbage, frozen, slow, out-of-service or
+    /// stuck.
     #[arg(long, default_value = "crash", value_parser = parse_kind, requires = "sweep_fault")]
     pub kind: FaultKind,
     /// Replays a sweep runs at once (default: one per core).

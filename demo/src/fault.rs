@@ -63,13 +63,13 @@ impl LiveFault {
     /// mission's start, none: after the first state).
     ///
     /// # Errors
-    /// For `garbage`, `frozen` and `slow` (only a replay can make any service publish bad
-    /// data)
-    /// and for a time window (a live fault is not cleared).
+    /// For `garbage`, `frozen`, `slow` and `stuck` (only a replay can make any service
+    /// publish bad data or stick its loop) and for a time window (a live fault is not
+    /// cleared).
     pub fn from_spec(spec: &FaultSpec) -> Result<Self, String> {
         if matches!(
             spec.kind,
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow
+            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow | FaultKind::Stuck
         ) {
             return Err(format!(
                 "--fault {}: `{}` can only be injected in a replay; use crash, stall or out-of-service",
@@ -234,7 +234,11 @@ impl Watch {
                     self.log.error = Some(e.to_string());
                 }
             }
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow | FaultKind::HostLost => {
+            FaultKind::Garbage
+            | FaultKind::Frozen
+            | FaultKind::Slow
+            | FaultKind::Stuck
+            | FaultKind::HostLost => {
                 let kind = self.fault.kind;
                 self.log.error = Some(format!("{kind} cannot be injected live"));
             }

@@ -14,8 +14,11 @@
 //! | `frozen` | publishes its last good payload again (new headers) | its frozen check fails |
 //! | `slow` | drops two samples of three | its rate check fails |
 //! | `out-of-service` | no data; heartbeats declare it out of service | clients moved away at once |
+//! | `stuck` | its event loop sticks in one step: no data; its heartbeat thread says so, then nothing | failed at once, its process stopped |
 //! | `host-lost` | a host of a robot on more than one (PROVIDER names it): none of its services is heard | its services failed, clients moved; from END it joins again |
 //!
+//! A `crash` or `stuck` that finds its provider between a death and the restart after it
+//! strikes the restarted process at its start: there is a process to strike, only later.
 //! A host is lost by naming it: `workstation@12s-20s` (the kind may be left out).
 //! Heartbeats go on under `garbage`, `frozen` and `slow`: only the broker's checks of the
 //! data see them (where the robot file has them on for the interface).
@@ -42,6 +45,10 @@ pub enum FaultKind {
     Slow,
     /// No data; the heartbeats declare the provider out of service.
     OutOfService,
+    /// The event loop sticks in one step: no data, and the heartbeat thread says so once
+    /// before going silent; the broker fails it at once and stops its process. A recorded
+    /// death the live broker gave up at is lived again as one.
+    Stuck,
     /// A whole host cut off (its name given as the provider): nothing of its services is
     /// heard, the broker is told the host is lost, and it joins again at the fault's end.
     HostLost,
@@ -50,7 +57,7 @@ pub enum FaultKind {
 impl FaultKind {
     /// Every kind's name, as written in a SPEC.
     pub const NAMES: &'static str =
-        "crash, stall, garbage, frozen, slow, out-of-service, host-lost";
+        "crash, stall, garbage, frozen, slow, out-of-service, stuck, host-lost";
 
     /// The kind of `name`, as written in a SPEC.
     #[must_use]
@@ -62,6 +69,7 @@ impl FaultKind {
             Self::Frozen,
             Self::Slow,
             Self::OutOfService,
+            Self::Stuck,
             Self::HostLost,
         ]
         .into_iter()
@@ -78,6 +86,7 @@ impl FaultKind {
             Self::Frozen => "frozen",
             Self::Slow => "slow",
             Self::OutOfService => "out-of-service",
+            Self::Stuck => "stuck",
             Self::HostLost => "host-lost",
         }
     }

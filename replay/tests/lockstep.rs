@@ -465,6 +465,53 @@ fn a_crash_window_restarts_the_laser_and_the_client_stays_with_it() {
     );
 }
 
+#[test]
+fn a_stuck_laser_is_failed_at_once_and_its_client_moves_to_the_sonar() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = replay_default(dir.path(), &["laser@0.5s:stuck"]);
+    let fault = &report.faults[0];
+    let takeover = &fault.takeovers[0];
+    // Its heartbeat thread says so: no deadline of silence is waited for.
+    assert_eq!(
+        (takeover.provider.as_str(), takeover.latency_ns),
+        ("sonar", 0),
+        "{report}"
+    );
+    assert!(
+        fault
+            .reactions
+            .iter()
+            .any(|r| r.action == "laser failed" && r.reason.contains("stuck")),
+        "{report}"
+    );
+}
+
+#[test]
+fn crashes_between_a_death_and_its_restart_strike_the_restarted_processes() {
+    let dir = tempfile::tempdir().unwrap();
+    // The second and third crash come before the restart after the first (20 ms of
+    // backoff): there was no process to strike then, so the next two processes die at their
+    // start. Three deaths: beyond the restart policy (2), as if each had found a process.
+    let report = replay_default(
+        dir.path(),
+        &[
+            "laser@0.5s-0.501s:crash",
+            "laser@0.505s-0.506s:crash",
+            "laser@0.51s-0.511s:crash",
+        ],
+    );
+    let failed: Vec<&str> = report
+        .failures
+        .iter()
+        .filter(|f| f.service == "laser")
+        .map(|f| f.reason.as_str())
+        .collect();
+    assert!(
+        failed.iter().any(|r| r.contains("its failure 3")),
+        "{failed:?}\n{report}"
+    );
+}
+
 /// The laser on the workstation: a replay joins the host when the recording says the live
 /// broker heard it join, and loses it when it was lost, or when a fault says so.
 fn replay_two_hosts(dir: &Path, hosts: &[(i64, &str, &str, &str)], faults: &[&str]) -> Report {

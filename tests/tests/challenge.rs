@@ -180,6 +180,17 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
             .join("\n")
     );
 
+    // The demo kills the laser until the broker gives it up: that last death is lived
+    // again as the give-up it was (a stuck loop), whatever the replay's restart count.
+    let deaths = mission["recorded_faults"].as_array().unwrap();
+    assert!(
+        deaths
+            .last()
+            .and_then(|d| d.as_str())
+            .is_some_and(|d| d.ends_with(":stuck")),
+        "{deaths:?}"
+    );
+
     closed_loop_verdicts(&run_mcap, dir.path(), &verdict);
     sweep_on_one_and_two_threads(&run_mcap, dir.path());
 }

@@ -89,7 +89,7 @@ impl Lockstep<'_> {
         }
         if matches!(
             self.fault_of(&provider),
-            Some(FaultKind::Stall | FaultKind::Crash)
+            Some(FaultKind::Stall | FaultKind::Crash | FaultKind::Stuck)
         ) {
             self.stats.calls_failed += 1;
             let at = self.now_ns.saturating_add(timeout_ns);

@@ -492,7 +492,12 @@ impl Lockstep<'_> {
                     _ => self.start_service(service),
                 }
             }
-            Action::Stop { service } => self.stop_service(service, sink),
+            Action::Stop { service } => {
+                // A restart given up: nothing pending strikes a later start.
+                self.restarting.remove(service);
+                self.strikes.remove(service);
+                self.stop_service(service, sink);
+            }
             Action::Bind {
                 client,
                 interface,
@@ -515,16 +520,24 @@ impl Lockstep<'_> {
             } => {
                 self.bindings.remove(&(client.clone(), interface.clone()));
             }
-            Action::Reject { .. }
-            | Action::AskForHelp { .. }
-            | Action::RestartScheduled { .. }
-            | Action::ServiceFailed { .. }
-            | Action::ServiceDegraded { .. } => {}
+            Action::RestartScheduled { service, .. } => {
+                self.restarting.insert(service.clone());
+            }
+            Action::ServiceFailed { service, .. } => {
+                self.restarting.remove(service);
+                self.strikes.remove(service);
+            }
+            Action::Reject { .. } | Action::AskForHelp { .. } | Action::ServiceDegraded { .. } => {}
         }
     }
 
     fn start_service(&mut self, service: &str) {
-        let crashing = self.fault_of(service) == Some(FaultKind::Crash);
+        self.restarting.remove(service);
+        let strike = self.strikes.get_mut(service).and_then(VecDeque::pop_front);
+        let crashing =
+            self.fault_of(service) == Some(FaultKind::Crash) || strike == Some(FaultKind::Crash);
+        let stuck =
+            self.fault_of(service) == Some(FaultKind::Stuck) || strike == Some(FaultKind::Stuck);
         let stalling = self.fault_of(service) == Some(FaultKind::Stall);
         self.work.push_back(Work::Broker(Event::ProviderStarted {
             service: service.to_owned(),
@@ -578,6 +591,9 @@ impl Lockstep<'_> {
                 service: service.to_owned(),
                 health: Health::Ok,
             }));
+        }
+        if stuck {
+            self.stick(service, "its loop stuck at its start (a fault)");
         }
         self.work.push_back(Work::Start {
             service: service.to_owned(),

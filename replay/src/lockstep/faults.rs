@@ -72,7 +72,11 @@ impl Lockstep<'_> {
                 }
             }
             Some(
-                FaultKind::Stall | FaultKind::Crash | FaultKind::OutOfService | FaultKind::HostLost,
+                FaultKind::Stall
+                | FaultKind::Crash
+                | FaultKind::OutOfService
+                | FaultKind::Stuck
+                | FaultKind::HostLost,
             ) => {
                 self.stats.faulted_publications += 1;
                 None
@@ -89,6 +93,13 @@ impl Lockstep<'_> {
         });
         let provider = fault.provider.clone();
         match fault.kind {
+            // Between a death and its restart: the restarted process is the one struck.
+            FaultKind::Crash | FaultKind::Stuck if self.restarting.contains(&provider) => {
+                self.strikes
+                    .entry(provider)
+                    .or_default()
+                    .push_back(fault.kind);
+            }
             FaultKind::Crash => {
                 if let Some(sim) = self.sims.get_mut(&provider) {
                     if sim.instance.take().is_none() {
@@ -100,6 +111,9 @@ impl Lockstep<'_> {
                     service: provider,
                     status: ExitStatus::Signal(SIGABRT),
                 }));
+            }
+            FaultKind::Stuck => {
+                self.stick(&provider, &format!("its loop stuck (fault {})", fault.spec));
             }
             FaultKind::Stall => {
                 if let Some(sim) = self.sims.get_mut(&provider) {
@@ -120,6 +134,18 @@ impl Lockstep<'_> {
             }
             FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
         }
+    }
+
+    /// `service`'s event loop sticks: its heartbeat thread says so, then it is silent until
+    /// its process is stopped.
+    pub(super) fn stick(&mut self, service: &str, why: &str) {
+        if let Some(sim) = self.sims.get_mut(service) {
+            sim.stalled = true;
+        }
+        self.work.push_back(Work::Broker(Event::LoopStuck {
+            service: service.to_owned(),
+            why: why.to_owned(),
+        }));
     }
 
     pub(super) fn fault_ends(&mut self, i: usize, sink: &mut dyn Sink) {
@@ -150,7 +176,12 @@ impl Lockstep<'_> {
                     host: fault.provider,
                 }));
             }
-            FaultKind::Crash | FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
+            // A stuck process stays stuck until the broker stops it.
+            FaultKind::Crash
+            | FaultKind::Stuck
+            | FaultKind::Garbage
+            | FaultKind::Frozen
+            | FaultKind::Slow => {}
         }
     }
 

@@ -282,6 +282,12 @@ pub struct Lockstep<'a> {
     bindings: BTreeMap<(String, String), String>,
     requested: BTreeSet<(String, String)>,
     routes: BTreeMap<Arc<str>, Route>,
+    /// The services whose restart the broker scheduled and that have not started yet.
+    restarting: BTreeSet<String>,
+    /// Crashes and stuck loops that struck a service while its restart was pending, oldest
+    /// first: each strikes a later process at its start instead (a recorded death had a
+    /// process to strike live; the replay's restart merely came later than live's).
+    strikes: BTreeMap<String, VecDeque<FaultKind>>,
     timers: BTreeMap<(i64, u64), Timer>,
     timer_seq: u64,
     deadline_at: Option<i64>,
@@ -377,6 +383,8 @@ impl<'a> Lockstep<'a> {
             bindings: BTreeMap::new(),
             requested: BTreeSet::new(),
             routes: BTreeMap::new(),
+            restarting: BTreeSet::new(),
+            strikes: BTreeMap::new(),
             timers: BTreeMap::new(),
             timer_seq: 0,
             deadline_at: None,
@@ -483,7 +491,12 @@ impl<'a> Lockstep<'a> {
                     return;
                 };
                 let event = match self.fault_of(&service) {
-                    Some(FaultKind::Stall | FaultKind::Crash | FaultKind::HostLost) => return,
+                    Some(
+                        FaultKind::Stall
+                        | FaultKind::Crash
+                        | FaultKind::Stuck
+                        | FaultKind::HostLost,
+                    ) => return,
                     Some(FaultKind::OutOfService) => Event::Heartbeat {
                         service,
                         health: faults::injected_out_of_service(),

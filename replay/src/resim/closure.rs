@@ -248,8 +248,8 @@ fn find_script(script: &Path, recording: &Recording) -> PathBuf {
 /// What the recorded broker decisions say of the live run.
 #[derive(Debug, Default)]
 struct BrokerHistory {
-    /// Every death of a service's process: the service and when.
-    deaths: Vec<(String, i64)>,
+    /// Every death of a service's process: the service, when, and how it is lived again.
+    deaths: Vec<(String, i64, FaultKind)>,
     /// When each client first appears in a decision (its first request answered).
     first_seen: BTreeMap<String, i64>,
 }
@@ -259,6 +259,11 @@ impl BrokerHistory {
     /// restart of, or gave up after such a restart (the demo kills the laser again after
     /// every restart). A service given up at its first death (no restart allowed) is not
     /// told apart from one that could not start, and is left out.
+    ///
+    /// A death the broker restarted after is lived again as a crash. One it gave up at is
+    /// lived again as a stuck loop, which the broker fails at once whatever its count: live
+    /// it may have given up for a stall (a killed process whose heartbeats stopped before
+    /// its exit was seen), which a crash would turn into one more restart.
     fn read(recording: &Recording, robot: &Robot) -> Self {
         let mut history = Self::default();
         let Ok(messages) = recording.messages_on(&[names::BROKER_CHANNEL]) else {
@@ -275,30 +280,37 @@ impl BrokerHistory {
                     .or_insert(decision.at_ns);
             }
             let died = match BrokerAction::parse(&decision.action) {
-                Some(BrokerAction::RestartScheduled) => robot.service(&decision.service).is_some(),
-                Some(BrokerAction::ServiceFailed) => {
-                    history.deaths.iter().any(|(s, _)| *s == decision.service)
+                Some(BrokerAction::RestartScheduled)
+                    if robot.service(&decision.service).is_some() =>
+                {
+                    Some(FaultKind::Crash)
                 }
-                _ => false,
+                Some(BrokerAction::ServiceFailed)
+                    if history.deaths.iter().any(|(s, ..)| *s == decision.service) =>
+                {
+                    Some(FaultKind::Stuck)
+                }
+                _ => None,
             };
-            if died {
+            if let Some(kind) = died {
                 history
                     .deaths
-                    .push((decision.service.clone(), decision.at_ns));
+                    .push((decision.service.clone(), decision.at_ns, kind));
             }
         }
         history
     }
 
-    /// Each death applied again at its time as a crash of an instant: the process dies
-    /// then, and a restart after it runs until the next death, as it did live.
+    /// Each death applied again at its time as a fault of an instant (a crash, or a stuck
+    /// loop where the broker gave up): the process dies then, and a restart after it runs
+    /// until the next death, as it did live.
     fn deaths(&self, start_ns: i64) -> Vec<Fault> {
         self.deaths
             .iter()
-            .map(|(provider, at_ns)| Fault {
-                spec: format!("{provider}@{}:crash", format_seconds(at_ns - start_ns)),
+            .map(|(provider, at_ns, kind)| Fault {
+                spec: format!("{provider}@{}:{kind}", format_seconds(at_ns - start_ns)),
                 provider: provider.clone(),
-                kind: FaultKind::Crash,
+                kind: *kind,
                 at_ns: *at_ns,
                 until_ns: Some(at_ns + 1),
             })

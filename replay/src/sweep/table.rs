@@ -236,6 +236,7 @@ fn fault_sentence(providers: &[String], kind: FaultKind) -> String {
         FaultKind::Frozen => plural_verb(one, "freezes", "freeze"),
         FaultKind::Slow => plural_verb(one, "slows down", "slow down"),
         FaultKind::OutOfService => plural_verb(one, "goes out of service", "go out of service"),
+        FaultKind::Stuck => plural_verb(one, "gets stuck", "get stuck"),
         FaultKind::HostLost => plural_verb(one, "is cut off", "are cut off"),
     };
     let subjects: Vec<String> = providers.iter().map(|p| format!("the {p}")).collect();
