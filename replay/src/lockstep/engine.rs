@@ -493,9 +493,7 @@ impl Lockstep<'_> {
                 }
             }
             Action::Stop { service } => {
-                // A restart given up: nothing pending strikes a later start.
-                self.restarting.remove(service);
-                self.strikes.remove(service);
+                self.forget_restart(service);
                 self.stop_service(service, sink);
             }
             Action::Bind {
@@ -523,22 +521,25 @@ impl Lockstep<'_> {
             Action::RestartScheduled { service, .. } => {
                 self.restarting.insert(service.clone());
             }
-            Action::ServiceFailed { service, .. } => {
-                self.restarting.remove(service);
-                self.strikes.remove(service);
-            }
+            Action::ServiceFailed { service, .. } => self.forget_restart(service),
             Action::Reject { .. } | Action::AskForHelp { .. } | Action::ServiceDegraded { .. } => {}
         }
+    }
+
+    /// A restart that will not come (the service stopped or failed for good): nothing kept
+    /// for it strikes a later start.
+    fn forget_restart(&mut self, service: &str) {
+        self.restarting.remove(service);
+        self.strikes.remove(service);
     }
 
     fn start_service(&mut self, service: &str) {
         self.restarting.remove(service);
         let strike = self.strikes.get_mut(service).and_then(VecDeque::pop_front);
-        let crashing =
-            self.fault_of(service) == Some(FaultKind::Crash) || strike == Some(FaultKind::Crash);
-        let stuck =
-            self.fault_of(service) == Some(FaultKind::Stuck) || strike == Some(FaultKind::Stuck);
-        let stalling = self.fault_of(service) == Some(FaultKind::Stall);
+        let active = self.fault_of(service);
+        let crashing = active == Some(FaultKind::Crash) || strike == Some(FaultKind::Crash);
+        let stuck = active == Some(FaultKind::Stuck) || strike == Some(FaultKind::Stuck);
+        let stalling = active == Some(FaultKind::Stall);
         self.work.push_back(Work::Broker(Event::ProviderStarted {
             service: service.to_owned(),
         }));

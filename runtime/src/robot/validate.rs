@@ -111,10 +111,10 @@ impl Checker<'_> {
             requirement_spans.push(spans);
         }
         self.requirements(&services, &requirement_spans);
-        let first_tls = super::hosts::first_encrypted_endpoint(&raw.hosts);
+        let first_encrypted = super::hosts::first_encrypted_endpoint(&raw.hosts);
         let hosts = self.hosts(raw.hosts);
         self.service_hosts(&services, &hosts, &host_spans);
-        let network = self.network(raw.network, &broker, &hosts, first_tls.as_ref());
+        let network = self.network(raw.network, &broker, &hosts, first_encrypted.as_ref());
         Robot {
             name: header.name.into_inner(),
             description: header.description,
