@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use lewis_demo::{DemoOptions, LiveFault, run_demo};
 use lewis_interfaces::cdr;
-use lewis_interfaces::msg::Broker;
+use lewis_interfaces::msg::{Broker, LogLine};
 use lewis_replay::lockstep::{Program, Programs};
 use lewis_replay::outcome::LoopKind;
 use lewis_runtime::ipc::Namespace;
@@ -56,6 +56,36 @@ fn robot_with_absolute_paths(dir: &Path) -> PathBuf {
     path
 }
 
+/// The broker's decisions and the log lines about the laser, a line each by log time, for a failure to say why it was
+/// given up (a recording that cannot be read says so instead).
+fn laser_decisions(recording: &Path) -> String {
+    if !recording.is_file() {
+        return format!("({} is missing)", recording.display());
+    }
+    let bytes = std::fs::read(recording).unwrap();
+    let mut lines: Vec<(u64, String)> = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(Result::unwrap)
+        .filter_map(|m| match m.channel.topic.as_str() {
+            "/lewis/broker" => cdr::from_bytes::<Broker>(&m.data)
+                .ok()
+                .filter(|d| d.service == "laser")
+                .map(|d| (m.log_time, format!("broker {}: {}", d.action, d.reason))),
+            "/lewis/log" => cdr::from_bytes::<LogLine>(&m.data)
+                .ok()
+                .filter(|l| l.text.contains("laser"))
+                .map(|l| (m.log_time, format!("log {}: {}", l.service, l.text))),
+            _ => None,
+        })
+        .collect();
+    lines.sort();
+    lines
+        .iter()
+        .map(|(t, line)| format!("{t} {line}"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 fn broker_decisions(recording: &Path) -> Vec<Broker> {
     let bytes = std::fs::read(recording).unwrap();
     mcap::MessageStream::new(&bytes)
@@ -95,7 +125,11 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
 
     assert!(report.succeeded(), "{summary}");
     let fault = &report.fault;
-    assert!(fault.killed.len() >= 3, "{fault:?}\n{summary}");
+    assert!(
+        fault.killed.len() >= 3,
+        "{fault:?}\n{summary}\nthe broker on the laser:\n{}",
+        laser_decisions(&report.files.run)
+    );
     assert!(fault.failed_ns.is_some(), "{fault:?}\n{summary}");
     // Struck once `door` was over, not before.
     let door = &report.mission.verdict.states_visited[0];
