@@ -175,6 +175,8 @@ impl Launch {
                     None
                 }
             });
+        // Held until the robot ends: the kernel drops the request with it.
+        let _awake = lewis_runtime::supervise::keep_cores_awake_for(&robot);
         // Each service's heartbeat thread asks for it itself; said here once for all.
         match robot.broker.heartbeat_priority {
             0 => {}

@@ -1,14 +1,17 @@
-//! `[broker] nice`: `lewis up` runs the robot at the robot file's nice value, its services
-//! inherit it, and where the machine does not allow it the run goes on and says why.
+//! `[broker] nice` and `keep_cores_awake`: `lewis up` runs the robot at the robot file's
+//! nice value, its services inherit it, it keeps the machine's cores awake while the robot
+//! runs, and where the machine does not allow either the run goes on and says why.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::process::Command;
 
 use lewis_runtime::ipc::Namespace;
+use lewis_runtime::supervise::{cpu_latency_target_us, keep_cores_awake};
 use lewis_tests::{Up, lewis_exe};
 
-fn robot(nice: i32) -> String {
+/// A robot of one test laser, with `broker` among its `[broker]` settings.
+fn robot(broker: &str) -> String {
     format!(
         r#"
 [robot]
@@ -17,7 +20,7 @@ name = "nice"
 [broker]
 heartbeat_period_ms = 20
 heartbeat_deadline_ms = 1000
-nice = {nice}
+{broker}
 
 [[services]]
 name = "laser"
@@ -45,7 +48,7 @@ fn the_broker_and_its_services_run_at_the_robot_files_nice_value() {
     // Lowering a priority needs no privilege, so this holds on any machine. Its own
     // session: where the kernel groups processes by session, lewis up lowers its session's
     // group too, which must not be the test's.
-    let mut up = Up::start_in_own_session("nice", &robot(7));
+    let mut up = Up::start_in_own_session("nice", &robot("nice = 7"));
     up.wait_line("the robot runs at nice 7");
     up.wait_line("laser: started");
     assert_eq!(nice_of(up.pid()), 7);
@@ -63,7 +66,7 @@ fn a_robot_not_allowed_its_priority_runs_and_says_why() {
     };
     let dir = tempfile::tempdir().unwrap();
     let robot_path = dir.path().join("robot.toml");
-    std::fs::write(&robot_path, robot(-5)).unwrap();
+    std::fs::write(&robot_path, robot("nice = -5")).unwrap();
     let namespace = Namespace::unique("nice-denied");
     let output = Command::new(setpriv)
         .args(["--bounding-set=-sys_nice", "--inh-caps=-sys_nice"])
@@ -88,6 +91,64 @@ fn a_robot_not_allowed_its_priority_runs_and_says_why() {
         stderr.contains("laser: started") || stderr.contains("broker up"),
         "{stderr}"
     );
+}
+
+#[test]
+fn the_cores_are_kept_awake_while_the_robot_runs_and_sleep_again_after() {
+    // A request made and dropped at once: whether this machine lets the test make one.
+    if let Err(e) = keep_cores_awake() {
+        eprintln!("skipped: {e}");
+        return;
+    }
+    let mut up = Up::start("awake", &robot("keep_cores_awake = true"));
+    up.wait_line("the cores are kept awake while the robot runs");
+    up.wait_line("laser: started");
+    assert_eq!(cpu_latency_target_us(), Some(0), "{}", up.log());
+    assert!(up.stop().success(), "{}", up.log());
+    assert_ne!(cpu_latency_target_us(), Some(0));
+}
+
+#[test]
+fn a_robot_whose_machine_refuses_to_keep_the_cores_awake_runs_and_says_why() {
+    // In a mount namespace of lewis's own (root only), the device is a read-only file: a
+    // write to a device node is allowed on a read-only mount.
+    let dir = tempfile::tempdir().unwrap();
+    let robot_path = dir.path().join("robot.toml");
+    std::fs::write(&robot_path, robot("keep_cores_awake = true")).unwrap();
+    let stand_in = dir.path().join("cpu_dma_latency");
+    std::fs::write(&stand_in, []).unwrap();
+    let namespace = Namespace::unique("awake-refused");
+    let output = Command::new("unshare")
+        .args(["--mount", "--propagation", "private", "sh", "-c"])
+        .arg(
+            "mount --bind \"$0\" /dev/cpu_dma_latency \
+             && mount -o remount,bind,ro /dev/cpu_dma_latency && exec \"$@\"",
+        )
+        .arg(&stand_in)
+        .arg(lewis_exe())
+        .arg("up")
+        .arg(&robot_path)
+        .args(["--namespace", namespace.as_str(), "--no-record"])
+        .args(["--duration", "1s"])
+        .current_dir(dir.path())
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    if stderr.contains("unshare:") || stderr.contains("mount:") {
+        eprintln!("skipped: cannot make the device read-only here: {stderr}");
+        return;
+    }
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("cannot keep the cores awake through /dev/cpu_dma_latency"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("the cores sleep as the machine has them"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("broker up"), "{stderr}");
 }
 
 fn which_setpriv() -> Result<std::path::PathBuf, ()> {

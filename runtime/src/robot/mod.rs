@@ -24,6 +24,7 @@
 //!
 //! data_checks = true              # check what providers publish (default: false)
 //! nice = -10                      # run the robot ahead of other work (default: as started)
+//! keep_cores_awake = true         # idle cores poll rather than sleep (default: false)
 //! heartbeat_priority = 1          # SCHED_FIFO priority of heartbeat threads (default 1; 0: none)
 //! # cpu_budget_percent = 150       # optional: CPU the services may use together, in percent
 //! #                                # of one core (measured, or `cost` until measured)
@@ -197,6 +198,10 @@ pub struct BrokerSettings {
     /// The nice value `lewis up` runs the robot at (broker, recorder, services and programs
     /// inherit it), from -20 (first) to 19 (last); `None` leaves the one it was started with.
     pub nice: Option<i32>,
+    /// Whether `lewis up` keeps its machine's cores out of deep idle states while the robot
+    /// runs (`[broker] keep_cores_awake`, off by default): see
+    /// [`keep_cores_awake`](crate::supervise::keep_cores_awake).
+    pub keep_cores_awake: bool,
     /// The `SCHED_FIFO` priority each service's heartbeat thread asks for (1 to 99; 0 leaves
     /// it to the normal scheduler), so that a busy machine cannot delay a heartbeat: the
     /// thread wakes at the heartbeat period for microseconds. Where the machine does not
@@ -291,6 +296,7 @@ impl Default for BrokerSettings {
             data_checks: false,
             checks_per_interface: BTreeMap::new(),
             nice: None,
+            keep_cores_awake: false,
             heartbeat_priority: DEFAULT_HEARTBEAT_PRIORITY,
             cpu_budget_percent: None,
         }

@@ -77,6 +77,7 @@ pub(super) struct RawBroker {
     pub retry_probation_ms: Option<Spanned<i64>>,
     pub data_checks: Option<bool>,
     pub nice: Option<Spanned<i64>>,
+    pub keep_cores_awake: Option<bool>,
     pub heartbeat_priority: Option<Spanned<i64>>,
     pub cpu_budget_percent: Option<Spanned<i64>>,
 }

@@ -263,6 +263,25 @@ fn a_nice_value_out_of_range_is_placed() {
 }
 
 #[test]
+fn keeping_the_cores_awake_is_asked_for_and_a_wrong_value_is_placed() {
+    let asked = parse(
+        &robot("keep_cores_awake = true"),
+        Path::new("robot.toml"),
+        &[],
+    )
+    .unwrap();
+    assert!(asked.broker.keep_cores_awake);
+    let default = parse(&robot(""), Path::new("robot.toml"), &[]).unwrap();
+    assert!(!default.broker.keep_cores_awake);
+    check(
+        &robot("keep_cores_awake = 1"),
+        &expect![[r#"
+            robot.toml:4:20: invalid type: integer `1`, expected a boolean
+        "#]],
+    );
+}
+
+#[test]
 fn a_heartbeat_priority_out_of_range_is_placed_and_the_default_is_the_lowest() {
     check(
         &robot("heartbeat_priority = 100"),

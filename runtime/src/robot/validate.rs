@@ -184,6 +184,7 @@ impl Checker<'_> {
             data_checks: raw.data_checks.unwrap_or(false),
             checks_per_interface,
             nice: raw.nice.and_then(|nice| self.nice(&nice)),
+            keep_cores_awake: raw.keep_cores_awake.unwrap_or(false),
             heartbeat_priority: raw
                 .heartbeat_priority
                 .map_or(Some(DEFAULT_HEARTBEAT_PRIORITY), |p| {

@@ -32,6 +32,7 @@
 //! Not covered: a grandchild that leaves its process group (`setsid`) escapes both the group
 //! kill and the guard.
 
+mod awake;
 mod error;
 mod event;
 mod guard;
@@ -42,6 +43,10 @@ mod process;
 mod spec;
 mod supervisor;
 
+pub use awake::{
+    AwakeError, CPU_LATENCY_DEVICE, CoresAwake, cpu_latency_target_us, keep_cores_awake,
+    keep_cores_awake_for,
+};
 pub use error::{StartError, StopError, SuperviseError};
 pub use event::{ExitStatus, LogLine, Stream, SupervisorEvent};
 pub use output::MAX_LINE_BYTES;
