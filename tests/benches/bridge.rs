@@ -20,7 +20,8 @@
 //! Both transports run in the same peers, each on its own Zenoh session and port.
 //!
 //! `cargo bench -p lewis-tests --bench bridge` (`-- --frames N`: another camera length,
-//! default 300). Needs root for the network namespaces; skipped with the reason where they
+//! default 300; `-- --keep-cores-awake`: idle cores poll rather than sleep for the whole
+//! run, `/dev/cpu_dma_latency` held at 0, so that no wake-up waits for a sleeping core). Needs root for the network namespaces; skipped with the reason where they
 //! are forbidden. The peer is the `lewis-bridge-peer` binary of this package, which cargo
 //! builds before it runs a benchmark (`CARGO_BIN_EXE_lewis-bridge-peer`);
 //! `LEWIS_BRIDGE_PEER` names another.
@@ -84,6 +85,21 @@ fn main() {
          namespaces), {} CPUs",
         std::thread::available_parallelism().map_or(0, usize::from)
     );
+    // Held until the end of `main`: the kernel drops the request when the file closes.
+    let _awake = if args.iter().any(|a| a == "--keep-cores-awake") {
+        let held = lewis_runtime::supervise::keep_cores_awake().ok();
+        println!(
+            "{}",
+            if held.is_some() {
+                "idle cores kept polling (/dev/cpu_dma_latency held at 0)"
+            } else {
+                "/dev/cpu_dma_latency cannot be written here: idle cores as the machine has them"
+            }
+        );
+        held
+    } else {
+        None
+    };
     let started = Instant::now();
     let [raw, bridge] = measure(&hosts, &peer, frames);
     for host in ["a", "b"] {
