@@ -4,7 +4,8 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use std::process::Command;
+use std::path::Path;
+use std::process::{Command, ExitStatus};
 
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::supervise::{cpu_latency_target_us, keep_cores_awake};
@@ -65,22 +66,10 @@ fn a_robot_not_allowed_its_priority_runs_and_says_why() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let robot_path = dir.path().join("robot.toml");
-    std::fs::write(&robot_path, robot("nice = -5")).unwrap();
-    let namespace = Namespace::unique("nice-denied");
-    let output = Command::new(setpriv)
-        .args(["--bounding-set=-sys_nice", "--inh-caps=-sys_nice"])
-        .arg(lewis_exe())
-        .arg("up")
-        .arg(&robot_path)
-        .args(["--namespace", namespace.as_str(), "--no-record"])
-        .args(["--duration", "1s"])
-        .current_dir(dir.path())
-        .env("NO_COLOR", "1")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{stderr}");
+    let mut setpriv = Command::new(setpriv);
+    setpriv.args(["--bounding-set=-sys_nice", "--inh-caps=-sys_nice"]);
+    let (status, stderr) = up_for_a_second(setpriv, dir.path(), &robot("nice = -5"));
+    assert!(status.success(), "{stderr}");
     assert!(
         stderr.contains(
             "not allowed to raise the robot's priority to nice -5: give lewis CAP_SYS_NICE"
@@ -113,33 +102,22 @@ fn a_robot_whose_machine_refuses_to_keep_the_cores_awake_runs_and_says_why() {
     // In a mount namespace of lewis's own (root only), the device is a read-only file: a
     // write to a device node is allowed on a read-only mount.
     let dir = tempfile::tempdir().unwrap();
-    let robot_path = dir.path().join("robot.toml");
-    std::fs::write(&robot_path, robot("keep_cores_awake = true")).unwrap();
     let stand_in = dir.path().join("cpu_dma_latency");
     std::fs::write(&stand_in, []).unwrap();
-    let namespace = Namespace::unique("awake-refused");
-    let output = Command::new("unshare")
+    let mut unshare = Command::new("unshare");
+    unshare
         .args(["--mount", "--propagation", "private", "sh", "-c"])
         .arg(
             "mount --bind \"$0\" /dev/cpu_dma_latency \
              && mount -o remount,bind,ro /dev/cpu_dma_latency && exec \"$@\"",
         )
-        .arg(&stand_in)
-        .arg(lewis_exe())
-        .arg("up")
-        .arg(&robot_path)
-        .args(["--namespace", namespace.as_str(), "--no-record"])
-        .args(["--duration", "1s"])
-        .current_dir(dir.path())
-        .env("NO_COLOR", "1")
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
+        .arg(&stand_in);
+    let (status, stderr) = up_for_a_second(unshare, dir.path(), &robot("keep_cores_awake = true"));
     if stderr.contains("unshare:") || stderr.contains("mount:") {
         eprintln!("skipped: cannot make the device read-only here: {stderr}");
         return;
     }
-    assert!(output.status.success(), "{stderr}");
+    assert!(status.success(), "{stderr}");
     assert!(
         stderr.contains("cannot keep the cores awake through /dev/cpu_dma_latency"),
         "{stderr}"
@@ -149,6 +127,29 @@ fn a_robot_whose_machine_refuses_to_keep_the_cores_awake_runs_and_says_why() {
         "{stderr}"
     );
     assert!(stderr.contains("broker up"), "{stderr}");
+}
+
+/// Runs `lewis up` on `robot` (written into `dir`) for a second, not recording, through
+/// `wrapper` (a command that ends by running the arguments after its own); its exit status
+/// and what it wrote on stderr.
+fn up_for_a_second(mut wrapper: Command, dir: &Path, robot: &str) -> (ExitStatus, String) {
+    let robot_path = dir.join("robot.toml");
+    std::fs::write(&robot_path, robot).unwrap();
+    let namespace = Namespace::unique("up-for-a-second");
+    let output = wrapper
+        .arg(lewis_exe())
+        .arg("up")
+        .arg(&robot_path)
+        .args(["--namespace", namespace.as_str(), "--no-record"])
+        .args(["--duration", "1s"])
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    (
+        output.status,
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
 }
 
 fn which_setpriv() -> Result<std::path::PathBuf, ()> {

@@ -1513,26 +1513,62 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
         (robot, options)
     }
 
+    /// [`TWO_RANGE_FINDERS`] ready to drive, its IPC and processes real.
+    struct TwoRangeFinders {
+        robot: Robot,
+        options: UpOptions,
+        services: Ipc,
+        _dir: tempfile::TempDir,
+    }
+
+    impl TwoRangeFinders {
+        fn driver(&self) -> Driver<'_> {
+            Driver::new(&self.robot, &self.options, Supervisor::new().unwrap(), None).unwrap()
+        }
+
+        /// A heartbeat publisher for the laser and one for the sonar, as their harnesses
+        /// have.
+        fn heartbeats(&self) -> (Publisher, Publisher) {
+            let health = |name: &str| {
+                self.services
+                    .publisher(&names::health_channel(name), &names::health_config())
+                    .unwrap()
+            };
+            (health("laser"), health("sonar"))
+        }
+    }
+
+    fn two_range_finders(tag: &str) -> TwoRangeFinders {
+        let dir = tempfile::tempdir().unwrap();
+        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, tag);
+        let services = Ipc::open(&options.namespace, "services").unwrap();
+        TwoRangeFinders {
+            robot,
+            options,
+            services,
+            _dir: dir,
+        }
+    }
+
+    /// Boots the broker and makes both services ready with a beat each at the time
+    /// returned: ahead of the broker's clock however slowly this runs (beats sent after the
+    /// time an event is taken at are dated no later than the present), and within the
+    /// startup deadline of the two standbys started with the broker.
+    fn both_ready_ahead(driver: &mut Driver, laser: &mut Publisher, sonar: &mut Publisher) -> i64 {
+        driver.feed(Event::BrokerStarted);
+        let t0 = driver.clock.now_ns() + 5_000 * MS;
+        beat(laser, "laser", t0);
+        beat(sonar, "sonar", t0);
+        driver.take_heartbeats(t0);
+        t0
+    }
+
     #[test]
     fn an_exit_seen_after_the_deadline_is_a_crash_restarted_not_a_stall() {
-        let dir = tempfile::tempdir().unwrap();
-        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "late-exit");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
-        let services = Ipc::open(&options.namespace, "services").unwrap();
-        let mut laser = services
-            .publisher(&names::health_channel("laser"), &names::health_config())
-            .unwrap();
-        let mut sonar = services
-            .publisher(&names::health_channel("sonar"), &names::health_config())
-            .unwrap();
-        driver.feed(Event::BrokerStarted);
-        // Ahead of the broker's clock however slowly this runs (beats sent after the time
-        // an event is taken at are dated no later than the present), and within the
-        // startup deadline of the two standbys started with the broker.
-        let t0 = driver.clock.now_ns() + 5_000 * MS;
-        beat(&mut laser, "laser", t0);
-        beat(&mut sonar, "sonar", t0);
-        driver.take_heartbeats(t0);
+        let rig = two_range_finders("late-exit");
+        let mut driver = rig.driver();
+        let (mut laser, mut sonar) = rig.heartbeats();
+        let t0 = both_ready_ahead(&mut driver, &mut laser, &mut sonar);
         // The laser is killed; its exit is seen 80 ms later, past its 50 ms deadline. The
         // sonar beat meanwhile, after the laser's death.
         for k in 1..=8 {
@@ -1566,22 +1602,10 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
 
     #[test]
     fn a_killed_process_is_not_called_stalled_by_another_service_s_heartbeat_past_its_deadline() {
-        let dir = tempfile::tempdir().unwrap();
-        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "killed");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
-        let services = Ipc::open(&options.namespace, "services").unwrap();
-        let health = |name: &str| {
-            services
-                .publisher(&names::health_channel(name), &names::health_config())
-                .unwrap()
-        };
-        let (mut laser, mut sonar) = (health("laser"), health("sonar"));
-        driver.feed(Event::BrokerStarted);
-        // Ahead of the broker's clock, as above.
-        let t0 = driver.clock.now_ns() + 5_000 * MS;
-        beat(&mut laser, "laser", t0);
-        beat(&mut sonar, "sonar", t0);
-        driver.take_heartbeats(t0);
+        let rig = two_range_finders("killed");
+        let mut driver = rig.driver();
+        let (mut laser, mut sonar) = rig.heartbeats();
+        let t0 = both_ready_ahead(&mut driver, &mut laser, &mut sonar);
 
         // The laser's process is killed and its exit not yet taken; the sonar beats on,
         // past the laser's 50 ms deadline, and its beats are read first.
@@ -1616,16 +1640,9 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
 
     #[test]
     fn heartbeats_sent_while_the_loop_was_held_up_are_taken_before_the_next_event() {
-        let dir = tempfile::tempdir().unwrap();
-        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "held-up");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
-        let services = Ipc::open(&options.namespace, "services").unwrap();
-        let health = |name: &str| {
-            services
-                .publisher(&names::health_channel(name), &names::health_config())
-                .unwrap()
-        };
-        let (mut laser, mut sonar) = (health("laser"), health("sonar"));
+        let rig = two_range_finders("held-up");
+        let mut driver = rig.driver();
+        let (mut laser, mut sonar) = rig.heartbeats();
 
         driver.feed(Event::BrokerStarted);
         let t0 = driver.clock.now_ns();
@@ -1712,13 +1729,9 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
 
     #[test]
     fn heartbeats_sent_after_a_stale_event_time_keep_their_own_times() {
-        let dir = tempfile::tempdir().unwrap();
-        let (robot, options) = robot_and_options(dir.path(), TWO_RANGE_FINDERS, "stale-now");
-        let mut driver = Driver::new(&robot, &options, Supervisor::new().unwrap(), None).unwrap();
-        let services = Ipc::open(&options.namespace, "services").unwrap();
-        let mut sonar = services
-            .publisher(&names::health_channel("sonar"), &names::health_config())
-            .unwrap();
+        let rig = two_range_finders("stale-now");
+        let mut driver = rig.driver();
+        let (_, mut sonar) = rig.heartbeats();
         // All of it a second ago, so that every beat is in the past when it is taken.
         let t0 = driver.clock.now_ns() - 1000 * MS;
         driver.feed_at(t0, Event::BrokerStarted);
