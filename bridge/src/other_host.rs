@@ -66,8 +66,8 @@ pub fn run_host(
     let Some(me) = robot.host(&options.host).filter(|h| h.name != hub.name) else {
         return Err(unknown(robot, &options.host));
     };
-    // Held until this host's part ends: the kernel drops the request with it.
-    let _awake = lewis_runtime::supervise::keep_cores_awake_for(robot);
+    // Before the session's threads, which inherit it; undone when this host's part ends.
+    let _machine = lewis_runtime::supervise::MachineSettings::apply(robot);
     let session = session::open(robot, me, &options.scratch)?;
     let heard = Heard::default();
     let _forwarder = Forwarder::start(

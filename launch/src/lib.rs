@@ -151,46 +151,9 @@ impl Launch {
             signals,
         } = self;
         let namespace = &options.up.namespace;
-        // First, so that every process and thread of the run inherits it.
-        let priority = robot
-            .broker
-            .nice
-            .and_then(|nice| match lewis_runtime::supervise::set_nice(nice) {
-                Ok(set) => {
-                    tracing::info!(
-                        "the robot runs at nice {nice}{}, ahead of other work",
-                        if set.session_group_before.is_some() {
-                            " (its session's group too)"
-                        } else {
-                            ""
-                        }
-                    );
-                    Some(set)
-                }
-                Err(e) => {
-                    tracing::warn!(
-                        "{e}; the robot runs at the priority it was started with, and a \
-                         loaded machine may delay its heartbeats"
-                    );
-                    None
-                }
-            });
-        // Held until the robot ends: the kernel drops the request with it.
-        let _awake = lewis_runtime::supervise::keep_cores_awake_for(&robot);
-        // Each service's heartbeat thread asks for it itself; said here once for all.
-        match robot.broker.heartbeat_priority {
-            0 => {}
-            priority => match lewis_runtime::supervise::realtime_allowed(priority) {
-                Ok(()) => tracing::info!(
-                    "heartbeats run at real-time priority (SCHED_FIFO {priority}), ahead of \
-                     any load"
-                ),
-                Err(e) => tracing::warn!(
-                    "{e}; heartbeats run at normal priority, and a loaded machine may delay \
-                     them"
-                ),
-            },
-        }
+        // First, so that every process and thread of the run inherits it; undone when the
+        // robot ends.
+        let machine = lewis_runtime::supervise::MachineSettings::apply(&robot);
         // Before anything of this run opens a channel: what killed runs left half made
         // would be refused to it.
         let _ = lewis_runtime::ipc::wipe_stale(namespace);
@@ -249,9 +212,7 @@ impl Launch {
         // When the broker could not run, `finish` has not run yet.
         finish();
         let goal = goal.map(GoalRun::finish).transpose();
-        if let Some(priority) = priority {
-            priority.restore();
-        }
+        drop(machine);
         let up = up?;
         tracing::info!("broker down ({}), {} decisions", up.ended_by, up.decisions);
         Ok(LaunchReport {

@@ -60,30 +60,6 @@ pub fn keep_cores_awake() -> Result<CoresAwake, AwakeError> {
     Ok(CoresAwake { _request: request })
 }
 
-/// What each host's `lewis up` does with `[broker] keep_cores_awake`: keeps the cores
-/// awake and says so, or says why it cannot and lets the robot run as the machine is
-/// (the robot works either way, its hops are slower).
-pub fn keep_cores_awake_for(robot: &crate::robot::Robot) -> Option<CoresAwake> {
-    if !robot.broker.keep_cores_awake {
-        return None;
-    }
-    match keep_cores_awake() {
-        Ok(held) => {
-            tracing::info!(
-                "the cores are kept awake while the robot runs ({CPU_LATENCY_DEVICE} held at 0)"
-            );
-            Some(held)
-        }
-        Err(e) => {
-            tracing::warn!(
-                "{e}; the cores sleep as the machine has them, and a wake-up across cores may \
-                 take tens of microseconds"
-            );
-            None
-        }
-    }
-}
-
 /// The machine's CPU latency target in µs, all requests taken together (2,000,000,000 when
 /// none is made), where this process may read it.
 #[must_use]

@@ -36,6 +36,7 @@ mod awake;
 mod error;
 mod event;
 mod guard;
+mod machine;
 mod output;
 mod policy;
 mod priority;
@@ -45,10 +46,10 @@ mod supervisor;
 
 pub use awake::{
     AwakeError, CPU_LATENCY_DEVICE, CoresAwake, cpu_latency_target_us, keep_cores_awake,
-    keep_cores_awake_for,
 };
 pub use error::{StartError, StopError, SuperviseError};
 pub use event::{ExitStatus, LogLine, Stream, SupervisorEvent};
+pub use machine::MachineSettings;
 pub use output::MAX_LINE_BYTES;
 pub use policy::{RestartDecision, RestartPolicy, RestartTracker};
 pub use priority::{PriorityError, PrioritySet, realtime_allowed, set_nice, set_thread_realtime};
