@@ -1,6 +1,6 @@
 //! What one wake-up of a sleeping thread costs on this machine, by where the two threads
 //! run: the floor under every hop between processes that do not spin, and so under the
-//! bridge between hosts (two such hops per one way beyond raw Zenoh).
+//! bridge between hosts (one and a half such hops per one way beyond raw Zenoh).
 //!
 //! Two threads play ping-pong, one way = half the round trip, the pinger sleeping 200 µs
 //! between rounds so that the other side is asleep when each ping comes (as a service
@@ -39,7 +39,7 @@ use std::time::{Duration, Instant};
 use lewis_runtime::ipc::{ChannelConfig, Ipc, Namespace, WaitSet, WakeMode};
 use rustix::event::{EventfdFlags, eventfd};
 use rustix::fd::OwnedFd;
-use rustix::thread::{CpuSet, sched_setaffinity};
+use rustix::thread::{CpuSet, sched_getaffinity, sched_setaffinity};
 
 /// The pinger's sleep between two rounds.
 const GAP: Duration = Duration::from_micros(200);
@@ -232,6 +232,7 @@ fn iceoryx() -> (Builder, Builder) {
 fn measure(make: Make, placement: Placement, count: usize) -> (f64, f64) {
     let (ping, pong) = make();
     let cores = placement.cores();
+    let allowed = sched_getaffinity(None).unwrap();
     pin(cores.map(|c| c.0));
     let mut ping = ping();
     let (ready_tx, ready_rx) = mpsc::channel::<()>();
@@ -255,20 +256,12 @@ fn measure(make: Make, placement: Placement, count: usize) -> (f64, f64) {
     }
     ponger.join().unwrap();
     drop(ping);
-    pin_anywhere();
+    // The main thread runs where it was allowed to again after a pinned cell.
+    sched_setaffinity(None, &allowed).unwrap();
     let mut kept = one_way.split_off(WARMUP.min(one_way.len()));
     kept.sort_by(f64::total_cmp);
     let at = |q: f64| kept[((kept.len() - 1) as f64 * q) as usize];
     (at(0.5), at(0.99))
-}
-
-/// Lets the main thread run anywhere again after a pinned cell.
-fn pin_anywhere() {
-    let mut set = CpuSet::new();
-    for core in 0..cores() {
-        set.set(core);
-    }
-    sched_setaffinity(None, &set).unwrap();
 }
 
 fn cores() -> usize {

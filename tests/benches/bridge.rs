@@ -21,9 +21,10 @@
 //!
 //! `cargo bench -p lewis-tests --bench bridge` (`-- --frames N`: another camera length,
 //! default 300; `-- --keep-cores-awake`: idle cores poll rather than sleep for the whole
-//! run, `/dev/cpu_dma_latency` held at 0, so that no wake-up waits for a sleeping core). Needs root for the network namespaces; skipped with the reason where they
-//! are forbidden. The peer is the `lewis-bridge-peer` binary of this package, which cargo
-//! builds before it runs a benchmark (`CARGO_BIN_EXE_lewis-bridge-peer`);
+//! run, `/dev/cpu_dma_latency` held at 0, so that no wake-up waits for a sleeping core).
+//! Needs root for the network namespaces; skipped with the reason where they are forbidden.
+//! The peer is the `lewis-bridge-peer` binary of this package, which cargo builds before it
+//! runs a benchmark (`CARGO_BIN_EXE_lewis-bridge-peer`);
 //! `LEWIS_BRIDGE_PEER` names another.
 
 #![allow(
@@ -87,16 +88,16 @@ fn main() {
     );
     // Held until the end of `main`: the kernel drops the request when the file closes.
     let _awake = if args.iter().any(|a| a == "--keep-cores-awake") {
-        let held = lewis_runtime::supervise::keep_cores_awake().ok();
-        println!(
-            "{}",
-            if held.is_some() {
-                "idle cores kept polling (/dev/cpu_dma_latency held at 0)"
-            } else {
-                "/dev/cpu_dma_latency cannot be written here: idle cores as the machine has them"
+        match lewis_runtime::supervise::keep_cores_awake() {
+            Ok(held) => {
+                println!("idle cores kept polling (/dev/cpu_dma_latency held at 0)");
+                Some(held)
             }
-        );
-        held
+            Err(e) => {
+                println!("{e}: idle cores as the machine has them");
+                None
+            }
+        }
     } else {
         None
     };

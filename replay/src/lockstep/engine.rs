@@ -518,23 +518,21 @@ impl Lockstep<'_> {
             } => {
                 self.bindings.remove(&(client.clone(), interface.clone()));
             }
-            Action::RestartScheduled { service, .. } => {
-                self.restarting.insert(service.clone());
-            }
             Action::ServiceFailed { service, .. } => self.forget_restart(service),
-            Action::Reject { .. } | Action::AskForHelp { .. } | Action::ServiceDegraded { .. } => {}
+            Action::RestartScheduled { .. }
+            | Action::Reject { .. }
+            | Action::AskForHelp { .. }
+            | Action::ServiceDegraded { .. } => {}
         }
     }
 
     /// A restart that will not come (the service stopped or failed for good): nothing kept
     /// for it strikes a later start.
     fn forget_restart(&mut self, service: &str) {
-        self.restarting.remove(service);
         self.strikes.remove(service);
     }
 
     fn start_service(&mut self, service: &str) {
-        self.restarting.remove(service);
         let strike = self.strikes.get_mut(service).and_then(VecDeque::pop_front);
         let active = self.fault_of(service);
         let crashing = active == Some(FaultKind::Crash) || strike == Some(FaultKind::Crash);

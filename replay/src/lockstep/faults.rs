@@ -94,7 +94,7 @@ impl Lockstep<'_> {
         let provider = fault.provider.clone();
         match fault.kind {
             // Between a death and its restart: the restarted process is the one struck.
-            FaultKind::Crash | FaultKind::Stuck if self.restarting.contains(&provider) => {
+            FaultKind::Crash | FaultKind::Stuck if self.core.restart_pending(&provider) => {
                 self.strikes
                     .entry(provider)
                     .or_default()

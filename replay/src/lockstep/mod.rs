@@ -282,8 +282,6 @@ pub struct Lockstep<'a> {
     bindings: BTreeMap<(String, String), String>,
     requested: BTreeSet<(String, String)>,
     routes: BTreeMap<Arc<str>, Route>,
-    /// The services whose restart the broker scheduled and that have not started yet.
-    restarting: BTreeSet<String>,
     /// Crashes and stuck loops that struck a service while its restart was pending, oldest
     /// first: each strikes a later process at its start instead (a recorded death had a
     /// process to strike live; the replay's restart merely came later than live's).
@@ -383,7 +381,6 @@ impl<'a> Lockstep<'a> {
             bindings: BTreeMap::new(),
             requested: BTreeSet::new(),
             routes: BTreeMap::new(),
-            restarting: BTreeSet::new(),
             strikes: BTreeMap::new(),
             timers: BTreeMap::new(),
             timer_seq: 0,

@@ -210,6 +210,14 @@ impl BrokerCore {
         }
     }
 
+    /// Whether `service` crashed and its restart is scheduled, not yet made.
+    #[must_use]
+    pub fn restart_pending(&self, service: &str) -> bool {
+        self.services
+            .get(service)
+            .is_some_and(|e| matches!(e.state, ServiceState::Restarting { .. }))
+    }
+
     /// Whether the robot has a service with this name (for the operator's commands).
     #[must_use]
     pub fn has_service(&self, name: &str) -> bool {
