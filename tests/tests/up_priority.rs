@@ -89,12 +89,19 @@ fn the_cores_are_kept_awake_while_the_robot_runs_and_sleep_again_after() {
         eprintln!("skipped: {e}");
         return;
     }
+    // Another process (a benchmark, tuned's latency profile) may hold the cores awake
+    // already: the robot's request and its end could not be seen then.
+    let before = cpu_latency_target_us();
+    if before == Some(0) {
+        eprintln!("skipped: the cores are kept awake by another process");
+        return;
+    }
     let mut up = Up::start("awake", &robot("keep_cores_awake = true"));
     up.wait_line("the cores are kept awake while the robot runs");
     up.wait_line("laser: started");
     assert_eq!(cpu_latency_target_us(), Some(0), "{}", up.log());
     assert!(up.stop().success(), "{}", up.log());
-    assert_ne!(cpu_latency_target_us(), Some(0));
+    assert_eq!(cpu_latency_target_us(), before);
 }
 
 #[test]

@@ -77,6 +77,13 @@ mod tests {
 
     #[test]
     fn the_cores_are_kept_awake_while_the_request_lives() {
+        // Another process (a benchmark, tuned's latency profile) may hold the cores awake
+        // already: the request's end could not be seen then.
+        let before = cpu_latency_target_us();
+        if before == Some(0) {
+            println!("skipped: the cores are kept awake by another process");
+            return;
+        }
         let held = match keep_cores_awake() {
             Ok(held) => held,
             Err(e) => {
@@ -86,6 +93,6 @@ mod tests {
         };
         assert_eq!(cpu_latency_target_us(), Some(0));
         drop(held);
-        assert_ne!(cpu_latency_target_us(), Some(0));
+        assert_eq!(cpu_latency_target_us(), before);
     }
 }
