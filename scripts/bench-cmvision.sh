@@ -9,5 +9,5 @@ python=${PYTHON:-python3}
 if [ ! -x .venv-bench/bin/python ]; then
     "$python" -m venv .venv-bench
 fi
-.venv-bench/bin/pip install --quiet --disable-pip-version-check -r bench/opencv/requirements.txt
+.venv-bench/bin/pip install --quiet --disable-pip-version-check -r tools/opencv/requirements.txt
 LEWIS_OPENCV_PYTHON="$root/.venv-bench/bin/python" cargo bench --workspace --locked --bench cmvision

@@ -7,5 +7,5 @@ python=${PYTHON:-python3}
 if [ ! -x "$root/.venv/bin/python" ]; then
     "$python" -m venv "$root/.venv"
 fi
-"$root/.venv/bin/pip" install --quiet --disable-pip-version-check -r "$root/tests/python/requirements.txt"
+"$root/.venv/bin/pip" install --quiet --disable-pip-version-check -r "$root/tools/python/requirements.txt"
 echo "Python readers installed in $root/.venv"

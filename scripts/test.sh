@@ -6,7 +6,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 scripts/setup-python.sh
 # The browser test drives Debian's chromium with playwright-core (no browser download).
-npm ci --silent --no-audit --no-fund --prefix sequencer/gui-test
+npm ci --silent --no-audit --no-fund --prefix tools/node
 cargo fmt --all --check
 cargo clippy --workspace --all-targets --locked -- -D warnings
 # What the layout promises, checked (cargo check only: no second full build). The docs

@@ -8,7 +8,7 @@
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::RangeFinder;
-use lewis_runtime::service::{Context, Input};
+use lewis_service::{Context, Input};
 
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;

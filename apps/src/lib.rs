@@ -3,7 +3,7 @@
 //! and whose exit code the mission script routes.
 //!
 //! It owns what each program decides from what the robot senses. A program is written like
-//! a service ([`lewis_runtime::service::Service`]: event driven, time only from the context's
+//! a service ([`lewis_service::Service`]: event driven, time only from the context's
 //! clock, no threads, no sleeps, no blocking reads) against interfaces only (Mover,
 //! RangeFinder, Distance, Egomotion, Blobs, Blobs3D, Signs, Speech), so the broker can fail
 //! any provider under it and a lockstep harness can run it like any service. It does not own
@@ -11,12 +11,12 @@
 //! simulator's truth (GroundTruth, WorldState) or the world file: a program sees what the
 //! robot's sensors see.
 
+pub mod app;
 pub mod common;
 pub mod door;
 pub mod queue;
 pub mod recovery;
 pub mod register;
-pub mod run;
 pub mod sign;
 
-pub use run::{App, run};
+pub use app::App;

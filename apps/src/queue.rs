@@ -12,7 +12,7 @@ use std::f64::consts::FRAC_PI_2;
 
 use lewis_geometry::{Vec2, range_readings, wrap_angle};
 use lewis_interfaces::msg::{RangeFinder, SignArrow, Signs};
-use lewis_runtime::service::{Context, Input};
+use lewis_service::{Context, Input};
 
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;

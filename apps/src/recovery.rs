@@ -10,7 +10,7 @@ use std::f64::consts::FRAC_PI_4;
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::{Blob, Blobs, Blobs3D, Distance};
-use lewis_runtime::service::{Context, Input};
+use lewis_service::{Context, Input};
 
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;

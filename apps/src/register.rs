@@ -5,7 +5,7 @@
 //! then gives up (4). It does not move.
 
 use lewis_interfaces::msg::{Speech, SpeechAnswer, SpeechSay};
-use lewis_runtime::service::{CallId, Context, Input, ReplyEvent, Service};
+use lewis_service::{CallId, Context, Input, ReplyEvent, Service};
 
 use crate::common::exit;
 

@@ -16,7 +16,7 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use lewis_geometry::{Vec2, wrap_angle};
 use lewis_interfaces::msg::{Distance, SignArrow, Signs};
-use lewis_runtime::service::{Context, Input};
+use lewis_service::{Context, Input};
 
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;

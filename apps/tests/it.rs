@@ -2,7 +2,7 @@
 //! one test binary: one link instead of one per file.
 //!
 //! The programs run in closed loop with the simulated robot's services
-//! (`robots/sim.toml`, built with `lewis_services::registry()`) in a
+//! (`robots/sim.toml`, built with `lewis_kinds::registry()`) in a
 //! [`lewis_testkit::scene::Scene`] on a virtual clock.
 
 mod door;

@@ -2,7 +2,7 @@
 //! after another from the same robot, each reading its sign and turning as it says.
 
 use lewis_apps::sign::{REQUIRES, SignConfig, SignFollower};
-use lewis_runtime::service::Level;
+use lewis_service::Level;
 use lewis_testkit::scene::Scene;
 
 use crate::support::{S, scene, sim_robot, truth};
@@ -92,4 +92,4 @@ fn capitalised(word: &str) -> String {
 /// A program that does nothing, for a scene's first member name.
 struct Idle;
 
-impl lewis_runtime::service::Service for Idle {}
+impl lewis_service::Service for Idle {}

@@ -3,8 +3,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use lewis_interfaces::msg::{GroundTruth, INTERFACES};
-use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::service::Service;
+use lewis_robot::Robot;
+use lewis_service::Service;
 use lewis_testkit::repository_path;
 use lewis_testkit::scene::Scene;
 
@@ -17,7 +17,7 @@ pub fn sim_robot(start: (f64, f64, f64), camera_px: (i64, i64)) -> Robot {
     let path = repository_path("robots/sim.toml");
     let text = std::fs::read_to_string(&path).unwrap();
     let known: Vec<&str> = INTERFACES.iter().map(|i| i.name).collect();
-    let mut robot = robot::parse(&text, &path, &known).unwrap();
+    let mut robot = lewis_robot::parse(&text, &path, &known).unwrap();
     let world = repository_path("robots/worlds/conference");
     for service in &mut robot.services {
         let parameters = &mut service.parameters;
@@ -61,7 +61,7 @@ pub fn scene(
     program: Box<dyn Service>,
     requires: &[&str],
 ) -> Scene {
-    let mut scene = Scene::new(robot, &lewis_services::registry(), services).unwrap();
+    let mut scene = Scene::new(robot, &lewis_kinds::registry(), services).unwrap();
     scene.add_program(name, program, requires, 7);
     scene.tap("GroundTruth");
     scene

@@ -25,12 +25,12 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use lewis_robot::Robot;
 use lewis_runtime::ipc::{
     CallId, CommandClient, CommandServer, FdSource, Ipc, Namespace, Request, Subscriber, WaitSet,
     Waitable, WakeMode,
 };
 use lewis_runtime::names;
-use lewis_runtime::robot::Robot;
 use zenoh::Session;
 use zenoh::Wait as _;
 use zenoh::bytes::Encoding;

@@ -11,11 +11,11 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
+use lewis_robot::Robot;
 use lewis_runtime::broker::ExitStatus;
 use lewis_runtime::broker::live::{UpOptions, service_child};
 use lewis_runtime::ipc::{FdSource, NodeCleaner, WaitSet, Waitable, WakeMode};
 use lewis_runtime::live::{ClockSource, StopSignals};
-use lewis_runtime::robot::Robot;
 use lewis_runtime::supervise::{Supervisor, SupervisorEvent};
 use nix::sys::signal::Signal;
 use zenoh::Wait as _;

@@ -11,10 +11,10 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use lewis_robot::Robot;
 use lewis_runtime::broker::ExitStatus;
 use lewis_runtime::broker::remote::{HostEvent, RemoteHosts, RemoteStartError};
 use lewis_runtime::ipc::Namespace;
-use lewis_runtime::robot::Robot;
 use zenoh::Session;
 use zenoh::Wait as _;
 use zenoh::sample::SampleKind;

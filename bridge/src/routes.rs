@@ -16,8 +16,8 @@
 //! client is bound to a provider whose data has no way to it, and a host cut off from
 //! the robot host is cut off from all.
 
+use lewis_robot::Robot;
 use lewis_runtime::names;
-use lewis_runtime::robot::Robot;
 
 /// One channel that crosses, with the host it comes from.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
@@ -205,8 +205,7 @@ provides = [{ interface = "Blobs3D", quality = 10, cost = 1 }]
 
     fn robot() -> Robot {
         let known = lewis_interfaces::interface_names();
-        lewis_runtime::robot::parse(ROBOT, Path::new("two.toml"), &known)
-            .unwrap_or_else(|e| panic!("{e}"))
+        lewis_robot::parse(ROBOT, Path::new("two.toml"), &known).unwrap_or_else(|e| panic!("{e}"))
     }
 
     fn route(channel: &str, host: &str) -> Route {
@@ -310,7 +309,7 @@ provides = [{ interface = "Blobs3D", quality = 10, cost = 1 }]
     #[test]
     fn two_other_hosts_talk_through_the_robot_host() {
         let known = lewis_interfaces::interface_names();
-        let robot = lewis_runtime::robot::parse(THREE, Path::new("three.toml"), &known)
+        let robot = lewis_robot::parse(THREE, Path::new("three.toml"), &known)
             .unwrap_or_else(|e| panic!("{e}"));
         let hub = routes(&robot, "robot");
         assert!(hub.imports.contains(&route("/blobfinder/Blobs", "gpu")));

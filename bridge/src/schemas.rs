@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use lewis_runtime::robot::Robot;
+use lewis_robot::Robot;
 
 /// Channel name to schema name and ros2msg text.
 #[derive(Debug, Clone, Default)]

@@ -7,7 +7,7 @@ use std::io::Write as _;
 use std::os::unix::fs::{MetadataExt as _, OpenOptionsExt as _};
 use std::path::{Path, PathBuf};
 
-use lewis_runtime::robot::{Endpoint, HostSpec, Robot, TlsFiles};
+use lewis_robot::{Endpoint, HostSpec, Robot, TlsFiles};
 use zenoh::{Config, Session, Wait as _};
 
 use crate::BridgeError;

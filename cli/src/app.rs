@@ -201,7 +201,7 @@ pub fn run(args: &AppArgs) -> anyhow::Result<ExitCode> {
     let app = args.app()?;
     let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let clock = crate::service::clock_source(args.clock)?;
-    let code = lewis_apps::run(app, &namespace, clock)?;
+    let code = lewis_launch::program::run_app(app, &namespace, clock)?;
     Ok(ExitCode::from(u8::try_from(code).unwrap_or(1)))
 }
 

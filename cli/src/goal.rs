@@ -3,8 +3,9 @@
 use std::time::Duration;
 
 use clap::Args;
-use lewis_motion::goal::{Goal, GoalFrame, GoalPlan, GoalRunError};
-use lewis_runtime::robot::Robot;
+use lewis_launch::goal::{GoalPlan, GoalRunError};
+use lewis_motion::goal::{Goal, GoalFrame};
+use lewis_robot::Robot;
 
 /// The goal options of `lewis up`.
 #[derive(Debug, Clone, Args)]

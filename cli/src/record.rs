@@ -70,7 +70,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<ExitCode> {
     let robot = args
         .robot
         .as_deref()
-        .map(|path| lewis_runtime::robot::load(path, &lewis_interfaces::interface_names()))
+        .map(|path| lewis_robot::load(path, &lewis_interfaces::interface_names()))
         .transpose()?;
     // Without --robot the robot is not known yet: the default name says `recording`.
     let robot_name = robot.as_ref().map_or("recording", |r| r.name.as_str());

@@ -107,19 +107,19 @@ fn parse_kind(text: &str) -> Result<FaultKind, String> {
         .ok_or_else(|| format!("`{text}` is no fault kind: give {}", FaultKind::NAMES))
 }
 
-/// The kinds that are sources ([`lewis_services::SOURCE_KINDS`]), as the replay options
+/// The kinds that are sources ([`lewis_kinds::SOURCE_KINDS`]), as the replay options
 /// take them.
 pub(crate) fn source_kinds() -> std::collections::BTreeSet<String> {
-    lewis_services::SOURCE_KINDS
+    lewis_kinds::SOURCE_KINDS
         .iter()
         .map(|k| (*k).to_owned())
         .collect()
 }
 
-/// The source kinds that are simulated devices ([`lewis_services::SIMULATED_KINDS`]), which
+/// The source kinds that are simulated devices ([`lewis_kinds::SIMULATED_KINDS`]), which
 /// `--all` re-runs.
 pub(crate) fn simulated_kinds() -> std::collections::BTreeSet<String> {
-    lewis_services::SIMULATED_KINDS
+    lewis_kinds::SIMULATED_KINDS
         .iter()
         .map(|k| (*k).to_owned())
         .collect()

@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use clap::Args;
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::{CLOCK_ENV, ClockSource, run_service};
-use lewis_runtime::service::ServiceRegistry;
+use lewis_service::ServiceRegistry;
 
 /// Arguments of `lewis service`.
 #[derive(Debug, Args)]
@@ -30,7 +30,7 @@ pub struct ServiceArgs {
 /// Every service kind this binary can run.
 #[must_use]
 pub fn registry() -> ServiceRegistry {
-    lewis_services::registry()
+    lewis_kinds::registry()
 }
 
 /// The clock a service or a program reads: `--clock` when given, else `LEWIS_CLOCK` (what
@@ -52,7 +52,7 @@ pub fn clock_source(arg: Option<ClockSource>) -> anyhow::Result<ClockSource> {
 
 /// Runs `lewis service`.
 pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
-    let robot = lewis_services::load_robot(&args.robot)?;
+    let robot = lewis_kinds::load_robot(&args.robot)?;
     let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let clock = clock_source(args.clock)?;
     run_service(&robot, &args.name, &registry(), &namespace, clock)?;

@@ -74,7 +74,7 @@ pub struct UpArgs {
 /// Runs `lewis up`: exit 0 when the goal or the mission succeeded (or, without either,
 /// when the robot ran until it was stopped), 1 when it did not.
 pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
-    let robot = lewis_services::load_robot(&args.robot)?;
+    let robot = lewis_kinds::load_robot(&args.robot)?;
     let robot_host = robot.robot_host().map(|h| h.name.clone());
     match (&args.host, &robot_host) {
         (Some(host), None) => anyhow::bail!(
@@ -138,7 +138,7 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
 /// bridge, until Ctrl-C or SIGTERM.
 fn run_other_host(
     args: &UpArgs,
-    robot: &lewis_runtime::robot::Robot,
+    robot: &lewis_robot::Robot,
     host: &str,
 ) -> anyhow::Result<ExitCode> {
     if args.script.is_some() || args.goal.plan(robot)?.is_some() {

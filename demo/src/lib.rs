@@ -21,13 +21,13 @@ use lewis_replay::outcome::LoopKind;
 use lewis_replay::recording::RecordingFiles;
 use lewis_replay::report::Report;
 use lewis_replay::resim::{ReplayOptions, ServiceSelection, replay_with};
+use lewis_robot::{Known, Robot};
 use lewis_runtime::broker::live::UpOptions;
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
-use lewis_runtime::robot::{self, Known, Robot};
-use lewis_runtime::service::ServiceRegistry;
 use lewis_sequencer::Verdict;
 use lewis_sequencer::session::{MissionReport, SessionOptions, load_mission};
+use lewis_service::ServiceRegistry;
 
 pub use fault::{FaultLog, LiveFault, Strike};
 
@@ -63,10 +63,10 @@ pub struct DemoOptions {
     pub namespace: Namespace,
     /// The `lewis` binary (for the services, the recorder and the programs).
     pub lewis_exe: PathBuf,
-    /// The kinds that replay feeds from the recording (`lewis_services::SOURCE_KINDS`).
+    /// The kinds that replay feeds from the recording (`lewis_kinds::SOURCE_KINDS`).
     pub source_kinds: BTreeSet<String>,
     /// The source kinds the replay re-runs to live the mission again
-    /// (`lewis_services::SIMULATED_KINDS`).
+    /// (`lewis_kinds::SIMULATED_KINDS`).
     pub simulated_kinds: BTreeSet<String>,
 }
 
@@ -458,7 +458,7 @@ fn load_robot(path: &Path, registry: &ServiceRegistry) -> Result<Robot, DemoErro
         interfaces: &interfaces,
         kinds: Some(registry),
     };
-    robot::load_checked(path, known).map_err(|e| DemoError::Robot(e.to_string()))
+    lewis_robot::load_checked(path, known).map_err(|e| DemoError::Robot(e.to_string()))
 }
 
 /// The robot description `text` with `seed` of every `sim-*` service set: `seed` for the

@@ -111,16 +111,16 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
         fault: LiveFault::laser_after_first_state(),
         namespace: Namespace::unique("demo-mechanics"),
         lewis_exe: lewis_exe(),
-        source_kinds: lewis_services::SOURCE_KINDS
+        source_kinds: lewis_kinds::SOURCE_KINDS
             .iter()
             .map(|k| (*k).to_owned())
             .collect::<BTreeSet<_>>(),
-        simulated_kinds: lewis_services::SIMULATED_KINDS
+        simulated_kinds: lewis_kinds::SIMULATED_KINDS
             .iter()
             .map(|k| (*k).to_owned())
             .collect::<BTreeSet<_>>(),
     };
-    let report = run_demo(&options, &lewis_services::registry(), &SleepsOnly).unwrap();
+    let report = run_demo(&options, &lewis_kinds::registry(), &SleepsOnly).unwrap();
     let summary = report.summary();
 
     assert!(report.succeeded(), "{summary}");

@@ -4,7 +4,7 @@
 //! to drive to (`lewis_motion::goal`) or a mission script (`lewis_sequencer::session`).
 //!
 //! When it records, every service learns where the recording goes
-//! (`lewis_runtime::live::RECORDING_ENV`): a service that writes files of its own, as
+//! (`lewis_service::RECORDING_ENV`): a service that writes files of its own, as
 //! espeak-speech writes its audio, puts them beside it.
 //!
 //! It owns the order in which they start and stop, and how a run ends: Ctrl-C, SIGTERM,
@@ -14,13 +14,18 @@
 
 use std::path::{Path, PathBuf};
 
-use lewis_motion::goal::{GoalPlan, GoalRun, GoalRunError, Outcome as GoalOutcome};
+pub mod goal;
+pub mod program;
+
+use goal::{GoalPlan, GoalRun, GoalRunError};
+
+use lewis_motion::goal::Outcome as GoalOutcome;
 use lewis_recorder::companion::CompanionOptions;
 use lewis_recorder::live::child::{ChildError, ChildOptions, RecorderChild};
+use lewis_robot::Robot;
 use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up_with_hosts};
 use lewis_runtime::broker::remote::RemoteHosts;
 use lewis_runtime::live::{RECORDING_ENV, StopHandle, StopSignals};
-use lewis_runtime::robot::Robot;
 use lewis_sequencer::Mission;
 use lewis_sequencer::gui::RobotWatchOptions;
 use lewis_sequencer::session::{BesideBroker, MissionReport, SessionError, SessionOptions};
@@ -249,9 +254,8 @@ mod tests {
     #[test]
     fn every_service_learns_where_the_recording_goes_unless_it_says_otherwise() {
         let robot_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
-        let mut robot =
-            lewis_runtime::robot::load(&robot_path, &lewis_interfaces::interface_names())
-                .unwrap_or_else(|e| panic!("{e}"));
+        let mut robot = lewis_robot::load(&robot_path, &lewis_interfaces::interface_names())
+            .unwrap_or_else(|e| panic!("{e}"));
         robot.services[0]
             .environment
             .insert(RECORDING_ENV.to_owned(), "/elsewhere.mcap".to_owned());
@@ -269,7 +273,7 @@ mod tests {
     fn a_stop_handle_ends_the_run_as_a_request() {
         // Every service of the test bench starts on demand: nobody asks, nothing starts.
         let robot_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
-        let robot = lewis_runtime::robot::load(&robot_path, &lewis_interfaces::interface_names())
+        let robot = lewis_robot::load(&robot_path, &lewis_interfaces::interface_names())
             .unwrap_or_else(|e| panic!("{e}"));
         let options = LaunchOptions {
             up: UpOptions {

@@ -7,7 +7,7 @@
 //!   about 30 MB/s), 4 s of it: nothing of it is converted but the check of each message;
 //!   and with the images as PNG companions (`--companion-images`), the cost of a second,
 //!   compressed copy of every frame;
-//! - the simulated robot's own traffic, `logs/reference/sim-goal.mcap` (laser at 10 Hz,
+//! - the simulated robot's own traffic, `tests/data/reference/sim-goal.mcap` (laser at 10 Hz,
 //!   odometry at 50 Hz, health, commands, the broker), every message converted where it
 //!   has a view: LaserScan, Odometry, tf, markers.
 //!
@@ -81,7 +81,7 @@ fn median_mb_per_sec(
 
 /// The simulated robot's recording, as messages on channels.
 fn sim_goal() -> Workload {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../logs/reference/sim-goal.mcap");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/reference/sim-goal.mcap");
     let bytes = std::fs::read(&path).unwrap();
     let mut channels = Vec::new();
     let mut index: BTreeMap<u16, usize> = BTreeMap::new();

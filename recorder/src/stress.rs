@@ -127,8 +127,7 @@ mod tests {
             .map(|i| i.name)
             .collect();
         let robot =
-            lewis_runtime::robot::parse(&robot_toml(), std::path::Path::new("stress.toml"), &known)
-                .unwrap();
+            lewis_robot::parse(&robot_toml(), std::path::Path::new("stress.toml"), &known).unwrap();
         let provided: Vec<(String, String)> = robot
             .services
             .iter()

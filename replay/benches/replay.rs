@@ -1,7 +1,7 @@
 //! Replay speed and memory, run by hand (figures in the README's Speed section).
 //!
 //! - `cargo bench -p lewis-replay --bench replay [-- RUN.mcap] [--runs N]`: the speed of a
-//!   replay of RUN.mcap (default: the reference recording `logs/reference/sim-goal.mcap`)
+//!   replay of RUN.mcap (default: the reference recording `tests/data/reference/sim-goal.mcap`)
 //!   as a multiple of real time, beside the lockstep harness alone and the same services
 //!   called directly in a loop with the same inputs ([`lewis_replay::bench::speed`]).
 //! - `... --bench replay -- --once LONG.mcap -o OUT.mcap`: one replay, as `lewis replay
@@ -32,7 +32,7 @@ fn repository() -> PathBuf {
 
 /// The reference recording.
 fn reference() -> PathBuf {
-    repository().join("logs/reference/sim-goal.mcap")
+    repository().join("tests/data/reference/sim-goal.mcap")
 }
 
 /// What the command line asks for.
@@ -77,7 +77,7 @@ fn parse(args: impl Iterator<Item = String>) -> Result<Args, String> {
 fn options(args: &Args) -> ReplayOptions {
     let mut options = ReplayOptions::new(vec![args.input.clone()]);
     options.output.clone_from(&args.output);
-    options.source_kinds = lewis_services::SOURCE_KINDS
+    options.source_kinds = lewis_kinds::SOURCE_KINDS
         .iter()
         .map(|k| (*k).to_owned())
         .collect();
@@ -102,7 +102,7 @@ fn main() -> ExitCode {
         eprintln!("cannot move to the repository's root: {error}");
         return ExitCode::from(2);
     }
-    let registry = lewis_services::registry();
+    let registry = lewis_kinds::registry();
     if args.once {
         let started = Instant::now();
         match replay(&options(&args), &registry, &mut |_| {}) {

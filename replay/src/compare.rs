@@ -19,7 +19,7 @@ use std::sync::Arc;
 use lewis_interfaces::cdr;
 use lewis_interfaces::dynamic::{CompareOptions, Decoder, LargestDifference};
 use lewis_interfaces::msg::{CommandLog, InputRef};
-use lewis_runtime::service::Input;
+use lewis_service::Input;
 use serde::Serialize;
 
 use crate::lockstep::header_provider;
@@ -368,7 +368,7 @@ fn command_key(bytes: &[u8]) -> Vec<InputRef> {
     let Ok(log) = cdr::from_bytes::<CommandLog>(bytes) else {
         return Vec::new();
     };
-    let seq = lewis_runtime::service::decode_header_seq(&log.request);
+    let seq = lewis_service::decode_header_seq(&log.request);
     vec![InputRef {
         channel: header_provider(&log.request),
         seq,

@@ -26,7 +26,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use lewis_runtime::robot::Robot;
+use lewis_robot::Robot;
 use serde::Serialize;
 
 /// How a provider fails.
@@ -440,7 +440,7 @@ mod tests {
 
     #[test]
     fn resolving_checks_the_provider_and_the_recording_length() {
-        let robot = lewis_runtime::robot::parse(
+        let robot = lewis_robot::parse(
             "[robot]\nname = \"r\"\n[[services]]\nname = \"laser\"\nkind = \"k\"\nprovides = [{ interface = \"RangeFinder\", quality = 1, cost = 1 }]\n",
             std::path::Path::new("r.toml"),
             &["RangeFinder"],
@@ -481,7 +481,7 @@ mod tests {
 
     #[test]
     fn a_host_named_is_lost_and_only_lost() {
-        let robot = lewis_runtime::robot::parse(
+        let robot = lewis_robot::parse(
             "[robot]\nname = \"r\"\n\
              [[hosts]]\nname = \"robot\"\nlisten = [\"tcp/10.0.0.1:7447\"]\n\
              [[hosts]]\nname = \"workstation\"\n\

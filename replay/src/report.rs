@@ -6,8 +6,8 @@
 use std::fmt;
 
 use lewis_interfaces::msg::BrokerAction;
+use lewis_robot::Robot;
 use lewis_runtime::broker::{Action, Decision};
-use lewis_runtime::robot::Robot;
 use serde::Serialize;
 
 use crate::compare::ChannelDivergence;

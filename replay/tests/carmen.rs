@@ -172,7 +172,7 @@ fn check_log(file: &str, scans: u64, beams: usize, clock: ScanClock) -> Imported
         .iter()
         .map(|i| i.name)
         .collect();
-    let robot = lewis_runtime::robot::parse(&toml, Path::new("imported.toml"), &interfaces)
+    let robot = lewis_robot::parse(&toml, Path::new("imported.toml"), &interfaces)
         .unwrap_or_else(|e| panic!("{file}: {e}\n{toml}"));
     let provides = |name: &str| -> Vec<String> {
         robot

@@ -22,9 +22,7 @@ use lewis_replay::resim::{ReplayError, ReplayOptions, ServiceSelection, replay};
 use lewis_runtime::broker::live::decision_message;
 use lewis_runtime::broker::{Action, Decision};
 use lewis_runtime::names;
-use lewis_runtime::service::{
-    Context, Input, ReplyEvent, Rng, Service, ServiceConfig, ServiceRegistry,
-};
+use lewis_service::{Context, Input, ReplyEvent, Rng, Service, ServiceConfig, ServiceRegistry};
 
 const T0: i64 = 1_000_000_000;
 const MS: i64 = 1_000_000;
@@ -346,7 +344,7 @@ fn run(
     let mut options = ReplayOptions::new(vec![input.to_path_buf()]);
     options.output = Some(output.to_path_buf());
     options.services = services;
-    options.simulated_kinds = lewis_services::SIMULATED_KINDS
+    options.simulated_kinds = lewis_kinds::SIMULATED_KINDS
         .iter()
         .map(|k| (*k).to_owned())
         .collect();

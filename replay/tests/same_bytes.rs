@@ -33,15 +33,16 @@ pub(crate) fn robot_with_absolute_world(dir: &Path) -> PathBuf {
 }
 
 fn replay_to(output: &Path, robot: &Path) {
-    let mut options = ReplayOptions::new(vec![repo_root().join("logs/reference/sim-goal.mcap")]);
+    let mut options =
+        ReplayOptions::new(vec![repo_root().join("tests/data/reference/sim-goal.mcap")]);
     options.output = Some(output.to_path_buf());
     options.robot = Some(robot.to_path_buf());
     options.faults = vec!["laser".parse::<FaultSpec>().unwrap()];
-    options.source_kinds = lewis_services::SOURCE_KINDS
+    options.source_kinds = lewis_kinds::SOURCE_KINDS
         .iter()
         .map(|k| (*k).to_owned())
         .collect();
-    let report = replay(&options, &lewis_services::registry(), &mut |_| {}).unwrap();
+    let report = replay(&options, &lewis_kinds::registry(), &mut |_| {}).unwrap();
     assert_eq!(report.faults.len(), 1, "{report:?}");
 }
 

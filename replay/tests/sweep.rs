@@ -20,7 +20,7 @@ use lewis_replay::sweep::{FailedPoint, Sweep, SweepPoint, fault_times, run_jobs}
 use crate::same_bytes::robot_with_absolute_world;
 
 fn recording() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../logs/reference/sim-goal.mcap")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/reference/sim-goal.mcap")
 }
 
 fn replay_with(faults: &[String], output: PathBuf, robot: &Path) -> Result<Report, String> {
@@ -32,11 +32,11 @@ fn replay_with(faults: &[String], output: PathBuf, robot: &Path) -> Result<Repor
         .map(|f| f.parse::<FaultSpec>())
         .collect::<Result<_, _>>()
         .map_err(|e| e.to_string())?;
-    options.source_kinds = lewis_services::SOURCE_KINDS
+    options.source_kinds = lewis_kinds::SOURCE_KINDS
         .iter()
         .map(|k| (*k).to_owned())
         .collect();
-    replay(&options, &lewis_services::registry(), &mut |_| {}).map_err(|e| e.to_string())
+    replay(&options, &lewis_kinds::registry(), &mut |_| {}).map_err(|e| e.to_string())
 }
 
 fn sweep(jobs: usize, duration_ns: i64, dir: &Path, robot: &Path) -> Sweep {
@@ -81,7 +81,7 @@ fn sweep(jobs: usize, duration_ns: i64, dir: &Path, robot: &Path) -> Sweep {
         }
     }
     Sweep {
-        recording: "logs/reference/sim-goal.mcap".to_owned(),
+        recording: "tests/data/reference/sim-goal.mcap".to_owned(),
         providers: vec!["laser".to_owned()],
         kind: FaultKind::Crash,
         steps: 3,

@@ -22,9 +22,9 @@ use iceoryx2::prelude::{
     AllocationStrategy, FileName, NodeBuilder, SemanticString, ServiceName, SignalHandlingMode, ipc,
 };
 use lewis_interfaces::msg::RangeFinder;
-use lewis_runtime::broker::Health;
 use lewis_runtime::ipc::{ChannelConfig, Ipc, Namespace, Publisher, Subscriber};
-use lewis_runtime::service::{Backend, CallFailure, CallId, ContextError, ContextState, Level};
+use lewis_service::Health;
+use lewis_service::{Backend, CallFailure, CallId, ContextError, ContextState, Level};
 
 const LEN: usize = 156;
 

@@ -30,7 +30,7 @@ use crate::ipc::{
 };
 use crate::ipc::{CallId as IpcCallId, Ipc, SPINS_PER_CLOCK_READ};
 use crate::names;
-use crate::wire;
+use lewis_service::wire;
 use unanswered::{Caller, UnansweredCalls};
 
 /// While the broker cannot be reached, a client asks again this often.

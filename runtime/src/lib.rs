@@ -11,7 +11,4 @@ pub mod ipc;
 pub mod live;
 pub mod logs;
 pub mod names;
-pub mod robot;
-pub mod service;
 pub mod supervise;
-pub mod wire;

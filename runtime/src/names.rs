@@ -5,7 +5,7 @@
 //! | what | channel | message |
 //! |---|---|---|
 //! | a provider's data | `/<service>/<Interface>` | the interface's publication |
-//! | a provider's commands | `/<service>/<Interface>/cmd` | [`wire`](crate::wire) frames |
+//! | a provider's commands | `/<service>/<Interface>/cmd` | [`wire`](lewis_service::wire) frames |
 //! | heartbeats and declared health | `/lewis/health/<service>` | `Health` |
 //! | commands a service answered | `/lewis/commands/<service>` | `CommandLog` |
 //! | calls a client sent that got no answer | `/lewis/calls` | `UnansweredCall` |

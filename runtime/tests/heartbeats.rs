@@ -15,10 +15,8 @@ use lewis_interfaces::msg::{DistanceSetSectorCount, Health};
 use lewis_runtime::ipc::{Ipc, Namespace, WaitSet, WakeMode};
 use lewis_runtime::live::{ClockSource, run_service};
 use lewis_runtime::names;
-use lewis_runtime::service::{
-    CommandError, Context, IncomingCommand, Reply, Service, ServiceRegistry,
-};
-use lewis_runtime::wire;
+use lewis_service::wire;
+use lewis_service::{CommandError, Context, IncomingCommand, Reply, Service, ServiceRegistry};
 
 /// Commands sent at once.
 const BURST: usize = 6;
@@ -65,7 +63,7 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
 
 #[test]
 fn a_service_working_through_a_backlog_beats_between_handlers() {
-    let robot = lewis_runtime::robot::parse(ROBOT, "robot.toml".as_ref(), &["Distance"]).unwrap();
+    let robot = lewis_robot::parse(ROBOT, "robot.toml".as_ref(), &["Distance"]).unwrap();
     let namespace = Namespace::unique("backlog");
     let handled_ns = Arc::new(Mutex::new(Vec::new()));
     let mut registry = ServiceRegistry::new();

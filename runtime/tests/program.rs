@@ -9,7 +9,7 @@
 
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::{ClockSource, ProgramSpec, run_program};
-use lewis_runtime::service::{Context, Service};
+use lewis_service::{Context, Service};
 
 /// Finishes with 7 after three ticks and counts what ran.
 #[derive(Default)]

@@ -5,7 +5,7 @@
 //! their health) and sends the "registered" answer for its Speech provider.
 //!
 //! Needs Debian's `chromium` (or `LEWIS_CHROMIUM=/path/to/chromium`), `node`, and
-//! `npm ci --prefix sequencer/gui-test`; fails with a message saying which is missing.
+//! `npm ci --prefix tools/node`; fails with a message saying which is missing.
 //! Screenshots go to `$TMPDIR/lewis-seq-gui/` (`running.png`, `asking.png`,
 //! `finished.png`).
 

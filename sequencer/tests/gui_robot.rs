@@ -255,7 +255,7 @@ fn a_camera_frame_is_shrunk_to_a_thumbnail_in_rgb() {
 #[test]
 fn the_simulated_robot_is_watched_on_its_true_pose_and_world_map() {
     let robot_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/sim.toml");
-    let robot = lewis_runtime::robot::load(&robot_path, &lewis_interfaces::interface_names())
+    let robot = lewis_robot::load(&robot_path, &lewis_interfaces::interface_names())
         .unwrap_or_else(|e| panic!("{e}"));
     // From elsewhere than the repository's root: the world is found above the robot file.
     let options = RobotWatchOptions::from_robot(&robot, &robot_path);
@@ -274,7 +274,7 @@ fn the_simulated_robot_is_watched_on_its_true_pose_and_world_map() {
 
     // A robot without a simulator: the odometry, and no map.
     let test_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/test.toml");
-    let test = lewis_runtime::robot::load(&test_path, &lewis_interfaces::interface_names())
+    let test = lewis_robot::load(&test_path, &lewis_interfaces::interface_names())
         .unwrap_or_else(|e| panic!("{e}"));
     let options = RobotWatchOptions::from_robot(&test, &test_path);
     assert_ne!(

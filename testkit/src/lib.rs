@@ -25,14 +25,14 @@ use std::path::{Path, PathBuf};
 
 use lewis_interfaces::msg::{INTERFACES, InputRef};
 use lewis_interfaces::{Command, Interface, cdr};
-use lewis_runtime::broker::Health;
-use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::service::{
+use lewis_robot::Robot;
+use lewis_service::Health;
+use lewis_service::wire;
+use lewis_service::{
     Backend, BuildError, CallFailure, CallId, CommandError, ContextError, ContextState,
     IncomingCommand, Input, Level, ReplyEvent, Service, ServiceConfig, ServiceRegistry,
     decode_header_seq,
 };
-use lewis_runtime::wire;
 
 /// The repository's root folder.
 #[must_use]
@@ -72,7 +72,7 @@ pub fn shared_data(relative: &str) -> PathBuf {
 #[must_use]
 pub fn robot(text: &str) -> Robot {
     let known: Vec<&str> = INTERFACES.iter().map(|i| i.name).collect();
-    robot::parse(text, Path::new("test-robot.toml"), &known)
+    lewis_robot::parse(text, Path::new("test-robot.toml"), &known)
         .unwrap_or_else(|e| panic!("the test's robot file does not parse: {e}"))
 }
 

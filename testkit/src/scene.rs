@@ -15,8 +15,8 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use lewis_interfaces::{Interface, cdr};
-use lewis_runtime::robot::Robot;
-use lewis_runtime::service::{BuildError, CallFailure, Service, ServiceRegistry};
+use lewis_robot::Robot;
+use lewis_service::{BuildError, CallFailure, Service, ServiceRegistry};
 
 use crate::{Call, Harness, Publication};
 

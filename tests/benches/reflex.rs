@@ -47,12 +47,12 @@ use lewis_interfaces::msg::{
     Egomotion, INTERFACES, Pose2D, Pose3D, RangeFinder, Synchrodrive, SynchrodriveCommand,
     SynchrodriveSetVelocityReply, SynchrodriveStopReply,
 };
+use lewis_robot::Robot;
 use lewis_runtime::broker::live::{UpOptions, run_up};
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::ipc::baseline::{Fill, RawPublisher, RawReceiver, Wake};
 use lewis_runtime::live::{ClockSource, StopSignals, run_service};
-use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceRegistry,
 };
 use serde::Deserialize;
@@ -272,7 +272,7 @@ fn stop(child: &mut Child) -> Res<()> {
 
 fn load(path: &Path) -> Res<Robot> {
     let known: Vec<&str> = INTERFACES.iter().map(|i| i.name).collect();
-    Ok(robot::load(path, &known)?)
+    Ok(lewis_robot::load(path, &known)?)
 }
 
 /// The broker, until SIGTERM; it starts every service as this executable.

@@ -1,5 +1,5 @@
 //! What the GUI tests drive a real browser with: Debian's Chromium, `node`, and the driver
-//! scripts' `playwright-core` in `sequencer/gui-test/`.
+//! scripts' `playwright-core` in `tools/node/`.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -9,7 +9,7 @@ use crate::repo_root;
 /// The folder of the GUI driver scripts (`drive.mjs`, `recover.mjs`, `browser.mjs`).
 #[must_use]
 pub fn gui_test_dir() -> PathBuf {
-    repo_root().join("sequencer/gui-test")
+    repo_root().join("tools/node")
 }
 
 /// The browser to drive (`LEWIS_CHROMIUM`, else `/usr/bin/chromium`), after checking that
@@ -34,7 +34,7 @@ pub fn browser_tools() -> PathBuf {
     );
     assert!(
         gui_test_dir().join("node_modules/playwright-core").is_dir(),
-        "the GUI test needs playwright-core: run `npm ci --prefix sequencer/gui-test`"
+        "the GUI test needs playwright-core: run `npm ci --prefix tools/node`"
     );
     chromium
 }

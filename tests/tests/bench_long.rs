@@ -13,15 +13,15 @@ use std::time::Duration;
 use lewis_tests::{lewis_exe, python_tool, repo_root, run_ok, wait_child_within};
 use serde_json::Value;
 
-const REFERENCE: &str = "logs/reference/sim-goal.mcap";
+const REFERENCE: &str = "tests/data/reference/sim-goal.mcap";
 
 /// Writing three laps takes a moment; a loaded machine, more.
 const WATCHDOG: Duration = Duration::from_secs(120);
 
 /// What the Python readers make of `path`: the JSON of
-/// `recorder/tests/python/check_recording.py`.
+/// `tools/python/check_recording.py`.
 fn read_back(path: &Path) -> Value {
-    let script = repo_root().join("recorder/tests/python/check_recording.py");
+    let script = repo_root().join("tools/python/check_recording.py");
     let text = run_ok(python_tool("python").arg(script).arg(path));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}: {text}"))
 }

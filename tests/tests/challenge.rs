@@ -118,7 +118,7 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
     doctor(&run_mcap);
     let decoded = run_ok(
         python_tool("python")
-            .arg(repo_root().join("tests/python/check_companions.py"))
+            .arg(repo_root().join("tools/python/check_companions.py"))
             .arg(&run_mcap),
     );
     for line in [

@@ -2,7 +2,7 @@
 //! crashes (SIGSEGV from this test) beyond the script's `restart 3`, the sequencer enters the
 //! recovery state, whose Recovery program follows the guide in the red cap until the cap is
 //! out of sight, and then asks the supervisor on the page; headless Chromium
-//! (`sequencer/gui-test/recover.mjs`) checks that the page shows the robot (the map, the
+//! (`tools/node/recover.mjs`) checks that the page shows the robot (the map, the
 //! camera, the bindings) and taps `sign`; the mission then completes through queue and
 //! register, and `lewis up --script` exits 0 (a mission that resumed after recovery and
 //! ended with `register` exiting 0 succeeded).
@@ -14,7 +14,7 @@
 //!
 //! Its own test binary: a closed loop in real time (as `challenge`) that should not share the
 //! machine with other end-to-end tests. Needs Debian's `chromium` (or `LEWIS_CHROMIUM`),
-//! `node`, and `npm ci --prefix sequencer/gui-test`; fails with a message saying which is
+//! `node`, and `npm ci --prefix tools/node`; fails with a message saying which is
 //! missing. Screenshots go to `$TMPDIR/lewis-challenge-recovery/`.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stderr)]

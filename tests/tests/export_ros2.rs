@@ -1,8 +1,8 @@
 //! `lewis export ros2`: a Lewis recording (laser, sonar ring, odometry, camera, placed
 //! blobs, signs, the broker's bindings) copied with companion channels of ROS 2's standard
 //! types, which the independent readers decode and find equal to the Lewis messages they
-//! came from: mcap-ros2-support (`tests/python/check_companions.py`) and Foxglove's own
-//! `@mcap/core` + `@foxglove/rosmsg2-serialization` (`sequencer/gui-test/companions.mjs`);
+//! came from: mcap-ros2-support (`tools/python/check_companions.py`) and Foxglove's own
+//! `@mcap/core` + `@foxglove/rosmsg2-serialization` (`tools/node/companions.mjs`);
 //! the images' pixels unchanged; `pymcap-cli doctor` passes. Bad input is refused with the
 //! file and the reason, and nothing is written.
 
@@ -274,7 +274,7 @@ fn an_exported_recording_draws_in_ros2_tools_with_the_values_it_came_from() {
     doctor(&output);
 
     // mcap-ros2-support: every companion equals its source.
-    let script = repo_root().join("tests/python/check_companions.py");
+    let script = repo_root().join("tools/python/check_companions.py");
     let checked = run_ok(python_tool("python").arg(script).arg(&output));
     let counts: BTreeMap<&str, u64> = checked
         .lines()
@@ -300,10 +300,10 @@ fn an_exported_recording_draws_in_ros2_tools_with_the_values_it_came_from() {
 
     // Foxglove's own reader and CDR decoder.
     let node = Command::new("node")
-        .arg(repo_root().join("sequencer/gui-test/companions.mjs"))
+        .arg(repo_root().join("tools/node/companions.mjs"))
         .arg(&output)
         .output()
-        .expect("node runs (npm ci --prefix sequencer/gui-test)");
+        .expect("node runs (npm ci --prefix tools/node)");
     let report = String::from_utf8_lossy(&node.stdout);
     assert!(
         node.status.success(),
@@ -344,7 +344,7 @@ fn an_exported_recording_draws_in_ros2_tools_with_the_values_it_came_from() {
     assert!(stdout.contains("4 images left out"), "{stdout}");
     let checked = run_ok(
         python_tool("python")
-            .arg(repo_root().join("tests/python/check_companions.py"))
+            .arg(repo_root().join("tools/python/check_companions.py"))
             .arg(&again),
     );
     assert!(

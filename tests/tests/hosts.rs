@@ -266,7 +266,7 @@ fn perception_off_board_is_recorded_on_board_and_fails_over_when_its_host_dies()
         run.hosts
             .host("workstation")
             .command(python)
-            .arg(repo_root().join("tests/python/zenoh_listen.py"))
+            .arg(repo_root().join("tools/python/zenoh_listen.py"))
             .args([
                 "--connect",
                 "tcp/10.0.0.1:7447",
@@ -546,14 +546,14 @@ fn a_host_with_another_key_never_joins_and_says_why() {
     }
 }
 
-/// Runs `tests/python/NAME` on `host` of `hosts` with `args`, its output into `log`.
+/// Runs `tools/python/NAME` on `host` of `hosts` with `args`, its output into `log`.
 fn python_on(hosts: &Hosts, host: &str, name: &str, args: &[&str], log: &Path) -> Child {
     let python = python_tool("python").get_program().to_owned();
     let log = File::create(log).unwrap();
     hosts
         .host(host)
         .command(python)
-        .arg(repo_root().join("tests/python").join(name))
+        .arg(repo_root().join("tools/python").join(name))
         .args(args)
         .stdout(Stdio::from(log.try_clone().unwrap()))
         .stderr(Stdio::from(log))

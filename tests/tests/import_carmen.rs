@@ -134,7 +134,7 @@ fn an_imported_log_is_a_recording_with_its_robot_that_independent_readers_accept
         .iter()
         .map(|i| i.name)
         .collect();
-    let robot = lewis_runtime::robot::parse(toml, Path::new(name), &known).unwrap();
+    let robot = lewis_robot::parse(toml, Path::new(name), &known).unwrap();
     let services: Vec<&str> = robot.services.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(
         services,

@@ -1,5 +1,5 @@
 //! `lewis import ros2`: bags written by an independent writer (Python's
-//! `mcap-ros2-support`, with ROS 2's own message definitions, `tests/python/write_ros2_bag.py`)
+//! `mcap-ros2-support`, with ROS 2's own message definitions, `tools/python/write_ros2_bag.py`)
 //! imported and checked field by field; replay over the import (deterministic, `--check`,
 //! a laser fault moving the avoider to the fallback, the blob finder's outputs over the
 //! camera re-simulated); bad bags refused with the file, the
@@ -42,7 +42,7 @@ fn lewis_ok(dir: &Path, args: &[&str]) -> String {
 /// Writes the test bag `variant` at `dir/name` with the Python writer.
 fn write_bag(dir: &Path, name: &str, variant: &str) -> PathBuf {
     let path = dir.join(name);
-    let script = repo_root().join("tests/python/write_ros2_bag.py");
+    let script = repo_root().join("tools/python/write_ros2_bag.py");
     let _ = run_ok(python_tool("python").arg(script).arg(&path).arg(variant));
     path
 }

@@ -184,7 +184,7 @@ fn mcap_ros2_support_decodes_every_type_exactly_as_written() {
         .collect();
     let expected_path = dir.path().join("expected.json");
     std::fs::write(&expected_path, serde_json::to_vec(&expected).unwrap()).unwrap();
-    let script = repo_root().join("tests/python/check_ros2_decode.py");
+    let script = repo_root().join("tools/python/check_ros2_decode.py");
 
     for (name, compression) in [
         ("zstd", Some(mcap::Compression::Zstd)),

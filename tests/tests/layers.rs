@@ -88,7 +88,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     // The registry of every kind, above all the components.
     (
-        "lewis-services",
+        "lewis-kinds",
         &[
             "lewis-stdx",
             "lewis-sim",
@@ -176,7 +176,7 @@ const ONLY_IN: &[(&str, &[&str], &str)] = &[
     ),
     (
         "lewis-emulators",
-        &["lewis-services", "lewis"],
+        &["lewis-kinds", "lewis"],
         "the emulators and test services are for the lewis binary and tests, not for components",
     ),
     (

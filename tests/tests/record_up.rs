@@ -208,7 +208,7 @@ fn a_call_its_provider_never_answers_is_recorded_by_the_caller() {
     lewis(&["fault", "laser", "--stall"]);
     let timeout = std::time::Duration::from_millis(800);
     let command = RangeFinderGetGeometry::default();
-    let frame = lewis_runtime::wire::request_to_vec("get_geometry", &cdr::to_vec(&command));
+    let frame = lewis_service::wire::request_to_vec("get_geometry", &cdr::to_vec(&command));
     let raw = client.raw_mut();
     let call = raw.call(&frame, timeout).unwrap();
     lewis(&["fault", "laser", "--kill"]);

@@ -1,4 +1,4 @@
-//! The reference recording as a regression test: `logs/reference/sim-goal.mcap` is the
+//! The reference recording as a regression test: `tests/data/reference/sim-goal.mcap` is the
 //! simulated B21r of `robots/sim-reference.toml` driving from the lobby into the corridor,
 //! recorded by `lewis up` (`scripts/make-reference.sh` makes it again). `lewis replay`
 //! re-simulates the ObstacleAvoider and the VectorMover over it:
@@ -27,7 +27,7 @@ use lewis_tests::{lewis_exe, repo_root, run_ok, wait_child_within};
 use serde_json::Value;
 
 /// The reference recording, from the repository's root.
-const REFERENCE: &str = "logs/reference/sim-goal.mcap";
+const REFERENCE: &str = "tests/data/reference/sim-goal.mcap";
 
 /// A replay of the reference takes seconds; a debug build on a loaded machine, more.
 const REPLAY_WATCHDOG: Duration = Duration::from_secs(600);

@@ -1,5 +1,5 @@
 //! `lewis tune open`'s page in a real browser: headless Chromium, driven by Playwright
-//! (`sequencer/gui-test/tune.mjs`), on a recording of the simulated robot's camera. The
+//! (`tools/node/tune.mjs`), on a recording of the simulated robot's camera. The
 //! script drags a slider and sees the overlay and the plots change without a reload,
 //! marks the red cap's pixels and sees Red's ranges refitted, and saves; here the saved
 //! colour file must read back, say where its ranges came from, and hold every marked

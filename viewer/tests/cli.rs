@@ -111,7 +111,7 @@ fn fake_rerun(bin: &Path) {
 /// blueprint (sent last); watchdog [`WATCHDOG`]. Nothing announces the write: the file is
 /// read again every 200 ms.
 fn wait_saved(saved: &Path) -> serde_json::Value {
-    let script = repo_root().join("viewer/tests/python/check_rrd.py");
+    let script = repo_root().join("tools/python/check_rrd.py");
     let deadline = Instant::now() + WATCHDOG;
     let mut last = String::new();
     loop {

@@ -71,7 +71,11 @@ fn the_path_is_coloured_by_state_with_the_signs_and_the_laser_s_death() {
 fn the_reference_goal_drive_is_drawn_on_its_map() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("goal.png");
-    let report = write_png(&repo_root().join("logs/reference/sim-goal.mcap"), &out).unwrap();
+    let report = write_png(
+        &repo_root().join("tests/data/reference/sim-goal.mcap"),
+        &out,
+    )
+    .unwrap();
     assert_eq!(report.pose_source, Some("GroundTruth"), "{report}");
     assert!(report.poses > 100, "{report}");
     assert!(

@@ -277,7 +277,7 @@ struct RerunRead {
 }
 
 fn rerun_reads(rrd: &Path) -> RerunRead {
-    let script = repo_root().join("viewer/tests/python/check_rrd.py");
+    let script = repo_root().join("tools/python/check_rrd.py");
     let out = run_ok(python_tool("python").arg(script).arg(rrd));
     serde_json::from_str(&out)
         .unwrap_or_else(|e| panic!("check_rrd.py printed no JSON I can read ({e}):\n{out}"))

@@ -3,7 +3,7 @@
 //! program keeps only what it decides: its own inputs and its periodic step.
 
 use lewis_interfaces::msg::{Egomotion, Mover};
-use lewis_runtime::service::{Context, Input};
+use lewis_service::{Context, Input};
 
 use super::frames::Odometry;
 use super::mover::MoverClient;
@@ -96,14 +96,14 @@ impl Driver {
 /// `method(ctx)` once the driver has started.
 macro_rules! moving_service {
     ($program:ty $(, then $started:ident)?) => {
-        impl ::lewis_runtime::service::Service for $program {
+        impl ::lewis_service::Service for $program {
             fn tick_period_ns(&self) -> Option<i64> {
                 Some($crate::common::driver::TICK_PERIOD_NS)
             }
 
             fn on_start(
                 &mut self,
-                ctx: &mut ::lewis_runtime::service::Context<'_>,
+                ctx: &mut ::lewis_service::Context<'_>,
             ) -> Result<(), String> {
                 self.driver.start(ctx);
                 $(self.$started(ctx);)?
@@ -112,8 +112,8 @@ macro_rules! moving_service {
 
             fn on_input(
                 &mut self,
-                ctx: &mut ::lewis_runtime::service::Context<'_>,
-                input: &::lewis_runtime::service::Input<'_>,
+                ctx: &mut ::lewis_service::Context<'_>,
+                input: &::lewis_service::Input<'_>,
             ) {
                 if !self.driver.input(ctx, input) {
                     self.other_input(ctx, input);
@@ -122,19 +122,19 @@ macro_rules! moving_service {
 
             fn on_reply(
                 &mut self,
-                ctx: &mut ::lewis_runtime::service::Context<'_>,
-                reply: &::lewis_runtime::service::ReplyEvent<'_>,
+                ctx: &mut ::lewis_service::Context<'_>,
+                reply: &::lewis_service::ReplyEvent<'_>,
             ) {
                 self.driver.mover.on_reply(ctx, reply);
             }
 
-            fn on_tick(&mut self, ctx: &mut ::lewis_runtime::service::Context<'_>) {
+            fn on_tick(&mut self, ctx: &mut ::lewis_service::Context<'_>) {
                 if !self.driver.exited() {
                     self.step(ctx);
                 }
             }
 
-            fn on_stop(&mut self, ctx: &mut ::lewis_runtime::service::Context<'_>) {
+            fn on_stop(&mut self, ctx: &mut ::lewis_service::Context<'_>) {
                 self.driver.mover.stop_now(ctx);
             }
 

@@ -5,7 +5,7 @@
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::{Mover, MoverGoto, MoverRotate, MoverStatus, MoverStop};
-use lewis_runtime::service::{CallId, Context, ReplyEvent};
+use lewis_service::{CallId, Context, ReplyEvent};
 
 /// How soon a command that could not be sent (no provider yet, refused) is tried again.
 const RETRY_NS: i64 = 250_000_000;

@@ -25,7 +25,7 @@
 use std::path::PathBuf;
 
 use lewis_geometry::Pose2;
-use lewis_runtime::service::{BuildError, Service, ServiceConfig, ServiceRegistry};
+use lewis_service::{BuildError, Service, ServiceConfig, ServiceRegistry};
 use lewis_sim::service::{CameraParams, SimCameraService, TruePoseSource};
 use serde::{Deserialize, Deserializer};
 

@@ -8,7 +8,7 @@ use std::path::Path;
 use lewis_emulators::PoseFile;
 use lewis_geometry::Pose2;
 use lewis_interfaces::msg::{GroundTruth, ImageSource, Pose2D};
-use lewis_runtime::service::{Level, ServiceRegistry};
+use lewis_service::{Level, ServiceRegistry};
 use lewis_testkit::{Harness, repository_path, robot};
 
 const MS: i64 = 1_000_000;

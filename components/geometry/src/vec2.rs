@@ -199,7 +199,7 @@ mod tests {
             f64::INFINITY,
             -1.0,
         ];
-        let mut rng = lewis_runtime::service::Rng::new(0x2545_f491_4f6c_dd1d);
+        let mut rng = lewis_service::Rng::new(0x2545_f491_4f6c_dd1d);
         let mut next = || rng.uniform(-1.0, 1.0);
         for &radius in &radii {
             for _ in 0..20_000 {

@@ -430,7 +430,7 @@ mod tests {
 
     #[test]
     fn costs_are_bit_for_bit_those_of_dijkstra_with_a_heap() {
-        let mut rng = lewis_runtime::service::Rng::new(0x2545_f491_4f6c_dd1d);
+        let mut rng = lewis_service::Rng::new(0x2545_f491_4f6c_dd1d);
         let mut next = || rng.next_f64();
         // One map rebuilt again and again, as the avoider does.
         let mut map = GoalCostMap::default();

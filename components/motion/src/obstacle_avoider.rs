@@ -1044,7 +1044,7 @@ mod tests {
         let cell_m = config.arc_point_spacing_m / 2.0;
         let mut avoider = ObstacleAvoider::new(config.clone()).unwrap();
         let mut shadow: Vec<(i64, Vec<Vec2>)> = Vec::new();
-        let mut rng = lewis_runtime::service::Rng::new(0x9e37_79b9_7f4a_7c15);
+        let mut rng = lewis_service::Rng::new(0x9e37_79b9_7f4a_7c15);
         let mut next = || rng.next_f64();
         let mut stamp_ns = 0;
         for round in 0..300 {

@@ -6,7 +6,7 @@
 //! equal the number of 4-connected components OpenCV finds in the colour's mask.
 //!
 //! Run: `scripts/bench-cmvision.sh` (it makes the Python environment with OpenCV, then runs
-//! `cargo bench --bench cmvision`). The OpenCV side is bench/opencv/bench_cmvision_opencv.py,
+//! `cargo bench --bench cmvision`). The OpenCV side is tools/opencv/bench_cmvision_opencv.py,
 //! run with the Python of `LEWIS_OPENCV_PYTHON` (default `.venv-bench/bin/python`) on the
 //! frames this benchmark writes. Exits 1 when the region counts differ or OpenCV cannot run.
 #![allow(
@@ -83,7 +83,7 @@ fn measure(cmv: &mut CmVision, name: &'static str, data: &[u8]) -> Result<Measur
 fn opencv(dir: &Path, names: &[&str]) -> Result<serde_json::Value, String> {
     let python = std::env::var_os("LEWIS_OPENCV_PYTHON")
         .map_or_else(|| repository_path(".venv-bench/bin/python"), PathBuf::from);
-    let script = repository_path("bench/opencv/bench_cmvision_opencv.py");
+    let script = repository_path("tools/opencv/bench_cmvision_opencv.py");
     let output = Command::new(&python)
         .arg(&script)
         .arg("--json")

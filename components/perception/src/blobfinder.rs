@@ -22,8 +22,8 @@
 use std::path::PathBuf;
 
 use lewis_interfaces::msg::{Blob, Blobs, BlobsCommand, BlobsSetMinAreaReply, ImageSource};
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;

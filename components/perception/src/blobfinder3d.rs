@@ -39,8 +39,8 @@ use lewis_interfaces::msg::{
     Blob, Blob3D, Blobs, Blobs3D, Blobs3DCommand, Blobs3DSetMaxRangeReply, InputRef, Point3D,
     RangeFinder,
 };
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
 };
 use nalgebra::Point2;

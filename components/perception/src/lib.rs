@@ -32,7 +32,7 @@ pub mod signs;
 pub mod sweep;
 pub mod tuning;
 
-use lewis_runtime::service::ServiceRegistry;
+use lewis_service::ServiceRegistry;
 
 pub use cmvision::{
     ChannelRange, CmVision, ColorClass, ColorConfig, ColorFileError, ColorFileProblem, ConfigError,

@@ -21,7 +21,7 @@
 
 use lewis_geometry::{SectorLayout, distance_from_range_finder};
 use lewis_interfaces::msg::{Distance, DistanceCommand, DistanceSetSectorCountReply, RangeFinder};
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
     ServiceRegistry,
 };

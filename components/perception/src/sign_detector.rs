@@ -28,8 +28,8 @@ use std::path::PathBuf;
 
 use lewis_images::ImageIntrinsics;
 use lewis_interfaces::msg::{ImageSource, Signs, SignsCommand, SignsSetEnabledReply};
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;

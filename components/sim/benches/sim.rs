@@ -2,7 +2,7 @@
 //! beams), a sonar ring scan (48 transducers x 7 rays), a camera frame (640x480), a base
 //! step, and every device at its real rate for two simulated seconds.
 //!
-//! Run: `cargo bench -p lewis-services --bench sim`.
+//! Run: `cargo bench -p lewis-kinds --bench sim`.
 //!
 //! Real rates: base 50 Hz (20 ms steps); laser 37.5 Hz (a SICK LMS200 at 0.5 degree in mm
 //! mode streaming at 500 kbaud, limited by the scanner's interlaced 75 Hz sweeps; at 38400

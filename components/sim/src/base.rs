@@ -6,7 +6,7 @@ use lewis_interfaces::msg::{Egomotion, Power, Synchrodrive};
 
 use super::world::World;
 use lewis_geometry::{Pose2, Vec2, wrap_angle};
-use lewis_runtime::service::Rng;
+use lewis_service::Rng;
 
 /// Odometry noise: variances grow with the motion, so that the drift after a path does not
 /// depend on the integration step.

@@ -17,7 +17,7 @@ use lewis_geometry::{Pose2, SensorMount, Vec2, wrap_angle};
 
 use super::laser::{SensorConfigError, check_non_negative, check_positive};
 use super::world::{ArrowDirection, Hit, Material, Rgb, SIGN_BACK, Sign, Surface, World};
-use lewis_runtime::service::Rng;
+use lewis_service::Rng;
 
 /// The camera's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

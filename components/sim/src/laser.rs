@@ -7,7 +7,7 @@ use lewis_geometry::{Pose2, SectorLayout, SensorMount, Vec2, distance_from_range
 use lewis_interfaces::msg::{Pose3D, RangeFinder, RangeFinderGetGeometryReply};
 
 use super::world::World;
-use lewis_runtime::service::Rng;
+use lewis_service::Rng;
 
 /// The laser's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -28,7 +28,7 @@
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::{PersonState, Point2D, WorldState};
-use lewis_runtime::service::Rng;
+use lewis_service::Rng;
 
 use crate::world::{ObjectKind, World};
 

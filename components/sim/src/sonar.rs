@@ -11,7 +11,7 @@ use lewis_geometry::{
 
 use super::laser::{SensorConfigError, check_non_negative, check_positive};
 use super::world::World;
-use lewis_runtime::service::Rng;
+use lewis_service::Rng;
 
 /// The sonar's parameters.
 #[derive(Debug, Clone, PartialEq)]

@@ -9,7 +9,7 @@
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::{GroundTruth, InputRef, PersonState, Pose2D, RangeFinder, WorldState};
 use lewis_runtime::names::data_channel;
-use lewis_runtime::service::ServiceRegistry;
+use lewis_service::ServiceRegistry;
 use lewis_sim::scene::PERSONAL_SPACE_M;
 use lewis_sim::{Scene, World};
 use lewis_testkit::{Harness, decoded, repository_path, robot};

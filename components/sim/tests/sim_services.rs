@@ -12,7 +12,7 @@ use lewis_interfaces::msg::{
     SynchrodriveSetVelocity,
 };
 use lewis_runtime::names::data_channel;
-use lewis_runtime::service::{Level, ServiceRegistry};
+use lewis_service::{Level, ServiceRegistry};
 use lewis_sim::World;
 use lewis_testkit::{Harness, Publication, decoded, repository_path, robot};
 

@@ -5,7 +5,7 @@
 #![allow(clippy::unwrap_used)]
 
 use lewis_interfaces::msg::{GroundTruth, Pose2D, Speech, SpeechHear, SpeechSay};
-use lewis_runtime::service::ServiceRegistry;
+use lewis_service::ServiceRegistry;
 use lewis_testkit::{Harness, repository_path, robot};
 
 const MS: i64 = 1_000_000;

@@ -33,7 +33,7 @@ impl Mount {
 
 /// The `mount` parameter of each service of the robot description `toml`
 /// (`mount = { x_m, y_m, heading_deg, height_m }`, a missing key 0). Read as plain TOML
-/// rather than through `lewis_runtime::robot::parse`: the description was checked when it
+/// rather than through `lewis_robot::parse`: the description was checked when it
 /// was loaded, and a recording's stored one may be older than today's validator, which
 /// must not cost it its frames. A text that does not parse gives no mounts.
 #[must_use]

@@ -14,10 +14,10 @@ use std::time::{Duration, Instant};
 use lewis_interfaces::Command;
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{BrokerRobot, BrokerRobotReply};
+use lewis_robot::Robot;
 use lewis_runtime::ipc::{CallError, CallId, CommandClient, Ipc, IpcError, Waitable};
 use lewis_runtime::names;
-use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::wire;
+use lewis_service::wire;
 
 use crate::options::RobotDescription;
 
@@ -176,7 +176,7 @@ fn read_answer(frame: &[u8]) -> Result<Discovered, Unusable> {
     } else {
         reply.file_name
     };
-    let robot = robot::parse(&reply.toml, Path::new(&file_name), &known)
+    let robot = lewis_robot::parse(&reply.toml, Path::new(&file_name), &known)
         .map_err(|e| Unusable::Bad(e.to_string()))?;
     Ok(Discovered {
         robot,

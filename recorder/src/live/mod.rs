@@ -40,11 +40,11 @@ use std::time::{Duration, Instant};
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker, BrokerAction};
+use lewis_robot::Robot;
 use lewis_runtime::clock::LiveClock;
 use lewis_runtime::ipc::{Ipc, IpcError, Namespace, WaitError};
 use lewis_runtime::live::StopSignals;
 use lewis_runtime::names;
-use lewis_runtime::robot::Robot;
 use thiserror::Error;
 
 use crate::error::RecordError;

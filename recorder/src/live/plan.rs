@@ -6,9 +6,9 @@ use lewis_interfaces::Interface;
 use lewis_interfaces::msg::{
     Broker, CommandLog, Health, HostLink, LogLine, ProcessCpu, Sequencer, UnansweredCall,
 };
+use lewis_robot::Robot;
 use lewis_runtime::ipc::ChannelConfig;
 use lewis_runtime::names;
-use lewis_runtime::robot::Robot;
 use thiserror::Error;
 
 use crate::channel::ChannelSpec;
@@ -256,7 +256,7 @@ provides = [{{ interface = "Distance", quality = 1, cost = 1 }}]
             .iter()
             .map(|i| i.name)
             .collect();
-        lewis_runtime::robot::parse(&text, std::path::Path::new("t.toml"), &known).unwrap()
+        lewis_robot::parse(&text, std::path::Path::new("t.toml"), &known).unwrap()
     }
 
     #[test]

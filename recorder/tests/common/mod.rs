@@ -127,7 +127,7 @@ impl PythonView {
 
 /// Reads `files` (as one run) with mcap + mcap-ros2-support.
 pub fn python_read(files: &[PathBuf]) -> PythonView {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/check_recording.py");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tools/python/check_recording.py");
     let stdout = run_ok(python_tool("python").arg(script).args(files));
     PythonView {
         json: serde_json::from_str(&stdout).unwrap(),

@@ -20,7 +20,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use lewis_runtime::service::{
+use lewis_service::{
     CommandError, Context, IncomingCommand, Input, Reply, ReplyEvent, Service, ServiceRegistry,
 };
 use serde::Serialize;

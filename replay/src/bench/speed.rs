@@ -19,9 +19,9 @@ use std::time::Instant;
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{CommandLog, InputRef};
-use lewis_runtime::broker::Health;
-use lewis_runtime::robot::Robot;
-use lewis_runtime::service::{
+use lewis_robot::Robot;
+use lewis_service::Health;
+use lewis_service::{
     Backend, CallFailure, CallId, ContextError, ContextState, IncomingCommand, Input, Level,
     Service, ServiceConfig, ServiceRegistry,
 };

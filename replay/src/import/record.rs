@@ -19,7 +19,7 @@ use lewis_recorder::{
     ChannelId, ChannelSpec, Compression, RecordError, Recorder, RecorderOptions, RecordingReport,
     RobotDescription, Sample,
 };
-use lewis_runtime::robot::{self, RobotError};
+use lewis_robot::RobotError;
 
 use crate::whole_file::{RenameError, write_whole};
 
@@ -176,9 +176,11 @@ impl ImportFile {
             .iter()
             .map(|i| i.name)
             .collect();
-        robot::parse(&toml, Path::new(&file_name), &known).map_err(|source| WriteError::Robot {
-            path: log.to_owned(),
-            source,
+        lewis_robot::parse(&toml, Path::new(&file_name), &known).map_err(|source| {
+            WriteError::Robot {
+                path: log.to_owned(),
+                source,
+            }
         })?;
         options.sync_on_flush = false;
         options.robot_description = Some(RobotDescription {

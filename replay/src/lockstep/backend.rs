@@ -4,15 +4,15 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{Backend, CallFailure, CallId, ContextError, Level};
+use lewis_service::Health;
+use lewis_service::{Backend, CallFailure, CallId, ContextError, Level};
 
 /// Something a service did while handling an event.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Effect {
     /// It published a message of `interface`.
     Publish { interface: String, bytes: Vec<u8> },
-    /// It called `interface.command` (the frame is a [`lewis_runtime::wire`] request).
+    /// It called `interface.command` (the frame is a [`lewis_service::wire`] request).
     Call {
         call: CallId,
         interface: String,

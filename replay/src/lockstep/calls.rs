@@ -3,8 +3,8 @@
 //! recording), and the command log of every command a re-simulated service answered.
 
 use lewis_interfaces::msg::{CommandLog, CommandLogStatus, Header};
-use lewis_runtime::service::{CallFailure, CallId, IncomingCommand};
-use lewis_runtime::wire;
+use lewis_service::wire;
+use lewis_service::{CallFailure, CallId, IncomingCommand};
 
 use super::engine::{Timer, Work};
 use super::{Emitted, Lockstep, Sink, default_reply};

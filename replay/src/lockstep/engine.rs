@@ -7,10 +7,10 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 use lewis_interfaces::msg::InputRef;
+use lewis_robot::ServiceSpec;
 use lewis_runtime::broker::{Action, Event, ExitStatus, Health};
 use lewis_runtime::names;
-use lewis_runtime::robot::ServiceSpec;
-use lewis_runtime::service::{
+use lewis_service::{
     CallFailure, CallId, Context, ContextState, Input, Level, ReplyEvent, Service, ServiceConfig,
     decode_header_seq,
 };

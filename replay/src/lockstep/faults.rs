@@ -5,7 +5,7 @@ use std::borrow::Cow;
 
 use lewis_interfaces::cdr::{self, ENCAPSULATION_LE};
 use lewis_runtime::broker::{Event, ExitStatus, Health};
-use lewis_runtime::service::Rng;
+use lewis_service::Rng;
 
 use super::engine::Work;
 use super::{Emitted, Lockstep, Sink};

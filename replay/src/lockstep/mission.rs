@@ -25,8 +25,8 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 
 use lewis_runtime::broker::Event as BrokerEvent;
-use lewis_runtime::service::{ContextState, Service};
 use lewis_sequencer::{Decision, Entry, Event, Mission, Record, Sequencer, Supervision};
+use lewis_service::{ContextState, Service};
 use serde::Serialize;
 
 use super::backend::StepBackend;

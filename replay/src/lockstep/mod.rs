@@ -2,8 +2,8 @@
 //! on a virtual clock, fed recorded publications in a total order.
 //!
 //! Services are the same code as live: the harness implements the runtime's
-//! [`Backend`](lewis_runtime::service::Backend) (a virtual clock and an outbox) and drives
-//! the [`Service`](lewis_runtime::service::Service) trait. Nothing in a service knows it is replayed.
+//! [`Backend`](lewis_service::Backend) (a virtual clock and an outbox) and drives
+//! the [`Service`](lewis_service::Service) trait. Nothing in a service knows it is replayed.
 //!
 //! # Time and order
 //!
@@ -90,10 +90,10 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{
     Broker as BrokerMessage, BrokerAction, CommandLog, HostLink, HostLinkEvent, ProcessCpu,
 };
+use lewis_robot::Robot;
 use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
 use lewis_runtime::live::heartbeat_event;
-use lewis_runtime::robot::Robot;
-use lewis_runtime::service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegistry};
+use lewis_service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegistry};
 use serde::Serialize;
 
 use crate::fault::{Fault, FaultKind};
@@ -423,7 +423,7 @@ impl<'a> Lockstep<'a> {
     pub fn preview(&mut self, message: &RecordedMessage, at_ns: i64) {
         match self.route_of(&message.topic) {
             Route::Data { service, .. } => {
-                let input = lewis_runtime::service::Input {
+                let input = lewis_service::Input {
                     interface: "",
                     provider: "",
                     channel: &message.topic,

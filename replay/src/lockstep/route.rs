@@ -1,8 +1,8 @@
 //! What a recorded topic is to the harness, from the runtime's channel names
 //! ([`lewis_runtime::names`]).
 
+use lewis_robot::Robot;
 use lewis_runtime::names;
-use lewis_runtime::robot::Robot;
 
 /// What a recorded topic carries.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -78,7 +78,7 @@ mod tests {
 
     #[test]
     fn topics_are_routed_by_the_runtime_names() {
-        let robot = lewis_runtime::robot::parse(
+        let robot = lewis_robot::parse(
             "[robot]\nname = \"r\"\n[[services]]\nname = \"laser\"\nkind = \"k\"\nprovides = [{ interface = \"RangeFinder\", quality = 1, cost = 1 }]\n",
             std::path::Path::new("r.toml"),
             &["RangeFinder"],

@@ -24,7 +24,7 @@ use lewis_mcap::format::{FORMAT_VERSION, RECORDING_METADATA, WrittenBy};
 use lewis_mcap::{McapFile, OpenError, ReadError, Summary};
 use lewis_recorder::ChannelSpec;
 use lewis_recorder::index::{IndexError, PartsIndex};
-use lewis_runtime::robot::{self, Robot, RobotError};
+use lewis_robot::{Robot, RobotError};
 
 pub use read_ahead::ReadAhead;
 pub use stream::{Messages, RecordedMessage};
@@ -410,11 +410,12 @@ impl Recording {
             .map(|i| i.name)
             .collect();
         let origin = robot_path.join(ROBOT_METADATA);
-        let robot =
-            robot::parse(&robot_toml, &origin, &known).map_err(|source| RecordingError::Robot {
+        let robot = lewis_robot::parse(&robot_toml, &origin, &known).map_err(|source| {
+            RecordingError::Robot {
                 path: robot_path.clone(),
                 source,
-            })?;
+            }
+        })?;
         Ok(Self {
             files,
             robot,

@@ -17,8 +17,8 @@ use std::path::{Path, PathBuf};
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker as BrokerMessage, BrokerAction, Sequencer as SequencerMessage};
+use lewis_robot::{Launch, Robot};
 use lewis_runtime::names;
-use lewis_runtime::robot::{Launch, Robot};
 use lewis_sequencer::{
     Decision, Entry, Event, FileSystem, Record, Recording as MissionSteps, TrustingResolver,
     check_with, from_message,

@@ -3,7 +3,7 @@
 //!
 //! - `--robot FILE` replays with another robot description instead of the one stored in the
 //!   recording, typically the robot file of the repository after the change under test
-//!   (`lewis replay logs/reference/run.mcap --robot robots/sim.toml --check`).
+//!   (`lewis replay tests/data/reference/run.mcap --robot robots/sim.toml --check`).
 //! - `--set SERVICE.PARAMETER=VALUE` changes one parameter (after `--robot`, if given), for
 //!   a quick what-if: `--set obstacle_avoider.clearance_m=0.3`. The value is TOML (`0.3`,
 //!   `true`, `"text"`, `[1, 2]`, `{ x_m = 3.0 }`); a bare word is taken as a string. A dotted
@@ -16,7 +16,7 @@
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use lewis_runtime::robot::{self, Robot, RobotError};
+use lewis_robot::{Robot, RobotError};
 
 use crate::report::ParameterChange;
 
@@ -87,7 +87,7 @@ pub enum EditError {
     /// The robot description is not valid (after the edits).
     #[error("{0}")]
     Robot(#[from] RobotError),
-    /// The robot description is not valid TOML (it is checked by [`robot::parse`] first, so
+    /// The robot description is not valid TOML (it is checked by [`lewis_robot::parse`] first, so
     /// this is an internal limit of the editor).
     #[error("cannot edit the robot description: {0}")]
     Toml(String),
@@ -181,7 +181,7 @@ pub fn replayed_robot(
         .map(|i| i.name)
         .collect();
     // Checked before the edits, so that its errors point at the file's own lines.
-    let mut robot = robot::parse(&text, &origin, &known)?;
+    let mut robot = lewis_robot::parse(&text, &origin, &known)?;
     if !edits.is_empty() {
         let mut table: toml::Table =
             toml::from_str(&text).map_err(|e| EditError::Toml(e.to_string()))?;
@@ -190,7 +190,7 @@ pub fn replayed_robot(
         }
         text = toml::to_string(&table).map_err(|e| EditError::Toml(e.to_string()))?;
         let origin = PathBuf::from(format!("{} with --set", origin.display()));
-        robot = robot::parse(&text, &origin, &known)?;
+        robot = lewis_robot::parse(&text, &origin, &known)?;
     }
     let changes = parameter_changes(recorded, &robot);
     Ok(ReplayedRobot {
@@ -334,7 +334,7 @@ provides = [{ interface = "RangeFinder", quality = 1, cost = 1 }]
             .iter()
             .map(|i| i.name)
             .collect();
-        robot::parse(ROBOT, Path::new("r.toml"), &known).unwrap()
+        lewis_robot::parse(ROBOT, Path::new("r.toml"), &known).unwrap()
     }
 
     fn edit(texts: &[&str]) -> Result<ReplayedRobot, EditError> {

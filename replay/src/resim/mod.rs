@@ -39,9 +39,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use lewis_recorder::{Compression, RecordError, Recorder, RecorderOptions, RobotDescription};
+use lewis_robot::{Launch, Robot};
 use lewis_runtime::names;
-use lewis_runtime::robot::{Launch, Robot};
-use lewis_runtime::service::{ServiceConfig, ServiceRegistry};
+use lewis_service::{ServiceConfig, ServiceRegistry};
 
 use crate::compare::Comparator;
 use crate::fault::{Fault, FaultError, FaultSpec};

@@ -1,7 +1,7 @@
 //! Running a sweep: one closed-loop replay per fault time, on worker threads, each turned
 //! into a [`SweepPoint`].
 
-use lewis_runtime::service::ServiceRegistry;
+use lewis_service::ServiceRegistry;
 
 use super::{FailedPoint, Sweep, SweepPoint, fault_times, run_jobs};
 use crate::fault::{FaultKind, FaultSpec, format_seconds};

@@ -13,11 +13,11 @@ use std::time::Duration;
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{INTERFACES, Pose3D, RangeFinder, RangeFinderBulkLens};
+use lewis_robot::Robot;
 use lewis_runtime::broker::live::{UpOptions, run_up};
 use lewis_runtime::client::Client;
 use lewis_runtime::ipc::{Ipc, Namespace};
-use lewis_runtime::robot::{self, Robot};
-use lewis_runtime::service::{BuildError, Context, Service, ServiceRegistry};
+use lewis_service::{BuildError, Context, Service, ServiceRegistry};
 use serde::Deserialize;
 
 use crate::common::{
@@ -62,7 +62,7 @@ twin = "{twin}"
 
 fn load(path: &std::path::Path) -> Res<Robot> {
     let known: Vec<&str> = INTERFACES.iter().map(|i| i.name).collect();
-    Ok(robot::load(path, &known)?)
+    Ok(lewis_robot::load(path, &known)?)
 }
 
 /// A scan of `beams` beams as the source publishes it.

@@ -58,9 +58,9 @@ use crate::ipc::{
 use crate::live::{CLOCK_ENV, ClockSource};
 use crate::live::{StopSignals, heartbeat_event};
 use crate::names;
-use crate::robot::{DataChecks, Robot, ServiceSpec};
 use crate::supervise::{ChildSpec, LogLine, SuperviseError, Supervisor, SupervisorEvent};
-use crate::wire;
+use lewis_robot::{DataChecks, Robot, ServiceSpec};
+use lewis_service::wire;
 
 /// Log lines waiting to be published before new ones are dropped (and counted by the
 /// supervisor).
@@ -1501,7 +1501,7 @@ provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
     fn robot_and_options(dir: &Path, text: &str, tag: &str) -> (Robot, UpOptions) {
         let robot_path = dir.join("robot.toml");
         std::fs::write(&robot_path, text).unwrap();
-        let robot = crate::robot::parse(text, &robot_path, &["RangeFinder"]).unwrap();
+        let robot = lewis_robot::parse(text, &robot_path, &["RangeFinder"]).unwrap();
         let options = UpOptions {
             robot_path,
             namespace: Namespace::unique(tag),

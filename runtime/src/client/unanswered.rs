@@ -20,7 +20,7 @@ use lewis_interfaces::msg::{UnansweredCall, UnansweredCallStatus};
 use crate::clock::LiveClock;
 use crate::ipc::{CallId as IpcCallId, Ipc, Publisher};
 use crate::names;
-use crate::wire;
+use lewis_service::wire;
 
 /// Numbers the records of this process: its clients may each have a publisher, and a
 /// reader orders them by the header's sequence.

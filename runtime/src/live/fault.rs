@@ -23,7 +23,7 @@ use std::time::Duration;
 
 use crate::ipc::{CallError, CommandClient, CommandConfig, Ipc, IpcError, WakeMode};
 use crate::names;
-use crate::wire;
+use lewis_service::wire;
 
 /// A fault the live harness can put its service in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -45,10 +45,10 @@ use lewis_interfaces::msg::{Health as HealthMessage, HealthState};
 
 use super::fault::{FaultState, OUT_OF_SERVICE_REASON};
 use super::health_fields;
-use crate::broker::Health;
 use crate::clock::LiveClock;
 use crate::ipc::{Ipc, IpcError, Namespace, Publisher};
 use crate::names;
+use lewis_service::Health;
 
 /// The step word's flag: the loop waits for something to do.
 const WAITING: u64 = 1;

@@ -36,10 +36,7 @@ mod signals;
 pub use service_clock::{CLOCK_ENV, ClockSource, UnknownClock};
 pub use signals::{StopHandle, StopSignals};
 
-/// The variable in which `lewis up` names the recording to the robot's services when it
-/// records (the file's path): a service that writes files of its own (espeak-speech's
-/// audio) puts them beside it. Services never read or write the recording itself.
-pub const RECORDING_ENV: &str = "LEWIS_RECORDING";
+pub use lewis_service::RECORDING_ENV;
 
 use std::collections::BTreeMap;
 use std::os::fd::AsFd;
@@ -50,19 +47,19 @@ use lewis_interfaces::msg::{
     CommandLog, CommandLogStatus, Health as HealthMessage, HealthState, InputRef,
 };
 
-use crate::broker::Health;
 use crate::client::{ClientError, RawClient};
 use crate::ipc::{
     CallError, CallId as IpcCallId, CommandServer, FdSource, Ipc, IpcError, Namespace, Publisher,
     WaitError, WaitSet, Waitable, WakeMode, Woken,
 };
 use crate::names;
-use crate::robot::Robot;
-use crate::service::{
+use lewis_robot::Robot;
+use lewis_service::Health;
+use lewis_service::wire;
+use lewis_service::{
     Backend, BuildError, CallFailure, CallId, Context, ContextError, ContextState, IncomingCommand,
     Level, ReplyEvent, Service, ServiceConfig, ServiceRegistry,
 };
-use crate::wire;
 use service_clock::ServiceClock;
 
 /// Why a service could not run.
@@ -192,7 +189,7 @@ const PROGRAM_HANDLER_DEADLINE_MS: u64 = 1000;
 /// One service or program to run.
 struct Run<'a> {
     name: &'a str,
-    provides: &'a [crate::robot::Provision],
+    provides: &'a [lewis_robot::Provision],
     requires: &'a [String],
     startup_deadline_ms: u64,
     /// The heartbeat deadline: what a handler may take.
@@ -448,7 +445,7 @@ impl Harness<'_> {
                         let answer = self
                             .service
                             .on_command(&mut self.state.context(&mut self.backend), &incoming)
-                            .map(|reply| reply.bytes)
+                            .map(lewis_service::Reply::into_bytes)
                             .map_err(|e| e.0);
                         self.overruns
                             .ran("on_command", self.backend.watch.step_cpu());
@@ -483,12 +480,12 @@ impl Harness<'_> {
                 let Some(received) = self.backend.watch.ipc(|| client.receive())? else {
                     break;
                 };
-                let seq = crate::service::decode_header_seq(received.bytes());
+                let seq = lewis_service::decode_header_seq(received.bytes());
                 self.state.set_inputs(vec![InputRef {
                     channel: channel.clone(),
                     seq,
                 }]);
-                let input = crate::service::Input {
+                let input = lewis_service::Input {
                     interface: &interface,
                     provider: &provider,
                     channel: &channel,

@@ -1,4 +1,4 @@
-//! The clock a live service reads ([`Context::now`](crate::service::Context::now) and its
+//! The clock a live service reads ([`Context::now`](lewis_service::Context::now) and its
 //! ticks): the machine's, or the time of a recording played into IPC (`lewis play`, on
 //! `/lewis/clock`), like ROS 2's `use_sim_time`.
 //!

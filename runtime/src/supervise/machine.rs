@@ -5,7 +5,7 @@
 
 use super::awake::{CPU_LATENCY_DEVICE, CoresAwake, keep_cores_awake};
 use super::priority::{PrioritySet, realtime_allowed, set_nice};
-use crate::robot::Robot;
+use lewis_robot::Robot;
 
 /// The robot's settings on this machine, for as long as this lives.
 #[derive(Debug)]

@@ -33,10 +33,10 @@ use lewis_interfaces::msg::{
     BrokerStatus, BrokerStatusReply, Egomotion, GroundTruth, ImageSource, Speech, SpeechHear,
     WorldState,
 };
+use lewis_robot::Robot;
 use lewis_runtime::client::call_blocking;
 use lewis_runtime::ipc::{CommandClient, Ipc, Namespace, Subscriber};
 use lewis_runtime::names;
-use lewis_runtime::robot::Robot;
 use lewis_stdx::world::{WorldHeader, find_world};
 use serde::{Deserialize, Serialize};
 

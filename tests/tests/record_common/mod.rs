@@ -55,7 +55,7 @@ impl Recording {
                     .entry(channel.topic.clone())
                     .or_insert_with(|| channel.metadata.clone());
                 // ROS 2's own types, with no Lewis header: checked against their sources
-                // by tests/python/check_companions.py.
+                // by tools/python/check_companions.py.
                 if channel.metadata.get("kind").map(String::as_str)
                     == Some(lewis_recorder::companion::COMPANION_KIND)
                 {
@@ -136,9 +136,9 @@ pub fn decode<T: lewis_interfaces::Struct>(message: &Recorded) -> T {
 }
 
 /// Reads `files` (as one run) with mcap + mcap-ros2-support: the JSON of
-/// `recorder/tests/python/check_recording.py`.
+/// `tools/python/check_recording.py`.
 pub fn python_read(files: &[PathBuf]) -> Value {
-    let script = repo_root().join("recorder/tests/python/check_recording.py");
+    let script = repo_root().join("tools/python/check_recording.py");
     serde_json::from_str(&run_ok(python_tool("python").arg(script).args(files))).unwrap()
 }
 

@@ -18,7 +18,7 @@ use lewis_interfaces::msg::{
     CameraControl, CameraControlCommand, CameraControlSetExposureReply, CameraControlSetFocusReply,
     CameraControlSetPanTiltReply, CameraControlSetZoomReply,
 };
-use lewis_runtime::service::{CommandError, Context, Reply};
+use lewis_service::{CommandError, Context, Reply};
 
 use super::v4l2::{CaptureRequest, ControlRange, DeviceError, FrameInfo, VideoDevice, sys};
 

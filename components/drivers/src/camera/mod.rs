@@ -45,8 +45,8 @@ use lewis_interfaces::Interface;
 use lewis_interfaces::msg::{
     CameraControl, ImageSource, ImageSourceCommand, ImageSourceSetRateReply,
 };
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
     ServiceRegistry,
 };

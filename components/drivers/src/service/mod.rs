@@ -3,7 +3,7 @@
 //! Distance).
 //!
 //! Each owns its driver and gives the live harness the port's descriptor
-//! ([`Service::device`](lewis_runtime::service::Service::device)), so that it wakes when bytes
+//! ([`Service::device`](lewis_service::Service::device)), so that it wakes when bytes
 //! arrive; a tick runs the parts that depend on time (health, reconnection, the base's
 //! watchdog). Device trouble never ends the process: the service declares itself out of
 //! service with the driver's reason (the broker fails its clients over), keeps retrying the
@@ -18,8 +18,8 @@ pub mod sick;
 
 use lewis_geometry::{Pose2, SensorMount};
 use lewis_interfaces::Interface;
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{BuildError, Context, ServiceConfig, ServiceRegistry};
+use lewis_service::Health;
+use lewis_service::{BuildError, Context, ServiceConfig, ServiceRegistry};
 use serde::Deserialize;
 
 use super::io::DriverHealth;

@@ -51,8 +51,8 @@ use lewis_interfaces::msg::{
     SynchrodriveCommand, SynchrodriveSetBrakeReply, SynchrodriveSetVelocityReply,
     SynchrodriveStopReply,
 };
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;
@@ -748,8 +748,8 @@ impl Service for RflexService {
 mod tests {
     use std::path::Path;
 
-    use lewis_runtime::robot::{self, Robot};
-    use lewis_runtime::service::ServiceRegistry;
+    use lewis_robot::Robot;
+    use lewis_service::ServiceRegistry;
 
     use super::*;
 
@@ -758,7 +758,7 @@ mod tests {
             .iter()
             .map(|i| i.name)
             .collect();
-        robot::parse(text, path, &known).unwrap()
+        lewis_robot::parse(text, path, &known).unwrap()
     }
 
     /// Builds service `base` of `text`.

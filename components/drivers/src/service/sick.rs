@@ -33,8 +33,8 @@ use lewis_interfaces::msg::{
     Distance, DistanceCommand, DistanceSetSectorCountReply, RangeFinder, RangeFinderCommand,
     RangeFinderGetGeometryReply,
 };
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;

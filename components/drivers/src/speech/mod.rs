@@ -28,10 +28,10 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-pub use lewis_runtime::live::RECORDING_ENV;
+pub use lewis_service::RECORDING_ENV;
 
 use lewis_interfaces::msg::{Speech, SpeechCommand, SpeechHearReply, SpeechSayReply};
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
     ServiceRegistry,
 };

@@ -6,7 +6,7 @@
 
 pub mod range;
 
-use lewis_runtime::service::ServiceRegistry;
+use lewis_service::ServiceRegistry;
 
 /// Registers the test service kinds (`test-range`).
 pub fn register(registry: &mut ServiceRegistry) {

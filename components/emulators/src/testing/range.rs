@@ -43,8 +43,8 @@ use lewis_interfaces::msg::{
     Distance, DistanceCommand, DistanceSetSectorCountReply, Pose3D, RangeFinder,
     RangeFinderCommand, RangeFinderGetGeometryReply,
 };
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Rng, Service, ServiceConfig,
 };
 use serde::Deserialize;

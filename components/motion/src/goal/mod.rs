@@ -4,8 +4,8 @@
 //! [`GoalPolicy`] is the pure core: it takes what the clients received and the time as
 //! arguments and says what to do next (send the goal to the Mover that serves now, wait,
 //! or stop with an [`Outcome`]). It decides when a goal is sent again: after a failover to
-//! another provider, or when a restarted provider no longer pursues it. [`GoalRun`] runs
-//! it on a thread over IPC clients.
+//! another provider, or when a restarted provider no longer pursues it. `lewis_launch::goal`
+//! runs it on a thread over IPC clients.
 //!
 //! Goals are in the world frame by default: the first GroundTruth and Egomotion samples
 //! (taken while the robot is still at rest) give the odometry frame's place in the world,
@@ -13,9 +13,7 @@
 //! sends it as given (a robot without a simulator).
 
 mod policy;
-mod run;
 
 pub use policy::{
     Goal, GoalFrame, GoalPolicy, GoalStep, NOT_SERVING_RETRY, Outcome, UnknownFrame, goal_in_odom,
 };
-pub use run::{GOAL_CLIENT, GoalPlan, GoalRun, GoalRunError};

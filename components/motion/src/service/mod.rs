@@ -1,5 +1,5 @@
 //! The motion service kinds: thin adapters of the pure models to the runtime's
-//! [`Service`](lewis_runtime::service::Service) trait.
+//! [`Service`](lewis_service::Service) trait.
 //!
 //! - [`vector_mover`] (`kind = "vector_mover"`): provides Mover, requires Egomotion and
 //!   Synchrodrive. Every tick it steps a [`VectorMover`](super::VectorMover) on the newest
@@ -34,7 +34,7 @@ use std::collections::{BTreeSet, VecDeque};
 
 use lewis_interfaces::Interface;
 use lewis_interfaces::msg::{Egomotion, InputRef, Mover, MoverCommand, MoverReply, Pose2D};
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CallId, CommandError, Context, IncomingCommand, Input, InputError, Reply,
     ServiceConfig, ServiceRegistry,
 };

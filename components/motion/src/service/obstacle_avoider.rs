@@ -55,7 +55,7 @@
 use lewis_interfaces::msg::{
     Distance, InputRef, Mover, MoverGoto, MoverRotate, MoverStop, MoverTranslate, RangeFinder,
 };
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CallFailure, CallId, CommandError, Context, IncomingCommand, Input, Reply,
     ReplyEvent, Service, ServiceConfig,
 };

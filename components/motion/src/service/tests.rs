@@ -11,9 +11,9 @@ use lewis_interfaces::msg::{
     SynchrodriveSetVelocityReply, SynchrodriveStop,
 };
 use lewis_interfaces::{Command, Interface, cdr};
-use lewis_runtime::broker::Health;
-use lewis_runtime::robot::Robot;
-use lewis_runtime::service::{BuildError, CallFailure, CallId, CommandError, ServiceRegistry};
+use lewis_robot::Robot;
+use lewis_service::Health;
+use lewis_service::{BuildError, CallFailure, CallId, CommandError, ServiceRegistry};
 use lewis_testkit::{Harness, robot};
 
 use crate::MoverStatus;

@@ -35,8 +35,8 @@
 //! ```
 
 use lewis_interfaces::msg::{SynchrodriveSetVelocity, SynchrodriveStop};
-use lewis_runtime::broker::Health;
-use lewis_runtime::service::{
+use lewis_service::Health;
+use lewis_service::{
     BuildError, CallId, CommandError, Context, IncomingCommand, Input, Reply, ReplyEvent, Service,
     ServiceConfig,
 };

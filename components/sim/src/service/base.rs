@@ -31,7 +31,7 @@ use lewis_interfaces::msg::{
     PowerSetLowThresholdReply, Synchrodrive, SynchrodriveCommand, SynchrodriveSetBrakeReply,
     SynchrodriveSetVelocityReply, SynchrodriveStopReply, WorldState,
 };
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;

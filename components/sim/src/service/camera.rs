@@ -37,7 +37,7 @@ use lewis_interfaces::msg::{
     CameraControlSetPanTiltReply, CameraControlSetZoomReply, ImageSource, ImageSourceBulkLens,
     ImageSourceCommand, ImageSourceSetRateReply,
 };
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;

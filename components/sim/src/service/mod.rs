@@ -30,7 +30,7 @@ use std::path::Path;
 use lewis_geometry::{Pose2, SensorMount};
 use lewis_interfaces::Interface;
 use lewis_interfaces::msg::{GroundTruth, InputRef, PersonState, WorldState};
-use lewis_runtime::service::{BuildError, Context, Input, ServiceConfig, ServiceRegistry};
+use lewis_service::{BuildError, Context, Input, ServiceConfig, ServiceRegistry};
 use serde::Deserialize;
 
 use super::world::World;

@@ -7,9 +7,7 @@ use lewis_interfaces::msg::{
     Distance, DistanceCommand, DistanceSetSectorCountReply, RangeFinder, RangeFinderCommand,
     RangeFinderGetGeometryReply,
 };
-use lewis_runtime::service::{
-    CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
-};
+use lewis_service::{CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig};
 
 use super::{TruthFollower, provides, publish, sector_count};
 use crate::world::World;

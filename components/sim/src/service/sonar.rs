@@ -36,7 +36,7 @@ use std::path::PathBuf;
 use lewis_geometry::Pose2;
 use lewis_geometry::b21r_sonar_ring;
 use lewis_interfaces::msg::{Distance, RangeFinder, RangeFinderGetGeometryReply};
-use lewis_runtime::service::{BuildError, Service, ServiceConfig};
+use lewis_service::{BuildError, Service, ServiceConfig};
 use serde::Deserialize;
 
 use super::range::{RangeSensor, RangeService};

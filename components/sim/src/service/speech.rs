@@ -23,7 +23,7 @@ use std::path::PathBuf;
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::{Speech, SpeechAnswer, SpeechCommand, SpeechHearReply, SpeechSayReply};
-use lewis_runtime::service::{
+use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Input, Reply, Service, ServiceConfig,
 };
 use serde::Deserialize;

@@ -3,7 +3,7 @@
 
 use super::service::{AfterStop, ServiceState};
 use super::{Action, BrokerCore};
-use crate::robot::StartMode;
+use lewis_robot::StartMode;
 
 impl BrokerCore {
     /// The services that run on `host`, in boot order.

@@ -4,8 +4,8 @@
 use super::decision::{fmt_span, fmt_time};
 use super::service::{AfterStop, Probation, ServiceState, ms_to_ns};
 use super::{Action, BrokerCore, ExitStatus, Health, Need};
-use crate::robot::{OnCheckFailure, StartMode};
 use crate::supervise::RestartDecision;
+use lewis_robot::{OnCheckFailure, StartMode};
 
 impl BrokerCore {
     pub(super) fn boot(&mut self) {

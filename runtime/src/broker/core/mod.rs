@@ -79,7 +79,7 @@ pub use snapshot::{Binding, ServiceStatus, Snapshot};
 
 use service::Entry;
 
-use crate::robot::{OnCheckFailure, RetryPolicy, Robot};
+use lewis_robot::{OnCheckFailure, RetryPolicy, Robot};
 
 /// The broker's decision core. Build it from a robot description with [`BrokerCore::new`],
 /// feed it [`Event`]s with [`BrokerCore::handle`], wake it at [`BrokerCore::next_deadline`].

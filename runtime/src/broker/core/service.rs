@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::event::Health;
-use crate::robot::{ServiceSpec, StartMode};
 use crate::supervise::RestartTracker;
+use lewis_robot::{ServiceSpec, StartMode};
 
 /// Where a service is in its life, as the broker sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -8,7 +8,7 @@ use expect_test::{Expect, expect};
 
 use super::decision::fmt_time;
 use super::*;
-use crate::robot;
+use lewis_robot as robot;
 
 pub(super) const KNOWN: &[&str] = &[
     "RangeFinder",

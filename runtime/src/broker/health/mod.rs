@@ -22,7 +22,7 @@ use std::hash::{DefaultHasher, Hasher};
 
 use lewis_interfaces::cdr;
 
-use crate::robot::{DataChecks, OnCheckFailure};
+use lewis_robot::{DataChecks, OnCheckFailure};
 
 use values::ValueCheck;
 

@@ -3,7 +3,7 @@
 use proptest::prelude::*;
 
 use super::DataMonitor;
-use crate::robot::DataChecks;
+use lewis_robot::DataChecks;
 
 proptest! {
     #[test]

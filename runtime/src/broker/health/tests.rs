@@ -5,7 +5,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Blobs, Egomotion, Header, Pose3D, RangeFinder};
 
 use super::{Check, DataMonitor};
-use crate::robot::{DataChecks, OnCheckFailure};
+use lewis_robot::{DataChecks, OnCheckFailure};
 
 const MS: i64 = 1_000_000;
 
