@@ -13,7 +13,7 @@ use super::validate::{Parsed, validate};
 /// Every problem found, each with its file, line and column.
 pub fn load_dir(dir: &Path) -> Result<Idl, Diagnostics> {
     let entries = std::fs::read_dir(dir).map_err(|err| {
-        Diagnostics::from(Diagnostic::new(
+        Diagnostics::from(Diagnostic::error(
             dir,
             Position::default(),
             format!("cannot read the folder: {err}"),
@@ -27,7 +27,7 @@ pub fn load_dir(dir: &Path) -> Result<Idl, Diagnostics> {
     files.sort();
     if files.is_empty() {
         return Err(
-            Diagnostic::new(dir, Position::default(), "no .xml files in this folder")
+            Diagnostic::error(dir, Position::default(), "no .xml files in this folder")
                 .with_hint("interface definitions are `NAME.xml` files beside a `types.xml`")
                 .into(),
         );
@@ -51,7 +51,7 @@ pub fn load_files(files: &[PathBuf]) -> Result<Idl, Diagnostics> {
                     let valid =
                         String::from_utf8_lossy(err.as_bytes().get(..offset).unwrap_or_default())
                             .into_owned();
-                    errors.push(Diagnostic::new(
+                    errors.push(Diagnostic::error(
                         file,
                         Position::of_offset(&valid, offset),
                         "the file is not valid UTF-8",
@@ -59,7 +59,7 @@ pub fn load_files(files: &[PathBuf]) -> Result<Idl, Diagnostics> {
                 }
             },
             Err(err) => {
-                errors.push(Diagnostic::new(
+                errors.push(Diagnostic::error(
                     file,
                     Position::default(),
                     format!("cannot read the file: {err}"),

@@ -125,7 +125,7 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
     let mut root: Option<Element> = None;
     let xml_error = |reader: &Reader<&[u8]>, err: &dyn std::fmt::Display| {
         let offset = usize::try_from(reader.error_position()).unwrap_or(usize::MAX);
-        Diagnostic::new(
+        Diagnostic::error(
             file,
             Position::of_offset(source, offset),
             format!("malformed XML: {err}"),
@@ -144,7 +144,7 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
                 let tag_start = end.saturating_sub(tag_len);
                 let element = element_of(source, file, &start, tag_start)?;
                 if root.is_some() && stack.is_empty() {
-                    return Err(Diagnostic::new(
+                    return Err(Diagnostic::error(
                         file,
                         element.position,
                         format!("a second root element `<{}>`", element.name),
@@ -152,7 +152,7 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
                     .with_hint("a definition file holds exactly one root element"));
                 }
                 if stack.len() >= MAX_DEPTH {
-                    return Err(Diagnostic::new(
+                    return Err(Diagnostic::error(
                         file,
                         element.position,
                         format!("elements nested more than {MAX_DEPTH} deep"),
@@ -187,7 +187,7 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
                         "quot" => "\"".to_owned(),
                         "apos" => "'".to_owned(),
                         other => {
-                            return Err(Diagnostic::new(
+                            return Err(Diagnostic::error(
                                 file,
                                 Position::of_offset(source, end),
                                 format!("unknown entity `&{other};`"),
@@ -203,14 +203,14 @@ fn build_tree(source: &str, file: &Path) -> Result<Element, Diagnostic> {
         }
     }
     if let Some(open) = stack.last() {
-        return Err(Diagnostic::new(
+        return Err(Diagnostic::error(
             file,
             open.position,
             format!("`<{}>` is never closed", open.name),
         ));
     }
     root.ok_or_else(|| {
-        Diagnostic::new(
+        Diagnostic::error(
             file,
             Position::of_offset(source, source.len()),
             "no root element",
@@ -237,7 +237,7 @@ fn push_text(
         Some(parent) => parent.text.push_str(text),
         None if text.trim().is_empty() => {}
         None => {
-            return Err(Diagnostic::new(
+            return Err(Diagnostic::error(
                 file,
                 Position::of_offset(source, end.saturating_sub(text.len())),
                 "text outside the root element",
@@ -260,7 +260,7 @@ fn element_of(
     let mut attrs = Vec::new();
     for attr in start.attributes() {
         let attr = attr.map_err(|err| {
-            Diagnostic::new(
+            Diagnostic::error(
                 file,
                 position,
                 format!("malformed attribute in `<{name}>`: {err}"),
@@ -270,7 +270,7 @@ fn element_of(
         let value = attr
             .normalized_value(quick_xml::XmlVersion::Implicit1_0)
             .map_err(|err| {
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     position,
                     format!("bad value of `{key}` in `<{name}>`: {err}"),
@@ -306,7 +306,7 @@ struct Cx<'a> {
 
 impl Cx<'_> {
     fn error(&self, position: Position, message: impl Into<String>) -> Diagnostic {
-        Diagnostic::new(self.file, position, message)
+        Diagnostic::error(self.file, position, message)
     }
 
     /// Checks that `element` has only `allowed` attributes and every one of `required`.

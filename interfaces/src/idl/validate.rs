@@ -63,7 +63,7 @@ pub(super) fn validate(files: &[Parsed]) -> Result<Idl, Diagnostics> {
         let fields = resolve_fields(file, &raw.fields, &known, &mut errors);
         if raw.fields.is_empty() {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     raw.position,
                     format!("struct `{}` has no fields", raw.name.value),
@@ -150,7 +150,7 @@ fn check_vocabulary_names(files: &[Parsed], errors: &mut Vec<Diagnostic>) {
             let generated = format!("{owner}{}", camel_case(&field.name.value));
             if !taken.insert(generated.clone()) {
                 errors.push(
-                    Diagnostic::new(
+                    Diagnostic::error(
                         file,
                         field.name.position,
                         format!(
@@ -178,7 +178,7 @@ fn check_version(file: &Path, version: &Spanned, errors: &mut Vec<Diagnostic>) {
         .is_some_and(|(major, minor)| is_number(major) && is_number(minor));
     if !ok {
         errors.push(
-            Diagnostic::new(
+            Diagnostic::error(
                 file,
                 version.position,
                 format!("bad version `{}`", version.value),
@@ -212,7 +212,7 @@ fn check_type_name(file: &Path, name: &Spanned, what: &str, errors: &mut Vec<Dia
         return true;
     }
     errors.push(
-        Diagnostic::new(
+        Diagnostic::error(
             file,
             name.position,
             format!("bad {what} name `{}`", name.value),
@@ -231,7 +231,7 @@ fn collect_type_names(
     let mut declare = |name: &Spanned, kind: Known, errors: &mut Vec<Diagnostic>| {
         if name.value == HEADER_TYPE || name.value == INPUT_REF_TYPE {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     name.position,
                     format!("`{}` is a built-in type", name.value),
@@ -239,7 +239,7 @@ fn collect_type_names(
                 .with_hint("every message starts with the built-in Header; choose another name"),
             );
         } else if known.contains_key(&name.value) {
-            errors.push(Diagnostic::new(
+            errors.push(Diagnostic::error(
                 file,
                 name.position,
                 format!("duplicate type name `{}`", name.value),
@@ -256,7 +256,7 @@ fn collect_type_names(
             Some(p) => declare(&primitive.name, Known::Primitive(p), errors),
             None => {
                 let spellings: Vec<&str> = Primitive::ALL.iter().map(|(_, n)| *n).collect();
-                let d = Diagnostic::new(
+                let d = Diagnostic::error(
                     file,
                     primitive.ros2.position,
                     format!("unknown ROS 2 type `{}`", primitive.ros2.value),
@@ -289,12 +289,12 @@ fn resolve_fields(
         let name = &f.name.value;
         if !is_field_name(name) {
             errors.push(
-                Diagnostic::new(file, f.name.position, format!("bad field name `{name}`"))
+                Diagnostic::error(file, f.name.position, format!("bad field name `{name}`"))
                     .with_hint("field names are snake_case: lower-case letters, digits and single underscores, starting with a letter"),
             );
         } else if RUST_KEYWORDS.contains(&name.as_str()) {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     f.name.position,
                     format!("field name `{name}` is a Rust keyword"),
@@ -303,14 +303,14 @@ fn resolve_fields(
             );
         } else if name == "header" {
             errors.push(
-                Diagnostic::new(file, f.name.position, "field name `header` is reserved")
+                Diagnostic::error(file, f.name.position, "field name `header` is reserved")
                     .with_hint(
                         "every message starts with the built-in header; choose another name",
                     ),
             );
         }
         if seen.insert(name, index).is_some() {
-            errors.push(Diagnostic::new(
+            errors.push(Diagnostic::error(
                 file,
                 f.name.position,
                 format!("duplicate field name `{name}`"),
@@ -323,7 +323,7 @@ fn resolve_fields(
             }),
             Some(Known::Struct) => Some(FieldType::Struct(f.ty.value.clone())),
             None => {
-                let d = Diagnostic::new(
+                let d = Diagnostic::error(
                     file,
                     f.ty.position,
                     format!("unknown type `{}`", f.ty.value),
@@ -354,7 +354,7 @@ fn resolve_fields(
                 })
             ) {
                 errors.push(
-                    Diagnostic::new(
+                    Diagnostic::error(
                         file,
                         size.position,
                         format!("`{name}` is an array of Bytes"),
@@ -414,7 +414,7 @@ fn resolve_values(
     if !is_string {
         if ty.is_some() {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     first.name.position,
                     format!(
@@ -433,7 +433,7 @@ fn resolve_values(
         let word = &raw.name.value;
         if !is_value_name(word) || word == "self" {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     raw.name.position,
                     format!("bad value `{word}` of `{name}`"),
@@ -451,13 +451,13 @@ fn resolve_values(
             description: raw.description.clone(),
         };
         match variants.get(&value.variant()) {
-            Some(earlier) if earlier.name.value == *word => errors.push(Diagnostic::new(
+            Some(earlier) if earlier.name.value == *word => errors.push(Diagnostic::error(
                 file,
                 raw.name.position,
                 format!("duplicate value `{word}` of `{name}`"),
             )),
             Some(earlier) => errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     raw.name.position,
                     format!(
@@ -493,7 +493,7 @@ fn check_constants(file: &Path, raw: &[RawField], errors: &mut Vec<Diagnostic>) 
             .constant(&field.name.value);
             match constants.get(constant.as_str()) {
                 Some(other) if *other != field.name.value => errors.push(
-                    Diagnostic::new(
+                    Diagnostic::error(
                         file,
                         value.name.position,
                         format!(
@@ -523,7 +523,7 @@ fn check_array_size(
     let name = &field.name.value;
     let target = all.iter().position(|f| f.name.value == size.value);
     let Some(at) = target else {
-        let d = Diagnostic::new(
+        let d = Diagnostic::error(
             file,
             size.position,
             format!("array_size `{}` of `{name}` names no field", size.value),
@@ -542,7 +542,7 @@ fn check_array_size(
     let target = &all[at];
     if at >= index {
         errors.push(
-            Diagnostic::new(
+            Diagnostic::error(
                 file,
                 size.position,
                 format!(
@@ -561,7 +561,7 @@ fn check_array_size(
         matches!(known.get(&target.ty.value), Some(Known::Primitive(p)) if p.is_integer());
     if !is_integer || target.array_size.is_some() {
         errors.push(
-            Diagnostic::new(
+            Diagnostic::error(
                 file,
                 size.position,
                 format!(
@@ -597,7 +597,7 @@ fn check_cycles(
                 if let FieldType::Struct(inner) = &field.ty {
                     if *inner == s.name.value {
                         errors.push(
-                            Diagnostic::new(
+                            Diagnostic::error(
                                 file,
                                 s.position,
                                 format!(
@@ -635,7 +635,7 @@ fn resolve_interface(
         let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned());
         if stem.as_deref() != Some(name.as_str()) {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     raw.name.position,
                     format!(
@@ -649,14 +649,14 @@ fn resolve_interface(
             );
         }
         if let Some(other) = interface_names.insert(name.clone(), file.to_path_buf()) {
-            errors.push(Diagnostic::new(
+            errors.push(Diagnostic::error(
                 file,
                 raw.name.position,
                 format!("interface `{name}` is also defined in {}", other.display()),
             ));
         } else if known.contains_key(name) {
             errors.push(
-                Diagnostic::new(
+                Diagnostic::error(
                     file,
                     raw.name.position,
                     format!("interface `{name}` has the name of a type"),
@@ -668,7 +668,7 @@ fn resolve_interface(
     check_version(file, &raw.version, errors);
     match &raw.types_file {
         None => errors.push(
-            Diagnostic::new(
+            Diagnostic::error(
                 file,
                 raw.position,
                 format!("interface `{name}` has no `<types filename=...>`"),
@@ -676,7 +676,7 @@ fn resolve_interface(
             .with_hint("add `<types filename=\"types.xml\"/>` naming the type library it uses"),
         ),
         Some(t) if !type_files.contains(&t.value) => errors.push(
-            Diagnostic::new(
+            Diagnostic::error(
                 file,
                 t.position,
                 format!("type library `{}` not found", t.value),
@@ -707,12 +707,12 @@ fn resolve_interface(
         let cname = &c.name.value;
         if !is_field_name(cname) {
             errors.push(
-                Diagnostic::new(file, c.name.position, format!("bad command name `{cname}`"))
+                Diagnostic::error(file, c.name.position, format!("bad command name `{cname}`"))
                     .with_hint("command names are snake_case, like `set_zoom`"),
             );
         }
         if !command_names.insert(cname.as_str()) {
-            errors.push(Diagnostic::new(
+            errors.push(Diagnostic::error(
                 file,
                 c.name.position,
                 format!("duplicate command `{cname}` in interface `{name}`"),
@@ -723,7 +723,7 @@ fn resolve_interface(
         for generated in [&request_name, &reply_name] {
             if known.contains_key(generated) {
                 errors.push(
-                    Diagnostic::new(
+                    Diagnostic::error(
                         file,
                         c.name.position,
                         format!(
