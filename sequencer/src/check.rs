@@ -10,7 +10,7 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
-use crate::diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
+use crate::diagnostic::{Diagnostic, Diagnostics, Problem, diagnostic};
 use crate::location::Location;
 use crate::mission::{Mission, MissionState, Target};
 use crate::resolve::{ProgramResolver, ResolveError, SystemResolver};
@@ -86,7 +86,7 @@ struct Checker<'s> {
 impl<'s> Checker<'s> {
     fn report(&mut self, location: &Location, problem: Problem) {
         self.findings
-            .push(Diagnostic::new(location.clone(), problem));
+            .push(diagnostic(location.clone(), problem));
     }
 
     /// Records every finding; returns the mission when the names and programs allow one.
@@ -151,7 +151,7 @@ impl<'s> Checker<'s> {
         let names_are_sound = !self
             .findings
             .iter()
-            .any(|f| f.severity() == Severity::Error);
+            .any(Diagnostic::is_error);
         if names_are_sound && let Some(start) = start {
             self.reachability(&states, start, recovery);
             self.paths_to_stop(&states);

@@ -1,28 +1,12 @@
-//! Findings about a script: typed problems with a place, a severity and a hint, rendered
-//! as `mission.seq:7:12: error: ...` with the hint on the next line.
+//! Findings about a script: typed problems with a severity and a hint, placed and rendered
+//! by the one diagnostic of Lewis ([`lewis_stdx::Diagnostic`]) as
+//! `mission.seq:7:12: error: ...` with the hint on the next line.
 
-use std::fmt;
 use std::path::PathBuf;
 
+pub use lewis_stdx::{Diagnostic, Diagnostics, Position, Severity};
+
 use crate::location::Location;
-
-/// How serious a finding is: errors stop the script from running, warnings do not.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Severity {
-    /// The script cannot run.
-    Error,
-    /// The script runs, but probably not as meant.
-    Warning,
-}
-
-impl fmt::Display for Severity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::Error => "error",
-            Self::Warning => "warning",
-        })
-    }
-}
 
 /// Everything that can be wrong with a script, from a stray quote to an unreachable state.
 ///
@@ -378,124 +362,13 @@ impl Problem {
     }
 }
 
-/// One finding: a problem at a place.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Diagnostic {
-    /// Where it is.
-    pub location: Location,
-    /// What it is.
-    pub problem: Problem,
+/// The finding of `problem` at `location`: the one diagnostic of Lewis, with the problem's
+/// severity, message and hint.
+#[must_use]
+pub fn diagnostic(location: Location, problem: Problem) -> Diagnostic {
+    let position = Position::new(location.line, location.column);
+    let mut finding = Diagnostic::error(location.file, position, problem.to_string());
+    finding.severity = Some(problem.severity());
+    finding.hints.extend(problem.hint());
+    finding
 }
-
-impl Diagnostic {
-    /// A finding of `problem` at `location`.
-    #[must_use]
-    pub fn new(location: Location, problem: Problem) -> Self {
-        Self { location, problem }
-    }
-
-    /// Whether it stops the script from running.
-    #[must_use]
-    pub fn severity(&self) -> Severity {
-        self.problem.severity()
-    }
-}
-
-impl fmt::Display for Diagnostic {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}: {}: {}",
-            self.location,
-            self.severity(),
-            self.problem
-        )?;
-        if let Some(hint) = self.problem.hint() {
-            write!(f, "\n  hint: {hint}")?;
-        }
-        Ok(())
-    }
-}
-
-/// All the findings about a script, in source order; Display gives one finding per line
-/// (each followed by its indented hint line).
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct Diagnostics(Vec<Diagnostic>);
-
-impl Diagnostics {
-    /// The findings, sorted by place (errors before warnings at the same place).
-    #[must_use]
-    pub fn new(mut findings: Vec<Diagnostic>) -> Self {
-        findings.sort_by(|a, b| (&a.location, a.severity()).cmp(&(&b.location, b.severity())));
-        Self(findings)
-    }
-
-    /// Whether any finding is an error.
-    #[must_use]
-    pub fn has_errors(&self) -> bool {
-        self.0.iter().any(|d| d.severity() == Severity::Error)
-    }
-
-    /// The number of errors.
-    #[must_use]
-    pub fn error_count(&self) -> usize {
-        self.0
-            .iter()
-            .filter(|d| d.severity() == Severity::Error)
-            .count()
-    }
-
-    /// The number of warnings.
-    #[must_use]
-    pub fn warning_count(&self) -> usize {
-        self.0
-            .iter()
-            .filter(|d| d.severity() == Severity::Warning)
-            .count()
-    }
-
-    /// Whether there are no findings.
-    #[must_use]
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-
-    /// The number of findings.
-    #[must_use]
-    pub fn len(&self) -> usize {
-        self.0.len()
-    }
-
-    /// The findings in order.
-    pub fn iter(&self) -> std::slice::Iter<'_, Diagnostic> {
-        self.0.iter()
-    }
-
-    /// The findings, owned.
-    #[must_use]
-    pub fn into_vec(self) -> Vec<Diagnostic> {
-        self.0
-    }
-}
-
-impl<'a> IntoIterator for &'a Diagnostics {
-    type Item = &'a Diagnostic;
-    type IntoIter = std::slice::Iter<'a, Diagnostic>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.0.iter()
-    }
-}
-
-impl fmt::Display for Diagnostics {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, diagnostic) in self.0.iter().enumerate() {
-            if i > 0 {
-                writeln!(f)?;
-            }
-            write!(f, "{diagnostic}")?;
-        }
-        Ok(())
-    }
-}
-
-impl std::error::Error for Diagnostics {}

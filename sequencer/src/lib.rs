@@ -88,7 +88,7 @@ pub mod terminal;
 pub mod verdict;
 
 pub use check::{CheckedScript, check_file, check_script, check_with};
-pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity};
+pub use diagnostic::{Diagnostic, Diagnostics, Problem, Severity, diagnostic};
 pub use fsm::{Decision, Event, EventError, Sequencer, Supervision};
 pub use gui::{GuiError, GuiServer, GuiSink};
 pub use live::{

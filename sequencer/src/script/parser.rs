@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use super::ast::{Action, EnvVar, Script, State};
 use super::duration::parse_timeout_ns;
 use super::lexer::{Token, tokenize};
-use crate::diagnostic::{Diagnostic, Diagnostics, Problem};
+use crate::diagnostic::{Diagnostic, Diagnostics, Problem, diagnostic};
 use crate::location::{Location, Spanned};
 use crate::source::SourceLoader;
 use lewis_stdx::closest;
@@ -80,7 +80,7 @@ impl<'t> Line<'t> {
     }
 
     fn error(&self, column: u32, problem: Problem) -> Diagnostic {
-        Diagnostic::new(self.at(column), problem)
+        diagnostic(self.at(column), problem)
     }
 
     /// The next token, or an error saying that `what` is missing.
@@ -170,7 +170,7 @@ impl<'t> Line<'t> {
 
 fn check_no_nul(text: &Spanned<String>, what: &'static str) -> LineResult<()> {
     if text.value.contains('\0') {
-        Err(Diagnostic::new(
+        Err(diagnostic(
             text.location.clone(),
             Problem::NulCharacter { what },
         ))
@@ -212,7 +212,7 @@ impl Parser<'_> {
                 .unwrap_or_else(|| Location::whole_file(path))
         };
         if self.chain.len() >= MAX_INCLUDE_DEPTH {
-            self.errors.push(Diagnostic::new(
+            self.errors.push(diagnostic(
                 at(),
                 Problem::IncludeTooDeep {
                     limit: MAX_INCLUDE_DEPTH,
@@ -223,7 +223,7 @@ impl Parser<'_> {
         let source = match self.loader.load(path) {
             Ok(source) => source,
             Err(error) => {
-                self.errors.push(Diagnostic::new(
+                self.errors.push(diagnostic(
                     at(),
                     Problem::Unreadable {
                         path: path.to_owned(),
@@ -238,7 +238,7 @@ impl Parser<'_> {
                 self.chain[first..].iter().map(|(_, p)| p.clone()).collect();
             chain.push(path.to_owned());
             self.errors
-                .push(Diagnostic::new(at(), Problem::IncludeCycle { chain }));
+                .push(diagnostic(at(), Problem::IncludeCycle { chain }));
             return;
         }
         self.chain.push((source.identity, path.to_owned()));
@@ -260,7 +260,7 @@ impl Parser<'_> {
                 if text.split_whitespace().next() == Some("state") {
                     *block = Block::BrokenState;
                 }
-                return Err(Diagnostic::new(
+                return Err(diagnostic(
                     Location::new(file, number, error.column),
                     error.problem,
                 ));
@@ -271,12 +271,12 @@ impl Parser<'_> {
         };
         let location = Location::new(file, number, first.column);
         if first.quoted {
-            return Err(Diagnostic::new(location, Problem::QuotedKeyword));
+            return Err(diagnostic(location, Problem::QuotedKeyword));
         }
         let Some(&keyword) = KEYWORDS.iter().find(|k| **k == first.text) else {
             let suggestion = closest(&first.text, KEYWORDS);
             let found = first.text.clone();
-            return Err(Diagnostic::new(
+            return Err(diagnostic(
                 location,
                 Problem::UnknownKeyword { found, suggestion },
             ));
@@ -331,7 +331,7 @@ impl Parser<'_> {
         let name = line.state_name()?;
         line.finish()?;
         if name.value == "stop" {
-            return Err(Diagnostic::new(
+            return Err(diagnostic(
                 name.location,
                 Problem::StopNotAllowed { keyword: "start" },
             ));
@@ -343,7 +343,7 @@ impl Parser<'_> {
         let name = line.state_name()?;
         line.finish()?;
         if name.value == "stop" {
-            return Err(Diagnostic::new(
+            return Err(diagnostic(
                 name.location,
                 Problem::StopNotAllowed {
                     keyword: "recovery",
@@ -361,7 +361,7 @@ impl Parser<'_> {
         }
         line.finish()?;
         match &self.script.use_gui {
-            Some(first) => Err(Diagnostic::new(
+            Some(first) => Err(diagnostic(
                 location,
                 Problem::DuplicateSetting {
                     what: "use gui".into(),
@@ -399,11 +399,11 @@ impl Parser<'_> {
     fn state(&mut self, line: &mut Line<'_>) -> LineResult<()> {
         let name = line.state_name()?;
         if name.value == "stop" {
-            return Err(Diagnostic::new(name.location, Problem::StopDefined));
+            return Err(diagnostic(name.location, Problem::StopDefined));
         }
         let program = line.program_string("a program")?;
         if program.value.is_empty() {
-            return Err(Diagnostic::new(program.location, Problem::EmptyProgram));
+            return Err(diagnostic(program.location, Problem::EmptyProgram));
         }
         let mut args = Vec::new();
         for token in line.rest() {
@@ -469,7 +469,7 @@ impl Parser<'_> {
         let mut vars = Vec::new();
         for token in tokens {
             let invalid = |reason| {
-                Diagnostic::new(
+                diagnostic(
                     Location::new(line.file, line.number, token.column),
                     Problem::InvalidEnv {
                         found: token.text.clone(),
@@ -513,7 +513,7 @@ fn set_once<T>(
     location: Location,
 ) -> LineResult<()> {
     match slot {
-        Some(first) => Err(Diagnostic::new(
+        Some(first) => Err(diagnostic(
             location,
             Problem::DuplicateSetting {
                 what: what.to_owned(),
