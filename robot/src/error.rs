@@ -3,6 +3,8 @@
 use std::fmt;
 use std::path::PathBuf;
 
+use lewis_stdx::Diagnostic;
+
 /// Why a robot description could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum RobotError {
@@ -19,48 +21,17 @@ pub enum RobotError {
     Invalid {
         /// The file (or the name given to the text).
         path: PathBuf,
-        /// Every problem found, in the order of the file.
-        problems: Vec<Problem>,
+        /// Every problem found, in the order of the file, each printed
+        /// `robot.toml:3:7: message` (no `error:` label: the message says what to do).
+        problems: Vec<Diagnostic>,
     },
 }
 
-/// One problem in a robot description, at a place in its text.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Problem {
-    /// The file (or the name given to the text).
-    pub path: PathBuf,
-    /// The line, counting from 1.
-    pub line: usize,
-    /// The column in characters, counting from 1.
-    pub column: usize,
-    /// What is wrong, and what to do.
-    pub message: String,
-}
-
-impl fmt::Display for Problem {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: {}",
-            self.path.display(),
-            self.line,
-            self.column,
-            self.message
-        )
-    }
-}
-
-struct Problems<'a>(&'a [Problem]);
+struct Problems<'a>(&'a [Diagnostic]);
 
 impl fmt::Display for Problems<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, problem) in self.0.iter().enumerate() {
-            if i > 0 {
-                writeln!(f)?;
-            }
-            write!(f, "{problem}")?;
-        }
-        Ok(())
+        lewis_stdx::diagnostic::write_list(f, self.0)
     }
 }
 

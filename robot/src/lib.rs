@@ -71,7 +71,8 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 pub use checks::{DataChecks, MIN_FROZEN_COUNT, OnCheckFailure};
-pub use error::{Problem, RobotError};
+pub use error::RobotError;
+pub use lewis_stdx::Diagnostic;
 pub use hosts::{Endpoint, HostSpec, NetworkSettings, TlsFiles};
 
 pub use restart::RestartPolicy;

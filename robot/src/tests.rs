@@ -434,7 +434,7 @@ proptest! {
         if let Err(RobotError::Invalid { problems, .. }) = parse(&text, Path::new("p.toml"), KNOWN) {
             prop_assert!(!problems.is_empty());
             for p in problems {
-                prop_assert!(p.line >= 1 && p.column >= 1);
+                prop_assert!(p.line() >= 1 && p.column() >= 1);
             }
         }
     }

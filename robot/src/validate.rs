@@ -7,7 +7,9 @@ use std::path::Path;
 
 use toml::Spanned;
 
-use super::error::{Problem, RobotError, line_column};
+use lewis_stdx::Diagnostic;
+
+use super::error::{RobotError, line_column};
 use super::raw::{
     RawBroker, RawChecks, RawProvision, RawRequirement, RawRequirementTable, RawRobot, RawService,
 };
@@ -56,20 +58,14 @@ pub(super) struct Checker<'a> {
     pub(super) origin: &'a Path,
     known: BTreeSet<&'a str>,
     kinds: Option<&'a dyn Kinds>,
-    problems: Vec<(usize, Problem)>,
+    problems: Vec<(usize, Diagnostic)>,
 }
 
 impl Checker<'_> {
     pub(super) fn report(&mut self, span: &Range<usize>, message: impl Into<String>) {
-        let (line, column) = line_column(self.text, span.start);
         self.problems.push((
             span.start,
-            Problem {
-                path: self.origin.to_path_buf(),
-                line,
-                column,
-                message: message.into(),
-            },
+            Diagnostic::plain_at_offset(self.origin, self.text, span.start, message),
         ));
     }
 
