@@ -3,6 +3,9 @@
 use std::fmt;
 use std::path::PathBuf;
 
+use lewis_stdx::Diagnostic;
+use lewis_stdx::diagnostic::write_list;
+
 /// Why a world could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum WorldError {
@@ -59,31 +62,19 @@ pub enum ProblemKind {
     BadValue,
 }
 
-/// One problem in a world file, at a place in its text.
+/// One problem in a world file: its sort, and the one diagnostic of Lewis that places it
+/// (`world.toml:3:7: message`, no `error:` label: the message says what to do).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct WorldProblem {
-    /// The world file.
-    pub path: PathBuf,
-    /// The line, counting from 1.
-    pub line: usize,
-    /// The column in characters, counting from 1.
-    pub column: usize,
     /// The sort of problem.
     pub kind: ProblemKind,
-    /// What is wrong, and what to do.
-    pub message: String,
+    /// Where it is and what is wrong.
+    pub diagnostic: Diagnostic,
 }
 
 impl fmt::Display for WorldProblem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: {}",
-            self.path.display(),
-            self.line,
-            self.column,
-            self.message
-        )
+        self.diagnostic.fmt(f)
     }
 }
 
@@ -91,14 +82,6 @@ struct Problems<'a>(&'a [WorldProblem]);
 
 impl fmt::Display for Problems<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, problem) in self.0.iter().enumerate() {
-            if i > 0 {
-                writeln!(f)?;
-            }
-            write!(f, "{problem}")?;
-        }
-        Ok(())
+        write_list(f, self.0.iter().map(|p| &p.diagnostic))
     }
 }
-
-pub(super) use lewis_stdx::line_column;

@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::error::{ProblemKind, WorldError, WorldProblem, line_column};
+use lewis_stdx::Diagnostic;
+
+use super::error::{ProblemKind, WorldError, WorldProblem};
 use super::map::OccupancyGrid;
 use super::objects::{ArrowDirection, ObjectKind, Person, Rgb, Sign, WorldObject};
 use super::{World, WorldLook};
@@ -205,18 +207,14 @@ struct Checker<'a> {
 
 impl Checker<'_> {
     fn problem(&mut self, span: &Range<usize>, kind: ProblemKind, message: impl Into<String>) {
-        let (line, column) = line_column(self.text, span.start);
         self.problems.push(WorldProblem {
-            path: self.path.to_path_buf(),
-            line,
-            column,
             kind,
-            message: message.into(),
+            diagnostic: Diagnostic::plain_at_offset(self.path, self.text, span.start, message),
         });
     }
 
     fn into_error(mut self) -> WorldError {
-        self.problems.sort_by_key(|p| (p.line, p.column));
+        self.problems.sort_by_key(|p| p.diagnostic.position);
         WorldError::Invalid {
             path: self.path.to_path_buf(),
             problems: self.problems,
