@@ -4,6 +4,11 @@
 //!
 //! Owned here rather than taken from a crate so that the sequence for a seed can never
 //! change under a dependency upgrade: recordings made from a seed stay reproducible.
+//!
+//! Beside it, the noise of emulated serial lines ([`NoiseBytes`]): the garbage bytes the
+//! emulators put on a line are an xorshift64 sequence, an older and cheaper generator than
+//! [`Rng`] whose bytes the line tests and the emulators' recordings were made with; it
+//! stays that generator, written here once.
 
 /// A deterministic random number generator (xoshiro256++).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -106,9 +111,81 @@ impl Rng {
     }
 }
 
+/// Noise bytes for emulated serial lines: xorshift64 (shifts 13, 7, 17), each byte taken
+/// from the bits at a fixed place of the next number.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NoiseBytes {
+    state: u64,
+    shift: u32,
+}
+
+impl NoiseBytes {
+    /// A sequence from `seed` (not 0: xorshift stays at 0), each byte being bits
+    /// `shift..shift + 8` of the next number.
+    #[must_use]
+    pub const fn new(seed: u64, shift: u32) -> Self {
+        Self { state: seed, shift }
+    }
+
+    /// The next 64 bits of the sequence.
+    pub fn next_u64(&mut self) -> u64 {
+        let mut x = self.state;
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        self.state = x;
+        x
+    }
+
+    /// The next noise byte.
+    pub fn next_byte(&mut self) -> u8 {
+        // Truncation intended: the byte at `shift`.
+        (self.next_u64() >> self.shift) as u8
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn noise_bytes_are_those_the_two_copies_of_the_generator_gave() {
+        // Produced by the drivers' (bits 32..40) and the fake device's (bits 24..32) own
+        // xorshift before the two were made this one, from their seeds and two others.
+        let draw = |seed, shift, n| {
+            let mut noise = NoiseBytes::new(seed, shift);
+            (0..n).map(|_| noise.next_byte()).collect::<Vec<u8>>()
+        };
+        assert_eq!(
+            draw(0x9E37_79B9_7F4A_7C15, 32, 12),
+            [0xae, 0xb9, 0x91, 0x0c, 0xe0, 0xce, 0x44, 0x2e, 0x85, 0xd3, 0xff, 0x47]
+        );
+        assert_eq!(
+            draw(0x2545_F491_4F6C_DD1D, 24, 12),
+            [0xea, 0x1c, 0x58, 0xd8, 0x97, 0xbe, 0x9d, 0x50, 0x12, 0xc9, 0xa7, 0x6e]
+        );
+        assert_eq!(
+            draw(1, 32, 8),
+            [0x00, 0x06, 0x2f, 0x03, 0xb0, 0x02, 0x08, 0xc1]
+        );
+        assert_eq!(
+            draw(1, 24, 8),
+            [0x40, 0x0c, 0x6e, 0x55, 0x90, 0xe5, 0xeb, 0x14]
+        );
+        assert_eq!(
+            draw(42, 32, 8),
+            [0x0a, 0xfd, 0x9c, 0xfe, 0xe3, 0xb4, 0x1a, 0x76]
+        );
+        assert_eq!(
+            draw(42, 24, 8),
+            [0x95, 0xf8, 0xd1, 0x5f, 0x8b, 0x33, 0xa5, 0xec]
+        );
+        let mut noise = NoiseBytes::new(0x9E37_79B9_7F4A_7C15, 32);
+        for _ in 0..12 {
+            noise.next_byte();
+        }
+        assert_eq!(noise.state, 0x2ead_8547_56d7_1f03);
+    }
 
     #[test]
     fn the_same_seed_gives_the_same_numbers_and_another_seed_others() {
