@@ -35,6 +35,7 @@
 
 mod context;
 mod events;
+pub mod fault;
 mod health;
 mod registry;
 mod rng;
@@ -47,7 +48,7 @@ pub use events::{
 };
 pub use health::Health;
 pub use registry::{BuildError, Constructor, ServiceConfig, ServiceRegistry};
-pub use rng::Rng;
+pub use rng::{NoiseBytes, Rng};
 
 use std::os::fd::BorrowedFd;
 
