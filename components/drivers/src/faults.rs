@@ -1,24 +1,22 @@
 //! Fault injection for the device emulators: noise before frames, corrupted checksums and
 //! silence, so that the drivers' resynchronisation and health reporting can be exercised.
 //!
-//! The noise is a fixed-seed xorshift sequence: runs are deterministic.
+//! The faults are the serial-line family of the one fault vocabulary
+//! ([`lewis_service::fault`]); the noise is the lines' fixed-seed generator ([`NoiseBytes`]):
+//! runs are deterministic.
 
+use lewis_service::NoiseBytes;
 /// The knobs of the injected faults; the default injects none.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Faults {
-    /// Garbage bytes sent before every outgoing frame.
-    pub noise_bytes: usize,
-    /// Every n-th outgoing frame gets a corrupted checksum (0: never, 1: all of them).
-    pub corrupt_checksum_every: u32,
-    /// The device neither answers nor streams, as if its cable were cut.
-    pub silent: bool,
-}
+pub use lewis_service::fault::LineFaults as Faults;
+
+/// The seed of the noise, and where in each number its byte is taken.
+const NOISE: NoiseBytes = NoiseBytes::new(0x9E37_79B9_7F4A_7C15, 32);
 
 /// Applies [`Faults`] to outgoing frames and counts what it did.
 #[derive(Debug, Clone)]
 pub struct FaultInjector {
     faults: Faults,
-    noise_state: u64,
+    noise: NoiseBytes,
     frames_seen: u64,
     noise_bytes_sent: u64,
     frames_corrupted: u64,
@@ -29,7 +27,7 @@ impl FaultInjector {
     pub fn new(faults: Faults) -> Self {
         Self {
             faults,
-            noise_state: 0x9E37_79B9_7F4A_7C15,
+            noise: NOISE,
             frames_seen: 0,
             noise_bytes_sent: 0,
             frames_corrupted: 0,
@@ -60,7 +58,7 @@ impl FaultInjector {
     /// byte at `checksum_index` inverted when this frame is due for corruption.
     pub fn emit(&mut self, frame: &[u8], checksum_index: usize, out: &mut Vec<u8>) {
         for _ in 0..self.faults.noise_bytes {
-            out.push(self.next_noise_byte());
+            out.push(self.noise.next_byte());
         }
         self.noise_bytes_sent += self.faults.noise_bytes as u64;
         self.frames_seen += 1;
@@ -74,15 +72,6 @@ impl FaultInjector {
             *byte = !*byte;
             self.frames_corrupted += 1;
         }
-    }
-
-    fn next_noise_byte(&mut self) -> u8 {
-        let mut x = self.noise_state;
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        self.noise_state = x;
-        (x >> 32) as u8
     }
 }
 
@@ -121,8 +110,8 @@ mod tests {
         let mut injector = FaultInjector::new(faults);
         let mut out = Vec::new();
         injector.emit(&[7], 0, &mut out);
-        assert_eq!(out.len(), 6);
-        assert_eq!(out[5], 7);
+        // The bytes the injector's own xorshift gave before it was made the one.
+        assert_eq!(out, [0xae, 0xb9, 0x91, 0x0c, 0xe0, 7]);
         assert_eq!(injector.noise_bytes_sent(), 5);
     }
 }

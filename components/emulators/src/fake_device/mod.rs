@@ -50,6 +50,8 @@ use nix::errno::Errno;
 use nix::fcntl::OFlag;
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 
+use lewis_service::NoiseBytes;
+
 use crate::clock::MonotonicClock;
 use crate::fault_spec::Unplug;
 use crate::pty::{Pty, PtyError};
@@ -621,7 +623,7 @@ struct Output {
     queue: VecDeque<u8>,
     written: u64,
     garbled: u64,
-    noise_state: u64,
+    noise: NoiseBytes,
 }
 
 impl Default for Output {
@@ -632,7 +634,8 @@ impl Default for Output {
             queue: VecDeque::new(),
             written: 0,
             garbled: 0,
-            noise_state: 0x2545_F491_4F6C_DD1D,
+            // The seed, and where in each number the byte is taken, of the line's noise.
+            noise: NoiseBytes::new(0x2545_F491_4F6C_DD1D, 24),
         }
     }
 }
@@ -669,7 +672,7 @@ impl Output {
             let host_bps = u64::from(host_bps.unwrap_or(0));
             let count = bytes.len() as u64 * host_bps / u64::from(line_bps.max(1));
             for _ in 0..count {
-                let byte = self.next_noise_byte();
+                let byte = self.noise.next_byte();
                 self.queue.push_back(byte);
             }
         }
@@ -719,15 +722,6 @@ impl Output {
         self.pending_len = 0;
         count
     }
-
-    fn next_noise_byte(&mut self) -> u8 {
-        let mut x = self.noise_state;
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        self.noise_state = x;
-        (x >> 24) as u8
-    }
 }
 
 #[cfg(test)]
@@ -775,7 +769,11 @@ mod tests {
         output.push(&mut stats, &[0x06; 40], 38_400);
         output.commit(Some(9_600));
         assert_eq!(output.queue.len(), 10);
-        assert!(output.queue.iter().any(|&byte| byte != 0x06));
+        // The bytes the line's own xorshift gave before it was made the one.
+        assert_eq!(
+            output.queue.iter().copied().collect::<Vec<_>>(),
+            [0xea, 0x1c, 0x58, 0xd8, 0x97, 0xbe, 0x9d, 0x50, 0x12, 0xc9]
+        );
     }
 
     #[test]

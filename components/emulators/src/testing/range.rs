@@ -47,6 +47,7 @@ use lewis_service::Health;
 use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Rng, Service, ServiceConfig,
 };
+use lewis_service::fault::{FAULT_FILE_FAULTS, ServiceFault, UnknownFaultWord};
 use serde::Deserialize;
 
 /// The kind name in robot files.
@@ -240,45 +241,18 @@ impl SyntheticScanner {
     }
 }
 
-/// What the fault file asks for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Fault {
-    /// Work normally.
-    None,
-    /// Work, declared degraded.
-    Degraded,
-    /// Stop publishing, declared out of service.
-    OutOfService,
-    /// Hang.
-    Stall,
-    /// Abort.
-    Crash,
-    /// Publish junk scans.
-    Garbage,
-    /// Publish NaN readings.
-    Nan,
-    /// Publish the same readings every tick.
-    Frozen,
-    /// Publish one tick in three.
-    Slow,
-}
+/// What the fault file asks for: a fault of the service ([`FAULT_FILE_FAULTS`] of the one
+/// fault vocabulary), `None` to work normally.
+pub type Fault = Option<ServiceFault>;
 
-impl Fault {
-    /// The fault a file's text names; unknown words are no fault (and are logged).
-    #[must_use]
-    pub fn parse(text: &str) -> Option<Self> {
-        match text.trim() {
-            "" | "ok" => Some(Self::None),
-            "degraded" => Some(Self::Degraded),
-            "out-of-service" => Some(Self::OutOfService),
-            "stall" => Some(Self::Stall),
-            "crash" => Some(Self::Crash),
-            "garbage" => Some(Self::Garbage),
-            "nan" => Some(Self::Nan),
-            "frozen" => Some(Self::Frozen),
-            "slow" => Some(Self::Slow),
-            _ => None,
-        }
+/// The fault a file's text names (an empty file is no fault).
+///
+/// # Errors
+/// When the word is none of the file's, naming the words it takes.
+pub fn parse_fault(text: &str) -> Result<Fault, UnknownFaultWord> {
+    match text.trim() {
+        "" => Ok(None),
+        word => FAULT_FILE_FAULTS.parse(word),
     }
 }
 
@@ -332,18 +306,20 @@ pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError>
 impl TestRange {
     fn fault(&self, ctx: &mut Context<'_>) -> Fault {
         let Some(path) = &self.params.fault_file else {
-            return Fault::None;
+            return None;
         };
         match std::fs::read_to_string(path) {
-            Ok(text) => Fault::parse(&text).unwrap_or_else(|| {
+            Ok(text) => parse_fault(&text).unwrap_or_else(|unknown| {
                 ctx.warn(&format!(
-                    "fault file {} says `{}`: expected ok, degraded, out-of-service, stall, crash, garbage, nan, frozen or slow",
+                    "fault file {} says `{}`: expected {}{}",
                     path.display(),
-                    text.trim()
+                    unknown.word,
+                    unknown.expected,
+                    unknown.did_you_mean()
                 ));
-                Fault::None
+                None
             }),
-            Err(_) => Fault::None,
+            Err(_) => None,
         }
     }
 }
@@ -369,44 +345,44 @@ impl Service for TestRange {
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
         let fault = self.fault(ctx);
         match fault {
-            Fault::Crash => {
+            Some(ServiceFault::Crash) => {
                 ctx.warn("fault file says crash: aborting");
                 std::process::abort();
             }
-            Fault::Stall => {
+            Some(ServiceFault::Stall) => {
                 ctx.warn("fault file says stall: hanging");
                 // A stall is a hang: nothing more from this process until it is killed.
                 loop {
                     std::thread::park();
                 }
             }
-            Fault::OutOfService => {
+            Some(ServiceFault::OutOfService) => {
                 ctx.set_health(Health::OutOfService(
                     "fault file says out-of-service".into(),
                 ));
                 return;
             }
-            Fault::Degraded => ctx.set_health(Health::Degraded("fault file says degraded".into())),
-            Fault::None | Fault::Garbage | Fault::Nan | Fault::Frozen | Fault::Slow => {
-                ctx.set_health(Health::Ok);
-            }
+            Some(ServiceFault::Degraded) => ctx.set_health(Health::Degraded("fault file says degraded".into())),
+            // The faults of other places (a stuck loop, a lost host) are not in the file's
+            // words: the parser never gives them.
+            _ => ctx.set_health(Health::Ok),
         }
         self.ticks = self.ticks.wrapping_add(1);
         let mut ranges = self.scanner.ranges(ctx.rng());
         match fault {
-            Fault::Slow if !self.ticks.is_multiple_of(3) => return,
-            Fault::Nan => {
+            Some(ServiceFault::Slow) if !self.ticks.is_multiple_of(3) => return,
+            Some(ServiceFault::Nan) => {
                 for r in ranges.iter_mut().step_by(7) {
                     *r = f64::NAN;
                 }
             }
-            Fault::Frozen => ranges.clone_from(self.frozen.get_or_insert(ranges.clone())),
+            Some(ServiceFault::Frozen) => ranges.clone_from(self.frozen.get_or_insert(ranges.clone())),
             _ => {}
         }
-        if fault != Fault::Frozen {
+        if fault != Some(ServiceFault::Frozen) {
             self.frozen = None;
         }
-        if fault == Fault::Garbage {
+        if fault == Some(ServiceFault::Garbage) {
             // Junk as a broken driver sends it, in a well-formed message (the harness
             // refuses to publish one whose counts disagree): readings far beyond the
             // maximum range and negative ones.
@@ -520,17 +496,24 @@ mod tests {
     #[test]
     fn fault_words_are_read_and_unknown_ones_refused() {
         fn check(text: &str, expected: Option<Fault>) {
-            assert_eq!(Fault::parse(text), expected, "{text:?}");
+            assert_eq!(parse_fault(text).ok(), expected, "{text:?}");
         }
-        check("crash\n", Some(Fault::Crash));
-        check("stall", Some(Fault::Stall));
-        check(" out-of-service ", Some(Fault::OutOfService));
-        check("", Some(Fault::None));
-        check("garbage", Some(Fault::Garbage));
-        check("nan", Some(Fault::Nan));
-        check("frozen\n", Some(Fault::Frozen));
-        check("slow", Some(Fault::Slow));
+        check("crash\n", Some(Some(ServiceFault::Crash)));
+        check("stall", Some(Some(ServiceFault::Stall)));
+        check(" out-of-service ", Some(Some(ServiceFault::OutOfService)));
+        check("", Some(None));
+        check("ok", Some(None));
+        check("degraded", Some(Some(ServiceFault::Degraded)));
+        check("garbage", Some(Some(ServiceFault::Garbage)));
+        check("nan", Some(Some(ServiceFault::Nan)));
+        check("frozen\n", Some(Some(ServiceFault::Frozen)));
+        check("slow", Some(Some(ServiceFault::Slow)));
         check("explode", None);
+        check("stuck", None);
+        assert_eq!(
+            parse_fault("frozn").unwrap_err().to_string(),
+            "unknown fault `frozn`: expected ok, degraded, out-of-service, stall, crash, garbage, nan, frozen or slow; did you mean `frozen`?"
+        );
     }
 
     #[test]
