@@ -72,8 +72,8 @@ use serde::Deserialize;
 
 pub use checks::{DataChecks, MIN_FROZEN_COUNT, OnCheckFailure};
 pub use error::RobotError;
-pub use lewis_stdx::Diagnostic;
 pub use hosts::{Endpoint, HostSpec, NetworkSettings, TlsFiles};
+pub use lewis_stdx::Diagnostic;
 
 pub use restart::RestartPolicy;
 

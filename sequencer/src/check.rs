@@ -85,8 +85,7 @@ struct Checker<'s> {
 
 impl<'s> Checker<'s> {
     fn report(&mut self, location: &Location, problem: Problem) {
-        self.findings
-            .push(diagnostic(location.clone(), problem));
+        self.findings.push(diagnostic(location.clone(), problem));
     }
 
     /// Records every finding; returns the mission when the names and programs allow one.
@@ -148,10 +147,7 @@ impl<'s> Checker<'s> {
             });
         }
         // On a graph with broken names the graph's warnings would only echo the errors.
-        let names_are_sound = !self
-            .findings
-            .iter()
-            .any(Diagnostic::is_error);
+        let names_are_sound = !self.findings.iter().any(Diagnostic::is_error);
         if names_are_sound && let Some(start) = start {
             self.reachability(&states, start, recovery);
             self.paths_to_stop(&states);

@@ -220,9 +220,7 @@ impl UnknownFaultWord {
 }
 
 fn did_you_mean(suggestion: Option<&str>) -> String {
-    suggestion.map_or_else(String::new, |word| {
-        format!("; did you mean `{word}`?")
-    })
+    suggestion.map_or_else(String::new, |word| format!("; did you mean `{word}`?"))
 }
 
 /// `a, b or c`.
@@ -352,11 +350,8 @@ impl LineFault {
             _ => Err(LineFaultError::Unknown {
                 item: item.to_owned(),
                 // `unplg@1s` is near `unplug`, `silnt` near `silent`.
-                suggestion: lewis_stdx::closest(
-                    key.split('@').next().unwrap_or(key),
-                    Self::WORDS,
-                )
-                .filter(|&word| word != key),
+                suggestion: lewis_stdx::closest(key.split('@').next().unwrap_or(key), Self::WORDS)
+                    .filter(|&word| word != key),
             }),
         }
     }
@@ -490,9 +485,15 @@ mod tests {
     #[test]
     fn line_fault_items_suggest_the_word_meant() {
         let e = parse_line_faults("silnt").unwrap_err().to_string();
-        assert!(e.ends_with("comma-separated; did you mean `silent`?"), "{e}");
+        assert!(
+            e.ends_with("comma-separated; did you mean `silent`?"),
+            "{e}"
+        );
         let e = parse_line_faults("unplg@1s").unwrap_err().to_string();
-        assert!(e.contains("unplug@T1-T2") && e.ends_with("`unplug`?"), "{e}");
+        assert!(
+            e.contains("unplug@T1-T2") && e.ends_with("`unplug`?"),
+            "{e}"
+        );
         let e = parse_line_faults("silent=1").unwrap_err().to_string();
         assert!(!e.contains("did you mean"), "{e}");
         assert_eq!(

@@ -44,10 +44,10 @@ use lewis_interfaces::msg::{
     RangeFinderCommand, RangeFinderGetGeometryReply,
 };
 use lewis_service::Health;
+use lewis_service::fault::{FAULT_FILE_FAULTS, ServiceFault, UnknownFaultWord};
 use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Rng, Service, ServiceConfig,
 };
-use lewis_service::fault::{FAULT_FILE_FAULTS, ServiceFault, UnknownFaultWord};
 use serde::Deserialize;
 
 /// The kind name in robot files.
@@ -362,7 +362,9 @@ impl Service for TestRange {
                 ));
                 return;
             }
-            Some(ServiceFault::Degraded) => ctx.set_health(Health::Degraded("fault file says degraded".into())),
+            Some(ServiceFault::Degraded) => {
+                ctx.set_health(Health::Degraded("fault file says degraded".into()))
+            }
             // The faults of other places (a stuck loop, a lost host) are not in the file's
             // words: the parser never gives them.
             _ => ctx.set_health(Health::Ok),
@@ -376,7 +378,9 @@ impl Service for TestRange {
                     *r = f64::NAN;
                 }
             }
-            Some(ServiceFault::Frozen) => ranges.clone_from(self.frozen.get_or_insert(ranges.clone())),
+            Some(ServiceFault::Frozen) => {
+                ranges.clone_from(self.frozen.get_or_insert(ranges.clone()))
+            }
             _ => {}
         }
         if fault != Some(ServiceFault::Frozen) {
