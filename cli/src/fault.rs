@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use clap::{ArgGroup, Args};
 use lewis_runtime::ipc::Ipc;
-use lewis_runtime::live::fault::{InjectError, InjectedFault, KillError, inject, kill};
+use lewis_runtime::live::fault::{InjectError, KillError, LIVE_FAULTS, ServiceFault, inject, kill};
 
 use lewis_runtime::ipc::Namespace;
 
@@ -57,11 +57,11 @@ pub fn run(args: &FaultArgs) -> anyhow::Result<ExitCode> {
         .map_err(|_| anyhow::anyhow!("--timeout {}: give a number of seconds", args.timeout))?;
     let ipc = Ipc::open(&namespace, &format!("lewis-fault-{}", std::process::id()))?;
     let fault = if args.stall {
-        InjectedFault::Stall
+        Some(ServiceFault::Stall)
     } else if args.out_of_service {
-        InjectedFault::OutOfService
+        Some(ServiceFault::OutOfService)
     } else if args.clear {
-        InjectedFault::Clear
+        None
     } else {
         return match kill(&ipc, &args.service, timeout) {
             Ok(pid) => {
@@ -77,7 +77,7 @@ pub fn run(args: &FaultArgs) -> anyhow::Result<ExitCode> {
     };
     match inject(&ipc, &args.service, fault, timeout) {
         Ok(()) => {
-            say(&format!("{}: {fault}", args.service));
+            say(&format!("{}: {}", args.service, LIVE_FAULTS.word(fault)));
             Ok(ExitCode::SUCCESS)
         }
         Err(e @ InjectError::NotRunning { .. }) => {

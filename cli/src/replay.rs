@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lewis_replay::fault::{FaultKind, FaultSpec};
+use lewis_replay::fault::{FaultKind, FaultSpec, REPLAY_FAULTS};
 use lewis_replay::resim::edit::{EditError, ParamEdit};
 use lewis_replay::resim::{
     DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay_with,
@@ -103,8 +103,18 @@ pub struct ReplayArgs {
 }
 
 fn parse_kind(text: &str) -> Result<FaultKind, String> {
-    FaultKind::from_name(text)
-        .ok_or_else(|| format!("`{text}` is no fault kind: give {}", FaultKind::NAMES))
+    let no_kind = |near: String| {
+        format!(
+            "`{text}` is no fault kind: give {}{near}",
+            REPLAY_FAULTS.names()
+        )
+    };
+    match REPLAY_FAULTS.parse(text) {
+        Ok(Some(kind)) => Ok(kind),
+        // Replay has no word for no fault.
+        Ok(None) => Err(no_kind(String::new())),
+        Err(unknown) => Err(no_kind(unknown.did_you_mean())),
+    }
 }
 
 /// The kinds that are sources ([`lewis_kinds::SOURCE_KINDS`]), as the replay options

@@ -15,7 +15,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Broker, BrokerStatus, Sequencer as SequencerMessage};
 use lewis_replay::fault::{FaultKind, FaultSpec};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
-use lewis_runtime::live::fault::{InjectedFault, inject, kill};
+use lewis_runtime::live::fault::{inject, kill};
 use lewis_runtime::names;
 use lewis_sequencer::{Decision, Entry, Record, from_message};
 
@@ -225,12 +225,7 @@ impl Watch {
         match self.fault.kind {
             FaultKind::Crash => self.kill_until_failed(),
             FaultKind::Stall | FaultKind::OutOfService => {
-                let injected = if self.fault.kind == FaultKind::Stall {
-                    InjectedFault::Stall
-                } else {
-                    InjectedFault::OutOfService
-                };
-                if let Err(e) = inject(&self.ipc, &provider, injected, CALL_TIMEOUT) {
+                if let Err(e) = inject(&self.ipc, &provider, Some(self.fault.kind), CALL_TIMEOUT) {
                     self.log.error = Some(e.to_string());
                 }
             }
@@ -238,7 +233,9 @@ impl Watch {
             | FaultKind::Frozen
             | FaultKind::Slow
             | FaultKind::Stuck
-            | FaultKind::HostLost => {
+            | FaultKind::HostLost
+            | FaultKind::Nan
+            | FaultKind::Degraded => {
                 let kind = self.fault.kind;
                 self.log.error = Some(format!("{kind} cannot be injected live"));
             }

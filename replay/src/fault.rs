@@ -23,80 +23,15 @@
 //! Heartbeats go on under `garbage`, `frozen` and `slow`: only the broker's checks of the
 //! data see them (where the robot file has them on for the interface).
 
-use std::fmt;
 use std::str::FromStr;
 
 use lewis_robot::Robot;
 use serde::Serialize;
 
-/// How a provider fails.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FaultKind {
-    /// No data and no heartbeat: the broker sees the deadline pass.
-    Stall,
-    /// The process exits with SIGABRT, and again at every restart while the fault lasts.
-    Crash,
-    /// Data that does not decode, heartbeats as usual.
-    Garbage,
-    /// The last good payload again and again (new headers), heartbeats as usual.
-    Frozen,
-    /// Two samples of three dropped, heartbeats as usual.
-    Slow,
-    /// No data; the heartbeats declare the provider out of service.
-    OutOfService,
-    /// The event loop sticks in one step: no data, and the heartbeat thread says so once
-    /// before going silent; the broker fails it at once and stops its process. A recorded
-    /// death the live broker gave up at is lived again as one.
-    Stuck,
-    /// A whole host cut off (its name given as the provider): nothing of its services is
-    /// heard, the broker is told the host is lost, and it joins again at the fault's end.
-    HostLost,
-}
-
-impl FaultKind {
-    /// Every kind's name, as written in a SPEC.
-    pub const NAMES: &'static str =
-        "crash, stall, garbage, frozen, slow, out-of-service, stuck, host-lost";
-
-    /// The kind of `name`, as written in a SPEC.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        [
-            Self::Stall,
-            Self::Crash,
-            Self::Garbage,
-            Self::Frozen,
-            Self::Slow,
-            Self::OutOfService,
-            Self::Stuck,
-            Self::HostLost,
-        ]
-        .into_iter()
-        .find(|k| k.name() == name)
-    }
-
-    /// The name as written in a SPEC.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Stall => "stall",
-            Self::Crash => "crash",
-            Self::Garbage => "garbage",
-            Self::Frozen => "frozen",
-            Self::Slow => "slow",
-            Self::OutOfService => "out-of-service",
-            Self::Stuck => "stuck",
-            Self::HostLost => "host-lost",
-        }
-    }
-}
-
-impl fmt::Display for FaultKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+pub use lewis_service::fault::REPLAY_FAULTS;
+/// How a provider fails: a fault of a service, of the one fault vocabulary; replay takes
+/// the kinds of [`REPLAY_FAULTS`].
+pub use lewis_service::fault::ServiceFault as FaultKind;
 
 /// A fault as written on the command line, times relative to the recording's start.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -144,7 +79,7 @@ pub enum FaultError {
     /// The text does not follow the syntax.
     #[error(
         "fault `{spec}`: {reason}; write PROVIDER[@START[-END]][:KIND] with KIND one of {kinds}, e.g. laser@12.5s:crash",
-        kinds = FaultKind::NAMES
+        kinds = REPLAY_FAULTS.names()
     )]
     Syntax {
         /// The SPEC.
@@ -210,8 +145,16 @@ impl FromStr for FaultSpec {
         let (rest, kind, kind_given) = match text.split_once(':') {
             Some((rest, kind)) => (
                 rest,
-                FaultKind::from_name(kind)
-                    .ok_or_else(|| syntax(&format!("unknown kind `{kind}`")))?,
+                REPLAY_FAULTS
+                    .parse(kind)
+                    .map_err(|unknown| {
+                        syntax(&match unknown.suggestion {
+                            Some(near) => format!("unknown kind `{kind}` (did you mean `{near}`?)"),
+                            None => format!("unknown kind `{kind}`"),
+                        })
+                    })?
+                    // Replay has no word for no fault: every word it takes is a kind.
+                    .unwrap_or(FaultKind::Stall),
                 true,
             ),
             None => (text, FaultKind::Stall, false),
@@ -425,7 +368,11 @@ mod tests {
 
     #[test]
     fn malformed_specs_say_what_is_wrong_and_how_to_write_one() {
-        check("laser:explode", Err("unknown kind `explode`"));
+        check("laser:explode", Err("unknown kind `explode`; write"));
+        check(
+            "laser:crsh",
+            Err("unknown kind `crsh` (did you mean `crash`?); write PROVIDER"),
+        );
         check("laser@soon", Err("`soon` is not a time"));
         // Durations are written one way everywhere: with a unit.
         check(

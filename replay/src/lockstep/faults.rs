@@ -80,7 +80,8 @@ impl Lockstep<'_> {
             ) => {
                 self.stats.faulted_publications += 1;
                 None
-            }
+            } // Not replay's kinds (the fault file's of `test-range`): a SPEC never names them.
+            Some(FaultKind::Nan | FaultKind::Degraded) => Some(Cow::Borrowed(bytes)),
         }
     }
 
@@ -132,7 +133,12 @@ impl Lockstep<'_> {
                     why: format!("injected fault {}", fault.spec),
                 }));
             }
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow => {}
+            // Nan and Degraded are not replay's kinds: a SPEC never names them.
+            FaultKind::Garbage
+            | FaultKind::Frozen
+            | FaultKind::Slow
+            | FaultKind::Nan
+            | FaultKind::Degraded => {}
         }
     }
 
@@ -181,7 +187,9 @@ impl Lockstep<'_> {
             | FaultKind::Stuck
             | FaultKind::Garbage
             | FaultKind::Frozen
-            | FaultKind::Slow => {}
+            | FaultKind::Slow
+            | FaultKind::Nan
+            | FaultKind::Degraded => {}
         }
     }
 

@@ -238,6 +238,8 @@ fn fault_sentence(providers: &[String], kind: FaultKind) -> String {
         FaultKind::OutOfService => plural_verb(one, "goes out of service", "go out of service"),
         FaultKind::Stuck => plural_verb(one, "gets stuck", "get stuck"),
         FaultKind::HostLost => plural_verb(one, "is cut off", "are cut off"),
+        FaultKind::Nan => plural_verb(one, "sends NaN readings", "send NaN readings"),
+        FaultKind::Degraded => plural_verb(one, "degrades", "degrade"),
     };
     let subjects: Vec<String> = providers.iter().map(|p| format!("the {p}")).collect();
     format!("{} {verb}", and_list(&subjects))
@@ -245,7 +247,7 @@ fn fault_sentence(providers: &[String], kind: FaultKind) -> String {
 
 /// `laser crash`, `laser+camera stall`, for the heading and the plot's title.
 pub(super) fn fault_name(providers: &[String], kind: FaultKind) -> String {
-    format!("{} {}", providers.join("+"), kind.name())
+    format!("{} {}", providers.join("+"), kind.word())
 }
 
 fn plural_verb(one: bool, singular: &'static str, plural: &'static str) -> &'static str {

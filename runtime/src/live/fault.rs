@@ -2,9 +2,9 @@
 //! and tests, with no cooperation from the service's code.
 //!
 //! Every live service's harness serves the command channel `/lewis/fault/<service>` (see
-//! [`fault_channel`]). A request is a [`wire`] frame whose command name is the fault
-//! ([`InjectedFault::as_str`]) and whose message is empty; the harness answers with an
-//! empty reply once the fault is in effect:
+//! [`fault_channel`]). A request is a [`wire`] frame whose command name is the fault's word
+//! ([`LIVE_FAULTS`] of the one fault vocabulary, [`lewis_service::fault`]) and whose message
+//! is empty; the harness answers with an empty reply once the fault is in effect:
 //!
 //! | fault | what the harness does |
 //! |---|---|
@@ -17,60 +17,17 @@
 //! The same three words are the fault kinds that replay can inject into a recording, so
 //! that a fault seen live and one injected in replay mean the same thing to the broker.
 
-use std::fmt;
-use std::str::FromStr;
 use std::time::Duration;
 
 use crate::ipc::{CallError, CommandClient, CommandConfig, Ipc, IpcError, WakeMode};
 use crate::names;
+pub use lewis_service::fault::{LIVE_FAULTS, ServiceFault};
 use lewis_service::wire;
 
-/// A fault the live harness can put its service in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum InjectedFault {
-    /// Stop everything, heartbeats included, as a hung process would.
-    Stall,
-    /// Publish nothing and declare out-of-service.
-    OutOfService,
-    /// Undo any injected fault.
-    Clear,
-}
-
-impl InjectedFault {
-    /// Every fault, in documentation order.
-    pub const ALL: [Self; 3] = [Self::Stall, Self::OutOfService, Self::Clear];
-
-    /// Its name on the wire and on the command line.
-    #[must_use]
-    pub const fn as_str(self) -> &'static str {
-        match self {
-            Self::Stall => "stall",
-            Self::OutOfService => "out-of-service",
-            Self::Clear => "clear",
-        }
-    }
-}
-
-impl fmt::Display for InjectedFault {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
-
-/// A word that names no [`InjectedFault`].
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown fault `{0}`: expected stall, out-of-service or clear")]
-pub struct UnknownFault(pub String);
-
-impl FromStr for InjectedFault {
-    type Err = UnknownFault;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|f| f.as_str() == s)
-            .ok_or_else(|| UnknownFault(s.to_owned()))
-    }
-}
+/// A fault the live harness can put its service in ([`ServiceFault::Stall`] or
+/// [`ServiceFault::OutOfService`]), or `None` to clear any; its word is
+/// [`LIVE_FAULTS`]`.word(fault)`.
+pub type InjectedFault = Option<ServiceFault>;
 
 /// The command channel on which the harness of `service` takes injected faults.
 #[must_use]
@@ -105,7 +62,7 @@ pub enum InjectError {
         channel: String,
     },
     /// The harness did not answer (it may be stalled already) or refused.
-    #[error("service `{service}` did not take fault `{fault}`: {reason}")]
+    #[error("service `{service}` did not take fault `{}`: {reason}", LIVE_FAULTS.word(*fault))]
     Failed {
         /// The service.
         service: String,
@@ -129,7 +86,7 @@ pub fn inject(
 ) -> Result<(), InjectError> {
     let channel = fault_channel(service);
     let mut client: CommandClient = ipc.command_client(&channel, &fault_config())?;
-    let frame = wire::request_to_vec(fault.as_str(), &[]);
+    let frame = wire::request_to_vec(LIVE_FAULTS.word(fault), &[]);
     let failed = |reason: String| InjectError::Failed {
         service: service.to_owned(),
         fault,
@@ -255,9 +212,10 @@ impl FaultState {
     /// The state after `fault`.
     pub(crate) const fn after(fault: InjectedFault) -> Self {
         match fault {
-            InjectedFault::Stall => Self::Stalled,
-            InjectedFault::OutOfService => Self::OutOfService,
-            InjectedFault::Clear => Self::Normal,
+            Some(ServiceFault::Stall) => Self::Stalled,
+            Some(ServiceFault::OutOfService) => Self::OutOfService,
+            // `clear`; the harness takes no other word ([`read_request`]).
+            _ => Self::Normal,
         }
     }
 }
@@ -268,7 +226,7 @@ pub(crate) const OUT_OF_SERVICE_REASON: &str = "fault injected with `lewis fault
 /// Reads a fault request frame.
 pub(crate) fn read_request(frame: &[u8]) -> Result<InjectedFault, String> {
     let (command, _) = wire::read_request(frame).map_err(|e| e.to_string())?;
-    command.parse().map_err(|e: UnknownFault| e.to_string())
+    LIVE_FAULTS.parse(command).map_err(|e| e.to_string())
 }
 
 impl super::Harness<'_> {
@@ -292,7 +250,8 @@ impl super::Harness<'_> {
         self.backend.fault = FaultState::after(fault);
         tracing::warn!(
             service = self.backend.service,
-            "fault injected: {fault} ({OUT_OF_SERVICE_REASON})"
+            "fault injected: {} ({OUT_OF_SERVICE_REASON})",
+            LIVE_FAULTS.word(fault)
         );
         // The broker hears a change of declared health at once, as with set_health; a
         // stall stops the heartbeats.
@@ -319,25 +278,31 @@ mod tests {
 
     #[test]
     fn faults_round_trip_through_their_words_and_unknown_words_are_refused() {
-        for fault in InjectedFault::ALL {
-            assert_eq!(fault.as_str().parse::<InjectedFault>(), Ok(fault));
-            let frame = wire::request_to_vec(fault.as_str(), &[]);
+        for &fault in LIVE_FAULTS.faults {
+            let frame = wire::request_to_vec(LIVE_FAULTS.word(fault), &[]);
             assert_eq!(read_request(&frame), Ok(fault));
         }
         assert_eq!(
             read_request(&wire::request_to_vec("explode", &[])),
             Err("unknown fault `explode`: expected stall, out-of-service or clear".to_owned())
         );
+        assert_eq!(
+            read_request(&wire::request_to_vec("clera", &[])),
+            Err("unknown fault `clera`: expected stall, out-of-service or clear; did you mean `clear`?".to_owned())
+        );
     }
 
     #[test]
     fn each_fault_leads_to_its_state() {
-        assert_eq!(FaultState::after(InjectedFault::Stall), FaultState::Stalled);
         assert_eq!(
-            FaultState::after(InjectedFault::OutOfService),
+            FaultState::after(Some(ServiceFault::Stall)),
+            FaultState::Stalled
+        );
+        assert_eq!(
+            FaultState::after(Some(ServiceFault::OutOfService)),
             FaultState::OutOfService
         );
-        assert_eq!(FaultState::after(InjectedFault::Clear), FaultState::Normal);
+        assert_eq!(FaultState::after(None), FaultState::Normal);
         assert_eq!(fault_channel("laser"), "/lewis/fault/laser");
     }
 }
