@@ -61,12 +61,10 @@ pub fn small_message(channel: usize, seq: u64, publish_time_ns: i64) -> Distance
 #[must_use]
 pub fn image_pixels(seq: u64) -> Vec<u8> {
     let mut data = vec![0_u8; IMAGE_WIDTH * IMAGE_HEIGHT * 3];
-    let mut noise = seq.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut noise = lewis_service::NoiseBytes::new(seq.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1, 0);
     let shift = seq as usize;
     for (i, px) in data.iter_mut().enumerate() {
-        noise ^= noise << 13;
-        noise ^= noise >> 7;
-        noise ^= noise << 17;
+        let noise = noise.next_u64();
         let x = (i / 3) % IMAGE_WIDTH;
         let y = i / 3 / IMAGE_WIDTH;
         let value = ((x + y + shift) as u8) ^ ((noise & 0x7) as u8);
@@ -119,6 +117,33 @@ pub fn robot_toml() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_pixels_are_those_the_old_inline_xorshift_gave() {
+        // Produced by this function's own xorshift before it used the one NoiseBytes.
+        let check = |seq: u64, first: [u8; 12], checksum: u64| {
+            let pixels = image_pixels(seq);
+            let sum = pixels.iter().fold(0_u64, |h, &b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+            });
+            assert_eq!((&pixels[..12], sum), (&first[..], checksum), "frame {seq}");
+        };
+        check(
+            0,
+            [1, 1, 1, 4, 4, 0, 3, 7, 5, 5, 7, 2],
+            0xc044_2228_4055_85c1,
+        );
+        check(
+            1,
+            [4, 7, 7, 6, 6, 3, 4, 1, 0, 2, 1, 7],
+            0xecc4_b2b8_6cf8_060e,
+        );
+        check(
+            7,
+            [5, 0, 0, 15, 8, 15, 11, 12, 9, 12, 13, 14],
+            0x84d0_67e7_dbce_7432,
+        );
+    }
 
     #[test]
     fn the_stress_robot_lists_every_provider_of_the_mix() {
