@@ -365,6 +365,10 @@ impl Problem {
 /// The finding of `problem` at `location`: the one diagnostic of Lewis, with the problem's
 /// severity, message and hint.
 #[must_use]
+#[expect(
+    clippy::needless_pass_by_value,
+    reason = "a finding is made of its problem: callers write `diagnostic(at, Problem::...)`"
+)]
 pub fn diagnostic(location: Location, problem: Problem) -> Diagnostic {
     let position = Position::new(location.line, location.column);
     let mut finding = Diagnostic::error(location.file, position, problem.to_string());

@@ -363,7 +363,7 @@ impl Service for TestRange {
                 return;
             }
             Some(ServiceFault::Degraded) => {
-                ctx.set_health(Health::Degraded("fault file says degraded".into()))
+                ctx.set_health(Health::Degraded("fault file says degraded".into()));
             }
             // The faults of other places (a stuck loop, a lost host) are not in the file's
             // words: the parser never gives them.
@@ -379,7 +379,7 @@ impl Service for TestRange {
                 }
             }
             Some(ServiceFault::Frozen) => {
-                ranges.clone_from(self.frozen.get_or_insert(ranges.clone()))
+                ranges.clone_from(self.frozen.get_or_insert(ranges.clone()));
             }
             _ => {}
         }
