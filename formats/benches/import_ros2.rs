@@ -18,9 +18,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
+use lewis_formats::import::record::write_ros2;
+use lewis_formats::import::ros2::{ImportOptions, Ros2Import};
 use lewis_recorder::Compression;
-use lewis_replay::import::record::write_ros2;
-use lewis_replay::import::ros2::{ImportOptions, Ros2Import};
 
 fn default_bag() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

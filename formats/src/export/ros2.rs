@@ -24,8 +24,8 @@ use lewis_recorder::{
     STATS_TOPIC, Sample,
 };
 
-use crate::recording::{RecordingError, RecordingFiles, Topic};
 use crate::whole_file::{RenameError, write_whole};
+use lewis_replay::recording::{RecordingError, RecordingFiles, Topic};
 
 /// The provider of the export's recorder stats.
 pub const EXPORT_PROVIDER: &str = "lewis-export";

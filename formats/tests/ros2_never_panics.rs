@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use lewis_replay::import::ros2::{ImportError, ImportOptions, Out, Ros2Import};
+use lewis_formats::import::ros2::{ImportError, ImportOptions, Out, Ros2Import};
 use proptest::prelude::*;
 
 /// The real Hokuyo bag (1 MB: its scans in one uncompressed chunk, so a changed byte

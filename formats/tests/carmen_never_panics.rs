@@ -5,9 +5,9 @@
 
 use std::path::PathBuf;
 
-use lewis_replay::import::carmen::parse::parse_line;
-use lewis_replay::import::carmen::timing::{PrintedTime, StampInput, Stream, retime};
-use lewis_replay::import::carmen::{CarmenImport, ImportOptions, LogReader, TimingOptions};
+use lewis_formats::import::carmen::parse::parse_line;
+use lewis_formats::import::carmen::timing::{PrintedTime, StampInput, Stream, retime};
+use lewis_formats::import::carmen::{CarmenImport, ImportOptions, LogReader, TimingOptions};
 use proptest::prelude::*;
 
 /// Lines that look like a CARMEN log often enough to reach deep into the parser.

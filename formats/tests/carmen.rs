@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 
 use flate2::Compression;
 use flate2::write::GzEncoder;
-use lewis_replay::import::carmen::parse::LaserId;
-use lewis_replay::import::carmen::{
+use lewis_formats::import::carmen::parse::LaserId;
+use lewis_formats::import::carmen::{
     CarmenImport, ImportError, ImportOptions, ImportedMessage, OdometrySource, Payload,
     PeriodSource, ReadingCounts, StampProblem, TimePolicy, TimingOptions, robot_toml,
 };
