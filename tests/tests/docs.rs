@@ -403,11 +403,12 @@ fn type_name(field: &Field) -> String {
         FieldType::Primitive { idl_name, .. } => idl_name.clone(),
         FieldType::Struct(name) => name.clone(),
     };
-    match (field.is_array, &field.array_size) {
-        (true, Some(size)) => format!("{base}[`{size}`]"),
+    let written = match (field.is_array, &field.array_size) {
+        (true, Some(size)) => format!("{base}[{size}]"),
         (true, None) => format!("{base}[]"),
         (false, _) => base,
-    }
+    };
+    format!("`{written}`")
 }
 
 /// A field's description, and its vocabulary's words.
