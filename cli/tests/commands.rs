@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[cfg(feature = "viewer")]
 mod reference;
 
 fn repo() -> PathBuf {

@@ -105,10 +105,14 @@ fn scratch() -> tempfile::TempDir {
         }
         std::os::unix::fs::symlink(entry.path(), work.join(&name)).unwrap();
     }
-    // logs/ is where commands write by default: a folder of its own, with the reference
-    // recording linked in.
-    std::fs::create_dir(work.join("logs")).unwrap();
-    std::os::unix::fs::symlink(root.join("logs/reference"), work.join("logs/reference")).unwrap();
+    // logs/ is where commands write by default, and a replay writes beside its input: folders
+    // of their own, with the reference recording linked in.
+    std::fs::create_dir_all(work.join("logs/reference")).unwrap();
+    std::os::unix::fs::symlink(
+        root.join("logs/reference/sim-goal.mcap"),
+        work.join("logs/reference/sim-goal.mcap"),
+    )
+    .unwrap();
     let shared = root.join("../shared");
     if shared.exists() {
         std::os::unix::fs::symlink(&shared, dir.path().join("shared")).unwrap();
@@ -119,14 +123,16 @@ fn scratch() -> tempfile::TempDir {
 #[test]
 fn every_runnable_command_of_the_guide_works() {
     let blocks = runnable_blocks();
-    assert!(blocks.len() >= 10, "only {} runnable blocks found", blocks.len());
+    assert!(
+        blocks.len() >= 10,
+        "only {} runnable blocks found",
+        blocks.len()
+    );
     let lewis = lewis_exe();
     let bin = lewis.parent().unwrap();
-    let path = std::env::join_paths(
-        std::iter::once(bin.to_path_buf()).chain(std::env::split_paths(
-            &std::env::var_os("PATH").unwrap_or_default(),
-        )),
-    )
+    let path = std::env::join_paths(std::iter::once(bin.to_path_buf()).chain(
+        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
+    ))
     .unwrap();
     let scratch = scratch();
     let work = scratch.path().join("repo");
@@ -136,7 +142,10 @@ fn every_runnable_command_of_the_guide_works() {
             .args(["-euo", "pipefail", "-c", &block.text])
             .current_dir(&work)
             .env("PATH", &path)
-            .env("LEWIS_NAMESPACE", format!("docs-{}-{index}", std::process::id()))
+            .env(
+                "LEWIS_NAMESPACE",
+                format!("docs-{}-{index}", std::process::id()),
+            )
             .env("NO_COLOR", "1")
             .env_remove("LEWIS_EXE")
             .output()
@@ -207,7 +216,10 @@ fn missing(text: &str, keys: &BTreeSet<String>) -> Vec<String> {
 const ROBOT_TABLES: &[(&str, &str)] = &[
     ("## The file", "zz_probe = 1\n[robot]\nname = \"p\"\n"),
     ("## `[robot]`", "[robot]\nname = \"p\"\nzz_probe = 1\n"),
-    ("## `[broker]`", "[robot]\nname = \"p\"\n[broker]\nzz_probe = 1\n"),
+    (
+        "## `[broker]`",
+        "[robot]\nname = \"p\"\n[broker]\nzz_probe = 1\n",
+    ),
     (
         "### `restart`",
         "[robot]\nname = \"p\"\n[broker]\nrestart = { zz_probe = 1 }\n",
@@ -236,7 +248,10 @@ const ROBOT_TABLES: &[(&str, &str)] = &[
         "## `[[hosts]]`",
         "[robot]\nname = \"p\"\n[[hosts]]\nname = \"robot\"\nzz_probe = 1\n",
     ),
-    ("## `[network]`", "[robot]\nname = \"p\"\n[network]\nzz_probe = 1\n"),
+    (
+        "## `[network]`",
+        "[robot]\nname = \"p\"\n[network]\nzz_probe = 1\n",
+    ),
     (
         "### `[network.tls]`",
         "[robot]\nname = \"p\"\n[network.tls]\nzz_probe = 1\n",
@@ -249,8 +264,7 @@ fn every_key_the_robot_file_accepts_is_in_its_chapter() {
     let interfaces = lewis_interfaces::interface_names();
     let mut gaps = Vec::new();
     for (heading, text) in ROBOT_TABLES {
-        let error = match lewis_runtime::robot::parse(text, Path::new("probe.toml"), &interfaces)
-        {
+        let error = match lewis_runtime::robot::parse(text, Path::new("probe.toml"), &interfaces) {
             Ok(_) => panic!("the probe of {heading} loaded:\n{text}"),
             Err(e) => e.to_string(),
         };
@@ -340,11 +354,7 @@ fn interfaces_chapter(idl: &Idl) -> String {
          sequence number, publish time, provenance), which the tables leave out.\n",
     );
     for interface in &idl.interfaces {
-        let _ = write!(
-            out,
-            "\n## {} {}\n\n",
-            interface.name, interface.version
-        );
+        let _ = write!(out, "\n## {} {}\n\n", interface.name, interface.version);
         if let Some(description) = &interface.description {
             let _ = write!(out, "{}\n\n", one_paragraph(description));
         }
@@ -367,7 +377,9 @@ fn interfaces_chapter(idl: &Idl) -> String {
             fields(&mut out, &command.reply);
         }
     }
-    out.push_str("\n## Types\n\nThe compound types the interfaces use (`interfaces/idl/types.xml`).\n");
+    out.push_str(
+        "\n## Types\n\nThe compound types the interfaces use (`interfaces/idl/types.xml`).\n",
+    );
     for ty in &idl.types {
         let _ = write!(out, "\n### {}\n\n", ty.name);
         if let Some(description) = &ty.description {
@@ -419,7 +431,11 @@ fn meaning(field: &Field) -> String {
         .map(one_paragraph)
         .unwrap_or_default();
     if !field.values.is_empty() {
-        let words: Vec<String> = field.values.iter().map(|v| format!("`{}`", v.name)).collect();
+        let words: Vec<String> = field
+            .values
+            .iter()
+            .map(|v| format!("`{}`", v.name))
+            .collect();
         if !text.is_empty() {
             text.push(' ');
         }
@@ -447,7 +463,10 @@ fn the_interfaces_chapter_is_generated_from_the_idl() {
         .lines()
         .zip(expected.lines())
         .position(|(a, b)| a != b)
-        .map_or_else(|| committed.lines().count().min(expected.lines().count()), |i| i)
+        .map_or_else(
+            || committed.lines().count().min(expected.lines().count()),
+            |i| i,
+        )
         + 1;
     assert!(
         committed == expected,
