@@ -34,7 +34,7 @@ fn command(out: &mut String, cmd: &Command, parents: &[&str]) {
     let level = "#".repeat(path.len().min(5) + 1);
     let _ = write!(out, "\n{level} `{title}`\n\n");
     if let Some(about) = cmd.get_long_about().or_else(|| cmd.get_about()) {
-        let _ = write!(out, "{}\n\n", about.to_string().trim_end());
+        let _ = write!(out, "{}\n\n", prose(about.to_string().trim_end()));
     }
     let usage = cmd.clone().render_usage().to_string();
     let usage = usage.trim_start_matches("Usage: ").trim_end();
@@ -60,7 +60,8 @@ fn command(out: &mut String, cmd: &Command, parents: &[&str]) {
         out.push_str("\nSubcommands:\n\n");
         for sub in &subcommands {
             let about = sub.get_about().map(ToString::to_string).unwrap_or_default();
-            let _ = writeln!(out, "- `{title} {}`: {}", sub.get_name(), about.trim_end());
+            let about = prose(about.trim_end());
+            let _ = writeln!(out, "- `{title} {}`: {about}", sub.get_name());
         }
     }
     for sub in subcommands {
@@ -113,7 +114,9 @@ fn argument(out: &mut String, arg: &Arg) {
         .or_else(|| arg.get_help())
         .map(|h| h.to_string())
         .unwrap_or_default();
-    let help = help.trim_end().replace("\n\n", "\n").replace('\n', "\n  ");
+    let help = prose(help.trim_end())
+        .replace("\n\n", "\n")
+        .replace('\n', "\n  ");
     let _ = write!(out, "- {forms}");
     if arg.is_required_set() {
         out.push_str(" (required)");
@@ -127,7 +130,7 @@ fn argument(out: &mut String, arg: &Arg) {
         .map(|v| v.to_string_lossy().into_owned())
         .collect();
     if !defaults.is_empty() && takes_value {
-        let _ = write!(out, " [default: `{}`]", defaults.join(" "));
+        let _ = write!(out, " (default: `{}`)", defaults.join(" "));
     }
     let choices: Vec<String> = arg
         .get_possible_values()
@@ -136,7 +139,7 @@ fn argument(out: &mut String, arg: &Arg) {
         .map(|p| format!("`{}`", p.get_name()))
         .collect();
     if !choices.is_empty() && takes_value {
-        let _ = write!(out, " [choices: {}]", choices.join(", "));
+        let _ = write!(out, " (one of {})", choices.join(", "));
     }
     out.push('\n');
 }
@@ -169,4 +172,20 @@ fn first_difference(a: &str, b: &str) -> usize {
         .position(|(x, y)| x != y)
         .unwrap_or_else(|| a.lines().count().min(b.lines().count()))
         + 1
+}
+
+/// Help text as Markdown: brackets outside code spans escaped, so that `[a, b]` is not
+/// read as a link.
+fn prose(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut in_code = false;
+    for c in text.chars() {
+        match c {
+            '`' => in_code = !in_code,
+            '[' | ']' if !in_code => out.push('\\'),
+            _ => {}
+        }
+        out.push(c);
+    }
+    out
 }
