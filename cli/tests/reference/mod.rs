@@ -72,15 +72,16 @@ fn command(out: &mut String, cmd: &Command, parents: &[&str]) {
 /// One argument as a list item: its forms, its value, its help, its default and choices.
 fn argument(out: &mut String, arg: &Arg) {
     let value = || {
-        arg.get_value_names()
-            .map(|names| {
+        arg.get_value_names().map_or_else(
+            || format!("<{}>", arg.get_id().as_str().to_uppercase()),
+            |names| {
                 names
                     .iter()
                     .map(|n| format!("<{n}>"))
                     .collect::<Vec<_>>()
                     .join(" ")
-            })
-            .unwrap_or_else(|| format!("<{}>", arg.get_id().as_str().to_uppercase()))
+            },
+        )
     };
     let takes_value = matches!(arg.get_action(), ArgAction::Set | ArgAction::Append);
     let mut forms = Vec::new();
@@ -112,7 +113,7 @@ fn argument(out: &mut String, arg: &Arg) {
     let help = arg
         .get_long_help()
         .or_else(|| arg.get_help())
-        .map(|h| h.to_string())
+        .map(ToString::to_string)
         .unwrap_or_default();
     let help = prose(help.trim_end())
         .replace("\n\n", "\n")
