@@ -1,7 +1,7 @@
 //! `lewis import ros2` throughput against the bare `mcap` crate reading the same bag, side
 //! by side in one run, in MB/s of the bag's size (run by hand):
 //!
-//! `cargo bench -p lewis-replay --bench import_ros2 [-- BAG.mcap] [--runs N]`
+//! `cargo bench -p lewis-formats --bench import_ros2 [-- BAG.mcap] [--runs N]`
 //!
 //! Default bag: `../shared/data/ros2/husky-outdoor-imu-odom-gps.mcap` (7.6 MB). The bare
 //! read is `mcap::MessageStream` over the file's bytes, every message touched once: the

@@ -98,28 +98,38 @@ fn chapters() -> Vec<String> {
 fn scratch() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let work = dir.path().join("repo");
-    std::fs::create_dir(&work).unwrap();
     let root = repo_root();
-    for entry in std::fs::read_dir(&root).unwrap().flatten() {
-        let name = entry.file_name();
-        if matches!(name.to_str(), Some("target" | ".git" | "logs")) {
-            continue;
-        }
-        std::os::unix::fs::symlink(entry.path(), work.join(&name)).unwrap();
-    }
     // logs/ is where commands write by default, and a replay writes beside its input: folders
     // of their own, with the reference recording linked in.
-    std::fs::create_dir_all(work.join("logs/reference")).unwrap();
-    std::os::unix::fs::symlink(
-        root.join("logs/reference/sim-goal.mcap"),
-        work.join("logs/reference/sim-goal.mcap"),
-    )
-    .unwrap();
+    link_all_but(&root, &work, &["target", ".git", "logs", "tests"]);
+    link_all_but(&root.join("tests"), &work.join("tests"), &["data"]);
+    link_all_but(
+        &root.join("tests/data"),
+        &work.join("tests/data"),
+        &["reference"],
+    );
+    link_all_but(
+        &root.join("tests/data/reference"),
+        &work.join("tests/data/reference"),
+        &[],
+    );
     let shared = root.join("../shared");
     if shared.exists() {
         std::os::unix::fs::symlink(&shared, dir.path().join("shared")).unwrap();
     }
     dir
+}
+
+/// Makes `to` a folder of links to each entry of `from` but those named in `except`.
+fn link_all_but(from: &Path, to: &Path, except: &[&str]) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap().flatten() {
+        let name = entry.file_name();
+        if name.to_str().is_some_and(|n| except.contains(&n)) {
+            continue;
+        }
+        std::os::unix::fs::symlink(entry.path(), to.join(&name)).unwrap();
+    }
 }
 
 #[test]
@@ -267,7 +277,7 @@ fn every_key_the_robot_file_accepts_is_in_its_chapter() {
     let interfaces = lewis_interfaces::interface_names();
     let mut gaps = Vec::new();
     for (heading, text) in ROBOT_TABLES {
-        let error = match lewis_runtime::robot::parse(text, Path::new("probe.toml"), &interfaces) {
+        let error = match lewis_robot::parse(text, Path::new("probe.toml"), &interfaces) {
             Ok(_) => panic!("the probe of {heading} loaded:\n{text}"),
             Err(e) => e.to_string(),
         };
