@@ -47,7 +47,7 @@ pub struct ViewArgs {
     /// every frame). Camera frames are most of a Rerun file's bytes; scans, poses and the
     /// rest are always whole.
     #[arg(long, value_name = "DURATION", value_parser = parse_every, conflicts_with = "png")]
-    pub camera_every: Option<i64>,
+    pub camera_every: Option<u64>,
     /// Store camera frames JPEG-compressed at this quality (1 to 100), full size, instead of
     /// their pixels as recorded: a tenth of the bytes or less.
     #[arg(long, value_name = "QUALITY", value_parser = clap::value_parser!(u8).range(1..=100),
@@ -55,8 +55,9 @@ pub struct ViewArgs {
     pub camera_jpeg: Option<u8>,
 }
 
-fn parse_every(text: &str) -> Result<i64, String> {
-    lewis_stdx::parse_duration_ns(text).map_err(|e| e.to_string())
+fn parse_every(text: &str) -> Result<u64, String> {
+    let ns = lewis_stdx::parse_duration_ns(text).map_err(|e| e.to_string())?;
+    Ok(u64::try_from(ns).unwrap_or(0))
 }
 
 impl ViewArgs {

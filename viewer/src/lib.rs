@@ -99,7 +99,7 @@ pub struct ViewOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CameraFrames {
     /// At most one frame per image topic in this much log time, ns (0: every frame).
-    pub every_ns: i64,
+    pub every_ns: u64,
     /// Stored JPEG-compressed at this quality (1 to 100), full size; `None`: the pixels as
     /// recorded.
     pub jpeg_quality: Option<u8>,

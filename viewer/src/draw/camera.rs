@@ -18,7 +18,7 @@ pub(super) struct CameraState {
     /// Which frames are shown, and how they are stored.
     pub(super) frames: CameraFrames,
     /// Per image topic: the log time of the last frame shown.
-    last_shown_ns: BTreeMap<String, i64>,
+    last_shown_ns: BTreeMap<String, u64>,
     /// Frames left out by [`CameraFrames::every_ns`].
     pub(super) skipped: u64,
     /// Image topics seen, in order of appearance (the first is where blobs without
