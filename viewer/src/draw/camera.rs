@@ -16,7 +16,7 @@ use crate::{CameraFrames, ViewError};
 #[derive(Debug, Default)]
 pub(super) struct CameraState {
     /// Which frames are shown, and how they are stored.
-    pub(super) frames: CameraFrames,
+    frames: CameraFrames,
     /// Per image topic: the log time of the last frame shown.
     last_shown_ns: BTreeMap<String, u64>,
     /// Frames left out by [`CameraFrames::every_ns`].
@@ -29,6 +29,14 @@ pub(super) struct CameraState {
 }
 
 impl CameraState {
+    /// The camera state of a scene that keeps `frames`.
+    pub(super) fn new(frames: CameraFrames) -> Self {
+        Self {
+            frames,
+            ..Self::default()
+        }
+    }
+
     /// The image topic that `header`'s inputs name, else the first image topic seen.
     fn space_of(&self, header: &Header) -> Option<&str> {
         header

@@ -206,10 +206,7 @@ impl Scene {
             mission_path: Vec::new(),
             faults: faults::FaultMarks::default(),
             has_replay: false,
-            camera: camera::CameraState {
-                frames,
-                ..camera::CameraState::default()
-            },
+            camera: camera::CameraState::new(frames),
             counts: Counts::default(),
             failures: BTreeMap::new(),
         }
