@@ -156,7 +156,7 @@ pub fn camera_run(dir: &Path, frames: i64) -> PathBuf {
             START_NS + k * STEP_NS,
         );
     }
-    w.recorder.finish().unwrap();
+    w.recorder.close().unwrap();
     path
 }
 
