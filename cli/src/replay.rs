@@ -67,6 +67,16 @@ pub struct ReplayArgs {
     /// VALUE is TOML, a bare word a string.
     #[arg(long = "set", value_name = "SERVICE.PARAMETER=VALUE", value_parser = parse_set)]
     pub set: Vec<ParamEdit>,
+    /// Write only what the replay produced (the `/replay/...` channels) to the output, not
+    /// a copy of the recorded channels: the recording holds them already, and the output
+    /// is then the size of the re-simulated part alone. Compared and reported the same.
+    #[arg(long)]
+    pub outputs_only: bool,
+    /// Do not write the channels of this interface to the output, recorded or re-simulated
+    /// (repeat for several); still compared. `--leave-out ImageSource` drops the camera
+    /// frames, most of a recording's bytes.
+    #[arg(long = "leave-out", value_name = "INTERFACE", value_parser = parse_interface)]
+    pub left_out: Vec<String>,
     /// Exit 1 when re-simulated outputs differ from the recorded ones beyond the tolerance.
     #[arg(long)]
     pub check: bool,
@@ -125,6 +135,21 @@ pub(crate) fn simulated_kinds() -> std::collections::BTreeSet<String> {
         .collect()
 }
 
+/// `text` when it names an interface (`ImageSource`), else which names there are.
+fn parse_interface(text: &str) -> Result<String, String> {
+    if lewis_interfaces::interface_info(text).is_some() {
+        return Ok(text.to_owned());
+    }
+    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+        .iter()
+        .map(|i| i.name)
+        .collect();
+    Err(format!(
+        "`{text}` is no interface: give one of {}",
+        known.join(", ")
+    ))
+}
+
 fn parse_set(text: &str) -> Result<ParamEdit, String> {
     text.parse().map_err(|e: EditError| e.to_string())
 }
@@ -151,6 +176,8 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     options.robot.clone_from(&args.robot);
     options.set.clone_from(&args.set);
     options.tolerance = args.tolerance;
+    options.outputs_only = args.outputs_only;
+    options.left_out = args.left_out.iter().cloned().collect();
     options.source_kinds = source_kinds();
     options.simulated_kinds = simulated_kinds();
     let bar = std::io::stderr().is_terminal().then(|| {
