@@ -8,7 +8,7 @@
 # The mission comes first: `lewis` is built in the `demo` profile (Cargo.toml) without the
 # viewer (Rerun) and the bridge between hosts (Zenoh), and runs it; then the viewer is built
 # and writes the picture and the Rerun file (`lewis demo --pictures-only`).
-# docs/speed-first-run.md says where the time goes.
+# docs/src/first-run.md says where the time goes.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
