@@ -140,13 +140,16 @@ fn every_runnable_command_of_the_guide_works() {
         "only {} runnable blocks found",
         blocks.len()
     );
-    let lewis = lewis_exe();
-    let bin = lewis.parent().unwrap();
-    let path = std::env::join_paths(std::iter::once(bin.to_path_buf()).chain(
-        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default()),
-    ))
-    .unwrap();
     let scratch = scratch();
+    // The guide says `lewis`: a folder first on PATH where that name is the binary under
+    // test, whatever LEWIS_EXE names it.
+    let bin = scratch.path().join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    std::os::unix::fs::symlink(lewis_exe(), bin.join("lewis")).unwrap();
+    let path = std::env::join_paths(std::iter::once(bin).chain(std::env::split_paths(
+        &std::env::var_os("PATH").unwrap_or_default(),
+    )))
+    .unwrap();
     let work = scratch.path().join("repo");
     let mut failures = Vec::new();
     for (index, block) in blocks.iter().enumerate() {
