@@ -18,7 +18,7 @@ use lewis_interfaces::msg::{Broker, LogLine};
 use lewis_replay::lockstep::{Program, Programs};
 use lewis_replay::outcome::LoopKind;
 use lewis_runtime::ipc::Namespace;
-use lewis_tests::{lewis_exe, repo_root};
+use lewis_testkit::{lewis_exe, repository_root};
 
 /// Door, then a sign state, then `stop`: long enough for the laser's three deaths.
 const SCRIPT: &str = "\
@@ -47,10 +47,10 @@ impl Programs for SleepsOnly {
 }
 
 fn robot_with_absolute_paths(dir: &Path) -> PathBuf {
-    let text = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
+    let text = std::fs::read_to_string(repository_root().join("robots/sim.toml")).unwrap();
     let text = text.replace(
         "= \"robots/",
-        &format!("= \"{}/robots/", repo_root().display()),
+        &format!("= \"{}/robots/", repository_root().display()),
     );
     let path = dir.join("sim.toml");
     std::fs::write(&path, text).unwrap();

@@ -9,7 +9,7 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use lewis_tests::{python_tool, repo_root, run_ok, shared_data};
+use lewis_testkit::{python_tool, repository_root, run_ok, shared_data};
 use lewis_viewer::{CameraFrames, MapStatus, Target, ViewError, ViewOptions, ViewReport, view};
 
 fn save(inputs: &[PathBuf], out: &Path) -> Result<ViewReport, ViewError> {
@@ -313,7 +313,7 @@ struct RerunRead {
 }
 
 fn rerun_reads(rrd: &Path) -> RerunRead {
-    let script = repo_root().join("tools/python/check_rrd.py");
+    let script = repository_root().join("tools/python/check_rrd.py");
     let out = run_ok(python_tool("python").arg(script).arg(rrd));
     serde_json::from_str(&out)
         .unwrap_or_else(|e| panic!("check_rrd.py printed no JSON I can read ({e}):\n{out}"))

@@ -170,7 +170,7 @@ pub fn robot_toml(world: &str) -> String {
 
 /// The conference world of the repository, by its absolute path.
 pub fn conference_world() -> String {
-    lewis_tests::repo_root()
+    lewis_testkit::repository_root()
         .join("robots/worlds/conference")
         .display()
         .to_string()

@@ -4,12 +4,12 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use crate::repo_root;
+use crate::repository_root;
 
 /// The folder of the GUI driver scripts (`drive.mjs`, `recover.mjs`, `browser.mjs`).
 #[must_use]
 pub fn gui_test_dir() -> PathBuf {
-    repo_root().join("tools/node")
+    repository_root().join("tools/node")
 }
 
 /// The browser to drive (`LEWIS_CHROMIUM`, else `/usr/bin/chromium`), after checking that

@@ -1,8 +1,8 @@
 //! The bridge's CPU at the simulated robot's full traffic: `robots/sim.toml` on two hosts of
-//! [`lewis_tests::hosts`] (the robot host with the simulated devices, the broker and the
+//! [`lewis_testkit::hosts`] (the robot host with the simulated devices, the broker and the
 //! recorder; the workstation with the perception: blob finder and sign detector, reading
 //! the robot's camera across the link and sending their results and heartbeats back), as
-//! the multi-host tests run it ([`lewis_tests::robot::sim_on_two_hosts`]).
+//! the multi-host tests run it ([`lewis_testkit::robot_files::sim_on_two_hosts`]).
 //!
 //! Once the workstation has joined and its perception has warmed up, it measures for
 //! `--seconds` (default 20) the CPU of each thread of both hosts' `lewis up` processes
@@ -12,7 +12,7 @@
 //! Zenoh's runtime threads on each host, in percent of one core, beside the rest of
 //! each process. Goal: the bridge under 5% of a core.
 //!
-//! `cargo bench -p lewis-tests --bench bridge_load` (`-- --seconds N`). Needs root for the
+//! `cargo bench -p lewis-bridge --bench bridge_load` (`-- --seconds N`). Needs root for the
 //! network namespaces; skipped with the reason where they are forbidden.
 
 #![allow(
@@ -30,8 +30,8 @@ use std::path::Path;
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
-use lewis_tests::hosts::{Host, Hosts};
-use lewis_tests::{lewis_exe, repo_root};
+use lewis_testkit::hosts::{Host, Hosts};
+use lewis_testkit::{lewis_exe, repository_root};
 
 /// How long the perception warms up after the workstation joined.
 const WARM_UP: Duration = Duration::from_secs(5);
@@ -55,7 +55,7 @@ fn main() {
     };
     let dir = tempfile::tempdir().unwrap();
     let robot = dir.path().join("two-hosts.toml");
-    std::fs::write(&robot, lewis_tests::robot::sim_on_two_hosts("")).unwrap();
+    std::fs::write(&robot, lewis_testkit::robot_files::sim_on_two_hosts("")).unwrap();
     let robot = robot.to_str().unwrap();
     let mcap = dir.path().join("run.mcap");
     let (robot_log, ws_log) = (dir.path().join("robot.log"), dir.path().join("ws.log"));
@@ -143,14 +143,14 @@ fn main() {
     for child in [&mut on_ws, &mut on_robot] {
         let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).unwrap());
         let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT);
-        let _ = lewis_tests::wait_child_within(child, Duration::from_secs(30));
+        let _ = lewis_testkit::wait_child_within(child, Duration::from_secs(30));
     }
 }
 
 fn up(host: &Host, args: &[&str], log: &Path) -> Child {
     let log = File::create(log).unwrap();
     host.command(lewis_exe())
-        .current_dir(repo_root())
+        .current_dir(repository_root())
         .args(args)
         .stdin(Stdio::null())
         .stdout(Stdio::from(log.try_clone().unwrap()))

@@ -1,5 +1,5 @@
-//! One host's side of the bridge benchmark (`tests/benches/bridge.rs`), run inside a host of
-//! [`lewis_tests::hosts`]: `lewis-bridge-peer ROLE ADDRESS [--frames N]`.
+//! One host's side of the bridge benchmark (`bridge/benches/bridge.rs`), run inside a host of
+//! the test kit's `lewis_testkit::hosts`: `lewis-bridge-peer ROLE ADDRESS [--frames N]`.
 //!
 //! Each peer runs both transports at once, each on its own Zenoh session:
 //!

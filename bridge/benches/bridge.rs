@@ -1,7 +1,7 @@
 //! The bridge between hosts (`lewis-bridge`) against plain Zenoh, across a real link: two
-//! hosts of [`lewis_tests::hosts`] (`a` at 10.0.0.1, `b` at 10.0.0.2, each in its own
+//! hosts of [`lewis_testkit::hosts`] (`a` at 10.0.0.1, `b` at 10.0.0.2, each in its own
 //! network, IPC and mount namespaces, joined by a veth cable through a switch), each
-//! running `lewis-bridge-peer` (`tests/src/bin/lewis-bridge-peer.rs`, where the protocol is
+//! running `lewis-bridge-peer` (`bridge/src/bin/lewis-bridge-peer.rs`, where the protocol is
 //! described).
 //!
 //! - **Latency**: ping-pong of 64 B, 64 KiB and 1 MiB (50 round trips of warm-up, then
@@ -19,7 +19,7 @@
 //!
 //! Both transports run in the same peers, each on its own Zenoh session and port.
 //!
-//! `cargo bench -p lewis-tests --bench bridge` (`-- --frames N`: another camera length,
+//! `cargo bench -p lewis-bridge --bench bridge` (`-- --frames N`: another camera length,
 //! default 300; `-- --keep-cores-awake`: idle cores poll rather than sleep for the whole
 //! run, `/dev/cpu_dma_latency` held at 0, so that no wake-up waits for a sleeping core).
 //! Needs root for the network namespaces; skipped with the reason where they are forbidden.
@@ -44,7 +44,7 @@ use std::process::{Child, ChildStdin, Stdio};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
-use lewis_tests::hosts::{Host, Hosts};
+use lewis_testkit::hosts::{Host, Hosts};
 
 /// How long a peer may take to say its next line before the benchmark gives up on it.
 const WATCHDOG: Duration = Duration::from_secs(60);
