@@ -82,7 +82,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     let report = lewis_demo::run_demo(
         &options,
         &crate::service::registry(),
-        &crate::app::AppPrograms,
+        &crate::app::programs(),
     )?;
     let mut out = std::io::stdout().lock();
     writeln!(out)?;
