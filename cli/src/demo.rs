@@ -98,7 +98,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     let report = lewis_demo::run_demo(
         &options,
         &crate::service::registry(),
-        &crate::app::AppPrograms,
+        &crate::app::programs(),
         &mut |mission, fault| {
             let mut out = std::io::stdout().lock();
             let _ = write!(out, "\n{}", lewis_demo::mission_lines(mission, fault));

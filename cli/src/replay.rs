@@ -206,7 +206,7 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
             ));
         }
     };
-    let programs = crate::app::AppPrograms;
+    let programs = crate::app::programs();
     if let Some(providers) = &args.sweep_fault {
         return run_sweep(args, &options, providers);
     }
@@ -265,7 +265,7 @@ fn run_sweep(
             bar.set_position(count as u64);
         }
     };
-    let result = sweep(options, &registry(), &crate::app::AppPrograms, &spec, &done);
+    let result = sweep(options, &registry(), &crate::app::programs(), &spec, &done);
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }

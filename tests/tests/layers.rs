@@ -152,11 +152,41 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-runtime",
             "lewis-recorder",
             "lewis-sequencer",
-            // For the imports and exports, until they have a crate of their own.
+            // The sub-task programs a mission lived again runs (`lockstep::AppPrograms`).
+            "lewis-apps",
+        ],
+    ),
+    // Other robot software's logs in and out: above the recorder (it writes through it) and
+    // replay (it reads recordings through it), with the components an import runs.
+    (
+        "lewis-formats",
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-robot",
+            "lewis-mcap",
+            "lewis-runtime",
+            "lewis-recorder",
+            "lewis-replay",
+            "lewis-drivers",
+            "lewis-images",
             "lewis-motion",
             "lewis-perception",
+        ],
+    ),
+    // The tuning workbench behind `lewis tune`.
+    (
+        "lewis-tune",
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-geometry",
             "lewis-images",
-            "lewis-drivers",
+            "lewis-perception",
+            "lewis-sim",
+            "lewis-replay",
+            "lewis-recorder",
+            "lewis-pages",
         ],
     ),
     (
@@ -237,8 +267,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-testkit",
         ],
     ),
-    // The binary: on top. The components it names directly are for `lewis tune`,
-    // `fake-device` and `info` until they move into crates of their own.
+    // The binary: on top. The components it names directly are for `fake-device` and
+    // `info` until they move into crates of their own.
     (
         "lewis",
         &[
@@ -249,6 +279,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-runtime",
             "lewis-recorder",
             "lewis-replay",
+            "lewis-formats",
+            "lewis-tune",
             "lewis-sequencer",
             "lewis-pages",
             "lewis-geometry",

@@ -80,6 +80,7 @@ mod engine;
 mod faults;
 mod health;
 pub mod mission;
+mod programs;
 pub mod route;
 pub mod script;
 
@@ -102,6 +103,7 @@ pub use book::{CommandBook, default_reply, header_provider};
 use engine::{Sim, Timer, Work, backend_for};
 use mission::MissionRun;
 pub use mission::{Answer, AnswerSource, MissionPlan, Program, Programs};
+pub use programs::{AppPrograms, ReadAppArgs};
 pub use route::{Route, route};
 use script::Script;
 

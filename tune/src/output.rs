@@ -13,7 +13,7 @@ use lewis_interfaces::{Interface, interface_info};
 use lewis_perception::tuning::TunedFrame;
 use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
 
-use super::frames::{FILES_TOPIC, Frame, Input};
+use crate::frames::{FILES_TOPIC, Frame, Input};
 
 /// The provider name of the results.
 pub const PROVIDER: &str = "tune";

@@ -17,10 +17,8 @@ mod render;
 mod routes;
 mod state;
 
-use std::io::Write as _;
 use std::net::{Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
-use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
 use anyhow::Context as _;
@@ -29,7 +27,7 @@ use lewis_pages::PageServer;
 use lewis_perception::ColorConfig;
 use lewis_perception::sweep::HeldFrame;
 
-use super::frames::Input;
+use crate::frames::Input;
 use state::State;
 
 /// Arguments of `lewis tune open`.
@@ -68,11 +66,62 @@ pub struct OpenArgs {
     pub max_memory_mb: usize,
 }
 
-/// Runs `lewis tune open` until interrupted.
+/// The tuning page being served, its frames being read in the background.
+pub struct TuningPage {
+    server: PageServer,
+    url: String,
+    labels_line: String,
+}
+
+impl std::fmt::Debug for TuningPage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TuningPage")
+            .field("url", &self.url)
+            .field("labels_line", &self.labels_line)
+            .finish_non_exhaustive()
+    }
+}
+
+impl TuningPage {
+    /// The page's address (`http://127.0.0.1:PORT/`): how a script (and the browser test)
+    /// finds the page.
+    #[must_use]
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    /// What the page starts with for labels, and where "Save labels" writes (`labels: 3
+    /// labelled frames read from RUN.labels.json ("Save labels" writes it)`).
+    #[must_use]
+    pub fn labels_line(&self) -> &str {
+        &self.labels_line
+    }
+
+    /// Opens the page in the desktop's browser, when there is one; the address is printed
+    /// either way.
+    pub fn open_browser(&self) {
+        let spawned = std::process::Command::new("xdg-open")
+            .arg(&self.url)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn();
+        if let Err(e) = spawned {
+            tracing::info!("no browser opened ({e}): open {} yourself", self.url);
+        }
+    }
+
+    /// Serves the page until the process is interrupted.
+    pub fn wait(self) {
+        self.server.wait();
+    }
+}
+
+/// Starts `lewis tune open`: the page served on 127.0.0.1, the frames being read into it
+/// in the background. [`TuningPage::wait`] serves it until interrupted.
 ///
 /// # Errors
 /// When the inputs cannot be read or the port cannot be bound.
-pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
+pub fn open(args: &OpenArgs) -> anyhow::Result<TuningPage> {
     let config = ColorConfig::load(&args.colors)?;
     anyhow::ensure!(
         config.colors.len() <= lewis_perception::cmvision::MAX_COLORS,
@@ -133,21 +182,11 @@ pub fn run(args: &OpenArgs) -> anyhow::Result<ExitCode> {
             .spawn(move || load(&input, &state))
             .context("cannot start reading the frames")?;
     }
-    {
-        // The address is how a script (and the browser test) finds the page: flushed now.
-        let mut out = std::io::stdout().lock();
-        writeln!(
-            out,
-            "lewis tune open: the tuning page is at {url} (Ctrl-C to stop)"
-        )?;
-        writeln!(out, "{labels_line}")?;
-        out.flush()?;
-    }
-    if !args.no_browser {
-        open_browser(&url);
-    }
-    server.wait();
-    Ok(ExitCode::SUCCESS)
+    Ok(TuningPage {
+        server,
+        url,
+        labels_line,
+    })
 }
 
 /// Reads every frame into the state's store, then marks the loading done.
@@ -180,17 +219,4 @@ fn load(input: &Input, state: &Mutex<State>) {
         state.load_error = Some(format!("{e:#}"));
     }
     state.loading = false;
-}
-
-/// Opens the page in the desktop's browser, when there is one; the address is printed
-/// either way.
-fn open_browser(url: &str) {
-    let spawned = std::process::Command::new("xdg-open")
-        .arg(url)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn();
-    if let Err(e) = spawned {
-        tracing::info!("no browser opened ({e}): open {url} yourself");
-    }
 }

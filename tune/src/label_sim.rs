@@ -12,9 +12,8 @@
 //! `--min-pixels` is labelled optional (too small to require, not wrong to find).
 
 use std::collections::{BTreeMap, VecDeque};
+use std::fmt;
 use std::path::PathBuf;
-
-use std::io::Write as _;
 
 use anyhow::Context as _;
 use clap::Args;
@@ -27,7 +26,7 @@ use lewis_sim::service::CameraParams;
 use lewis_sim::world::{Material, ObjectKind};
 use lewis_sim::{PixelSource, PrimitivePart, SimCamera, World};
 
-use super::frames::frame_name;
+use crate::frames::frame_name;
 
 /// Objects with fewer visible pixels are optional, and smaller blobs are not scored: the
 /// default of `--min-pixels`, and the `min_area_px` of a labels file `lewis tune open`
@@ -74,12 +73,46 @@ struct Classes<'a> {
     arrow: &'a str,
 }
 
-/// Runs `lewis tune label-sim`.
+/// What `lewis tune label-sim` wrote: its `Display` is the line it prints.
+#[derive(Debug, Clone)]
+pub struct LabelSimReport {
+    /// The recording, as given.
+    pub input: String,
+    /// Frames labelled.
+    pub frames: usize,
+    /// Objects labelled that are not optional.
+    pub objects: usize,
+    /// Frames of a simulator's camera skipped: without the ground truth they were rendered
+    /// from.
+    pub unlabelled: u64,
+    /// The labels file written.
+    pub output: PathBuf,
+}
+
+impl fmt::Display for LabelSimReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{} frames of {} labelled ({} objects{}): wrote {}",
+            self.frames,
+            self.input,
+            self.objects,
+            if self.unlabelled > 0 {
+                format!(", {} frames without ground truth skipped", self.unlabelled)
+            } else {
+                String::new()
+            },
+            self.output.display()
+        )
+    }
+}
+
+/// Runs `lewis tune label-sim`: labels the recording's frames and writes the labels file.
 ///
 /// # Errors
 /// When the recording cannot be read, is not of the simulator's camera, or the labels
 /// cannot be written.
-pub fn run(args: &LabelSimArgs) -> anyhow::Result<std::process::ExitCode> {
+pub fn label_sim(args: &LabelSimArgs) -> anyhow::Result<LabelSimReport> {
     let input = args.input.display().to_string();
     let recording = Recording::open(std::slice::from_ref(&args.input))?;
     let mut cameras = sim_cameras(&recording, &input)?;
@@ -190,18 +223,13 @@ pub fn run(args: &LabelSimArgs) -> anyhow::Result<std::process::ExitCode> {
         .iter()
         .map(|f| f.objects.iter().filter(|o| !o.optional).count())
         .sum();
-    writeln!(
-        std::io::stdout().lock(),
-        "{} frames of {input} labelled ({objects} objects{}): wrote {}",
-        labels.frames.len(),
-        if unlabelled > 0 {
-            format!(", {unlabelled} frames without ground truth skipped")
-        } else {
-            String::new()
-        },
-        args.output.display()
-    )?;
-    Ok(std::process::ExitCode::SUCCESS)
+    Ok(LabelSimReport {
+        input,
+        frames: labels.frames.len(),
+        objects,
+        unlabelled,
+        output: args.output.clone(),
+    })
 }
 
 /// Keeps the latest [`KEPT_SAMPLES`] samples of a topic.

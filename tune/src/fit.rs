@@ -5,10 +5,8 @@
 //! never saw: the honest measure of what it gained.
 
 use std::collections::BTreeSet;
-use std::fmt::Write as _;
-use std::io::Write as _;
+use std::fmt::{self, Write as _};
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::Args;
@@ -18,8 +16,8 @@ use lewis_perception::labels::Labels;
 use lewis_perception::scoring::Score;
 use lewis_perception::tuning::rgb_image;
 
-use super::check::{labelled_classes, load_labels};
-use super::frames::Input;
+use crate::check::{labelled_classes, load_labels};
+use crate::frames::Input;
 
 /// Arguments of `lewis tune fit`.
 #[derive(Debug, Args)]
@@ -46,12 +44,26 @@ pub struct FitArgs {
     pub output: PathBuf,
 }
 
-/// Runs `lewis tune fit`.
+/// What `lewis tune fit` did: its `Display` is the report it prints (the classes fitted,
+/// the mean F1 and each class's score before and after, on the fitted and the held-out
+/// frames, the file written).
+#[derive(Debug, Clone)]
+pub struct FitReport {
+    report: String,
+}
+
+impl fmt::Display for FitReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.report)
+    }
+}
+
+/// Runs `lewis tune fit`: fits the classes and writes the fitted colour file.
 ///
 /// # Errors
 /// When an input cannot be read or does not fit the others, or the output cannot be
 /// written.
-pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
+pub fn fit(args: &FitArgs) -> anyhow::Result<FitReport> {
     anyhow::ensure!(
         !args
             .output
@@ -156,8 +168,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     std::fs::write(&args.output, fit.config.to_player_string(&comment))
         .with_context(|| format!("cannot write {}", args.output.display()))?;
     writeln!(report, "wrote {}", args.output.display())?;
-    std::io::stdout().lock().write_all(report.as_bytes())?;
-    Ok(ExitCode::SUCCESS)
+    Ok(FitReport { report })
 }
 
 /// Appends the mean F1 of `classes` before and after, and each one's before and after.

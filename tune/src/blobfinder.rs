@@ -1,75 +1,18 @@
-//! `lewis tune`: offline tuning of colour classes on recorded or saved images.
-//!
-//! - `lewis tune blobfinder RUN.mcap|IMAGES --colors FILE [--channel TOPIC] [-o OUT.mcap]
-//!   [--png DIR] [--signs]` re-runs CMVision with the colour file (and, with `--signs`, the
-//!   sign detector, whose board and arrow classes are the file's `White` and `Black`) over
-//!   the ImageSource messages of a recording (or the PNG and JPEG files of a folder or
-//!   glob), prints per-colour statistics, and with `-o` writes an MCAP file, through the
-//!   recorder, that holds the images unchanged and the results on their own channels
-//!   (`/tune/blobfinder/Blobs`, `/tune/sign_detector/Signs`), each result naming its image
-//!   in its provenance: `lewis view OUT.mcap` draws them over the images. `--png DIR`
-//!   writes each frame with its blobs drawn in as PNG instead (or as well).
-//! - `lewis tune pick IMAGE|RUN.mcap@T [X,Y] [--rect X,Y,W,H]` prints the YUV ranges of a
-//!   patch of pixels of an image file, or of the recorded image shown at T seconds into a
-//!   recording, as the two lines of a Player colour file.
-//! - `lewis tune check RUN.mcap|IMAGES --colors FILE --labels FILE.json` scores the colour
-//!   file's blobs against labelled frames (precision and recall per class) and exits 1
-//!   below `--min-precision`/`--min-recall` (`check.rs`).
-//! - `lewis tune fit RUN.mcap|IMAGES --colors START --labels FILE.json -o OUT` fits the
-//!   labelled classes' ranges to the labels (`fit.rs`).
-//! - `lewis tune label-sim RUN.mcap -o FILE.json` labels a simulator recording's frames
-//!   from the simulator's ground truth (`label_sim.rs`).
-//! - `lewis tune open RUN.mcap|IMAGES --colors FILE [--labels FILE.json]` serves the tuning
-//!   page on 127.0.0.1 (`open/`), where boxes labelled by hand are saved for `check` and
-//!   `fit`.
-//!
-//! The perception work is done by `lewis_perception::tuning`; recordings are read
-//! with `lewis_replay::recording` and written with `lewis_recorder`. This module wires them.
+//! `lewis tune blobfinder RUN.mcap|IMAGES --colors FILE`: the blob finder (and with
+//! `--signs` the sign detector) run again with a colour file over recorded or saved images,
+//! with per-colour statistics, and the results written as MCAP (`-o`) or PNG (`--png`).
 
-mod check;
-mod fit;
-mod frames;
-mod label_sim;
-mod open;
-mod output;
-mod pick;
-
-use std::fmt::Write as _;
-use std::io::Write as _;
+use std::fmt::{self, Write as _};
 use std::path::PathBuf;
-use std::process::ExitCode;
 
 use anyhow::Context as _;
-use clap::{Args, Subcommand};
+use clap::Args;
 use lewis_perception::ColorConfig;
 use lewis_perception::sign_detector::{self, SignDetector};
 use lewis_perception::tuning::{Tuner, save_png};
 
-pub use check::CheckArgs;
-pub use fit::FitArgs;
-pub use label_sim::LabelSimArgs;
-pub use open::OpenArgs;
-pub use pick::PickArgs;
-
-/// `lewis tune ...`
-#[derive(Debug, Subcommand)]
-pub enum TuneCommand {
-    /// Re-run the blob finder (and the sign detector) with a colour file over recorded or
-    /// saved images.
-    Blobfinder(BlobfinderArgs),
-    /// Print the YUV ranges of a patch of pixels as the lines of a colour file.
-    Pick(PickArgs),
-    /// Score a colour file's blobs against labelled frames: precision and recall per class;
-    /// exit 1 below the given thresholds.
-    Check(CheckArgs),
-    /// Fit the labelled classes' YUV ranges to labelled frames, from a colour file.
-    Fit(FitArgs),
-    /// Label the camera frames of a simulator recording from the simulator's ground truth.
-    LabelSim(LabelSimArgs),
-    /// Open the tuning page: scrub the frames, move the class ranges, mark pixels, see the
-    /// blobs over the whole recording, save the colour file.
-    Open(OpenArgs),
-}
+use crate::frames;
+use crate::output;
 
 /// Arguments of `lewis tune blobfinder`.
 #[derive(Debug, Args)]
@@ -93,18 +36,34 @@ pub struct BlobfinderArgs {
     pub signs: bool,
 }
 
-/// Runs `lewis tune`.
-///
-/// # Errors
-/// When an input cannot be read or an output cannot be written.
-pub fn run(command: TuneCommand) -> anyhow::Result<ExitCode> {
-    match command {
-        TuneCommand::Blobfinder(args) => blobfinder(&args),
-        TuneCommand::Pick(args) => pick::run(&args),
-        TuneCommand::Check(args) => check::run(&args),
-        TuneCommand::Fit(args) => fit::run(&args),
-        TuneCommand::LabelSim(args) => label_sim::run(&args),
-        TuneCommand::Open(args) => open::run(&args),
+/// What `lewis tune blobfinder` found: its `Display` is the summary it prints (frames,
+/// per-colour statistics, signs, the file written).
+#[derive(Debug, Clone)]
+pub struct BlobfinderReport {
+    summary: String,
+    /// The `--png` folder, where [`BlobfinderReport::save_summary`] writes `summary.txt`.
+    png: Option<PathBuf>,
+}
+
+impl fmt::Display for BlobfinderReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.summary)
+    }
+}
+
+impl BlobfinderReport {
+    /// Writes the summary as `summary.txt` beside the PNG files, with `--png`; does
+    /// nothing without.
+    ///
+    /// # Errors
+    /// When the file cannot be written.
+    pub fn save_summary(&self) -> anyhow::Result<()> {
+        if let Some(dir) = &self.png {
+            let path = dir.join("summary.txt");
+            std::fs::write(&path, &self.summary)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        Ok(())
     }
 }
 
@@ -128,7 +87,13 @@ fn tuner(args: &BlobfinderArgs) -> anyhow::Result<Tuner> {
     )))
 }
 
-fn blobfinder(args: &BlobfinderArgs) -> anyhow::Result<ExitCode> {
+/// Runs `lewis tune blobfinder`: every frame through the blob finder, the MCAP and PNG
+/// files written; the summary returned (and not yet saved: see
+/// [`BlobfinderReport::save_summary`]).
+///
+/// # Errors
+/// When an input cannot be read, no frame can, or an output cannot be written.
+pub fn blobfinder(args: &BlobfinderArgs) -> anyhow::Result<BlobfinderReport> {
     let mut tuner = tuner(args)?;
     let input = frames::Input::open(&args.input, args.channel.as_deref())?;
     if let Some(dir) = &args.png {
@@ -205,11 +170,8 @@ fn blobfinder(args: &BlobfinderArgs) -> anyhow::Result<ExitCode> {
             path.display()
         )?;
     }
-    std::io::stdout().lock().write_all(summary.as_bytes())?;
-    if let Some(dir) = &args.png {
-        let path = dir.join("summary.txt");
-        std::fs::write(&path, &summary)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    Ok(ExitCode::SUCCESS)
+    Ok(BlobfinderReport {
+        summary,
+        png: args.png.clone(),
+    })
 }

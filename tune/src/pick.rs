@@ -1,16 +1,15 @@
 //! `lewis tune pick IMAGE|RUN.mcap@T [X,Y] [--rect X,Y,W,H]`: the YUV ranges of a patch of
 //! pixels, printed as the two lines of a Player colour file, to start a colour class from.
 
-use std::io::Write as _;
+use std::fmt;
 use std::path::PathBuf;
-use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::Args;
 use lewis_interfaces::msg::ImageSource;
-use lewis_perception::tuning::{Patch, Pick, pick, pick_in_file, rgb_image};
+use lewis_perception::tuning::{self, Patch, Pick, pick_in_file, rgb_image};
 
-use super::frames::Input;
+use crate::frames::Input;
 
 /// Arguments of `lewis tune pick`.
 #[derive(Debug, Args)]
@@ -110,11 +109,45 @@ impl PickArgs {
     }
 }
 
-/// Runs `lewis tune pick`.
+/// What `lewis tune pick` found: its `Display` is what it prints, two comment lines
+/// (pixels and ranges) and the lines of a Player colour file.
+#[derive(Debug, Clone)]
+pub struct PickReport {
+    /// The ranges picked.
+    pub pick: Pick,
+    /// The pixels they were picked from.
+    pub patch: Patch,
+    /// The image they were picked from (a file, or a recording's topic, seq and time).
+    pub from: String,
+    /// The levels added on each side.
+    pub margin: u8,
+    /// The colour class's name in the colour file's lines.
+    pub name: String,
+}
+
+impl fmt::Display for PickReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let got = &self.pick;
+        writeln!(
+            f,
+            "# {} pixels of {} in {}: 5th-95th percentiles, widened by {}",
+            got.pixels, self.patch, self.from, self.margin
+        )?;
+        writeln!(
+            f,
+            "# Y {}..{}  U {}..{}  V {}..{}",
+            got.y.lo, got.y.hi, got.u.lo, got.u.hi, got.v.lo, got.v.hi
+        )?;
+        writeln!(f, "[Colors]\n{}", got.color_line(&self.name))?;
+        writeln!(f, "[Thresholds]\n{}", got.threshold_line())
+    }
+}
+
+/// Runs `lewis tune pick`: the YUV ranges of the patch.
 ///
 /// # Errors
 /// When the image or recording cannot be read or the patch is not in the image.
-pub fn run(args: &PickArgs) -> anyhow::Result<ExitCode> {
+pub fn pick(args: &PickArgs) -> anyhow::Result<PickReport> {
     let patch = args.patch();
     let (got, from) = match &args.source {
         Source::Image(path) => (
@@ -125,29 +158,18 @@ pub fn run(args: &PickArgs) -> anyhow::Result<ExitCode> {
             let (image, said) = recorded_image(path, *seconds, args.channel.as_deref())?;
             let rgb = rgb_image(&image).with_context(|| said.clone())?;
             (
-                pick(&rgb, patch, args.margin).with_context(|| said.clone())?,
+                tuning::pick(&rgb, patch, args.margin).with_context(|| said.clone())?,
                 said,
             )
         }
     };
-    print(args, patch, &got, &from)?;
-    Ok(ExitCode::SUCCESS)
-}
-
-fn print(args: &PickArgs, patch: Patch, got: &Pick, from: &str) -> std::io::Result<()> {
-    let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
-        "# {} pixels of {patch} in {from}: 5th-95th percentiles, widened by {}",
-        got.pixels, args.margin
-    )?;
-    writeln!(
-        out,
-        "# Y {}..{}  U {}..{}  V {}..{}",
-        got.y.lo, got.y.hi, got.u.lo, got.u.hi, got.v.lo, got.v.hi
-    )?;
-    writeln!(out, "[Colors]\n{}", got.color_line(&args.name))?;
-    writeln!(out, "[Thresholds]\n{}", got.threshold_line())
+    Ok(PickReport {
+        pick: got,
+        patch,
+        from,
+        margin: args.margin,
+        name: args.name.clone(),
+    })
 }
 
 /// The image shown `seconds` after the first message of a recording: the last one

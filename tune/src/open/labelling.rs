@@ -17,8 +17,8 @@ use lewis_perception::sweep::{self, HeldFrame};
 use serde::Serialize;
 
 use super::state::State;
-use crate::tune::check::{labelled_classes, load_labels};
-use crate::tune::label_sim::DEFAULT_MIN_PIXELS;
+use crate::check::{labelled_classes, load_labels};
+use crate::label_sim::DEFAULT_MIN_PIXELS;
 
 /// Where the labels of `input` are saved when no `--labels` is given: beside the input,
 /// `RUN.labels.json` for `RUN.mcap` (an image file likewise), `labels.json` inside a
