@@ -92,8 +92,9 @@ use lewis_interfaces::msg::{
     Broker as BrokerMessage, BrokerAction, CommandLog, HostLink, HostLinkEvent, ProcessCpu,
 };
 use lewis_robot::Robot;
-use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
+use lewis_runtime::broker::{BrokerCore, Decision, Event};
 use lewis_runtime::live::heartbeat_event;
+use lewis_service::Health;
 use lewis_service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegistry};
 use serde::Serialize;
 
