@@ -9,8 +9,9 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 features=()
 if [ "${1:-}" = "--no-viewer" ]; then
-    # Without Rerun: a smaller binary that builds in half the time (no `lewis view`).
-    features=(--no-default-features)
+    # Without Rerun: a smaller binary that builds in half the time (no `lewis view`); with
+    # the bridge, for a robot on more than one host.
+    features=(--no-default-features --features hosts)
     shift
 fi
 out=${1:-target/release-archive}

@@ -4,7 +4,7 @@
 //! A sample from another host goes into shared memory on the Zenoh thread that received
 //! it. Handing it to the forwarding thread first cost a thread wake-up per sample: 8 to 15
 //! µs more of one-way latency across the link, in the same run (`cargo bench -p
-//! lewis-tests --bench bridge`), and the forwarding thread's CPU for every camera frame.
+//! lewis-bridge --bench bridge`), and the forwarding thread's CPU for every camera frame.
 
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 

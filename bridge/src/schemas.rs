@@ -1,5 +1,6 @@
 //! The schema of each channel of a robot, for the tools that ask a host for one: the same
-//! ros2msg names and texts the recorder writes into MCAP, from the recorder's own list.
+//! ros2msg names and texts the recorder writes into MCAP, from the one list of a robot's
+//! channels ([`lewis_runtime::names::robot_channels`]).
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -11,18 +12,13 @@ use lewis_robot::Robot;
 pub struct Schemas(Arc<BTreeMap<String, (String, String)>>);
 
 impl Schemas {
-    /// The schemas of every channel of `robot` the recorder would record.
+    /// The schemas of every channel of `robot` (those the recorder records).
     #[must_use]
     pub fn of(robot: &Robot) -> Self {
         Self(Arc::new(
-            lewis_recorder::live::robot_channels(Some(robot))
+            lewis_runtime::names::robot_channels(Some(robot))
                 .into_iter()
-                .map(|c| {
-                    (
-                        c.spec.topic.clone(),
-                        (c.spec.schema_name.clone(), c.spec.schema_text.clone()),
-                    )
-                })
+                .map(|c| (c.name, (c.schema_name.to_owned(), c.schema_text.to_owned())))
                 .collect(),
         ))
     }

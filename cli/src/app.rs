@@ -5,6 +5,7 @@
 //! The sequencer runs them through `robots/missions/bin/*`, wrappers that call this.
 
 use std::collections::BTreeSet;
+use std::path::Path;
 use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
@@ -14,6 +15,7 @@ use lewis_apps::queue::QueueConfig;
 use lewis_apps::recovery::RecoveryConfig;
 use lewis_apps::register::RegisterConfig;
 use lewis_apps::sign::{ArrowWord, SignConfig};
+use lewis_replay::lockstep::AppPrograms;
 use lewis_runtime::ipc::Namespace;
 use lewis_runtime::live::ClockSource;
 
@@ -135,65 +137,36 @@ impl AppArgs {
     }
 }
 
-/// The programs of a mission lived again by `lewis replay --all`: a state's program is one
-/// of these when its file runs `lewis app NAME` (the wrappers of `robots/missions/bin/`);
-/// its arguments are read as `lewis app NAME` reads them.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct AppPrograms;
-
-impl lewis_replay::lockstep::Programs for AppPrograms {
-    fn build(
-        &self,
-        program: &std::path::Path,
-        args: &[String],
-    ) -> Result<lewis_replay::lockstep::Program, String> {
-        use clap::Parser as _;
-
-        #[derive(Debug, clap::Parser)]
-        struct Line {
-            #[command(flatten)]
-            args: AppArgs,
-        }
-
-        let text = std::fs::read_to_string(program)
-            .map_err(|e| format!("cannot read {}: {e}", program.display()))?;
-        let name = app_named_in(&text).ok_or_else(|| {
-            format!(
-                "{} does not run `lewis app`: only lewis's own programs can be lived again",
-                program.display()
-            )
-        })?;
-        let argv = ["lewis-app", name.as_str()]
-            .into_iter()
-            .map(str::to_owned)
-            .chain(args.iter().cloned());
-        let line = Line::try_parse_from(argv).map_err(|e| {
-            let text = e.to_string();
-            format!(
-                "{}: {}",
-                program.display(),
-                text.lines().next().unwrap_or_default()
-            )
-        })?;
-        let app = line.args.app().map_err(|e| e.to_string())?;
-        Ok(lewis_replay::lockstep::Program {
-            name: app.name().to_owned(),
-            requires: app.requires().iter().map(|s| (*s).to_owned()).collect(),
-            service: app.program(),
-        })
-    }
+/// The programs of a mission lived again (`lewis replay --all`, the demo, the sweep, the
+/// bench): `lewis-apps`'s, their arguments read as `lewis app NAME` reads them.
+pub fn programs() -> AppPrograms {
+    AppPrograms::new(read_args)
 }
 
-/// The NAME of the first `... app NAME` in a wrapper script's lines (comments skipped).
-fn app_named_in(text: &str) -> Option<String> {
-    text.lines()
-        .map(str::trim)
-        .filter(|line| !line.starts_with('#'))
-        .find_map(|line| {
-            let mut words = line.split_whitespace().map(|w| w.trim_matches(['"', '\'']));
-            words.find(|w| *w == "app")?;
-            words.next().map(str::to_owned)
-        })
+/// The program `lewis app NAME ARGS...` runs, for the wrapper `wrapper` (named in the
+/// message of a bad argument).
+fn read_args(wrapper: &Path, name: &str, args: &[String]) -> Result<App, String> {
+    use clap::Parser as _;
+
+    #[derive(Debug, clap::Parser)]
+    struct Line {
+        #[command(flatten)]
+        args: AppArgs,
+    }
+
+    let argv = ["lewis-app", name]
+        .into_iter()
+        .map(str::to_owned)
+        .chain(args.iter().cloned());
+    let line = Line::try_parse_from(argv).map_err(|e| {
+        let text = e.to_string();
+        format!(
+            "{}: {}",
+            wrapper.display(),
+            text.lines().next().unwrap_or_default()
+        )
+    })?;
+    line.args.app().map_err(|e| e.to_string())
 }
 
 /// Runs `lewis app`: the program's exit code.
@@ -215,13 +188,6 @@ mod tests {
     struct Cli {
         #[command(flatten)]
         args: AppArgs,
-    }
-
-    #[test]
-    fn a_wrapper_names_its_program() {
-        let wrapper = "#!/bin/sh\n# runs `lewis app sign-follower`\nexec \"${LEWIS_EXE:-lewis}\" app sign-follower \"$@\"\n";
-        assert_eq!(app_named_in(wrapper).as_deref(), Some("sign-follower"));
-        assert_eq!(app_named_in("#!/bin/sh\nexec other-tool \"$@\"\n"), None);
     }
 
     fn app(line: &[&str]) -> App {

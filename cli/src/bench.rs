@@ -104,7 +104,7 @@ fn closed_loop(args: &ClosedLoopArgs) -> anyhow::Result<ExitCode> {
     let report = measure_closed(
         &replay,
         &std::sync::Arc::new(registry()),
-        &crate::app::AppPrograms,
+        &crate::app::programs(),
         sweep.as_ref(),
     );
     if report.is_err() {

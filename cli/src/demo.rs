@@ -53,6 +53,11 @@ pub struct DemoArgs {
     /// Another robot file (for tests of the demo itself).
     #[arg(long, hide = true, default_value = lewis_demo::ROBOT)]
     pub robot: PathBuf,
+    /// Run nothing: write the picture and the Rerun file of the demo already in --out
+    /// (`scripts/demo.sh` runs the mission with a `lewis` built without the viewer first,
+    /// for a quicker first run, and this after building the viewer).
+    #[arg(long)]
+    pub pictures_only: bool,
 }
 
 fn parse_fault(text: &str) -> Result<FaultSpec, String> {
@@ -62,6 +67,16 @@ fn parse_fault(text: &str) -> Result<FaultSpec, String> {
 
 /// Runs `lewis demo`: exit 0 when the mission succeeded, 1 when it failed.
 pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    if args.pictures_only {
+        let files = lewis_demo::DemoFiles::in_dir(&args.out);
+        anyhow::ensure!(
+            files.run.is_file(),
+            "{} not found: run `lewis demo` first",
+            files.run.display()
+        );
+        write_pictures(&files, &mut std::io::stdout().lock())?;
+        return Ok(ExitCode::SUCCESS);
+    }
     let fault = match &args.fault {
         Some(spec) => LiveFault::from_spec(spec).map_err(anyhow::Error::msg)?,
         None => LiveFault::laser_after_first_state(),
@@ -79,14 +94,23 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         source_kinds: crate::replay::source_kinds(),
         simulated_kinds: crate::replay::simulated_kinds(),
     };
+    // The verdict as soon as the mission is over; the replay takes a minute more.
     let report = lewis_demo::run_demo(
         &options,
         &crate::service::registry(),
-        &crate::app::AppPrograms,
+        &crate::app::programs(),
+        &mut |mission, fault| {
+            let mut out = std::io::stdout().lock();
+            let _ = write!(out, "\n{}", lewis_demo::mission_lines(mission, fault));
+            let _ = writeln!(
+                out,
+                "replay: living the mission again with another fault..."
+            );
+            let _ = out.flush();
+        },
     )?;
     let mut out = std::io::stdout().lock();
-    writeln!(out)?;
-    write!(out, "{}", report.summary())?;
+    write!(out, "{}", report.replay_summary())?;
     write_pictures(&report.files, &mut out)?;
     Ok(if report.succeeded() {
         ExitCode::SUCCESS
@@ -94,6 +118,15 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         ExitCode::FAILURE
     })
 }
+
+/// The camera frames in the demo's Rerun file: two a second, JPEG-compressed (`lewis view
+/// --camera-every 500ms --camera-jpeg 80`); with every raw frame the file was 548 MB.
+/// `lewis view logs/demo/run.mcap` shows them all.
+#[cfg(feature = "viewer")]
+const CAMERA_FRAMES: lewis_viewer::CameraFrames = lewis_viewer::CameraFrames {
+    every_ns: 500_000_000,
+    jpeg_quality: Some(80),
+};
 
 /// The run as a picture (PNG) and as a Rerun file, when this binary has the viewer.
 #[cfg(feature = "viewer")]
@@ -105,6 +138,7 @@ fn write_pictures(files: &lewis_demo::DemoFiles, out: &mut dyn Write) -> anyhow:
     let options = lewis_viewer::ViewOptions {
         target: lewis_viewer::Target::Save(files.rrd.clone()),
         progress: false,
+        camera: CAMERA_FRAMES,
     };
     match lewis_viewer::view(std::slice::from_ref(&files.run), &options) {
         Ok(_) => writeln!(
@@ -122,7 +156,7 @@ fn write_pictures(files: &lewis_demo::DemoFiles, out: &mut dyn Write) -> anyhow:
 fn write_pictures(_files: &lewis_demo::DemoFiles, out: &mut dyn Write) -> anyhow::Result<()> {
     writeln!(
         out,
-        "picture and rerun: none (this lewis is built without the viewer)"
+        "picture and rerun: none (this lewis is built without the viewer: `lewis demo --pictures-only` with one built with it writes them)"
     )?;
     Ok(())
 }

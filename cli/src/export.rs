@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Args, Subcommand, ValueEnum};
+use lewis_formats::export::ros2::{ExportReport, export};
 use lewis_recorder::companion::{CompanionOptions, ImageCodec};
-use lewis_replay::export::ros2::{ExportReport, export};
 
 /// The formats `lewis export` writes.
 #[derive(Debug, Subcommand)]

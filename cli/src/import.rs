@@ -9,12 +9,12 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use lewis_recorder::Compression;
-use lewis_replay::import::carmen::{
+use lewis_formats::import::carmen::{
     CarmenImport, ImportOptions, ImportReport, SonarOptions, TimePolicy,
 };
-use lewis_replay::import::record::{WriteOptions, Written, write_carmen, write_ros2};
-use lewis_replay::import::ros2;
+use lewis_formats::import::record::{WriteOptions, Written, write_carmen, write_ros2};
+use lewis_formats::import::ros2;
+use lewis_recorder::Compression;
 
 /// The formats `lewis import` reads.
 #[derive(Debug, Subcommand)]

@@ -67,6 +67,16 @@ pub struct ReplayArgs {
     /// VALUE is TOML, a bare word a string.
     #[arg(long = "set", value_name = "SERVICE.PARAMETER=VALUE", value_parser = parse_set)]
     pub set: Vec<ParamEdit>,
+    /// Write only what the replay produced (the `/replay/...` channels) to the output, not
+    /// a copy of the recorded channels: the recording holds them already, and the output
+    /// is then the size of the re-simulated part alone. Compared and reported the same.
+    #[arg(long)]
+    pub outputs_only: bool,
+    /// Do not write the channels of this interface to the output, recorded or re-simulated
+    /// (repeat for several); still compared. `--leave-out ImageSource` drops the camera
+    /// frames, most of a recording's bytes.
+    #[arg(long = "leave-out", value_name = "INTERFACE", value_parser = parse_interface)]
+    pub left_out: Vec<String>,
     /// Exit 1 when re-simulated outputs differ from the recorded ones beyond the tolerance.
     #[arg(long)]
     pub check: bool,
@@ -135,6 +145,21 @@ pub(crate) fn simulated_kinds() -> std::collections::BTreeSet<String> {
         .collect()
 }
 
+/// `text` when it names an interface (`ImageSource`), else which names there are.
+fn parse_interface(text: &str) -> Result<String, String> {
+    if lewis_interfaces::interface_info(text).is_some() {
+        return Ok(text.to_owned());
+    }
+    let known: Vec<&str> = lewis_interfaces::msg::INTERFACES
+        .iter()
+        .map(|i| i.name)
+        .collect();
+    Err(format!(
+        "`{text}` is no interface: give one of {}",
+        known.join(", ")
+    ))
+}
+
 fn parse_set(text: &str) -> Result<ParamEdit, String> {
     text.parse().map_err(|e: EditError| e.to_string())
 }
@@ -161,6 +186,8 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     options.robot.clone_from(&args.robot);
     options.set.clone_from(&args.set);
     options.tolerance = args.tolerance;
+    options.outputs_only = args.outputs_only;
+    options.left_out = args.left_out.iter().cloned().collect();
     options.source_kinds = source_kinds();
     options.simulated_kinds = simulated_kinds();
     let bar = std::io::stderr().is_terminal().then(|| {
@@ -189,7 +216,7 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
             ));
         }
     };
-    let programs = crate::app::AppPrograms;
+    let programs = crate::app::programs();
     if let Some(providers) = &args.sweep_fault {
         return run_sweep(args, &options, providers);
     }
@@ -248,7 +275,7 @@ fn run_sweep(
             bar.set_position(count as u64);
         }
     };
-    let result = sweep(options, &registry(), &crate::app::AppPrograms, &spec, &done);
+    let result = sweep(options, &registry(), &crate::app::programs(), &spec, &done);
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }

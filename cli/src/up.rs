@@ -114,6 +114,7 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
         mission,
     };
     let report = match robot_host {
+        #[cfg(feature = "hosts")]
         Some(host) => {
             let launch = Launch::new(robot.clone(), options)?;
             let _ = lewis_runtime::ipc::wipe_stale(&namespace);
@@ -122,6 +123,8 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
             tracing::info!("host {host} of robot {}: bridge up", robot.name);
             launch.run_with_hosts(Some(&mut hosts))?
         }
+        #[cfg(not(feature = "hosts"))]
+        Some(_) => anyhow::bail!(without_hosts(&args.robot)),
         None => Launch::new(robot, options)?.run()?,
     };
     if let Some(outcome) = &report.mission {
@@ -134,8 +137,29 @@ pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
+/// Why a robot on more than one host cannot run with this binary.
+#[cfg(not(feature = "hosts"))]
+fn without_hosts(robot: &std::path::Path) -> String {
+    format!(
+        "{} has more than one host ([[hosts]]), and this lewis is built without the bridge \
+         between hosts: build it with `--features hosts` (a default feature)",
+        robot.display()
+    )
+}
+
+/// Another host of a robot on more than one, in a binary without the bridge: an error.
+#[cfg(not(feature = "hosts"))]
+fn run_other_host(
+    args: &UpArgs,
+    _robot: &lewis_robot::Robot,
+    _host: &str,
+) -> anyhow::Result<ExitCode> {
+    anyhow::bail!(without_hosts(&args.robot))
+}
+
 /// Another host of a robot on more than one: its services on the broker's orders, its
 /// bridge, until Ctrl-C or SIGTERM.
+#[cfg(feature = "hosts")]
 fn run_other_host(
     args: &UpArgs,
     robot: &lewis_robot::Robot,
@@ -167,6 +191,7 @@ fn run_other_host(
 }
 
 /// A folder of this run's own, readable by its user only: the shared key's dictionary.
+#[cfg(feature = "hosts")]
 fn scratch_dir(namespace: &Namespace, host: &str) -> anyhow::Result<PathBuf> {
     use std::os::unix::fs::DirBuilderExt as _;
     let dir = std::env::temp_dir().join(format!("lewis-{}-{host}", namespace.as_str()));

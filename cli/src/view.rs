@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use anyhow::bail;
 use clap::Args;
 use lewis_viewer::{
-    DEFAULT_VIEWER_PORT, RERUN_SDK_PIP_VERSION, Target, ViewOptions, default_rrd_path,
-    rerun_on_path, view,
+    CameraFrames, DEFAULT_VIEWER_PORT, RERUN_SDK_PIP_VERSION, Target, ViewOptions,
+    default_rrd_path, rerun_on_path, view,
 };
 
 /// `lewis view RUN.mcap [more.mcap ...] [--save OUT.rrd | --spawn | --connect ADDR | --png OUT.png]`
@@ -43,6 +43,32 @@ pub struct ViewArgs {
     /// sequencer's state, the signs seen, a cross where a service failed for good.
     #[arg(long, value_name = "OUT.png", conflicts_with_all = ["save", "spawn", "connect"])]
     pub png: Option<PathBuf>,
+    /// Show at most one camera frame per camera in this much time (`1s`, `500ms`; default:
+    /// every frame). Camera frames are most of a Rerun file's bytes; scans, poses and the
+    /// rest are always whole.
+    #[arg(long, value_name = "DURATION", value_parser = parse_every, conflicts_with = "png")]
+    pub camera_every: Option<u64>,
+    /// Store camera frames JPEG-compressed at this quality (1 to 100), full size, instead of
+    /// their pixels as recorded: a tenth of the bytes or less.
+    #[arg(long, value_name = "QUALITY", value_parser = clap::value_parser!(u8).range(1..=100),
+          conflicts_with = "png")]
+    pub camera_jpeg: Option<u8>,
+}
+
+fn parse_every(text: &str) -> Result<u64, String> {
+    let ns = lewis_stdx::parse_duration_ns(text).map_err(|e| e.to_string())?;
+    Ok(u64::try_from(ns).unwrap_or(0))
+}
+
+impl ViewArgs {
+    /// The camera frames asked for (`--camera-every`, `--camera-jpeg`).
+    #[must_use]
+    pub fn camera(&self) -> CameraFrames {
+        CameraFrames {
+            every_ns: self.camera_every.unwrap_or(0),
+            jpeg_quality: self.camera_jpeg,
+        }
+    }
 }
 
 /// Where the recording goes, and whether it is the default file (so that the user is told
@@ -89,6 +115,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
     let options = ViewOptions {
         target: target.clone(),
         progress: true,
+        camera: args.camera(),
     };
     let report = view(&files, &options)?;
     let mut out = std::io::stdout().lock();

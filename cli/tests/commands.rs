@@ -5,6 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+#[cfg(feature = "viewer")]
+mod reference;
+
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -156,4 +159,31 @@ fn durations_are_written_with_a_unit_everywhere() {
         stderr.contains("invalid duration `5`: it has no unit"),
         "{stderr}"
     );
+}
+
+#[test]
+fn demo_pictures_only_draws_the_demo_already_there_and_runs_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let out_arg = out.to_str().unwrap();
+    let missing = lewis(&["demo", "--pictures-only", "--out", out_arg]);
+    assert_ne!(missing.status.code(), Some(0));
+    let error = String::from_utf8_lossy(&missing.stderr);
+    assert!(error.contains("run `lewis demo` first"), "{error}");
+
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::copy(
+        repo().join("tests/data/reference/sim-goal.mcap"),
+        out.join("run.mcap"),
+    )
+    .unwrap();
+    let drawn = lewis(&["demo", "--pictures-only", "--out", out_arg]);
+    assert_eq!(drawn.status.code(), Some(0), "{}", stdout(&drawn));
+    assert!(stdout(&drawn).contains("rerun: "), "{}", stdout(&drawn));
+    for file in ["run.png", "run.rrd"] {
+        assert!(out.join(file).is_file(), "{file}: {}", stdout(&drawn));
+    }
+    // Nothing ran: no mission records, no replay.
+    assert!(!out.join("events.jsonl").exists());
+    assert!(!out.join("replay.mcap").exists());
 }

@@ -91,7 +91,9 @@ pub struct DemoFiles {
 }
 
 impl DemoFiles {
-    fn in_dir(out: &Path) -> Self {
+    /// The files of a demo whose output folder is `out`.
+    #[must_use]
+    pub fn in_dir(out: &Path) -> Self {
         Self {
             run: out.join("run.mcap"),
             events: out.join("events.jsonl"),
@@ -126,27 +128,17 @@ impl DemoReport {
         self.mission.succeeded()
     }
 
-    /// A few lines for people: what happened and where the files are.
+    /// A few lines for people: what happened and where the files are
+    /// ([`mission_lines`], then [`DemoReport::replay_summary`]).
     #[must_use]
     pub fn summary(&self) -> String {
-        let verdict = &self.mission.verdict;
+        mission_lines(&self.mission, &self.fault) + &self.replay_summary()
+    }
+
+    /// What the replay says and where the files are: the lines after [`mission_lines`].
+    #[must_use]
+    pub fn replay_summary(&self) -> String {
         let mut s = String::new();
-        let _ = writeln!(s, "{verdict}");
-        let route: Vec<&str> = verdict
-            .states_visited
-            .iter()
-            .map(|v| v.state.as_str())
-            .collect();
-        let _ = writeln!(
-            s,
-            "states: {}",
-            if route.is_empty() {
-                "none".to_owned()
-            } else {
-                route.join(" -> ")
-            }
-        );
-        let _ = writeln!(s, "live fault: {}", self.fault_line());
         match &self.replay {
             Ok(report) => {
                 let _ = write!(s, "{}", replay_lines(&self.replay_fault, report));
@@ -171,31 +163,56 @@ impl DemoReport {
         );
         s
     }
+}
 
-    fn fault_line(&self) -> String {
-        let f = &self.fault;
-        if let Some(error) = &f.error {
-            return format!("could not strike: {error}");
-        }
-        if f.struck_ns.is_none() {
-            return "did not strike (the mission ended first)".to_owned();
-        }
-        let mut line = String::new();
-        if !f.killed.is_empty() {
-            let _ = write!(line, "{} process(es) killed", f.killed.len());
+/// The mission's own lines, as soon as it is over: its verdict, the states it went
+/// through, and what the live fault did.
+#[must_use]
+pub fn mission_lines(mission: &MissionReport, fault: &FaultLog) -> String {
+    let verdict = &mission.verdict;
+    let mut s = String::new();
+    let _ = writeln!(s, "{verdict}");
+    let route: Vec<&str> = verdict
+        .states_visited
+        .iter()
+        .map(|v| v.state.as_str())
+        .collect();
+    let _ = writeln!(
+        s,
+        "states: {}",
+        if route.is_empty() {
+            "none".to_owned()
         } else {
-            line.push_str("struck");
+            route.join(" -> ")
         }
-        if f.failed_ns.is_some() {
-            line.push_str(", given up by the broker");
-        }
-        if f.rebinds.is_empty() {
-            line.push_str("; no client moved");
-        } else {
-            let _ = write!(line, "; moved: {}", f.rebinds.join(", "));
-        }
-        line
+    );
+    let _ = writeln!(s, "live fault: {}", fault_line(fault));
+    s
+}
+
+/// What the live fault did, in one line.
+fn fault_line(f: &FaultLog) -> String {
+    if let Some(error) = &f.error {
+        return format!("could not strike: {error}");
     }
+    if f.struck_ns.is_none() {
+        return "did not strike (the mission ended first)".to_owned();
+    }
+    let mut line = String::new();
+    if !f.killed.is_empty() {
+        let _ = write!(line, "{} process(es) killed", f.killed.len());
+    } else {
+        line.push_str("struck");
+    }
+    if f.failed_ns.is_some() {
+        line.push_str(", given up by the broker");
+    }
+    if f.rebinds.is_empty() {
+        line.push_str("; no client moved");
+    } else {
+        let _ = write!(line, "; moved: {}", f.rebinds.join(", "));
+    }
+    line
 }
 
 /// What the replay says, in a few lines: the fault, who took over, what diverged.
@@ -339,7 +356,8 @@ pub enum DemoError {
 /// replay with a fault in the middle of the `sign` states (half-way when there were none).
 /// The files of an earlier demo in the same folder are replaced.
 /// `registry` builds the services in the replay and checks the robot's kinds; `programs`
-/// builds the mission's programs, for the replay to live the mission again.
+/// builds the mission's programs, for the replay to live the mission again; `on_mission`
+/// is told how the mission went as soon as it is over, before the replay.
 ///
 /// # Errors
 /// When the robot or the mission cannot run; a failed mission or replay is in the report.
@@ -347,6 +365,7 @@ pub fn run_demo(
     options: &DemoOptions,
     registry: &ServiceRegistry,
     programs: &dyn Programs,
+    on_mission: &mut dyn FnMut(&MissionReport, &FaultLog),
 ) -> Result<DemoReport, DemoError> {
     for path in [&options.robot, &options.script] {
         if !path.exists() {
@@ -439,6 +458,7 @@ pub fn run_demo(
     let launched = Launch::new(robot, launch_options).and_then(Launch::run);
     let fault = fault.finish();
     let mission = launched?.mission.ok_or(DemoError::NoMission)?;
+    on_mission(&mission, &fault);
 
     let replay_fault = replay_fault(&options.fault, &mission.verdict, &files.run);
     let replayed = re_simulate(options, registry, programs, &files, &replay_fault);
@@ -514,9 +534,15 @@ fn replay_fault(live: &LiveFault, verdict: &Verdict, recording: &Path) -> String
     }
 }
 
+/// The interfaces the demo's replay does not write: camera frames, most of its bytes
+/// (`lewis replay --leave-out ImageSource`).
+pub const REPLAY_LEFT_OUT: &[&str] = &["ImageSource"];
+
 /// Lives the recorded mission again with `fault` (the closed loop of `lewis replay --all`:
 /// the simulated world, the services and the mission re-run, the live fault applied again
-/// at its recorded time) and writes its report as JSON.
+/// at its recorded time) and writes its report as JSON. The output holds what the replay
+/// produced but its camera frames (`--outputs-only --leave-out ImageSource`): the
+/// recording holds the rest, and a copy of it doubled the demo's disk use.
 fn re_simulate(
     options: &DemoOptions,
     registry: &ServiceRegistry,
@@ -529,6 +555,8 @@ fn re_simulate(
     replay_options.output = Some(files.replay.clone());
     replay_options.faults = vec![spec];
     replay_options.services = ServiceSelection::All;
+    replay_options.outputs_only = true;
+    replay_options.left_out = REPLAY_LEFT_OUT.iter().map(|i| (*i).to_owned()).collect();
     replay_options
         .source_kinds
         .clone_from(&options.source_kinds);

@@ -2,7 +2,8 @@
 //! `robots/sim.toml` (paths made absolute: the test runs in `demo/`) on a two-state script
 //! of `/bin/sleep`s. When the first state is over, the fault thread kills the laser after
 //! every restart until the broker gives it up and moves its RangeFinder client to the sonar
-//! (on `/lewis/broker` in the recording); the verdict, the replay and the files follow.
+//! (on `/lewis/broker` in the recording); the verdict (told as soon as the mission is over),
+//! the replay (its own channels only, no camera frames) and the files follow.
 
 // Test helpers fail the test by panicking, like the tests that call them.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -17,7 +18,7 @@ use lewis_interfaces::msg::{Broker, LogLine};
 use lewis_replay::lockstep::{Program, Programs};
 use lewis_replay::outcome::LoopKind;
 use lewis_runtime::ipc::Namespace;
-use lewis_tests::{lewis_exe, repo_root};
+use lewis_testkit::{lewis_exe, repository_root};
 
 /// Door, then a sign state, then `stop`: long enough for the laser's three deaths.
 const SCRIPT: &str = "\
@@ -46,10 +47,10 @@ impl Programs for SleepsOnly {
 }
 
 fn robot_with_absolute_paths(dir: &Path) -> PathBuf {
-    let text = std::fs::read_to_string(repo_root().join("robots/sim.toml")).unwrap();
+    let text = std::fs::read_to_string(repository_root().join("robots/sim.toml")).unwrap();
     let text = text.replace(
         "= \"robots/",
-        &format!("= \"{}/robots/", repo_root().display()),
+        &format!("= \"{}/robots/", repository_root().display()),
     );
     let path = dir.join("sim.toml");
     std::fs::write(&path, text).unwrap();
@@ -120,8 +121,26 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
             .map(|k| (*k).to_owned())
             .collect::<BTreeSet<_>>(),
     };
-    let report = run_demo(&options, &lewis_kinds::registry(), &SleepsOnly).unwrap();
+    let mut told = Vec::new();
+    let report = run_demo(
+        &options,
+        &lewis_kinds::registry(),
+        &SleepsOnly,
+        &mut |mission, fault| {
+            // Before the replay: its output is not written yet.
+            assert!(!options.out.join("replay.json").exists());
+            told.push(lewis_demo::mission_lines(mission, fault));
+        },
+    )
+    .unwrap();
     let summary = report.summary();
+    assert_eq!(told.len(), 1, "{told:?}");
+    assert!(
+        summary.starts_with(&told[0]),
+        "{summary}
+told: {}",
+        told[0]
+    );
 
     assert!(report.succeeded(), "{summary}");
     let fault = &report.fault;
@@ -179,4 +198,26 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
     assert!(summary.contains("open loop"), "{summary}");
     assert!(summary.contains("mission succeeded"), "{summary}");
     assert!(summary.contains("moved: "), "{summary}");
+
+    // The replay's file holds what the replay produced, without camera frames: the
+    // recording has the rest.
+    let bytes = std::fs::read(&files.replay).unwrap();
+    let mut topics = BTreeSet::new();
+    for message in mcap::MessageStream::new(&bytes).unwrap() {
+        let message = message.unwrap();
+        let interface = message.channel.metadata.get("interface").cloned();
+        topics.insert((message.channel.topic.clone(), interface.unwrap_or_default()));
+    }
+    assert!(
+        topics.iter().any(|(t, _)| t.starts_with("/replay/")),
+        "{topics:?}"
+    );
+    assert!(
+        topics
+            .iter()
+            .all(|(topic, interface)| (topic.starts_with("/replay/")
+                || topic == lewis_recorder::STATS_TOPIC)
+                && interface != "ImageSource"),
+        "{topics:?}"
+    );
 }

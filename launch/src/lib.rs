@@ -25,10 +25,11 @@ use lewis_recorder::live::child::{ChildError, ChildOptions, RecorderChild};
 use lewis_robot::Robot;
 use lewis_runtime::broker::live::{UpError, UpOptions, UpSummary, run_up_with_hosts};
 use lewis_runtime::broker::remote::RemoteHosts;
-use lewis_runtime::live::{RECORDING_ENV, StopHandle, StopSignals};
+use lewis_runtime::live::{StopHandle, StopSignals};
 use lewis_sequencer::Mission;
 use lewis_sequencer::gui::RobotWatchOptions;
 use lewis_sequencer::session::{BesideBroker, MissionReport, SessionError, SessionOptions};
+use lewis_service::RECORDING_ENV;
 
 /// A mission script to run beside the robot.
 #[derive(Debug, Clone)]

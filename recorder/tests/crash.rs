@@ -20,7 +20,7 @@ use std::process::{Command, Stdio};
 use common::traffic;
 use common::{Digests, options, python_read, sample};
 use lewis_recorder::{Compression, Recorder, recover};
-use lewis_tests::doctor;
+use lewis_testkit::doctor;
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 

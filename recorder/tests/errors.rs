@@ -16,8 +16,8 @@ use std::process::Command;
 use common::traffic;
 use common::{Digests, options, python_read, sample};
 use lewis_recorder::{RecordError, Recorder, recover};
-use lewis_tests::doctor;
-use lewis_tests::small_disk::{Kind, SmallDisk, mount_tmpfs};
+use lewis_testkit::doctor;
+use lewis_testkit::small_disk::{Kind, SmallDisk, mount_tmpfs};
 
 #[test]
 fn a_missing_folder_is_named_in_the_error() {

@@ -11,7 +11,7 @@ use common::traffic::{self, Msg};
 use common::{Digests, options, python_read, sample, write_all};
 use lewis_recorder::index::{PartsIndex, index_path};
 use lewis_recorder::{Compression, Recorder, SECOND_NS};
-use lewis_tests::doctor;
+use lewis_testkit::doctor;
 
 fn zero_loss(digests: &BTreeMap<String, common::TopicDigest>) -> BTreeMap<String, u64> {
     digests.keys().map(|t| (t.clone(), 0)).collect()

@@ -14,7 +14,7 @@ use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Header, RangeFinder};
 use lewis_recorder::companion::CompanionOptions;
 use lewis_recorder::{ChannelSpec, Compression, Dropped, QueueOptions, Recorder, SECOND_NS, spawn};
-use lewis_tests::doctor;
+use lewis_testkit::doctor;
 
 #[test]
 fn the_stress_mix_through_the_queue_loses_nothing_and_keeps_every_sequence_number() {

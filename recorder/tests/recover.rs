@@ -8,7 +8,7 @@ use crate::common;
 use common::traffic;
 use common::{Digests, options, python_read, write_all};
 use lewis_recorder::{Compression, Recorder, RecoverError, SECOND_NS, recover};
-use lewis_tests::doctor;
+use lewis_testkit::doctor;
 
 fn record(path: &std::path::Path) -> std::collections::BTreeMap<String, common::TopicDigest> {
     let mut options = options(path);

@@ -13,17 +13,11 @@
 //! - [`play`]: `lewis play`, a recording published into live IPC at its recorded pace.
 //! - [`mission_log`]: the sequencer's records read back from a recording;
 //!   [`mission_replay`]: `lewis seq replay`, a recorded mission replayed on a script.
-//! - [`import`]: logs of other robot software (CARMEN) as Lewis recordings.
-//! - [`export`]: Lewis recordings with companion channels of ROS 2's standard types, for
-//!   Foxglove and RViz.
-//! - [`whole_file`]: an output written whole or not at all.
 //! - [`bench`](mod@bench): measures of replay's speed and memory (`lewis bench`).
 
 pub mod bench;
 pub mod compare;
-pub mod export;
 pub mod fault;
-pub mod import;
 pub mod info;
 pub mod json;
 pub mod lockstep;
@@ -35,7 +29,6 @@ pub mod recording;
 pub mod report;
 pub mod resim;
 pub mod sweep;
-pub mod whole_file;
 
 pub use info::{InfoError, InfoOptions, InfoReport, inspect};
 pub use json::JsonValue;

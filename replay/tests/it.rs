@@ -1,13 +1,10 @@
 //! The integration tests of this crate, one module per file of `tests/`, linked into
 //! one test binary: one link instead of one per file.
 
-mod carmen;
-mod carmen_never_panics;
 mod dynamic_never_panics;
 mod info;
 mod lockstep;
 mod play;
-mod ros2_never_panics;
 mod ros2_recordings;
 mod same_bytes;
 mod sweep;

@@ -202,7 +202,7 @@ pub struct BrokerSettings {
     pub nice: Option<i32>,
     /// Whether `lewis up` keeps its machine's cores out of deep idle states while the robot
     /// runs (`[broker] keep_cores_awake`, off by default): see
-    /// [`keep_cores_awake`](crate::supervise::keep_cores_awake).
+    /// `lewis_runtime::supervise::keep_cores_awake`.
     pub keep_cores_awake: bool,
     /// The `SCHED_FIFO` priority each service's heartbeat thread asks for (1 to 99; 0 leaves
     /// it to the normal scheduler), so that a busy machine cannot delay a heartbeat: the
@@ -416,7 +416,7 @@ pub enum StartMode {
 
 /// The service kinds a robot file's `kind`s and `parameters` are checked against when it
 /// is loaded, so that a misspelt kind or parameter stops `lewis up` before anything starts
-/// (implemented by [`crate::service::ServiceRegistry`]).
+/// (implemented by `lewis_service::ServiceRegistry`).
 pub trait Kinds {
     /// Every known kind, sorted.
     fn kind_names(&self) -> Vec<&str>;

@@ -17,12 +17,18 @@
 //! | the sequencer's records | `/lewis/sequencer` | `Sequencer` |
 //! | the time of a recording played live | `/lewis/clock` | `Clock` |
 //!
+//! [`robot_channels`] lists every channel of a robot with its schema and settings, for the
+//! recorder and the bridge.
+//!
 //! [`channel_config`] gives the settings of any of them from its name alone, for tools that
 //! open channels they only know by name (`lewis play` publishing a recording's topics).
 //!
 //! All of them live under the namespace (`LEWIS_NAMESPACE`), see [`crate::ipc::Namespace`].
 
 use std::time::Duration;
+
+use lewis_interfaces::{Interface, InterfaceInfo, msg};
+use lewis_robot::Robot;
 
 use crate::ipc::{ChannelConfig, CommandConfig, OverflowPolicy};
 
@@ -307,9 +313,229 @@ pub fn command_config() -> CommandConfig {
 /// How long a client waits for the broker to answer a request.
 pub const BROKER_CALL_TIMEOUT: Duration = Duration::from_secs(2);
 
+/// What a channel of a running robot carries: the word the recorder writes as the channel's
+/// `kind` in a recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChannelKind {
+    /// A provider's data, `/<service>/<Interface>`.
+    Data,
+    /// A service's heartbeats and declared health.
+    Health,
+    /// The commands a service answered.
+    Commands,
+    /// The broker's decisions.
+    Broker,
+    /// The CPU each service's process used.
+    Cpu,
+    /// The calls clients sent that got no answer.
+    Calls,
+    /// The sequencer's records.
+    Sequencer,
+    /// The services' output lines.
+    Log,
+    /// What the robot host's broker hears of the other hosts.
+    Hosts,
+}
+
+impl ChannelKind {
+    /// Its word: `data`, `health`, `commands`, `broker`, `cpu`, `calls`, `sequencer`,
+    /// `log` or `hosts`.
+    #[must_use]
+    pub fn word(self) -> &'static str {
+        match self {
+            Self::Data => "data",
+            Self::Health => "health",
+            Self::Commands => "commands",
+            Self::Broker => "broker",
+            Self::Cpu => "cpu",
+            Self::Calls => "calls",
+            Self::Sequencer => "sequencer",
+            Self::Log => "log",
+            Self::Hosts => "hosts",
+        }
+    }
+}
+
+/// One channel of a running robot: its name, who publishes it, the interface and schema of
+/// its messages, what it carries, its settings and, for a robot on more than one host, the
+/// host that publishes it. The recorder taps these; the bridge tells other hosts their
+/// schemas.
+#[derive(Debug, Clone)]
+pub struct RobotChannel {
+    /// The IPC channel name (a recording's topic).
+    pub name: String,
+    /// The provider in its messages' headers (`*` for any client, on [`CALLS_CHANNEL`]).
+    pub provider: String,
+    /// The interface's name.
+    pub interface: &'static str,
+    /// The interface's version.
+    pub interface_version: &'static str,
+    /// The ros2msg name of its messages' schema.
+    pub schema_name: &'static str,
+    /// The ros2msg text of its messages' schema.
+    pub schema_text: &'static str,
+    /// What it carries.
+    pub kind: ChannelKind,
+    /// Its settings (the publishers', see the functions of this module).
+    pub config: ChannelConfig,
+    /// The host that publishes it, for a robot on more than one host (the robot host for
+    /// the broker's, the sequencer's and the log); `None` for a robot on one.
+    pub host: Option<String>,
+}
+
+impl RobotChannel {
+    /// A channel of the publications of `interface`.
+    fn publication(
+        interface: &'static InterfaceInfo,
+        provider: &str,
+        name: String,
+        kind: ChannelKind,
+        config: ChannelConfig,
+    ) -> Self {
+        Self {
+            name,
+            provider: provider.to_owned(),
+            interface: interface.name,
+            interface_version: interface.version,
+            schema_name: interface.publication.name,
+            schema_text: interface.publication.text,
+            kind,
+            config,
+            host: None,
+        }
+    }
+
+    /// A robot-wide channel of interface `T`.
+    fn of<T: Interface>(
+        provider: &str,
+        name: &str,
+        kind: ChannelKind,
+        config: ChannelConfig,
+    ) -> Self {
+        Self {
+            name: name.to_owned(),
+            provider: provider.to_owned(),
+            interface: T::NAME,
+            interface_version: T::VERSION,
+            schema_name: T::SCHEMA_NAME,
+            schema_text: T::SCHEMA_TEXT,
+            kind,
+            config,
+            host: None,
+        }
+    }
+}
+
+/// Every channel of `robot`, in a stable order: each provider's data channel
+/// `/<service>/<Interface>` (all of them, started or not, so that a provider started later
+/// by a failover is recorded from its first sample), then per service its health and its
+/// command log, then `/lewis/broker`, `/lewis/broker/cpu` (what each service's process used
+/// of the CPU), `/lewis/calls` (the calls clients sent that got no answer),
+/// `/lewis/sequencer` and `/lewis/log`, and for a robot on more than one host
+/// `/lewis/hosts`, with every channel's host. Without a robot, only the channels that do
+/// not depend on it.
+#[must_use]
+pub fn robot_channels(robot: Option<&Robot>) -> Vec<RobotChannel> {
+    let mut channels = Vec::new();
+    let services = robot.map_or(&[][..], |r| &r.services[..]);
+    for service in services {
+        for provision in &service.provides {
+            // The robot file was checked against the compiled interfaces when it was loaded.
+            if let Some(interface) = lewis_interfaces::interface_info(&provision.interface) {
+                channels.push(RobotChannel::publication(
+                    interface,
+                    &service.name,
+                    data_channel(&service.name, interface.name),
+                    ChannelKind::Data,
+                    data_config(interface.name),
+                ));
+            }
+        }
+    }
+    for service in services {
+        channels.push(RobotChannel::of::<msg::Health>(
+            &service.name,
+            &health_channel(&service.name),
+            ChannelKind::Health,
+            health_config(),
+        ));
+        channels.push(RobotChannel::of::<msg::CommandLog>(
+            &service.name,
+            &command_log_channel(&service.name),
+            ChannelKind::Commands,
+            command_log_config(),
+        ));
+    }
+    channels.push(RobotChannel::of::<msg::Broker>(
+        BROKER_NODE,
+        BROKER_CHANNEL,
+        ChannelKind::Broker,
+        broker_config(),
+    ));
+    channels.push(RobotChannel::of::<msg::ProcessCpu>(
+        BROKER_NODE,
+        CPU_CHANNEL,
+        ChannelKind::Cpu,
+        cpu_config(),
+    ));
+    // Any client publishes here, each numbering its own records: the provider is `*`, and
+    // each record's header names its caller.
+    channels.push(RobotChannel::of::<msg::UnansweredCall>(
+        "*",
+        CALLS_CHANNEL,
+        ChannelKind::Calls,
+        calls_config(),
+    ));
+    channels.push(RobotChannel::of::<msg::Sequencer>(
+        SEQUENCER_NODE,
+        SEQUENCER_CHANNEL,
+        ChannelKind::Sequencer,
+        sequencer_config(),
+    ));
+    channels.push(RobotChannel::of::<msg::LogLine>(
+        BROKER_NODE,
+        LOG_CHANNEL,
+        ChannelKind::Log,
+        log_config(),
+    ));
+    if let Some(robot) = robot
+        && let Some(hub) = robot.robot_host()
+    {
+        channels.push(RobotChannel::of::<msg::HostLink>(
+            BROKER_NODE,
+            HOSTS_CHANNEL,
+            ChannelKind::Hosts,
+            hosts_config(),
+        ));
+        for channel in &mut channels {
+            let host = robot.host_of(&channel.provider).unwrap_or(&hub.name);
+            channel.host = Some(host.to_owned());
+        }
+    }
+    channels
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_robot_wide_channel_has_the_schema_its_interface_lists() {
+        for channel in robot_channels(None) {
+            let info = lewis_interfaces::interface_info(channel.interface).unwrap();
+            assert_eq!(
+                (
+                    channel.schema_name,
+                    channel.schema_text,
+                    channel.interface_version
+                ),
+                (info.publication.name, info.publication.text, info.version),
+                "{}",
+                channel.name
+            );
+            assert_eq!(channel.host, None);
+        }
+    }
 
     #[test]
     fn channel_names_follow_the_documented_scheme() {

@@ -15,9 +15,10 @@ use std::process::{Command, Stdio};
 use std::sync::mpsc::{Receiver, sync_channel};
 use std::time::Duration;
 
+use lewis_robot::RestartPolicy;
 use lewis_runtime::supervise::{
-    ChildSpec, ExitStatus, LogLine, MAX_LINE_BYTES, Restart, RestartPolicy, StartError, Stream,
-    Supervisor, SupervisorEvent,
+    ChildSpec, ExitStatus, LogLine, MAX_LINE_BYTES, Restart, StartError, Stream, Supervisor,
+    SupervisorEvent,
 };
 use nix::sys::signal::Signal;
 use rustix::event::{PollFd, PollFlags, poll};

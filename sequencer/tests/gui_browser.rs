@@ -28,7 +28,7 @@ use lewis_sequencer::gui::{
 use lewis_sequencer::live::{RunOptions, control_channel, run_mission};
 use lewis_sequencer::record::{ChannelSink, Entry, Tee};
 use lewis_sequencer::{Decision, GuiServer, Supervision};
-use lewis_tests::browser::{browser_tools, gui_test_dir};
+use lewis_testkit::browser::{browser_tools, gui_test_dir};
 
 const SCRIPT: &str = "\
 start door

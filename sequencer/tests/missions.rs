@@ -18,7 +18,7 @@ use lewis_sequencer::record::{Entry, Record};
 use lewis_sequencer::{
     Decision, FileSystem, Sequencer, Supervision, TrustingResolver, check_with, read_json_lines,
 };
-use lewis_tests::{WATCHDOG, lewis_exe, repo_root};
+use lewis_testkit::{WATCHDOG, lewis_exe, repository_root};
 
 fn missions_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../robots/missions")
@@ -243,7 +243,7 @@ fn the_extensions_mission_runs_with_lewis_up_script_on_the_test_robot() {
     let namespace = Namespace::unique("seq-missions-up");
     let (code, printed) = lewis(&[
         "up".as_ref(),
-        repo_root().join("robots/test.toml").as_os_str(),
+        repository_root().join("robots/test.toml").as_os_str(),
         "--namespace".as_ref(),
         namespace.as_str().as_ref(),
         "--stop-grace-ms".as_ref(),

@@ -19,7 +19,7 @@ use lewis_runtime::ipc::{Ipc, Namespace, WaitSet, WakeMode, Woken};
 use lewis_runtime::names::{SEQUENCER_CHANNEL, sequencer_config};
 use lewis_sequencer::record::{Entry, Record};
 use lewis_sequencer::{Decision, from_message, read_json_lines};
-use lewis_tests::{WATCHDOG, lewis_exe, wait_child};
+use lewis_testkit::{WATCHDOG, lewis_exe, wait_child};
 
 /// The paper's mission without `use gui`: a crash beyond the restart limit and an unlisted
 /// exit code both lead to recovery, which ends the mission at `stop`.

@@ -18,7 +18,7 @@ use common::{TESTPROG, show};
 use lewis_runtime::ipc::Namespace;
 use lewis_sequencer::record::{Entry, Record};
 use lewis_sequencer::{Supervision, read_json_lines};
-use lewis_tests::{WATCHDOG, lewis_exe, wait_child};
+use lewis_testkit::{WATCHDOG, lewis_exe, wait_child};
 
 /// `a` fails twice with a code the script does not list; the recovery `r` suggests `stop`.
 const SCRIPT: &str = "\

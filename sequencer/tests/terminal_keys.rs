@@ -21,7 +21,7 @@ use lewis_sequencer::terminal::{TerminalKeys, answer_through};
 use lewis_sequencer::{
     Decision, GuiServer, MemorySources, TerminalChooser, TrustingResolver, check_with,
 };
-use lewis_tests::WATCHDOG;
+use lewis_testkit::WATCHDOG;
 use nix::sys::termios::{LocalFlags, tcgetattr};
 
 fn answer(word: &str, text: &str) -> Answer {

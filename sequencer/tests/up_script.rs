@@ -11,7 +11,7 @@ use std::process::{Command, Stdio};
 use common::{TESTPROG, show};
 use lewis_runtime::ipc::Namespace;
 use lewis_sequencer::read_json_lines;
-use lewis_tests::{lewis_exe, repo_root, wait_child};
+use lewis_testkit::{lewis_exe, repository_root, wait_child};
 
 /// Runs `lewis up` on the test robot with `script` (`{P}` the test program, `{L}` the
 /// lewis binary, `{D}` the temp folder); returns the exit code, what the mission decided
@@ -32,7 +32,7 @@ fn up_with_script(script: &str) -> (Option<i32>, String, String) {
     let namespace = Namespace::unique("seq-up");
     let mut child = Command::new(lewis_exe())
         .arg("up")
-        .arg(repo_root().join("robots/test.toml"))
+        .arg(repository_root().join("robots/test.toml"))
         .args(["--namespace", namespace.as_str(), "--stop-grace-ms", "300"])
         .arg("--no-record")
         .arg("--script")

@@ -109,11 +109,8 @@ provides = [{ interface = "RangeFinder", quality = 10, cost = 3 }]
 parameters = { range_m = 8.0 }
 "#,
         &expect![[r#"
-            robot r ()
-            broker: heartbeat 20 ms, deadline 100 ms, startup 5000 ms, fail back false {}, retry None, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
-            service laser Kind("sim-laser") start OnDemand: deadline 100 ms, startup 5000 ms, restart RestartPolicy { max_restarts: 3, window_ms: 10000, backoff_initial_ms: 50, backoff_max_ms: 2000 }
-              provides RangeFinder quality 10 cost 3 rate None
-              parameters range_m = 8.0; 
+            service laser Kind("sim-laser"): parameters range_m = 8.0
+
         "#]],
     );
 }

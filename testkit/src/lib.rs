@@ -1,25 +1,42 @@
-//! The service test kit: the one recording [`Backend`] and the one [`Harness`] that every
-//! crate's tests use to run a service as the live harness does, without processes or shared
-//! memory, on a clock the test sets.
+//! The test kit: what every crate's tests share, below the runtime.
 //!
-//! It owns: building a service of a robot file through a registry ([`Harness::build`]),
-//! handing it events one at a time (start, tick, input, command, call reply) with the
-//! provenance the live harness gives them, keeping what it did ([`RecordingBackend`]:
-//! publications, log lines, health changes, calls), and finding files of the repository
-//! ([`repository_path`], [`shared_data`]).
+//! - The service test kit: the one recording [`Backend`] and the one [`Harness`] that
+//!   every crate's tests use to run a service as the live harness does, without processes
+//!   or shared memory, on a clock the test sets. It owns: building a service of a robot
+//!   file through a registry ([`Harness::build`]), handing it events one at a time (start,
+//!   tick, input, command, call reply) with the provenance the live harness gives them,
+//!   keeping what it did ([`RecordingBackend`]: publications, log lines, health changes,
+//!   calls).
+//! - The processes of an end-to-end test ([`process`]): the `lewis` binary built and
+//!   located, commands run to completion, children awaited under the [`WATCHDOG`], the
+//!   independent MCAP checkers ([`doctor`]); a browser for the GUI tests ([`browser`]), a
+//!   small disk ([`small_disk`]), several hosts on one machine ([`hosts`]) and the robot
+//!   files they run ([`robot_files`]); files of the repository ([`repository_path`],
+//!   [`shared_data`]).
 //!
 //! It does not own any service kind, world or device model: the tests bring their own
 //! registry and use the real simulator (`lewis-sim`) for a world. It is a test-support
 //! crate: only dev-dependencies and `lewis-tests` (the end-to-end tests' helpers) name it
-//! (the layers test in `tests/` checks that), and it depends only on the interfaces and the
-//! runtime, so a component's own unit tests can use it without a second copy of the
-//! component.
+//! (the layers test in `tests/` checks that). It depends on the interfaces, the robot file
+//! and the service model, never on the runtime (no iceoryx2, no Zenoh), so a component's
+//! own tests, and the tests of the crates the end-to-end tests use, can use it without a
+//! cycle and without compiling IPC.
 
 // Helpers of tests: a message that does not decode or a robot text that does not parse is
 // the test's failure, said with its reason.
 #![allow(clippy::expect_used)]
 
+pub mod browser;
+pub mod hosts;
+pub mod process;
+pub mod robot_files;
 pub mod scene;
+pub mod small_disk;
+
+pub use process::{
+    WATCHDOG, Watched, descendants, doctor, lewis_exe, python_tool, run_ok, signal, wait_child,
+    wait_child_within,
+};
 
 use std::path::{Path, PathBuf};
 

@@ -163,7 +163,7 @@ fn a_bad_labels_file_stops_the_tuning_page_naming_the_file() {
     let images = dir.path().join("images");
     std::fs::create_dir(&images).unwrap();
     std::fs::copy(
-        repo_root().join("docs/challenge-run.png"),
+        repo_root().join("docs/src/images/challenge-run.png"),
         images.join("a.png"),
     )
     .unwrap();

@@ -17,9 +17,13 @@
 //! for byte (only the order of the manifests in Rerun's footer may differ).
 //!
 //! ```no_run
-//! use lewis_viewer::{Target, ViewOptions, view};
+//! use lewis_viewer::{CameraFrames, Target, ViewOptions, view};
 //!
-//! let options = ViewOptions { target: Target::Save("run.rrd".into()), progress: false };
+//! let options = ViewOptions {
+//!     target: Target::Save("run.rrd".into()),
+//!     progress: false,
+//!     camera: CameraFrames::ALL,
+//! };
 //! let report = view(&["run.mcap".into()], &options)?;
 //! println!("{report}");
 //! # Ok::<(), lewis_viewer::ViewError>(())
@@ -84,6 +88,29 @@ pub struct ViewOptions {
     pub target: Target,
     /// Show a progress bar on standard error (only drawn on a terminal).
     pub progress: bool,
+    /// Which camera frames go in, and how they are stored ([`CameraFrames::ALL`]: every
+    /// frame as recorded).
+    pub camera: CameraFrames,
+}
+
+/// Which camera frames a Rerun recording holds, and how: camera frames are most of a
+/// recording's bytes, and stored raw most of a Rerun file's (a 640x480 rgb8 frame is 921
+/// KB). Scans, poses and everything else are always whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CameraFrames {
+    /// At most one frame per image topic in this much log time, ns (0: every frame).
+    pub every_ns: u64,
+    /// Stored JPEG-compressed at this quality (1 to 100), full size; `None`: the pixels as
+    /// recorded.
+    pub jpeg_quality: Option<u8>,
+}
+
+impl CameraFrames {
+    /// Every frame, its pixels as recorded.
+    pub const ALL: Self = Self {
+        every_ns: 0,
+        jpeg_quality: None,
+    };
 }
 
 /// The port a Rerun viewer listens on for SDKs unless told otherwise.
@@ -155,7 +182,7 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
         ProgressBar::hidden()
     };
 
-    let mut scene = draw::Scene::new();
+    let mut scene = draw::Scene::new(options.camera);
     blueprint::log_frames(scene.rows_mut(), &mut output)?;
     scene.start(&mut output)?;
     let mut damage = Vec::new();
@@ -224,6 +251,7 @@ pub fn view(inputs: &[PathBuf], options: &ViewOptions) -> Result<ViewReport, Vie
         target: options.target.clone(),
         channels,
         counts: scene.counts,
+        frames_skipped: scene.frames_skipped(),
         entities: scene.row_counts().clone(),
         failures: scene.failures.clone(),
         damage,

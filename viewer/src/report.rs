@@ -17,6 +17,8 @@ pub struct ViewReport {
     pub channels: usize,
     /// How many messages went where.
     pub counts: Counts,
+    /// Camera frames left out ([`crate::CameraFrames::every_ns`]).
+    pub frames_skipped: u64,
     /// Rows logged per Rerun entity path.
     pub entities: BTreeMap<String, u64>,
     /// Per topic: messages that could not be decoded, and the first reason.
@@ -40,6 +42,13 @@ impl fmt::Display for ViewReport {
             c.failed,
             self.entities.len()
         )?;
+        if self.frames_skipped > 0 {
+            writeln!(
+                f,
+                "  {} camera frames left out (--camera-every)",
+                self.frames_skipped
+            )?;
+        }
         for (topic, (count, reason)) in &self.failures {
             writeln!(f, "  {topic}: {count} messages not decodable: {reason}")?;
         }

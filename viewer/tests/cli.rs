@@ -17,7 +17,9 @@ use std::process::{Command, Stdio};
 
 use std::time::{Duration, Instant};
 
-use lewis_tests::{WATCHDOG, Watched, lewis_exe, python_tool, repo_root, run_ok, wait_child};
+use lewis_testkit::{
+    WATCHDOG, Watched, lewis_exe, python_tool, repository_root, run_ok, wait_child,
+};
 
 /// The folders every test's PATH has besides its own: the system's tools, never a `rerun`.
 const SYSTEM_PATH: &str = "/usr/bin:/bin";
@@ -111,7 +113,7 @@ fn fake_rerun(bin: &Path) {
 /// blueprint (sent last); watchdog [`WATCHDOG`]. Nothing announces the write: the file is
 /// read again every 200 ms.
 fn wait_saved(saved: &Path) -> serde_json::Value {
-    let script = repo_root().join("tools/python/check_rrd.py");
+    let script = repository_root().join("tools/python/check_rrd.py");
     let deadline = Instant::now() + WATCHDOG;
     let mut last = String::new();
     loop {
@@ -152,7 +154,7 @@ fn with_rerun_on_the_path_lewis_view_starts_it_and_sends_the_run() {
     let _ports = PORTS
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
-    let real = repo_root().join(".venv/bin/rerun");
+    let real = repository_root().join(".venv/bin/rerun");
     assert!(
         real.is_file(),
         "run scripts/setup-python.sh to install rerun-sdk in .venv"

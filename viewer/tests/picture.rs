@@ -5,7 +5,7 @@
 
 use crate::common;
 
-use lewis_tests::repo_root;
+use lewis_testkit::repository_root;
 use lewis_viewer::{MapStatus, write_png};
 
 /// The picture's pixel at world `(x, y)` m: the conference map is 800 x 500 px at 0.05 m,
@@ -72,7 +72,7 @@ fn the_reference_goal_drive_is_drawn_on_its_map() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("goal.png");
     let report = write_png(
-        &repo_root().join("tests/data/reference/sim-goal.mcap"),
+        &repository_root().join("tests/data/reference/sim-goal.mcap"),
         &out,
     )
     .unwrap();

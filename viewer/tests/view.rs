@@ -9,8 +9,8 @@ use crate::common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use lewis_tests::{python_tool, repo_root, run_ok, shared_data};
-use lewis_viewer::{MapStatus, Target, ViewError, ViewOptions, ViewReport, view};
+use lewis_testkit::{python_tool, repository_root, run_ok, shared_data};
+use lewis_viewer::{CameraFrames, MapStatus, Target, ViewError, ViewOptions, ViewReport, view};
 
 fn save(inputs: &[PathBuf], out: &Path) -> Result<ViewReport, ViewError> {
     view(
@@ -18,6 +18,7 @@ fn save(inputs: &[PathBuf], out: &Path) -> Result<ViewReport, ViewError> {
         &ViewOptions {
             target: Target::Save(out.to_owned()),
             progress: false,
+            camera: CameraFrames::ALL,
         },
     )
 }
@@ -97,6 +98,41 @@ const REPLAY_ROWS: &[(&str, u64)] = &[
     ("/events/replay/log/laser", 0),
     ("/world/map", 0),
 ];
+
+#[test]
+fn camera_frames_are_decimated_and_compressed_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    // 20 frames 100 ms apart.
+    let run = common::camera_run(dir.path(), 20);
+    let image = "/camera/camera/ImageSource/image";
+    let (all, slim) = (dir.path().join("all.rrd"), dir.path().join("slim.rrd"));
+    let report = save(std::slice::from_ref(&run), &all).unwrap();
+    assert_eq!(report.entities.get(image), Some(&20), "{report}");
+    assert_eq!(report.frames_skipped, 0);
+    let options = ViewOptions {
+        target: Target::Save(slim.clone()),
+        progress: false,
+        camera: CameraFrames {
+            every_ns: 500_000_000,
+            jpeg_quality: Some(50),
+        },
+    };
+    let report = view(&[run], &options).unwrap();
+    // One frame in each 500 ms: at 0, 0.5, 1.0 and 1.5 s.
+    assert_eq!(report.entities.get(image), Some(&4), "{report}");
+    assert_eq!(report.frames_skipped, 16);
+    assert!(
+        report.to_string().contains("16 camera frames left out"),
+        "{report}"
+    );
+    let size = |p: &Path| std::fs::metadata(p).unwrap().len();
+    assert!(
+        size(&slim) < size(&all) / 2,
+        "{} bytes, all frames raw {}",
+        size(&slim),
+        size(&all)
+    );
+}
 
 #[test]
 fn a_failover_run_draws_every_interface_on_its_entity() {
@@ -277,7 +313,7 @@ struct RerunRead {
 }
 
 fn rerun_reads(rrd: &Path) -> RerunRead {
-    let script = repo_root().join("tools/python/check_rrd.py");
+    let script = repository_root().join("tools/python/check_rrd.py");
     let out = run_ok(python_tool("python").arg(script).arg(rrd));
     serde_json::from_str(&out)
         .unwrap_or_else(|e| panic!("check_rrd.py printed no JSON I can read ({e}):\n{out}"))

@@ -2,10 +2,6 @@
 //! created with and the MCAP channel each becomes.
 
 use globset::{GlobBuilder, GlobSet, GlobSetBuilder};
-use lewis_interfaces::Interface;
-use lewis_interfaces::msg::{
-    Broker, CommandLog, Health, HostLink, LogLine, ProcessCpu, Sequencer, UnansweredCall,
-};
 use lewis_robot::Robot;
 use lewis_runtime::ipc::ChannelConfig;
 use lewis_runtime::names;
@@ -14,7 +10,7 @@ use thiserror::Error;
 use crate::channel::ChannelSpec;
 
 /// Channel metadata key saying what a channel carries: `data`, `health`, `commands`,
-/// `broker`, `cpu`, `calls`, `sequencer` or `log`.
+/// `broker`, `cpu`, `calls`, `sequencer`, `log` or `hosts` ([`names::ChannelKind`]).
 pub const META_KIND: &str = "kind";
 
 /// One channel to tap: its IPC name and settings, and the MCAP channel it is written to.
@@ -29,27 +25,34 @@ pub struct TapChannel {
 }
 
 impl TapChannel {
-    fn new(mut spec: ChannelSpec, kind: &str, config: &ChannelConfig) -> Self {
-        spec.extra_metadata
-            .insert(META_KIND.to_owned(), kind.to_owned());
-        Self {
-            config: config.deepest(),
-            spec,
+    /// The tap of one of the robot's channels: the settings of [`names`] with the deepest
+    /// buffer, and the MCAP channel that says what it carries (and, for a robot on more than
+    /// one host, which host published it).
+    fn new(channel: names::RobotChannel) -> Self {
+        let mut extra_metadata = std::collections::BTreeMap::new();
+        extra_metadata.insert(META_KIND.to_owned(), channel.kind.word().to_owned());
+        if channel.kind == names::ChannelKind::Calls {
+            // Any client publishes here, each numbering its own records.
+            extra_metadata.insert(
+                crate::channel::META_NUMBERING.to_owned(),
+                crate::channel::NUMBERED_PER_PUBLISHER.to_owned(),
+            );
         }
-    }
-
-    /// A robot-wide channel of interface `T`.
-    fn of<T: Interface>(provider: &str, topic: &str, kind: &str, config: &ChannelConfig) -> Self {
-        let spec = ChannelSpec {
-            topic: topic.to_owned(),
-            schema_name: T::SCHEMA_NAME.to_owned(),
-            schema_text: T::SCHEMA_TEXT.to_owned(),
-            provider: provider.to_owned(),
-            interface: T::NAME.to_owned(),
-            interface_version: T::VERSION.to_owned(),
-            extra_metadata: std::collections::BTreeMap::new(),
-        };
-        Self::new(spec, kind, config)
+        if let Some(host) = channel.host {
+            extra_metadata.insert(META_HOST.to_owned(), host);
+        }
+        Self {
+            config: channel.config.deepest(),
+            spec: ChannelSpec {
+                topic: channel.name,
+                schema_name: channel.schema_name.to_owned(),
+                schema_text: channel.schema_text.to_owned(),
+                provider: channel.provider,
+                interface: channel.interface.to_owned(),
+                interface_version: channel.interface_version.to_owned(),
+                extra_metadata,
+            },
+        }
     }
 
     /// The IPC channel name (and MCAP topic).
@@ -59,102 +62,19 @@ impl TapChannel {
     }
 }
 
-/// Every channel of `robot` worth recording, in a stable order: each provider's data
-/// channel `/<service>/<Interface>` (all of them, started or not, so that a provider
-/// started later by a failover is recorded from its first sample), then per service its
-/// health and its command log, then `/lewis/broker`, `/lewis/broker/cpu` (what each
-/// service's process used of the CPU), `/lewis/calls` (the calls clients sent that got no
-/// answer), `/lewis/sequencer` and `/lewis/log`.
+/// Every channel of `robot` worth recording, in the stable order of
+/// [`names::robot_channels`]: each provider's data channel `/<service>/<Interface>` (all of
+/// them, started or not, so that a provider started later by a failover is recorded from
+/// its first sample), then per service its health and its command log, then
+/// `/lewis/broker`, `/lewis/broker/cpu`, `/lewis/calls`, `/lewis/sequencer` and
+/// `/lewis/log` (and `/lewis/hosts` for a robot on more than one host).
 /// Without a robot, only the channels that do not depend on it.
 #[must_use]
 pub fn robot_channels(robot: Option<&Robot>) -> Vec<TapChannel> {
-    let mut channels = Vec::new();
-    let services = robot.map_or(&[][..], |r| &r.services[..]);
-    for service in services {
-        for provision in &service.provides {
-            // The robot file was checked against the compiled interfaces when it was loaded.
-            if let Some(interface) = lewis_interfaces::interface_info(&provision.interface) {
-                let topic = names::data_channel(&service.name, interface.name);
-                channels.push(TapChannel::new(
-                    ChannelSpec::publication(interface, &service.name, &topic),
-                    "data",
-                    &names::data_config(interface.name),
-                ));
-            }
-        }
-    }
-    for service in services {
-        channels.push(TapChannel::of::<Health>(
-            &service.name,
-            &names::health_channel(&service.name),
-            "health",
-            &names::health_config(),
-        ));
-        channels.push(TapChannel::of::<CommandLog>(
-            &service.name,
-            &names::command_log_channel(&service.name),
-            "commands",
-            &names::command_log_config(),
-        ));
-    }
-    channels.push(TapChannel::of::<Broker>(
-        names::BROKER_NODE,
-        names::BROKER_CHANNEL,
-        "broker",
-        &names::broker_config(),
-    ));
-    channels.push(TapChannel::of::<ProcessCpu>(
-        names::BROKER_NODE,
-        names::CPU_CHANNEL,
-        "cpu",
-        &names::cpu_config(),
-    ));
-    // Any client publishes here, each numbering its own records: the provider is `*`, and
-    // each record's header names its caller.
-    let mut calls = TapChannel::of::<UnansweredCall>(
-        "*",
-        names::CALLS_CHANNEL,
-        "calls",
-        &names::calls_config(),
-    );
-    calls.spec.extra_metadata.insert(
-        crate::channel::META_NUMBERING.to_owned(),
-        crate::channel::NUMBERED_PER_PUBLISHER.to_owned(),
-    );
-    channels.push(calls);
-    channels.push(TapChannel::of::<Sequencer>(
-        names::SEQUENCER_NODE,
-        names::SEQUENCER_CHANNEL,
-        "sequencer",
-        &names::sequencer_config(),
-    ));
-    channels.push(TapChannel::of::<LogLine>(
-        names::BROKER_NODE,
-        names::LOG_CHANNEL,
-        "log",
-        &names::log_config(),
-    ));
-    // A robot on more than one host: what its broker heard of the other hosts, and which
-    // host published each channel (the robot host for the broker's, the sequencer's and
-    // the log).
-    if let Some(robot) = robot
-        && let Some(hub) = robot.robot_host()
-    {
-        channels.push(TapChannel::of::<HostLink>(
-            names::BROKER_NODE,
-            names::HOSTS_CHANNEL,
-            "hosts",
-            &names::hosts_config(),
-        ));
-        for channel in &mut channels {
-            let host = robot.host_of(&channel.spec.provider).unwrap_or(&hub.name);
-            channel
-                .spec
-                .extra_metadata
-                .insert(META_HOST.to_owned(), host.to_owned());
-        }
-    }
-    channels
+    names::robot_channels(robot)
+        .into_iter()
+        .map(TapChannel::new)
+        .collect()
 }
 
 /// Channel metadata key naming the host that published a channel, for a robot on more
@@ -337,6 +257,16 @@ provides = [{{ interface = "Distance", quality = 1, cost = 1 }}]
             ["lewis-sequencer", "Sequencer", "sequencer"],
         );
         check("/lewis/log", ["lewis-broker", "LogLine", "log"]);
+    }
+
+    #[test]
+    fn only_the_calls_channel_is_numbered_per_publisher() {
+        let numbered: Vec<String> = robot_channels(Some(&robot()))
+            .iter()
+            .filter(|c| !c.spec.gaps_are_losses())
+            .map(|c| c.topic().to_owned())
+            .collect();
+        assert_eq!(numbered, ["/lewis/calls"]);
     }
 
     #[test]

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use lewis_recorder::{ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
-use lewis_tests::{python_tool, run_ok};
+use lewis_testkit::{python_tool, run_ok};
 use serde_json::Value;
 
 use traffic::Msg;

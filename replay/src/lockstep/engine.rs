@@ -8,8 +8,9 @@ use std::sync::Arc;
 
 use lewis_interfaces::msg::InputRef;
 use lewis_robot::ServiceSpec;
-use lewis_runtime::broker::{Action, Event, ExitStatus, Health};
+use lewis_runtime::broker::{Action, Event, ExitStatus};
 use lewis_runtime::names;
+use lewis_service::Health;
 use lewis_service::{
     CallFailure, CallId, Context, ContextState, Input, Level, ReplyEvent, Service, ServiceConfig,
     decode_header_seq,

@@ -4,7 +4,8 @@
 use std::borrow::Cow;
 
 use lewis_interfaces::cdr::{self, ENCAPSULATION_LE};
-use lewis_runtime::broker::{Event, ExitStatus, Health};
+use lewis_runtime::broker::{Event, ExitStatus};
+use lewis_service::Health;
 use lewis_service::Rng;
 
 use super::engine::Work;

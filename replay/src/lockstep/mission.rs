@@ -3,7 +3,8 @@
 //!
 //! The sequencer's decision core ([`Sequencer`]) runs on the virtual clock, started when the
 //! recorded mission started. Each `run` decision builds the state's program through
-//! [`Programs`] (the binary knows which program a script names: `lewis app NAME`) and makes
+//! [`Programs`] ([`AppPrograms`](super::AppPrograms): the program a script names with
+//! `lewis app NAME`) and makes
 //! it a participant like a re-simulated service: it is a client of the broker core (it asks
 //! for what it requires, and is gone when it finishes), it ticks at its own period from its
 //! start, it gets the samples of its providers and the replies to its calls. Once a handler

@@ -80,6 +80,7 @@ mod engine;
 mod faults;
 mod health;
 pub mod mission;
+mod programs;
 pub mod route;
 pub mod script;
 
@@ -91,8 +92,9 @@ use lewis_interfaces::msg::{
     Broker as BrokerMessage, BrokerAction, CommandLog, HostLink, HostLinkEvent, ProcessCpu,
 };
 use lewis_robot::Robot;
-use lewis_runtime::broker::{BrokerCore, Decision, Event, Health};
+use lewis_runtime::broker::{BrokerCore, Decision, Event};
 use lewis_runtime::live::heartbeat_event;
+use lewis_service::Health;
 use lewis_service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegistry};
 use serde::Serialize;
 
@@ -102,6 +104,7 @@ pub use book::{CommandBook, default_reply, header_provider};
 use engine::{Sim, Timer, Work, backend_for};
 use mission::MissionRun;
 pub use mission::{Answer, AnswerSource, MissionPlan, Program, Programs};
+pub use programs::{AppPrograms, ReadAppArgs};
 pub use route::{Route, route};
 use script::Script;
 

@@ -21,7 +21,8 @@
 //!   book and the fault reports are bounded too, so memory does not grow with the
 //!   recording's length.
 //! - **Output channels**: everything recorded is copied unchanged (but the recorder's own
-//!   stats, which the new file has afresh); what the replay produced goes under
+//!   stats, which the new file has afresh; nothing with [`ReplayOptions::outputs_only`], and
+//!   no channel of an interface in [`ReplayOptions::left_out`]); what the replay produced goes under
 //!   [`REPLAY_PREFIX`]: `/replay/<service>/<Interface>`, `/replay/lewis/broker`,
 //!   `/replay/lewis/health/<service>`, `/replay/lewis/commands/<service>`,
 //!   `/replay/lewis/log`, and the faults on `/replay/lewis/faults` (LogLine messages whose
@@ -100,6 +101,14 @@ pub struct ReplayOptions {
     pub set: Vec<ParamEdit>,
     /// Whether the output recording is written (a fault sweep needs only the reports).
     pub write_output: bool,
+    /// Write only what the replay produced (the [`REPLAY_PREFIX`] channels), not a copy of
+    /// the recorded channels, which the recording holds already (`--outputs-only`). The
+    /// comparison and the report are unchanged.
+    pub outputs_only: bool,
+    /// Interfaces whose channels, recorded or re-simulated, are not written to the output
+    /// (`--leave-out ImageSource`: camera frames are most of a recording's bytes). They are
+    /// still compared.
+    pub left_out: BTreeSet<String>,
 }
 
 impl ReplayOptions {
@@ -119,6 +128,8 @@ impl ReplayOptions {
             robot: None,
             set: Vec::new(),
             write_output: true,
+            outputs_only: false,
+            left_out: BTreeSet::new(),
         }
     }
 }
@@ -474,6 +485,8 @@ pub fn replay_with(
         .map(|f| FaultWatch::new(f.clone(), robot))
         .collect();
     let mut sink = OutputSink::new(recorder, comparator, watches);
+    sink.outputs_only = options.outputs_only;
+    sink.left_out.clone_from(&options.left_out);
 
     let mut harness = Lockstep::new(robot, registry, plan)?;
     if let (Some(mission), Some(programs)) = (closure.mission.clone(), programs) {

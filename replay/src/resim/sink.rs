@@ -3,7 +3,7 @@
 //! with the recording, and the watch on the broker's reactions to each fault. Nothing here
 //! keeps more than a bounded amount of the run.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use lewis_interfaces::msg::{
     Broker as BrokerMessage, GroundTruth, Health as HealthMessage, LogLine, LogLineLevel,
@@ -51,7 +51,12 @@ pub(super) struct OutputSink {
     pub(super) failures: Vec<Failure>,
     pub(super) written: u64,
     pub(super) error: Option<RecordError>,
-    channels: BTreeMap<String, ChannelId>,
+    /// Recorded messages are not copied (`ReplayOptions::outputs_only`).
+    pub(super) outputs_only: bool,
+    /// Interfaces not written (`ReplayOptions::left_out`).
+    pub(super) left_out: BTreeSet<String>,
+    /// Each topic's channel in the output; `None`: not written (its interface left out).
+    channels: BTreeMap<String, Option<ChannelId>>,
     seqs: BTreeMap<String, u64>,
 }
 
@@ -70,6 +75,8 @@ impl OutputSink {
             failures: Vec::new(),
             written: 0,
             error: None,
+            outputs_only: false,
+            left_out: BTreeSet::new(),
             channels: BTreeMap::new(),
             seqs: BTreeMap::new(),
         }
@@ -77,12 +84,17 @@ impl OutputSink {
 
     fn channel(&mut self, spec: impl FnOnce() -> ChannelSpec, topic: &str) -> Option<ChannelId> {
         if let Some(id) = self.channels.get(topic) {
-            return Some(*id);
+            return *id;
         }
         let recorder = self.recorder.as_mut()?;
-        match recorder.add_channel(spec()) {
+        let spec = spec();
+        if self.left_out.contains(&spec.interface) {
+            self.channels.insert(topic.to_owned(), None);
+            return None;
+        }
+        match recorder.add_channel(spec) {
             Ok(id) => {
-                self.channels.insert(topic.to_owned(), id);
+                self.channels.insert(topic.to_owned(), Some(id));
                 Some(id)
             }
             Err(e) => {
@@ -113,8 +125,8 @@ impl OutputSink {
     }
 
     /// A recorded message, due now in replay order: copied (but the recorder's own stats,
-    /// which the new file has afresh, and an older replay's channels), and compared when it
-    /// is an output of a re-simulated service.
+    /// which the new file has afresh, an older replay's channels, and anything with
+    /// `outputs_only`), and compared when it is an output of a re-simulated service.
     pub(super) fn recorded(
         &mut self,
         topic: Option<&Topic>,
@@ -125,6 +137,7 @@ impl OutputSink {
         if name == STATS_TOPIC || name.starts_with(&format!("{REPLAY_PREFIX}/")) {
             return;
         }
+        let copied = !self.outputs_only;
         let spec = || ChannelSpec {
             topic: name.to_owned(),
             schema_name: topic.map(|t| t.schema_name.clone()).unwrap_or_default(),
@@ -136,7 +149,7 @@ impl OutputSink {
                 .unwrap_or_default(),
             extra_metadata: BTreeMap::new(),
         };
-        if let Some(id) = self.channel(spec, name) {
+        if copied && let Some(id) = self.channel(spec, name) {
             self.write(
                 id,
                 message.seq,

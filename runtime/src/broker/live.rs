@@ -1400,7 +1400,8 @@ mod tests {
     }
 
     use super::*;
-    use crate::broker::{Health, ServiceState};
+    use crate::broker::ServiceState;
+    use lewis_service::Health;
 
     #[test]
     fn decisions_become_broker_messages_with_every_field_in_place() {

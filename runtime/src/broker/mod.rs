@@ -18,6 +18,6 @@ pub mod remote;
 pub mod status;
 
 pub use self::core::{
-    Action, AfterStop, Binding, BrokerCore, Decision, Event, ExitStatus, Health, Need,
-    ServiceState, ServiceStatus, Snapshot,
+    Action, AfterStop, Binding, BrokerCore, Decision, Event, ExitStatus, Need, ServiceState,
+    ServiceStatus, Snapshot,
 };

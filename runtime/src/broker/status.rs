@@ -126,7 +126,8 @@ impl fmt::Display for StatusText<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::broker::{Binding, Health, ServiceStatus};
+    use crate::broker::{Binding, ServiceStatus};
+    use lewis_service::Health;
 
     fn snapshot() -> Snapshot {
         Snapshot {

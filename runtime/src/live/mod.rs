@@ -36,8 +36,6 @@ mod signals;
 pub use service_clock::{CLOCK_ENV, ClockSource, UnknownClock};
 pub use signals::{StopHandle, StopSignals};
 
-pub use lewis_service::RECORDING_ENV;
-
 use std::collections::BTreeMap;
 use std::os::fd::AsFd;
 use std::rc::Rc;

@@ -51,7 +51,7 @@ pub use error::{StartError, StopError, SuperviseError};
 pub use event::{ExitStatus, LogLine, Stream, SupervisorEvent};
 pub use machine::MachineSettings;
 pub use output::MAX_LINE_BYTES;
-pub use policy::{RestartDecision, RestartPolicy, RestartTracker};
+pub use policy::{RestartDecision, RestartTracker};
 pub use priority::{PriorityError, PrioritySet, realtime_allowed, set_nice, set_thread_realtime};
 pub use spec::{ChildSpec, DEFAULT_STOP_GRACE, Restart};
 pub use supervisor::Supervisor;

@@ -5,7 +5,7 @@
 
 use std::collections::VecDeque;
 
-pub use lewis_robot::RestartPolicy;
+use lewis_robot::RestartPolicy;
 
 /// What to do after a failure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

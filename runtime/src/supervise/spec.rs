@@ -5,7 +5,7 @@ use std::ffi::OsString;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use super::policy::RestartPolicy;
+use lewis_robot::RestartPolicy;
 
 /// How long a child has between SIGTERM and SIGKILL unless its spec says otherwise.
 pub const DEFAULT_STOP_GRACE: Duration = Duration::from_secs(2);

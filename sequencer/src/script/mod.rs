@@ -6,4 +6,4 @@ mod lexer;
 mod parser;
 
 pub use ast::{Action, EnvVar, Script, State};
-pub use parser::{MAX_INCLUDE_DEPTH, parse};
+pub use parser::{KEYWORDS, MAX_INCLUDE_DEPTH, parse};

@@ -19,8 +19,8 @@ use lewis_stdx::closest;
 /// How deep includes may nest.
 pub const MAX_INCLUDE_DEPTH: usize = 32;
 
-/// Every keyword a line may start with.
-const KEYWORDS: [&str; 9] = [
+/// Every keyword a line may start with (the guide's script chapter names each; a test checks).
+pub const KEYWORDS: [&str; 9] = [
     "start", "restart", "recovery", "use", "state", "action", "timeout", "env", "include",
 ];
 

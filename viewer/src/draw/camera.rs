@@ -3,17 +3,24 @@
 use std::collections::BTreeMap;
 
 use lewis_interfaces::msg::{Blobs, Header, ImageSource, Signs};
+use rerun::components::MediaType;
 use rerun::datatypes::{ChannelDatatype, ColorModel};
-use rerun::{Arrows2D, Boxes2D, Color, Image, TextLog};
+use rerun::{Arrows2D, AsComponents, Boxes2D, Color, EncodedImage, Image, TextLog};
 
 use super::scans::rgb;
 use super::topic_entity;
-use crate::ViewError;
 use crate::rows::{ChunkSink, Rows, Stamp};
+use crate::{CameraFrames, ViewError};
 
 /// Which image topic each picture space is named after.
 #[derive(Debug, Default)]
 pub(super) struct CameraState {
+    /// Which frames are shown, and how they are stored.
+    frames: CameraFrames,
+    /// Per image topic: the log time of the last frame shown.
+    last_shown_ns: BTreeMap<String, u64>,
+    /// Frames left out by [`CameraFrames::every_ns`].
+    pub(super) skipped: u64,
     /// Image topics seen, in order of appearance (the first is where blobs without
     /// provenance are drawn).
     image_topics: Vec<String>,
@@ -22,6 +29,14 @@ pub(super) struct CameraState {
 }
 
 impl CameraState {
+    /// The camera state of a scene that keeps `frames`.
+    pub(super) fn new(frames: CameraFrames) -> Self {
+        Self {
+            frames,
+            ..Self::default()
+        }
+    }
+
     /// The image topic that `header`'s inputs name, else the first image topic seen.
     fn space_of(&self, header: &Header) -> Option<&str> {
         header
@@ -47,9 +62,17 @@ impl CameraState {
         if !self.image_topics.iter().any(|t| t == topic) {
             self.image_topics.push(topic.to_owned());
         }
+        if let Some(last) = self.last_shown_ns.get(topic)
+            && stamp.log_time_ns < last.saturating_add(self.frames.every_ns)
+        {
+            self.skipped += 1;
+            return Ok(());
+        }
+        self.last_shown_ns
+            .insert(topic.to_owned(), stamp.log_time_ns);
         let path = topic_entity(&["camera"], topic, &["image"]);
-        match to_rerun_image(image) {
-            Ok((picture, bytes)) => rows.log(sink, &path, stamp, &picture, bytes),
+        match to_rerun_image(image, self.frames.jpeg_quality) {
+            Ok((picture, bytes)) => rows.log(sink, &path, stamp, picture.as_ref(), bytes),
             Err(reason) => {
                 let count = self.unshown.entry(topic.to_owned()).or_default();
                 *count += 1;
@@ -152,8 +175,12 @@ impl CameraState {
     }
 }
 
-/// The Rerun image of a camera frame and its size, or why it cannot be shown.
-fn to_rerun_image(image: &ImageSource) -> Result<(Image, usize), String> {
+/// The Rerun image of a camera frame and its size, or why it cannot be shown: its pixels
+/// as they are, or JPEG-compressed at `jpeg_quality` (1 to 100).
+fn to_rerun_image(
+    image: &ImageSource,
+    jpeg_quality: Option<u8>,
+) -> Result<(Box<dyn AsComponents>, usize), String> {
     let channels = match image.encoding.as_str() {
         "rgb8" | "bgr8" => 3,
         "rgba8" | "bgra8" => 4,
@@ -193,6 +220,12 @@ fn to_rerun_image(image: &ImageSource) -> Result<(Image, usize), String> {
             .copied()
             .collect()
     };
+    if let Some(quality) = jpeg_quality {
+        let jpeg = to_jpeg(&image.encoding, pixels, width, height, quality)?;
+        let bytes = jpeg.len();
+        let encoded = EncodedImage::new(jpeg).with_media_type(MediaType::jpeg());
+        return Ok((Box::new(encoded), bytes));
+    }
     let model = match image.encoding.as_str() {
         "rgb8" => ColorModel::RGB,
         "bgr8" => ColorModel::BGR,
@@ -206,7 +239,79 @@ fn to_rerun_image(image: &ImageSource) -> Result<(Image, usize), String> {
         u32::try_from(height).map_err(|_| "too high".to_owned())?,
     ];
     Ok((
-        Image::from_color_model_and_bytes(pixels, resolution, model, ChannelDatatype::U8),
+        Box::new(Image::from_color_model_and_bytes(
+            pixels,
+            resolution,
+            model,
+            ChannelDatatype::U8,
+        )),
         bytes,
     ))
+}
+
+/// `pixels` (`width` x `height`, rows packed, in `encoding`) as a JPEG file; colour without
+/// its alpha, BGR turned to RGB.
+fn to_jpeg(
+    encoding: &str,
+    mut pixels: Vec<u8>,
+    width: usize,
+    height: usize,
+    quality: u8,
+) -> Result<Vec<u8>, String> {
+    let channels = pixels.len() / (width * height);
+    let colour_type = if channels == 1 {
+        image::ExtendedColorType::L8
+    } else {
+        if channels == 4 {
+            pixels = pixels
+                .chunks_exact(4)
+                .flat_map(|p| [p[0], p[1], p[2]])
+                .collect();
+        }
+        if encoding.starts_with("bgr") {
+            for p in pixels.chunks_exact_mut(3) {
+                p.swap(0, 2);
+            }
+        }
+        image::ExtendedColorType::Rgb8
+    };
+    let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
+        return Err(format!("{width}x{height} is too large"));
+    };
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, quality.clamp(1, 100))
+        .encode(&pixels, w, h, colour_type)
+        .map_err(|e| format!("cannot compress as JPEG: {e}"))?;
+    Ok(jpeg)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn frame(encoding: &str, channels: i32) -> ImageSource {
+        let (width, height) = (16, 8);
+        ImageSource {
+            width,
+            height,
+            step: width * channels,
+            encoding: encoding.to_owned(),
+            data: (0..width * height * channels)
+                .map(|i| u8::try_from(i % 251).unwrap())
+                .collect(),
+            ..ImageSource::default()
+        }
+    }
+
+    #[test]
+    fn frames_are_compressed_as_jpeg_when_asked() {
+        for (encoding, channels) in [("rgb8", 3), ("bgra8", 4), ("mono8", 1)] {
+            let image = frame(encoding, channels);
+            let (_, raw) = to_rerun_image(&image, None).unwrap();
+            assert_eq!(raw, image.data.len());
+            let (_, jpeg) = to_rerun_image(&image, Some(80)).unwrap();
+            assert!(jpeg > 0 && jpeg != raw, "{encoding}: {jpeg} bytes");
+        }
+    }
 }

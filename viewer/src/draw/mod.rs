@@ -187,7 +187,7 @@ pub struct Counts {
 }
 
 impl Scene {
-    pub(crate) fn new() -> Self {
+    pub(crate) fn new(frames: crate::CameraFrames) -> Self {
         Self {
             rows: Rows::new(),
             world_pose: None,
@@ -206,7 +206,7 @@ impl Scene {
             mission_path: Vec::new(),
             faults: faults::FaultMarks::default(),
             has_replay: false,
-            camera: camera::CameraState::default(),
+            camera: camera::CameraState::new(frames),
             counts: Counts::default(),
             failures: BTreeMap::new(),
         }
@@ -255,6 +255,11 @@ impl Scene {
     /// Whether the recording has camera images.
     pub(crate) fn has_images(&self) -> bool {
         self.has_images
+    }
+
+    /// Camera frames left out ([`crate::CameraFrames::every_ns`]).
+    pub(crate) fn frames_skipped(&self) -> u64 {
+        self.camera.skipped
     }
 
     /// Rows logged per entity path.

@@ -125,6 +125,41 @@ fn sonar_scan() -> RangeFinder {
     }
 }
 
+/// Writes `frames` camera frames (64x48 rgb8, of noise), 100 ms apart, to `dir/camera.mcap`
+/// and returns its path.
+pub fn camera_run(dir: &Path, frames: i64) -> PathBuf {
+    let path = dir.join("camera.mcap");
+    let mut w = writer(&path, None);
+    let camera = w.channel::<ImageSource>("camera", "/camera/ImageSource");
+    let (width, height) = (64_i32, 48_i32);
+    let mut noise: u32 = 1;
+    for k in 0..frames {
+        let data: Vec<u8> = (0..width * height * 3)
+            .map(|_| {
+                noise ^= noise << 13;
+                noise ^= noise >> 17;
+                noise ^= noise << 5;
+                noise.to_le_bytes()[0]
+            })
+            .collect();
+        w.write(
+            camera,
+            ImageSource {
+                header: header("camera"),
+                width,
+                height,
+                encoding: "rgb8".to_owned(),
+                step: width * 3,
+                data,
+                ..ImageSource::default()
+            },
+            START_NS + k * STEP_NS,
+        );
+    }
+    w.recorder.close().unwrap();
+    path
+}
+
 /// A robot description whose simulated base lives in `world`, as `lewis up` stores it.
 pub fn robot_toml(world: &str) -> String {
     format!(
@@ -135,7 +170,7 @@ pub fn robot_toml(world: &str) -> String {
 
 /// The conference world of the repository, by its absolute path.
 pub fn conference_world() -> String {
-    lewis_tests::repo_root()
+    lewis_testkit::repository_root()
         .join("robots/worlds/conference")
         .display()
         .to_string()

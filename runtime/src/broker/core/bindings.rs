@@ -6,7 +6,8 @@ use std::collections::BTreeSet;
 
 use super::plan::{Broken, Pair};
 use super::service::{AfterStop, Entry, Offer, ServiceState};
-use super::{Action, BrokerCore, Health, Need};
+use super::{Action, BrokerCore, Need};
+use lewis_service::Health;
 
 impl BrokerCore {
     pub(super) fn request(&mut self, client: &str, interface: &str) {

@@ -3,9 +3,10 @@
 
 use super::decision::{fmt_span, fmt_time};
 use super::service::{AfterStop, Probation, ServiceState, ms_to_ns};
-use super::{Action, BrokerCore, ExitStatus, Health, Need};
+use super::{Action, BrokerCore, ExitStatus, Need};
 use crate::supervise::RestartDecision;
 use lewis_robot::{OnCheckFailure, StartMode};
+use lewis_service::Health;
 
 impl BrokerCore {
     pub(super) fn boot(&mut self) {

@@ -9,7 +9,7 @@
 //!   cost; then name. A provider that is not running is started on demand and the client is
 //!   bound to it at once, so it subscribes while the process comes up.
 //! - A provider that crashes (any exit the broker did not ask for, code 0 included) is
-//!   restarted within its [`RestartPolicy`](crate::supervise::RestartPolicy); its clients stay
+//!   restarted within its [`RestartPolicy`](lewis_robot::RestartPolicy); its clients stay
 //!   bound meanwhile. Beyond the policy it has failed: its clients are rebound to the next
 //!   provider, started if needed.
 //! - A provider that misses its heartbeat deadline (or its startup deadline) has stalled: it
@@ -73,7 +73,7 @@ mod tests;
 use std::collections::{BTreeMap, BTreeSet};
 
 pub use decision::{Action, Decision, Need};
-pub use event::{Event, ExitStatus, Health};
+pub use event::{Event, ExitStatus};
 pub use service::{AfterStop, ServiceState};
 pub use snapshot::{Binding, ServiceStatus, Snapshot};
 

@@ -8,6 +8,7 @@ use proptest::prelude::*;
 
 use super::tests::{core_for, invariants};
 use super::*;
+use lewis_service::Health;
 use service::Entry;
 
 const MS: i64 = 1_000_000;

@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::event::Health;
 use crate::supervise::RestartTracker;
 use lewis_robot::{ServiceSpec, StartMode};
+use lewis_service::Health;
 
 /// Where a service is in its life, as the broker sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

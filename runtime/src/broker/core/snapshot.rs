@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 
 use super::BrokerCore;
 use super::decision::{fmt_span, fmt_time};
-use super::event::Health;
 use super::service::{AfterStop, ServiceState};
+use lewis_service::Health;
 
 /// The broker's state at one moment.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

@@ -9,6 +9,7 @@ use expect_test::{Expect, expect};
 use super::decision::fmt_time;
 use super::*;
 use lewis_robot as robot;
+use lewis_service::Health;
 
 pub(super) const KNOWN: &[&str] = &[
     "RangeFinder",
