@@ -132,15 +132,10 @@ pub fn camera_run(dir: &Path, frames: i64) -> PathBuf {
     let mut w = writer(&path, None);
     let camera = w.channel::<ImageSource>("camera", "/camera/ImageSource");
     let (width, height) = (64_i32, 48_i32);
-    let mut noise: u32 = 1;
+    let mut noise = lewis_service::NoiseBytes::new(1, 0);
     for k in 0..frames {
         let data: Vec<u8> = (0..width * height * 3)
-            .map(|_| {
-                noise ^= noise << 13;
-                noise ^= noise >> 17;
-                noise ^= noise << 5;
-                noise.to_le_bytes()[0]
-            })
+            .map(|_| noise.next_byte())
             .collect();
         w.write(
             camera,
