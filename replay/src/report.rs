@@ -401,6 +401,13 @@ impl fmt::Display for Report {
             self.harness.ticks
         )?;
         let h = &self.harness;
+        if h.inputs_after_stop > 0 {
+            writeln!(
+                f,
+                "not delivered: {} inputs recorded after their client had stopped live",
+                h.inputs_after_stop
+            )?;
+        }
         if h.calls_between_resimulated
             + h.calls_answered_from_log
             + h.calls_defaulted

@@ -119,6 +119,9 @@ pub fn measure(
             .unwrap_or(recording.start_ns());
         harness.start(first.min(recording.start_ns()), &mut sink);
         while let Some((at, message)) = window.next(&mut |m, t| harness.preview(m, t))? {
+            if window.read_whole() {
+                harness.read_whole();
+            }
             harness.feed(&message, at, &mut sink);
         }
         harness.finish(recording.end_ns(), &mut sink);

@@ -356,6 +356,11 @@ impl Lockstep<'_> {
         let Some(sim) = self.sims.get(client) else {
             return;
         };
+        // Live, the client had stopped: the sample never reached it.
+        if self.script.gone(client, self.now_ns) {
+            self.stats.inputs_after_stop += 1;
+            return;
+        }
         // A channel's samples keep their order: behind a held one, the next waits too.
         let behind = sim
             .held

@@ -182,6 +182,9 @@ pub struct HarnessStats {
     /// Samples held back because the recording says the service had not received them
     /// yet at its next event (handed over right after it).
     pub inputs_held: u64,
+    /// Samples not handed over because the recording says their client had stopped by
+    /// then (`lewis up` stops clients before their providers).
+    pub inputs_after_stop: u64,
     /// Ticks run.
     pub ticks: u64,
     /// Of those, ticks at the recorded time of a followed service.
@@ -363,7 +366,15 @@ impl<'a> Lockstep<'a> {
             .followed
             .iter()
             .filter(|s| plan.resimulated.contains(*s))
-            .cloned();
+            .map(|s| {
+                let deadline_ms = robot
+                    .service(s)
+                    .map_or(robot.broker.heartbeat_deadline_ms, |spec| {
+                        spec.heartbeat_deadline_ms
+                    });
+                let deadline_ns = i64::try_from(deadline_ms.saturating_mul(1_000_000));
+                (s.clone(), deadline_ns.unwrap_or(i64::MAX))
+            });
         let heartbeat_period_ns = i64::try_from(
             robot
                 .broker
@@ -424,6 +435,7 @@ impl<'a> Lockstep<'a> {
     /// the answers of fed services. Call it for every message, in reading order, before
     /// the message is fed.
     pub fn preview(&mut self, message: &RecordedMessage, at_ns: i64) {
+        self.script.read_to(at_ns);
         match self.route_of(&message.topic) {
             Route::Data { service, .. } => {
                 let input = lewis_service::Input {
@@ -461,8 +473,15 @@ impl<'a> Lockstep<'a> {
                         .expect_call(&service, &caller, &log.request, taken);
                 }
             }
-            Route::Health { .. } | Route::Broker | Route::Cpu | Route::Hosts | Route::Other => {}
+            Route::Health { service } => self.script.expect_life(&service, at_ns),
+            Route::Broker | Route::Cpu | Route::Hosts | Route::Other => {}
         }
+    }
+
+    /// Every message of the recording has been previewed: a followed service not heard of
+    /// again had stopped.
+    pub fn read_whole(&mut self) {
+        self.script.read_whole();
     }
 
     /// Runs everything due up to `at_ns` (the message's replay time), then hands the message

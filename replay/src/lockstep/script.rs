@@ -3,7 +3,7 @@
 //! publish times), which inputs it had by then (their provenance), and when it took up each
 //! command that another re-simulated service sent it (its recorded command log).
 //!
-//! The harness asks it two questions:
+//! The harness asks it three questions:
 //! - [`Script::holds`]: must a sample wait before it is handed to a followed service? Yes
 //!   when the service's next recorded event names an older sample of that channel (or none
 //!   of it, while a later one names it): live, the sample had not reached the service yet.
@@ -11,6 +11,12 @@
 //!   [`MAX_HOLD_NS`].
 //! - [`Script::call_time`]: when did the server take up this call live? When its recorded
 //!   command log holds the same request bytes from the same caller.
+//! - [`Script::gone`]: had the service stopped live by now? Yes when the recording shows no
+//!   sign of its life (a heartbeat, an output) from now on, while showing enough of what
+//!   follows to tell (longer than its heartbeat deadline, or all of it). `lewis up` stops
+//!   a client before the providers it is bound to, so a provider's last samples are recorded
+//!   after its client stopped: handed to the client in the replay, they would make outputs
+//!   that the run never had.
 //!
 //! Everything here is bounded by the look-ahead window of the reader: events and calls are
 //! dropped once the virtual clock has passed them.
@@ -45,23 +51,70 @@ struct ServiceScript {
     /// Recorded calls it took up from other re-simulated services: (caller, request) ->
     /// the times it took them up, oldest first.
     calls: BTreeMap<(String, Vec<u8>), VecDeque<i64>>,
+    /// The time of its latest sign of life read so far: a heartbeat or an output.
+    last_life_ns: Option<i64>,
+    /// Silence longer than this means it was not running: its heartbeat deadline.
+    deadline_ns: i64,
 }
 
 /// The recorded schedule of every followed service.
 #[derive(Debug, Default)]
 pub struct Script {
     services: BTreeMap<String, ServiceScript>,
+    /// The latest time read ahead so far.
+    read_to_ns: i64,
+    /// Whether the whole recording has been read ahead.
+    read_whole: bool,
 }
 
 impl Script {
-    /// A script that follows `services` (none recorded yet).
-    pub fn new(services: impl IntoIterator<Item = String>) -> Self {
+    /// A script that follows `services`, each with its heartbeat deadline in ns (none
+    /// recorded yet).
+    pub fn new(services: impl IntoIterator<Item = (String, i64)>) -> Self {
         Self {
             services: services
                 .into_iter()
-                .map(|s| (s, ServiceScript::default()))
+                .map(|(service, deadline_ns)| {
+                    let script = ServiceScript {
+                        deadline_ns,
+                        ..ServiceScript::default()
+                    };
+                    (service, script)
+                })
                 .collect(),
+            read_to_ns: i64::MIN,
+            read_whole: false,
         }
+    }
+
+    /// A message recorded at `time_ns` was read ahead.
+    pub fn read_to(&mut self, time_ns: i64) {
+        self.read_to_ns = self.read_to_ns.max(time_ns);
+    }
+
+    /// The whole recording has been read ahead: what has not been seen will not come.
+    pub fn read_whole(&mut self) {
+        self.read_whole = true;
+    }
+
+    /// `service` showed it was running at `time_ns` (a heartbeat).
+    pub fn expect_life(&mut self, service: &str, time_ns: i64) {
+        if let Some(script) = self.services.get_mut(service) {
+            script.last_life_ns = Some(script.last_life_ns.map_or(time_ns, |t| t.max(time_ns)));
+        }
+    }
+
+    /// Whether `service` had stopped live by `now_ns` (see the module documentation): its
+    /// latest sign of life is older, and what was read after it is longer than its deadline
+    /// or the rest of the recording.
+    pub fn gone(&self, service: &str, now_ns: i64) -> bool {
+        let Some(script) = self.services.get(service) else {
+            return false;
+        };
+        script.last_life_ns.is_some_and(|last| {
+            last < now_ns
+                && (self.read_whole || self.read_to_ns.saturating_sub(last) > script.deadline_ns)
+        })
     }
 
     /// Stops following `service` (it lives otherwise than it did live).
@@ -82,6 +135,7 @@ impl Script {
     /// `service` published at `time_ns` live, computed from `inputs`. Publications of one
     /// handler share its time: they make one event.
     pub fn expect_event(&mut self, service: &str, time_ns: i64, inputs: &[InputRef]) {
+        self.expect_life(service, time_ns);
         let Some(script) = self.services.get_mut(service) else {
             return;
         };
@@ -227,8 +281,30 @@ mod tests {
     }
 
     #[test]
+    fn a_service_silent_for_longer_than_its_deadline_or_to_the_end_was_gone() {
+        let mut script = Script::new([("front".to_owned(), 50 * MS)]);
+        script.expect_life("front", 100 * MS);
+        script.expect_event("front", 120 * MS, &[]);
+        script.read_to(150 * MS);
+        // Heard of 30 ms ago: it may be between heartbeats.
+        assert!(!script.gone("front", 130 * MS));
+        script.read_to(171 * MS);
+        // Nothing for longer than its deadline after its last output.
+        assert!(script.gone("front", 130 * MS));
+        assert!(!script.gone("front", 120 * MS));
+        // At the end of the recording, any silence: it was stopped before the recorder.
+        script.expect_life("front", 200 * MS);
+        script.read_to(210 * MS);
+        assert!(!script.gone("front", 205 * MS));
+        script.read_whole();
+        assert!(script.gone("front", 205 * MS));
+        // A service not followed is never judged.
+        assert!(!script.gone("laser", 205 * MS));
+    }
+
+    #[test]
     fn a_sample_waits_while_the_next_recorded_event_names_an_older_one() {
-        let mut script = Script::new(["avoider".to_owned()]);
+        let mut script = Script::new([("avoider".to_owned(), 50 * MS)]);
         script.expect_event("avoider", 100 * MS, &[input("/odom", 4)]);
         script.expect_event("avoider", 200 * MS, &[input("/odom", 9)]);
         // Sample 4 was there at the event of 100 ms, sample 5 was not.
@@ -243,7 +319,7 @@ mod tests {
 
     #[test]
     fn an_event_that_names_nothing_of_a_channel_named_later_holds_its_samples() {
-        let mut script = Script::new(["avoider".to_owned()]);
+        let mut script = Script::new([("avoider".to_owned(), 50 * MS)]);
         script.expect_event("avoider", 100 * MS, &[input("/odom", 4)]);
         script.expect_event("avoider", 200 * MS, &[input("/odom", 9), input("/scan", 1)]);
         assert!(script.holds("avoider", "/scan", 1, 90 * MS, 95 * MS));
@@ -253,7 +329,7 @@ mod tests {
 
     #[test]
     fn publications_of_one_handler_make_one_event_and_are_taken_once() {
-        let mut script = Script::new(["laser".to_owned()]);
+        let mut script = Script::new([("laser".to_owned(), 50 * MS)]);
         script.expect_event("laser", 100 * MS, &[input("/truth", 3)]);
         script.expect_event("laser", 100 * MS, &[input("/truth", 2)]);
         let event = script.take_event("laser", 100 * MS).unwrap();
@@ -264,7 +340,7 @@ mod tests {
 
     #[test]
     fn recorded_calls_are_matched_by_caller_and_bytes_once_and_expire() {
-        let mut script = Script::new(["mover".to_owned()]);
+        let mut script = Script::new([("mover".to_owned(), 50 * MS)]);
         script.expect_call("mover", "avoider", b"goto 1", 101 * MS);
         script.expect_call("mover", "avoider", b"goto 2", 301 * MS);
         script.expect_call("mover", "avoider", b"goto 3", 501 * MS);

@@ -109,6 +109,12 @@ impl<I: Iterator<Item = Result<RecordedMessage, RecordingError>>> Lookahead<I> {
         }
     }
 
+    /// Whether every message of the source has been read (and previewed).
+    #[must_use]
+    pub const fn read_whole(&self) -> bool {
+        self.exhausted
+    }
+
     /// The replay time of the next message to hand over, reading as far as needed.
     ///
     /// # Errors

@@ -502,6 +502,9 @@ pub fn replay_with(
     let mut read = 0u64;
     let mut last_ns = start_ns;
     while let Some((at_ns, message)) = window.next(&mut |m, t| harness.preview(m, t))? {
+        if window.read_whole() {
+            harness.read_whole();
+        }
         read += 1;
         last_ns = last_ns.max(at_ns);
         // A mission lived again is over: live, `lewis up --script` would stop the robot. The
