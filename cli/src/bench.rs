@@ -9,6 +9,7 @@
 //!   lived again as a multiple of real time, beside its handlers' own time, its peak
 //!   memory and a sweep's time.
 
+use lewis_service::ServiceRegistry;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,8 +22,6 @@ use lewis_replay::bench::speed::{SpeedOptions, measure};
 use lewis_replay::fault::FaultKind;
 use lewis_replay::resim::{ReplayOptions, ServiceSelection};
 use lewis_replay::sweep::SweepSpec;
-
-use crate::service::registry;
 
 /// The measures.
 #[derive(Debug, Subcommand)]
@@ -85,14 +84,12 @@ pub struct LongArgs {
     pub size_mb: u64,
 }
 
-fn closed_loop(args: &ClosedLoopArgs) -> anyhow::Result<ExitCode> {
+fn closed_loop(args: &ClosedLoopArgs, registry: ServiceRegistry) -> anyhow::Result<ExitCode> {
     let scratch =
         std::env::temp_dir().join(format!("lewis-bench-closed-{}.mcap", std::process::id()));
     let mut replay = ReplayOptions::new(vec![args.input.clone()]);
     replay.output = Some(scratch.clone());
     replay.services = ServiceSelection::All;
-    replay.source_kinds = crate::replay::source_kinds();
-    replay.simulated_kinds = crate::replay::simulated_kinds();
     let sweep = args.sweep_fault.as_ref().map(|provider| SweepSpec {
         providers: vec![provider.clone()],
         kind: FaultKind::Crash,
@@ -103,7 +100,7 @@ fn closed_loop(args: &ClosedLoopArgs) -> anyhow::Result<ExitCode> {
     });
     let report = measure_closed(
         &replay,
-        &std::sync::Arc::new(registry()),
+        &std::sync::Arc::new(registry),
         &crate::app::programs(),
         sweep.as_ref(),
     );
@@ -131,25 +128,24 @@ fn print_figures(
 }
 
 /// Runs `lewis bench`.
-pub fn run(command: &BenchCommand) -> anyhow::Result<ExitCode> {
+pub fn run(command: &BenchCommand, registry: ServiceRegistry) -> anyhow::Result<ExitCode> {
     match command {
         BenchCommand::Replay(args) => {
             let scratch = std::env::temp_dir()
                 .join(format!("lewis-bench-replay-{}.mcap", std::process::id()));
             let mut replay = ReplayOptions::new(vec![args.input.clone()]);
             replay.output = Some(scratch.clone());
-            replay.source_kinds = crate::replay::source_kinds();
             let options = SpeedOptions {
                 replay,
                 runs: args.runs,
             };
-            let report = measure(&options, &registry());
+            let report = measure(&options, &registry);
             if report.is_err() {
                 let _ = std::fs::remove_file(&scratch);
             }
             print_figures(report?, &scratch, args.json)
         }
-        BenchCommand::ClosedLoop(args) => closed_loop(args),
+        BenchCommand::ClosedLoop(args) => closed_loop(args, registry),
         BenchCommand::LongRecording(args) => {
             let mut last = 0;
             let report = write_long(

@@ -2,6 +2,7 @@
 //! recording re-simulated with another fault, and a few lines saying what happened
 //! (`lewis_demo`).
 
+use lewis_service::ServiceRegistry;
 use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
@@ -66,7 +67,7 @@ fn parse_fault(text: &str) -> Result<FaultSpec, String> {
 }
 
 /// Runs `lewis demo`: exit 0 when the mission succeeded, 1 when it failed.
-pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+pub fn run(args: &DemoArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode> {
     if args.pictures_only {
         let files = lewis_demo::DemoFiles::in_dir(&args.out);
         anyhow::ensure!(
@@ -91,13 +92,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         fault,
         namespace: Namespace::from_arg(args.namespace.as_deref())?,
         lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
-        source_kinds: crate::replay::source_kinds(),
-        simulated_kinds: crate::replay::simulated_kinds(),
     };
     // The verdict as soon as the mission is over; the replay takes a minute more.
     let report = lewis_demo::run_demo(
         &options,
-        &crate::service::registry(),
+        registry,
         &crate::app::programs(),
         &mut |mission, fault| {
             let mut out = std::io::stdout().lock();

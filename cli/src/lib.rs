@@ -4,6 +4,7 @@
 //! Exit codes: 0 success; 1 the command ran and found problems (invalid definitions,
 //! a failed check); 2 the command could not run (bad arguments, unreadable files).
 
+use lewis_service::ServiceRegistry;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -120,11 +121,34 @@ pub enum Command {
     Bench(bench::BenchCommand),
 }
 
-/// Runs the parsed command and returns the process exit code.
+/// The whole `lewis` command with the service kinds of `registry`: parses the command line,
+/// runs it, prints an error, and returns the exit code (2 when the command could not run).
+///
+/// `lewis`'s own `main` passes `lewis_kinds::registry()`. A team's binary passes that
+/// registry with its own kinds added, and is then `lewis` that knows them: `up` checks robot
+/// files against them and starts their services (as `<that binary> service NAME`), `replay`
+/// and `demo` re-simulate them.
+#[must_use]
+pub fn main_with(registry: ServiceRegistry) -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli, registry) {
+        Ok(code) => code,
+        Err(err) => {
+            #[allow(clippy::print_stderr)]
+            {
+                eprintln!("error: {}", error_text(&err));
+            }
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Runs the parsed command with the service kinds of `registry` and returns the process
+/// exit code.
 ///
 /// # Errors
-/// When the command cannot run; the caller prints the error chain and exits with 2.
-pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+/// When the command cannot run; [`main_with`] prints the error chain and exits with 2.
+pub fn run(cli: Cli, registry: ServiceRegistry) -> anyhow::Result<ExitCode> {
     // A service started by `lewis up` says as much as `lewis up` was asked to.
     let verbosity = match (cli.verbose, cli.quiet) {
         (0, false) => Verbosity::inherited().unwrap_or_default(),
@@ -150,11 +174,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Import(command) => import::run(command),
         Command::Export(command) => export::run(command),
         Command::Play(args) => play::run(&args),
-        Command::Replay(args) => replay::run(&args),
-        Command::Up(args) => up::run(&args),
+        Command::Replay(args) => replay::run(&args, &registry),
+        Command::Up(args) => up::run(&args, &registry),
         Command::App(args) => app::run(&args),
-        Command::Demo(args) => demo::run(&args),
-        Command::Service(args) => service::run(&args),
+        Command::Demo(args) => demo::run(&args, &registry),
+        Command::Service(args) => service::run(&args, &registry),
         Command::Status(args) => status::run(&args),
         #[cfg(feature = "viewer")]
         Command::View(args) => view::run(&args),
@@ -162,6 +186,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::FakeDevice(args) => fake_device::run(&args),
         Command::Tune(command) => tune::run(command),
         Command::StressPublish(args) => stress::run(&args),
-        Command::Bench(command) => bench::run(&command),
+        Command::Bench(command) => bench::run(&command, registry),
     }
 }

@@ -1,20 +1,8 @@
-//! The `lewis` command. Thin: it parses the command line, calls one `run`, and maps the
-//! result to an exit code.
+//! The `lewis` command. Thin: everything is [`lewis::main_with`], given Lewis's own service
+//! kinds.
 
 use std::process::ExitCode;
 
-use clap::Parser;
-
 fn main() -> ExitCode {
-    let cli = lewis::Cli::parse();
-    match lewis::run(cli) {
-        Ok(code) => code,
-        Err(err) => {
-            #[allow(clippy::print_stderr)]
-            {
-                eprintln!("error: {}", lewis::error_text(&err));
-            }
-            ExitCode::from(2)
-        }
-    }
+    lewis::main_with(lewis_kinds::registry())
 }

@@ -1,6 +1,7 @@
 //! `lewis replay RUN.mcap [RUN2.mcap ...]`: deterministic re-simulation of a recording,
 //! with faults injected and a comparison with what was recorded.
 
+use lewis_service::ServiceRegistry;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,8 +15,6 @@ use lewis_replay::resim::{
     DEFAULT_TOLERANCE, Progress, ReplayOptions, ServiceSelection, default_output, replay_with,
 };
 use lewis_replay::sweep::{SweepSpec, sweep};
-
-use crate::service::registry;
 
 /// Arguments of `lewis replay`.
 #[derive(Debug, Args)]
@@ -127,24 +126,6 @@ fn parse_kind(text: &str) -> Result<FaultKind, String> {
     }
 }
 
-/// The kinds that are sources ([`lewis_kinds::SOURCE_KINDS`]), as the replay options
-/// take them.
-pub(crate) fn source_kinds() -> std::collections::BTreeSet<String> {
-    lewis_kinds::SOURCE_KINDS
-        .iter()
-        .map(|k| (*k).to_owned())
-        .collect()
-}
-
-/// The source kinds that are simulated devices ([`lewis_kinds::SIMULATED_KINDS`]), which
-/// `--all` re-runs.
-pub(crate) fn simulated_kinds() -> std::collections::BTreeSet<String> {
-    lewis_kinds::SIMULATED_KINDS
-        .iter()
-        .map(|k| (*k).to_owned())
-        .collect()
-}
-
 /// `text` when it names an interface (`ImageSource`), else which names there are.
 fn parse_interface(text: &str) -> Result<String, String> {
     if lewis_interfaces::interface_info(text).is_some() {
@@ -170,7 +151,7 @@ fn parse_fault(text: &str) -> Result<FaultSpec, String> {
 }
 
 /// Runs `lewis replay`.
-pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
+pub fn run(args: &ReplayArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode> {
     let mut options = ReplayOptions::new(args.inputs.clone());
     options.output = Some(
         args.output
@@ -188,8 +169,6 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     options.tolerance = args.tolerance;
     options.outputs_only = args.outputs_only;
     options.left_out = args.left_out.iter().cloned().collect();
-    options.source_kinds = source_kinds();
-    options.simulated_kinds = simulated_kinds();
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(
@@ -218,9 +197,9 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
     };
     let programs = crate::app::programs();
     if let Some(providers) = &args.sweep_fault {
-        return run_sweep(args, &options, providers);
+        return run_sweep(args, &options, registry, providers);
     }
-    let report = replay_with(&options, &registry(), Some(&programs), &mut on_progress);
+    let report = replay_with(&options, registry, Some(&programs), &mut on_progress);
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
@@ -248,6 +227,7 @@ pub fn run(args: &ReplayArgs) -> anyhow::Result<ExitCode> {
 fn run_sweep(
     args: &ReplayArgs,
     options: &ReplayOptions,
+    registry: &ServiceRegistry,
     providers: &[String],
 ) -> anyhow::Result<ExitCode> {
     let jobs = args.jobs.map_or_else(
@@ -275,7 +255,7 @@ fn run_sweep(
             bar.set_position(count as u64);
         }
     };
-    let result = sweep(options, &registry(), &crate::app::programs(), &spec, &done);
+    let result = sweep(options, registry, &crate::app::programs(), &spec, &done);
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }

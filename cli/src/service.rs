@@ -27,12 +27,6 @@ pub struct ServiceArgs {
     pub clock: Option<ClockSource>,
 }
 
-/// Every service kind this binary can run.
-#[must_use]
-pub fn registry() -> ServiceRegistry {
-    lewis_kinds::registry()
-}
-
 /// The clock a service or a program reads: `--clock` when given, else `LEWIS_CLOCK` (what
 /// `lewis up --clock` passes down), else the machine's.
 ///
@@ -51,10 +45,10 @@ pub fn clock_source(arg: Option<ClockSource>) -> anyhow::Result<ClockSource> {
 }
 
 /// Runs `lewis service`.
-pub fn run(args: &ServiceArgs) -> anyhow::Result<ExitCode> {
-    let robot = lewis_kinds::load_robot(&args.robot)?;
+pub fn run(args: &ServiceArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode> {
+    let robot = registry.load_robot(&args.robot)?;
     let namespace = Namespace::from_arg(args.namespace.as_deref())?;
     let clock = clock_source(args.clock)?;
-    run_service(&robot, &args.name, &registry(), &namespace, clock)?;
+    run_service(&robot, &args.name, registry, &namespace, clock)?;
     Ok(ExitCode::SUCCESS)
 }

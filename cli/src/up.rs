@@ -1,6 +1,7 @@
 //! `lewis up ROBOT.toml`: the broker and the robot's services, until Ctrl-C or `--duration`
 //! (or until the goal or the mission given ends): `lewis_launch`.
 
+use lewis_service::ServiceRegistry;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -73,8 +74,8 @@ pub struct UpArgs {
 
 /// Runs `lewis up`: exit 0 when the goal or the mission succeeded (or, without either,
 /// when the robot ran until it was stopped), 1 when it did not.
-pub fn run(args: &UpArgs) -> anyhow::Result<ExitCode> {
-    let robot = lewis_kinds::load_robot(&args.robot)?;
+pub fn run(args: &UpArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode> {
+    let robot = registry.load_robot(&args.robot)?;
     let robot_host = robot.robot_host().map(|h| h.name.clone());
     match (&args.host, &robot_host) {
         (Some(host), None) => anyhow::bail!(

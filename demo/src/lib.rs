@@ -9,7 +9,6 @@
 
 pub mod fault;
 
-use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -63,11 +62,6 @@ pub struct DemoOptions {
     pub namespace: Namespace,
     /// The `lewis` binary (for the services, the recorder and the programs).
     pub lewis_exe: PathBuf,
-    /// The kinds that replay feeds from the recording (`lewis_kinds::SOURCE_KINDS`).
-    pub source_kinds: BTreeSet<String>,
-    /// The source kinds the replay re-runs to live the mission again
-    /// (`lewis_kinds::SIMULATED_KINDS`).
-    pub simulated_kinds: BTreeSet<String>,
 }
 
 /// The files a demo writes, in its output folder.
@@ -461,7 +455,7 @@ pub fn run_demo(
     on_mission(&mission, &fault);
 
     let replay_fault = replay_fault(&options.fault, &mission.verdict, &files.run);
-    let replayed = re_simulate(options, registry, programs, &files, &replay_fault);
+    let replayed = re_simulate(registry, programs, &files, &replay_fault);
     Ok(DemoReport {
         mission,
         fault,
@@ -544,7 +538,6 @@ pub const REPLAY_LEFT_OUT: &[&str] = &["ImageSource"];
 /// produced but its camera frames (`--outputs-only --leave-out ImageSource`): the
 /// recording holds the rest, and a copy of it doubled the demo's disk use.
 fn re_simulate(
-    options: &DemoOptions,
     registry: &ServiceRegistry,
     programs: &dyn Programs,
     files: &DemoFiles,
@@ -557,12 +550,6 @@ fn re_simulate(
     replay_options.services = ServiceSelection::All;
     replay_options.outputs_only = true;
     replay_options.left_out = REPLAY_LEFT_OUT.iter().map(|i| (*i).to_owned()).collect();
-    replay_options
-        .source_kinds
-        .clone_from(&options.source_kinds);
-    replay_options
-        .simulated_kinds
-        .clone_from(&options.simulated_kinds);
     let report = replay_with(&replay_options, registry, Some(programs), &mut |_| {})
         .map_err(|e| format!("{e}"))?;
     let json = serde_json::to_string_pretty(&report).map_err(|e| format!("{e}"))?;

@@ -112,14 +112,6 @@ fn the_laser_dies_after_the_first_state_and_the_sonar_takes_over_in_the_recordin
         fault: LiveFault::laser_after_first_state(),
         namespace: Namespace::unique("demo-mechanics"),
         lewis_exe: lewis_exe(),
-        source_kinds: lewis_kinds::SOURCE_KINDS
-            .iter()
-            .map(|k| (*k).to_owned())
-            .collect::<BTreeSet<_>>(),
-        simulated_kinds: lewis_kinds::SIMULATED_KINDS
-            .iter()
-            .map(|k| (*k).to_owned())
-            .collect::<BTreeSet<_>>(),
     };
     let mut told = Vec::new();
     let report = run_demo(

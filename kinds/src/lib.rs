@@ -1,6 +1,7 @@
 //! The service registry: every service kind of the component crates, by the name robot files
-//! give it (`kind = "..."`), and which of them are sources. `lewis service`, `lewis replay` and
-//! the replay benchmark build their services from it.
+//! give it (`kind = "..."`), with its role in a replay (which are devices, which simulated).
+//! `lewis service`, `lewis replay` and the replay benchmark build their services from it; a
+//! team's own binary adds its kinds to it (`lewis::main_with`).
 //!
 //! It owns no service: the simulator's are in `lewis-sim`, the drivers' in `lewis-drivers`,
 //! motion's in `lewis-motion`, perception's in `lewis-perception`, and the test service
@@ -8,13 +9,10 @@
 //! (registered here too, so that a robot file such as `robots/test.toml` or
 //! `robots/b21r-emulated.toml` runs and replays through the same registry as any other).
 
-use std::path::Path;
-
-use lewis_robot::{Known, Robot, RobotError};
 use lewis_service::ServiceRegistry;
 
-/// Every service kind, registered: what `lewis service`, `lewis replay` and the replay
-/// benchmark build services from.
+/// Every service kind of Lewis, registered with its parameters and its role: what `lewis
+/// service`, `lewis replay` and the replay benchmark build services from.
 #[must_use]
 pub fn registry() -> ServiceRegistry {
     let mut registry = ServiceRegistry::new();
@@ -29,55 +27,47 @@ pub fn registry() -> ServiceRegistry {
     registry
 }
 
-/// Reads a robot file and checks it whole before anything starts: its syntax, its
-/// interfaces, and each service's kind and parameters against [`registry`].
-///
-/// # Errors
-/// [`RobotError::Read`] when the file cannot be read; [`RobotError::Invalid`] with every
-/// problem at its `file:line:column` otherwise.
-pub fn load_robot(path: &Path) -> Result<Robot, RobotError> {
-    let interfaces = lewis_interfaces::interface_names();
-    let registry = registry();
-    let known = Known {
-        interfaces: &interfaces,
-        kinds: Some(&registry),
-    };
-    lewis_robot::load_checked(path, known)
-}
-
-/// The kinds that talk to a device or to the simulated world: a replay feeds them from the
-/// recording by default, even when they require something (the simulated sensors require
-/// GroundTruth).
-pub const SOURCE_KINDS: &[&str] = &[
-    lewis_sim::service::base::KIND,
-    lewis_sim::service::laser::KIND,
-    lewis_sim::service::sonar::KIND,
-    lewis_sim::service::camera::KIND,
-    lewis_sim::service::speech::KIND,
-    lewis_drivers::service::sick::KIND,
-    lewis_drivers::service::rflex::KIND,
-    lewis_drivers::camera::KIND,
-    lewis_drivers::speech::KIND,
-    lewis_emulators::testing::range::KIND,
-    lewis_emulators::camera::KIND,
-];
-
-/// The source kinds that are simulated devices: `lewis replay --all` re-runs them
-/// from the recorded world and seeds, so the world reacts to what the robot does (the
-/// others talk to hardware, or to an emulator of it, and are fed from the recording).
-pub const SIMULATED_KINDS: &[&str] = &[
-    lewis_sim::service::base::KIND,
-    lewis_sim::service::laser::KIND,
-    lewis_sim::service::sonar::KIND,
-    lewis_sim::service::camera::KIND,
-    lewis_sim::service::speech::KIND,
-    // Synthetic ranges of a room from a seed: as re-runnable as the simulator.
-    lewis_emulators::testing::range::KIND,
-];
-
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
+    use lewis_service::Role;
+
     use super::*;
+
+    #[test]
+    fn the_devices_and_the_simulated_devices_are_the_sources_replay_feeds() {
+        let registry = registry();
+        let kinds = |role| {
+            registry
+                .kinds()
+                .into_iter()
+                .filter(|kind| registry.role(kind) == Some(role))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            kinds(Role::Device),
+            [
+                "camera",
+                "emulated-camera",
+                "espeak-speech",
+                "rflex",
+                "sick"
+            ]
+        );
+        assert_eq!(
+            kinds(Role::SimulatedDevice),
+            [
+                "sim-base",
+                "sim-camera",
+                "sim-laser",
+                "sim-sonar",
+                "sim-speech",
+                "test-range"
+            ]
+        );
+        assert_eq!(registry.source_kinds().len(), 11);
+    }
 
     #[test]
     fn every_kind_checks_its_parameters_when_a_robot_file_is_loaded() {
@@ -94,7 +84,7 @@ mod tests {
         for entry in std::fs::read_dir(&robots).into_iter().flatten().flatten() {
             let path = entry.path();
             if path.extension().is_some_and(|e| e == "toml") {
-                if let Err(e) = load_robot(&path) {
+                if let Err(e) = registry().load_robot(&path) {
                     panic!("{e}");
                 }
                 loaded += 1;

@@ -77,10 +77,6 @@ fn parse(args: impl Iterator<Item = String>) -> Result<Args, String> {
 fn options(args: &Args) -> ReplayOptions {
     let mut options = ReplayOptions::new(vec![args.input.clone()]);
     options.output.clone_from(&args.output);
-    options.source_kinds = lewis_kinds::SOURCE_KINDS
-        .iter()
-        .map(|k| (*k).to_owned())
-        .collect();
     options
 }
 

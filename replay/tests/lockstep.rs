@@ -344,10 +344,6 @@ fn run(
     let mut options = ReplayOptions::new(vec![input.to_path_buf()]);
     options.output = Some(output.to_path_buf());
     options.services = services;
-    options.simulated_kinds = lewis_kinds::SIMULATED_KINDS
-        .iter()
-        .map(|k| (*k).to_owned())
-        .collect();
     options.faults = faults
         .iter()
         .map(|f| f.parse::<FaultSpec>().unwrap())

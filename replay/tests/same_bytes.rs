@@ -49,10 +49,6 @@ fn replay_with(output: &Path, robot: &Path, edit: impl FnOnce(&mut ReplayOptions
     options.output = Some(output.to_path_buf());
     options.robot = Some(robot.to_path_buf());
     options.faults = vec!["laser".parse::<FaultSpec>().unwrap()];
-    options.source_kinds = lewis_kinds::SOURCE_KINDS
-        .iter()
-        .map(|k| (*k).to_owned())
-        .collect();
     edit(&mut options);
     let report = replay(&options, &lewis_kinds::registry(), &mut |_| {}).unwrap();
     assert_eq!(report.faults.len(), 1, "{report:?}");

@@ -32,10 +32,6 @@ fn replay_with(faults: &[String], output: PathBuf, robot: &Path) -> Result<Repor
         .map(|f| f.parse::<FaultSpec>())
         .collect::<Result<_, _>>()
         .map_err(|e| e.to_string())?;
-    options.source_kinds = lewis_kinds::SOURCE_KINDS
-        .iter()
-        .map(|k| (*k).to_owned())
-        .collect();
     replay(&options, &lewis_kinds::registry(), &mut |_| {}).map_err(|e| e.to_string())
 }
 

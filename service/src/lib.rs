@@ -47,7 +47,7 @@ pub use events::{
     decode_header_seq,
 };
 pub use health::Health;
-pub use registry::{BuildError, Constructor, ServiceConfig, ServiceRegistry};
+pub use registry::{BuildError, Constructor, Role, ServiceConfig, ServiceRegistry};
 pub use rng::{NoiseBytes, Rng};
 
 use std::os::fd::BorrowedFd;

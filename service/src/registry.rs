@@ -1,15 +1,17 @@
 //! The kinds of service a `lewis` binary can run: a map from a kind name (`kind = "sick"` in
-//! the robot file) to a constructor. The runtime knows no kind; the binary registers those
-//! of `lewis-kinds`.
+//! the robot file) to a constructor, the type of its parameters and its [`Role`]. The
+//! runtime knows no kind; the `lewis` binary registers those of `lewis-kinds`, and a binary
+//! of a team's own adds theirs (`lewis::main_with`).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
+use std::path::Path;
 
 use serde::de::DeserializeOwned;
 
 use super::Service;
 use super::rng::Rng;
-use lewis_robot::ServiceSpec;
+use lewis_robot::{Known, Robot, RobotError, ServiceSpec};
 
 /// What a constructor is given: the service's name and its part of the robot file.
 #[derive(Debug, Clone, Copy)]
@@ -92,10 +94,29 @@ pub type Constructor =
 /// Checks a kind's parameters table without building anything: what serde finds wrong.
 type ParameterCheck = Box<dyn Fn(&toml::Table) -> Result<(), String> + Send + Sync>;
 
-/// A registered kind: how to build it and, when known, how to check its parameters.
+/// What a kind is to a replay: whether its publications are re-computed or fed from the
+/// recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Role {
+    /// Computes from what it requires (an avoider, a blob finder): replay runs it again on
+    /// the recorded inputs. The default.
+    #[default]
+    Algorithm,
+    /// Talks to hardware, or to an emulator of it (a laser driver, a camera): replay feeds
+    /// its publications from the recording, even when it requires something.
+    Device,
+    /// A device simulated from the recorded world and seeds (the simulator's sensors):
+    /// replay feeds it from the recording by default, and `lewis replay --all` runs it
+    /// again so that the world reacts to what the robot does.
+    SimulatedDevice,
+}
+
+/// A registered kind: how to build it, when known how to check its parameters, and its
+/// role in a replay.
 struct Kind {
     constructor: Constructor,
     check: Option<ParameterCheck>,
+    role: Role,
 }
 
 /// The kinds of service known to a binary.
@@ -159,9 +180,66 @@ impl ServiceRegistry {
         constructor: Constructor,
         check: Option<ParameterCheck>,
     ) -> &mut Self {
-        self.kinds
-            .insert(kind.to_owned(), Kind { constructor, check });
+        self.kinds.insert(
+            kind.to_owned(),
+            Kind {
+                constructor,
+                check,
+                role: Role::default(),
+            },
+        );
         self
+    }
+
+    /// Gives a registered `kind` its role in a replay (kinds are [`Role::Algorithm`]s until
+    /// told otherwise); a kind not registered is left alone.
+    pub fn set_role(&mut self, kind: &str, role: Role) -> &mut Self {
+        if let Some(entry) = self.kinds.get_mut(kind) {
+            entry.role = role;
+        }
+        self
+    }
+
+    /// The role of `kind` in a replay, `None` when it is not registered.
+    #[must_use]
+    pub fn role(&self, kind: &str) -> Option<Role> {
+        self.kinds.get(kind).map(|entry| entry.role)
+    }
+
+    /// The kinds a replay feeds from the recording: [`Role::Device`]s and
+    /// [`Role::SimulatedDevice`]s.
+    #[must_use]
+    pub fn source_kinds(&self) -> BTreeSet<String> {
+        self.kinds_where(|role| role != Role::Algorithm)
+    }
+
+    /// The [`Role::SimulatedDevice`]s, which `lewis replay --all` runs again.
+    #[must_use]
+    pub fn simulated_kinds(&self) -> BTreeSet<String> {
+        self.kinds_where(|role| role == Role::SimulatedDevice)
+    }
+
+    fn kinds_where(&self, keep: impl Fn(Role) -> bool) -> BTreeSet<String> {
+        self.kinds
+            .iter()
+            .filter(|(_, kind)| keep(kind.role))
+            .map(|(name, _)| name.clone())
+            .collect()
+    }
+
+    /// Reads a robot file and checks it whole before anything starts: its syntax, its
+    /// interfaces, and each service's kind and parameters against this registry.
+    ///
+    /// # Errors
+    /// [`RobotError::Read`] when the file cannot be read; [`RobotError::Invalid`] with every
+    /// problem at its `file:line:column` otherwise.
+    pub fn load_robot(&self, path: &Path) -> Result<Robot, RobotError> {
+        let interfaces = lewis_interfaces::interface_names();
+        let known = Known {
+            interfaces: &interfaces,
+            kinds: Some(self),
+        };
+        lewis_robot::load_checked(path, known)
     }
 
     /// The kinds registered without a parameter type, whose mistakes show only at start-up.

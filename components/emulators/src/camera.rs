@@ -25,7 +25,7 @@
 use std::path::PathBuf;
 
 use lewis_geometry::Pose2;
-use lewis_service::{BuildError, Service, ServiceConfig, ServiceRegistry};
+use lewis_service::{BuildError, Role, Service, ServiceConfig, ServiceRegistry};
 use lewis_sim::service::{CameraParams, SimCameraService, TruePoseSource};
 use serde::{Deserialize, Deserializer};
 
@@ -37,6 +37,7 @@ pub const KIND: &str = "emulated-camera";
 /// Registers `emulated-camera`.
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<EmulatedCameraParams>(KIND, build);
+    registry.set_role(KIND, Role::Device);
 }
 
 /// The parameters of `emulated-camera`: `sim-camera`'s, and the emulators' robot-state

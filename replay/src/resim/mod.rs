@@ -4,9 +4,9 @@
 //!
 //! - **What is re-simulated** ([`ServiceSelection`]): by default every service of the stored
 //!   robot but the sources, which are fed from the recording. A source is a service that
-//!   requires nothing, or whose kind is one of [`ReplayOptions::source_kinds`] (the binary
-//!   names the kinds that talk to a device or to the simulated world: `sim-laser` requires
-//!   the simulator's GroundTruth, yet it is the laser); `--services A,B` names them; `--all`
+//!   requires nothing, or whose kind the registry calls a device
+//!   ([`lewis_service::Role`]: the kinds that talk to a device or to the simulated world;
+//!   `sim-laser` requires the simulator's GroundTruth, yet it is the laser); `--services A,B` names them; `--all`
 //!   takes every service this binary can build. A service the recording has nothing of (it
 //!   never ran live, like a sonar started on demand only after a fault) cannot be fed: it is
 //!   re-simulated, when its kind is known, and its outputs are not compared.
@@ -90,11 +90,6 @@ pub struct ReplayOptions {
     pub tolerance: f64,
     /// The output's chunk compression.
     pub compression: Compression,
-    /// The kinds of service that are sources even though they require something.
-    pub source_kinds: BTreeSet<String>,
-    /// The source kinds that are simulated devices, which `--all` can re-run from the
-    /// recorded world (the others talk to hardware: their data is fed).
-    pub simulated_kinds: BTreeSet<String>,
     /// Another robot description to replay with (`--robot`).
     pub robot: Option<PathBuf>,
     /// Parameter changes (`--set`).
@@ -123,8 +118,6 @@ impl ReplayOptions {
             faults: Vec::new(),
             tolerance: DEFAULT_TOLERANCE,
             compression: Compression::Zstd,
-            source_kinds: BTreeSet::new(),
-            simulated_kinds: BTreeSet::new(),
             robot: None,
             set: Vec::new(),
             write_output: true,
@@ -221,8 +214,8 @@ pub fn select_services(
     recording: &Recording,
     registry: &ServiceRegistry,
     selection: &ServiceSelection,
-    source_kinds: &BTreeSet<String>,
 ) -> Result<BTreeSet<String>, ReplayError> {
+    let source_kinds = registry.source_kinds();
     let kinds: BTreeSet<&str> = registry.kinds().into_iter().collect();
     let buildable = |name: &str| -> Result<(), String> {
         match robot.service(name).map(|s| &s.launch) {
@@ -341,8 +334,8 @@ pub fn prepare(
         let closure = closure::close(
             recording,
             robot,
-            &options.source_kinds,
-            &options.simulated_kinds,
+            &registry.source_kinds(),
+            &registry.simulated_kinds(),
             programs,
         );
         if closure.open_because.is_some() {
@@ -367,13 +360,7 @@ pub fn prepare(
         .iter()
         .map(|spec| spec.resolve(robot, start_ns, end_ns, overtime_ns))
         .collect::<Result<Vec<Fault>, _>>()?;
-    let resimulated = select_services(
-        robot,
-        recording,
-        registry,
-        &selection,
-        &options.source_kinds,
-    )?;
+    let resimulated = select_services(robot, recording, registry, &selection)?;
     edit::check_edits_resimulated(&options.set, &resimulated)?;
     let published = services_with_outputs(recording, robot);
     let followed = followed_services(recording, robot, registry, &resimulated, &published);

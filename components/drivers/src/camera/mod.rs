@@ -47,7 +47,7 @@ use lewis_interfaces::msg::{
 };
 use lewis_service::Health;
 use lewis_service::{
-    BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
+    BuildError, CommandError, Context, IncomingCommand, Reply, Role, Service, ServiceConfig,
     ServiceRegistry,
 };
 use serde::Deserialize;
@@ -58,9 +58,10 @@ use lewis_images::{ImageIntrinsics, image_message};
 /// The kind name in robot files.
 pub const KIND: &str = "camera";
 
-/// Registers the `camera` kind.
+/// Registers the `camera` kind, a device (a replay feeds it from the recording).
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<Params>(KIND, build);
+    registry.set_role(KIND, Role::Device);
 }
 
 /// The parameters of `camera`.

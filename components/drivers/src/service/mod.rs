@@ -19,15 +19,17 @@ pub mod sick;
 use lewis_geometry::{Pose2, SensorMount};
 use lewis_interfaces::Interface;
 use lewis_service::Health;
-use lewis_service::{BuildError, Context, ServiceConfig, ServiceRegistry};
+use lewis_service::{BuildError, Context, Role, ServiceConfig, ServiceRegistry};
 use serde::Deserialize;
 
 use super::io::DriverHealth;
 
-/// Registers `sick` and `rflex`.
+/// Registers `sick` and `rflex`, devices (a replay feeds them from the recording).
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<sick::SickParams>(sick::KIND, sick::build);
     registry.register_with_parameters::<rflex::RflexParams>(rflex::KIND, rflex::build);
+    registry.set_role(sick::KIND, Role::Device);
+    registry.set_role(rflex::KIND, Role::Device);
 }
 
 /// A parameter error of service `config`.

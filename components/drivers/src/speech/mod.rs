@@ -32,7 +32,7 @@ pub use lewis_service::RECORDING_ENV;
 
 use lewis_interfaces::msg::{Speech, SpeechCommand, SpeechHearReply, SpeechSayReply};
 use lewis_service::{
-    BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
+    BuildError, CommandError, Context, IncomingCommand, Reply, Role, Service, ServiceConfig,
     ServiceRegistry,
 };
 use serde::Deserialize;
@@ -40,9 +40,10 @@ use serde::Deserialize;
 /// The kind name in robot files.
 pub const KIND: &str = "espeak-speech";
 
-/// Registers `espeak-speech`.
+/// Registers `espeak-speech`, a device (a replay feeds it from the recording).
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<Params>(KIND, build);
+    registry.set_role(KIND, Role::Device);
 }
 
 /// Where the audio goes when the robot is not recorded and no `audio_dir` is given.

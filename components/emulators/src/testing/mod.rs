@@ -6,9 +6,11 @@
 
 pub mod range;
 
-use lewis_service::ServiceRegistry;
+use lewis_service::{Role, ServiceRegistry};
 
 /// Registers the test service kinds (`test-range`).
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<range::Params>(range::KIND, range::build);
+    // Synthetic ranges of a room from a seed: as re-runnable as the simulator.
+    registry.set_role(range::KIND, Role::SimulatedDevice);
 }

@@ -30,7 +30,7 @@ use std::path::Path;
 use lewis_geometry::{Pose2, SensorMount};
 use lewis_interfaces::Interface;
 use lewis_interfaces::msg::{GroundTruth, InputRef, PersonState, WorldState};
-use lewis_service::{BuildError, Context, Input, ServiceConfig, ServiceRegistry};
+use lewis_service::{BuildError, Context, Input, Role, ServiceConfig, ServiceRegistry};
 use serde::Deserialize;
 
 use super::world::World;
@@ -41,13 +41,24 @@ pub use laser::{LaserParams, SimLaserService};
 pub use sonar::{SimSonarService, SonarParams};
 pub use speech::{SimSpeechService, SpeechParams};
 
-/// Registers `sim-base`, `sim-laser`, `sim-sonar`, `sim-camera` and `sim-speech`.
+/// Registers `sim-base`, `sim-laser`, `sim-sonar`, `sim-camera` and `sim-speech`, each a
+/// simulated device (a replay feeds it from the recording, `lewis replay --all` runs it
+/// again in the recorded world).
 pub fn register(registry: &mut ServiceRegistry) {
     registry.register_with_parameters::<BaseParams>(base::KIND, base::build);
     registry.register_with_parameters::<LaserParams>(laser::KIND, laser::build);
     registry.register_with_parameters::<SonarParams>(sonar::KIND, sonar::build);
     registry.register_with_parameters::<CameraParams>(camera::KIND, camera::build);
     registry.register_with_parameters::<SpeechParams>(speech::KIND, speech::build);
+    for kind in [
+        base::KIND,
+        laser::KIND,
+        sonar::KIND,
+        camera::KIND,
+        speech::KIND,
+    ] {
+        registry.set_role(kind, Role::SimulatedDevice);
+    }
 }
 
 /// A pose in the world frame, as robot files write it.
