@@ -45,8 +45,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     // The one MCAP reading layer: below everything that reads a recording.
     ("lewis-mcap", &["lewis-stdx"]),
-    // The ROS 2 mappings (pure functions over messages): below the importers and the coming
-    // live ROS 2 gateway, which share them.
+    // The ROS 2 mappings both ways (pure functions over messages): below the recorder's
+    // companions, the importers and the coming live ROS 2 gateway, which share them.
     (
         "lewis-ros2-map",
         &["lewis-stdx", "lewis-interfaces", "lewis-images"],
@@ -62,6 +62,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-service",
             "lewis-mcap",
             "lewis-runtime",
+            "lewis-ros2-map",
         ],
     ),
     (
