@@ -8,7 +8,7 @@
 //!   [`lewis_interfaces::ros2`] that encode to CDR: a RangeFinder to a LaserScan or a
 //!   PointCloud2 in its sensor's frame, an Egomotion to an Odometry and the `odom` to
 //!   `base_link` transform, an ImageSource to a CompressedImage, Blobs3D, Signs and the
-//!   broker's bindings to a MarkerArray.
+//!   broker's bindings to a MarkerArray, a velocity command to a Twist.
 //! - [`from_ros2`]: one decoded ROS 2 message (a value tree of
 //!   [`lewis_interfaces::dynamic`]) to a Lewis one: a LaserScan to a RangeFinder, an
 //!   Odometry or a TF odometry transform to a pose, an Image or CompressedImage to an

@@ -11,7 +11,9 @@
 //! - an ImageSource (rgb8, bgr8, mono8) to a `sensor_msgs/msg/CompressedImage`, PNG or
 //!   JPEG ([`compressed_image`]);
 //! - Blobs3D, Signs and the broker's bindings to a `visualization_msgs/msg/MarkerArray`
-//!   ([`blob_markers`], [`sign_markers`], [`binding_markers`]).
+//!   ([`blob_markers`], [`sign_markers`], [`binding_markers`]);
+//! - a Synchrodrive velocity command to a `geometry_msgs/msg/Twist` ([`twist`]), what a
+//!   ROS 2 base takes on `/cmd_vel`.
 //!
 //! Topics are the caller's: the recorder's companion channels name their own.
 
@@ -20,9 +22,10 @@ mod markers;
 use std::io::Cursor;
 
 use image::{DynamicImage, GrayImage, ImageFormat, RgbImage};
-use lewis_interfaces::msg::{Egomotion, ImageSource, RangeFinder};
+use lewis_interfaces::msg::{Egomotion, ImageSource, RangeFinder, SynchrodriveSetVelocity};
 use lewis_interfaces::ros2::{
     CompressedImage, Header, LaserScan, Odometry, PointCloud, Pose, TfMessage, TransformStamped,
+    Twist,
 };
 
 pub use markers::{binding_markers, blob_markers, sign_markers};
@@ -168,6 +171,16 @@ pub fn egomotion(ego: &Egomotion, stamp_ns: i64) -> (Odometry, TfMessage) {
         }],
     };
     (odometry, tf)
+}
+
+/// A Synchrodrive velocity command as a Twist: forward velocity along x, turn rate about z
+/// (ROS 2's REP 103 axes are Lewis's: x forward, z up, counter-clockwise positive).
+#[must_use]
+pub fn twist(command: &SynchrodriveSetVelocity) -> Twist {
+    Twist {
+        linear: [command.translation_velocity, 0.0, 0.0],
+        angular: [0.0, 0.0, command.rotation_velocity],
+    }
 }
 
 /// How images are compressed for a CompressedImage.

@@ -7,7 +7,7 @@ use lewis_interfaces::cdr::{self, Encode};
 use lewis_interfaces::dynamic::{Decoder, Value};
 use lewis_interfaces::msg::{
     Blob, Blob3D, Blobs3D, Egomotion, ImageSource, Point3D, Pose2D, Pose3D, RangeFinder, Sign,
-    Signs,
+    Signs, SynchrodriveSetVelocity,
 };
 use lewis_interfaces::ros2;
 
@@ -200,6 +200,21 @@ fn the_sensors_frames_are_fixed_transforms_from_the_robots() {
     assert_eq!(f(camera, "transform.translation.z"), 1.2);
     assert!((f(camera, "transform.rotation.z") - 0.5f64.sqrt()).abs() < 1e-12);
     assert_eq!(f(laser, "transform.translation.x"), 0.12);
+}
+
+#[test]
+fn a_velocity_command_is_a_twist_forward_and_about_z() {
+    let command = SynchrodriveSetVelocity {
+        translation_velocity: 0.5,
+        rotation_velocity: -0.25,
+        ..SynchrodriveSetVelocity::default()
+    };
+    let value = decoded(ros2::TWIST, &twist(&command));
+    assert_eq!(f(&value, "linear.x"), 0.5);
+    assert_eq!(f(&value, "angular.z"), -0.25);
+    for path in ["linear.y", "linear.z", "angular.x", "angular.y"] {
+        assert_eq!(f(&value, path), 0.0, "{path}");
+    }
 }
 
 #[test]
