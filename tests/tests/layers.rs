@@ -7,9 +7,9 @@
 //!   the pages, iceoryx2 in the runtime, MCAP in the MCAP layer and the recorder, and
 //!   **Zenoh** in the bridge (and the coming ROS 2 gateway), dev-dependencies included.
 //! - **No IPC below the runtime** ([`NO_IPC`]): the components, the apps, the service model,
-//!   the robot file, the registry of kinds and the test kit do not reach `lewis-runtime` or
-//!   iceoryx2 through their normal dependencies, directly or not: what `cargo tree -e normal
-//!   -i iceoryx2` shows, as a test.
+//!   the robot file, the registry of kinds, the ROS 2 mappings and the test kit do not
+//!   reach `lewis-runtime` or iceoryx2 through their normal dependencies, directly or not:
+//!   what `cargo tree -e normal -i iceoryx2` shows, as a test.
 //! - **No dev-dependency cycle**: no crate (dev-)depends on a crate that depends on it,
 //!   which would build its tests against a second copy of it and everything between.
 
@@ -45,6 +45,12 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     // The one MCAP reading layer: below everything that reads a recording.
     ("lewis-mcap", &["lewis-stdx"]),
+    // The ROS 2 mappings both ways (pure functions over messages): below the recorder's
+    // companions, the importers and the coming live ROS 2 gateway, which share them.
+    (
+        "lewis-ros2-map",
+        &["lewis-stdx", "lewis-interfaces", "lewis-images"],
+    ),
     // The one HTTP server of the pages served on localhost.
     ("lewis-pages", &[]),
     (
@@ -56,6 +62,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-service",
             "lewis-mcap",
             "lewis-runtime",
+            "lewis-ros2-map",
         ],
     ),
     (
@@ -157,7 +164,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     // Other robot software's logs in and out: above the recorder (it writes through it) and
-    // replay (it reads recordings through it), with the components an import runs.
+    // replay (it reads recordings through it), with the ROS 2 mappings and the components an
+    // import runs.
     (
         "lewis-formats",
         &[
@@ -168,8 +176,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-runtime",
             "lewis-recorder",
             "lewis-replay",
-            "lewis-drivers",
-            "lewis-images",
+            "lewis-ros2-map",
             "lewis-motion",
             "lewis-perception",
         ],
@@ -370,6 +377,7 @@ const NO_IPC: &[&str] = &[
     "lewis-robot",
     "lewis-service",
     "lewis-mcap",
+    "lewis-ros2-map",
     "lewis-geometry",
     "lewis-images",
     "lewis-sim",

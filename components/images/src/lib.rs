@@ -1,14 +1,18 @@
 //! Images as the camera drivers and perception share them: image files (PNG, JPEG) decoded to
 //! RGB8 and played as sequences ([`sequence`]), the pinhole intrinsics that travel with an
-//! image, and the ImageSource message built from RGB8 pixels ([`image_source`]).
+//! image, the ImageSource message built from RGB8 pixels ([`image_source`]), and YUV 4:2:2
+//! pixels to RGB8 ([`yuv`]).
 //!
 //! The `camera` service (in `lewis-drivers`) publishes image files with these; perception's
 //! offline tuning (`lewis tune`) reads the same files the same way. Neither may depend on the
-//! other, so this sits below both. It owns no service, no device and no image processing:
-//! pixel formats of video devices are the drivers', colour segmentation is perception's.
+//! other, so this sits below both; so does the YUYV conversion, which the camera's V4L2
+//! frames and the ROS 2 mappings (`lewis-ros2-map`: `yuv422` images) share. It owns no
+//! service, no device and no image processing: what video devices deliver (V4L2 formats,
+//! MJPEG) is the drivers', colour segmentation is perception's.
 
 pub mod image_source;
 pub mod sequence;
+pub mod yuv;
 
 pub use image_source::{ImageIntrinsics, image_message};
 pub use sequence::{ImageSequence, RgbImageData, SequenceError, is_image_file, load_rgb, resolve};

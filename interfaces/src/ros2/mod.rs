@@ -1,5 +1,6 @@
 //! ROS 2's standard messages that Lewis writes beside its own (the recorder's companion
-//! channels, `lewis export ros2`): their type names, their ros2msg schema texts as rosbag2
+//! channels, `lewis export ros2`) or sends to a ROS 2 robot (a velocity command as
+//! [`Twist`]): their type names, their ros2msg schema texts as rosbag2
 //! stores them (the message's .msg fields, then each type it uses, depth-first in order
 //! of first use, after a line of 80 `=` and a `MSG: package/Type` line), and their values
 //! ([`LaserScan`], [`Odometry`], ...) that encode to ROS 2 CDR through [`crate::cdr`].
@@ -26,6 +27,8 @@ pub const POINT_CLOUD2: &str = "sensor_msgs/msg/PointCloud2";
 pub const COMPRESSED_IMAGE: &str = "sensor_msgs/msg/CompressedImage";
 /// `visualization_msgs/msg/MarkerArray`.
 pub const MARKER_ARRAY: &str = "visualization_msgs/msg/MarkerArray";
+/// `geometry_msgs/msg/Twist`.
+pub const TWIST: &str = "geometry_msgs/msg/Twist";
 
 const TIME: &str = "int32 sec\nuint32 nanosec\n";
 const HEADER: &str = "builtin_interfaces/Time stamp\nstring frame_id\n";
@@ -34,7 +37,7 @@ const QUATERNION: &str = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n";
 const VECTOR3: &str = "float64 x\nfloat64 y\nfloat64 z\n";
 const POSE: &str = "Point position\nQuaternion orientation\n";
 const POSE_WITH_COVARIANCE: &str = "Pose pose\nfloat64[36] covariance\n";
-const TWIST: &str = "Vector3  linear\nVector3  angular\n";
+const TWIST_TEXT: &str = "Vector3  linear\nVector3  angular\n";
 const TWIST_WITH_COVARIANCE: &str = "Twist twist\nfloat64[36] covariance\n";
 const TRANSFORM: &str = "Vector3 translation\nQuaternion rotation\n";
 const TRANSFORM_STAMPED: &str =
@@ -78,7 +81,7 @@ fn parts(type_name: &str) -> Option<(&'static str, Vec<(&'static str, &'static s
                     ("geometry_msgs/Point", POINT),
                     ("geometry_msgs/Quaternion", QUATERNION),
                     ("geometry_msgs/TwistWithCovariance", TWIST_WITH_COVARIANCE),
-                    ("geometry_msgs/Twist", TWIST),
+                    ("geometry_msgs/Twist", TWIST_TEXT),
                     ("geometry_msgs/Vector3", VECTOR3),
                 ],
             ]
@@ -119,6 +122,7 @@ fn parts(type_name: &str) -> Option<(&'static str, Vec<(&'static str, &'static s
                 ("builtin_interfaces/Duration", DURATION),
             ],
         ),
+        TWIST => (TWIST_TEXT, vec![("geometry_msgs/Vector3", VECTOR3)]),
         _ => return None,
     })
 }
@@ -208,8 +212,45 @@ mod tests {
             .and_then(Value::as_f64)
             .unwrap();
         assert!((z - 0.25f64.sin()).abs() < 1e-12);
-        for name in [ODOMETRY, POINT_CLOUD2, COMPRESSED_IMAGE, MARKER_ARRAY] {
+        for name in [
+            ODOMETRY,
+            POINT_CLOUD2,
+            COMPRESSED_IMAGE,
+            MARKER_ARRAY,
+            TWIST,
+        ] {
             Decoder::new(name, &schema_text(name).unwrap()).unwrap();
         }
+    }
+
+    /// A Twist decodes to itself, and its text reads the same fields from its bytes.
+    #[test]
+    fn a_twist_round_trips() {
+        let twist = Twist {
+            linear: [0.5, -0.25, 0.0],
+            angular: [0.0, 0.0, -1.5],
+        };
+        let bytes = cdr::to_vec(&twist);
+        assert_eq!(cdr::from_bytes::<Twist>(&bytes).unwrap(), twist);
+        assert_eq!(bytes.len(), 4 + 6 * 8);
+        let value = Decoder::new(TWIST, &schema_text(TWIST).unwrap())
+            .unwrap()
+            .decode(&bytes)
+            .unwrap();
+        for (path, want) in [
+            ("linear.x", 0.5),
+            ("linear.y", -0.25),
+            ("linear.z", 0.0),
+            ("angular.x", 0.0),
+            ("angular.y", 0.0),
+            ("angular.z", -1.5),
+        ] {
+            assert_eq!(
+                value.get(path).and_then(Value::as_f64),
+                Some(want),
+                "{path}"
+            );
+        }
+        assert!(cdr::from_bytes::<Twist>(&bytes[..bytes.len() - 8]).is_err());
     }
 }

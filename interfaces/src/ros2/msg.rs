@@ -1,6 +1,7 @@
-//! ROS 2's standard messages as Rust values that encode to ROS 2 CDR.
+//! ROS 2's standard messages as Rust values that encode to ROS 2 CDR ([`Twist`] decodes
+//! too).
 
-use crate::cdr::{Encode, Sink};
+use crate::cdr::{Decode, DecodeError, Encode, Reader, Sink};
 
 use super::quaternion_from_yaw;
 
@@ -322,5 +323,40 @@ pub struct MarkerArray {
 impl Encode for MarkerArray {
     fn encode<S: Sink>(&self, sink: &mut S) {
         self.markers.encode(sink);
+    }
+}
+
+/// `geometry_msgs/msg/Twist`: a velocity, as a ROS 2 base takes it on `/cmd_vel`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Twist {
+    /// Linear velocity `(x, y, z)` in the robot's frame (x forward), in m/s.
+    pub linear: [f64; 3],
+    /// Angular velocity about `(x, y, z)`, in rad/s (z: turning left).
+    pub angular: [f64; 3],
+}
+
+impl Encode for Twist {
+    fn encode<S: Sink>(&self, sink: &mut S) {
+        for x in self.linear.iter().chain(&self.angular) {
+            x.encode(sink);
+        }
+    }
+}
+
+impl Decode for Twist {
+    const MIN_LEN: usize = 6 * size_of::<f64>();
+
+    fn decode(reader: &mut Reader<'_>) -> Result<Self, DecodeError> {
+        let mut vector = |name: &'static str| -> Result<[f64; 3], DecodeError> {
+            let mut xyz = [0.0; 3];
+            for x in &mut xyz {
+                *x = reader.field(name)?;
+            }
+            Ok(xyz)
+        };
+        Ok(Self {
+            linear: vector("linear")?,
+            angular: vector("angular")?,
+        })
     }
 }

@@ -4,6 +4,10 @@
 //! live recorder's default), and `lewis export ros2` writes them into a copy of a finished
 //! recording; both through [`Companions`], so both write the same messages.
 //!
+//! The messages are made by `lewis_ros2_map::to_ros2` (the mappings a live ROS 2 gateway
+//! shares); this module decides which channels they go on, keeps the state they need (the
+//! sensor frames, the broker's bindings) and counts what could not be converted.
+//!
 //! From each publication of a Lewis interface:
 //!
 //! - a uniform `RangeFinder` (a laser): `sensor_msgs/msg/LaserScan` on `/<service>/scan`;
@@ -32,7 +36,6 @@
 //!
 //! [`RecorderOptions::companions`]: crate::RecorderOptions::companions
 
-mod convert;
 mod mounts;
 
 use std::collections::BTreeMap;
@@ -42,15 +45,12 @@ use lewis_interfaces::cdr::{self, Decode, Encode};
 use lewis_interfaces::msg::{
     Blobs3D, Broker, BrokerAction, Egomotion, ImageSource, RangeFinder, Signs,
 };
-use lewis_interfaces::ros2::{self, Header, Pose, TfMessage, TransformStamped};
+use lewis_interfaces::ros2;
+use lewis_ros2_map::to_ros2::{self, RangeMessage};
 
 use crate::channel::ChannelSpec;
-pub use mounts::Mount;
+pub use lewis_ros2_map::to_ros2::{BASE_FRAME, ImageCodec, Mount, ODOM_FRAME};
 
-/// The odometry frame.
-pub const ODOM_FRAME: &str = "odom";
-/// The robot's frame.
-pub const BASE_FRAME: &str = "base_link";
 /// The topic of moving transforms.
 pub const TF_TOPIC: &str = "/tf";
 /// The topic of fixed transforms.
@@ -64,26 +64,6 @@ pub const COMPANION_KIND: &str = "ros2-companion";
 pub const META_SOURCE: &str = "source";
 /// The provider named on companion channels.
 pub const COMPANION_PROVIDER: &str = "lewis-companion";
-
-/// How images are compressed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ImageCodec {
-    /// Lossless.
-    Png,
-    /// Lossy, smaller.
-    Jpeg,
-}
-
-impl ImageCodec {
-    /// `CompressedImage`'s `format`: `png` or `jpeg`.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Png => "png",
-            Self::Jpeg => "jpeg",
-        }
-    }
-}
 
 /// Which companions to write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -208,33 +188,69 @@ impl Companions {
     ) {
         let topic = channel.topic.as_str();
         let frame = channel.provider.as_str();
+        let source = Some(topic);
         let result = match channel.schema_name.as_str() {
             RangeFinder::SCHEMA_NAME => decode(data).map(|rf: RangeFinder| {
                 let mount = Mount::of_range_finder(&rf);
                 self.add_frame(frame, mount);
-                out.push(convert::range_finder(topic, frame, stamp_ns, &rf, &mount));
+                let header = to_ros2::header(stamp_ns, frame);
+                out.push(match to_ros2::range_finder(&rf, &mount, header) {
+                    RangeMessage::Scan(scan) => companion(
+                        &sibling_topic(topic, "scan"),
+                        ros2::LASER_SCAN,
+                        source,
+                        &scan,
+                    ),
+                    RangeMessage::Cloud(cloud) => companion(
+                        &sibling_topic(topic, "points"),
+                        ros2::POINT_CLOUD2,
+                        source,
+                        &cloud,
+                    ),
+                });
             }),
             Egomotion::SCHEMA_NAME => decode(data).map(|ego: Egomotion| {
-                out.extend(convert::egomotion(topic, stamp_ns, &ego));
+                let (odometry, tf) = to_ros2::egomotion(&ego, stamp_ns);
+                out.push(companion(
+                    &sibling_topic(topic, "odom"),
+                    ros2::ODOMETRY,
+                    source,
+                    &odometry,
+                ));
+                out.push(companion(TF_TOPIC, ros2::TF_MESSAGE, source, &tf));
             }),
             ImageSource::SCHEMA_NAME => match self.options.images {
                 None => Ok(()),
                 Some(codec) => decode(data).and_then(|image: ImageSource| {
-                    let compressed = convert::image(topic, frame, stamp_ns, &image, codec)?;
+                    let header = to_ros2::header(stamp_ns, frame);
+                    let compressed = to_ros2::compressed_image(&image, header, codec)?;
                     self.add_frame(frame, self.mounts.get(frame).copied().unwrap_or_default());
-                    out.push(compressed);
+                    out.push(companion(
+                        &sibling_topic(topic, "image/compressed"),
+                        ros2::COMPRESSED_IMAGE,
+                        source,
+                        &compressed,
+                    ));
                     Ok(())
                 }),
             },
             Blobs3D::SCHEMA_NAME => decode(data).map(|blobs: Blobs3D| {
-                out.push(convert::blobs(topic, stamp_ns, &blobs));
+                let markers = to_ros2::blob_markers(&blobs, stamp_ns);
+                out.push(markers_companion(topic, &markers));
             }),
             Signs::SCHEMA_NAME => decode(data).map(|signs: Signs| {
-                out.push(convert::signs(topic, stamp_ns, &signs));
+                let markers = to_ros2::sign_markers(&signs, stamp_ns);
+                out.push(markers_companion(topic, &markers));
             }),
             Broker::SCHEMA_NAME => decode(data).map(|decision: Broker| {
                 if self.track_binding(&decision) {
-                    out.push(convert::bindings(topic, stamp_ns, &self.bindings));
+                    let markers = to_ros2::binding_markers(&self.bindings, stamp_ns);
+                    out.push(companion(
+                        &format!("{topic}/markers"),
+                        ros2::MARKER_ARRAY,
+                        source,
+                        &markers,
+                    ));
                 }
             }),
             _ => Ok(()),
@@ -263,25 +279,9 @@ impl Companions {
 
     /// Every sensor frame, in `base_link`.
     fn tf_static(&self) -> Companion {
-        let transforms = self
-            .frames
-            .iter()
-            .map(|(frame, m)| TransformStamped {
-                // A static transform holds at every time.
-                header: Header {
-                    stamp_ns: 0,
-                    frame_id: BASE_FRAME.to_owned(),
-                },
-                child_frame_id: frame.clone(),
-                transform: Pose::planar(m.x, m.y, m.z, m.yaw),
-            })
-            .collect();
-        companion(
-            TF_STATIC_TOPIC,
-            ros2::TF_MESSAGE,
-            None,
-            &TfMessage { transforms },
-        )
+        let frames = self.frames.iter().map(|(frame, m)| (frame.as_str(), m));
+        let transforms = to_ros2::static_transforms(frames);
+        companion(TF_STATIC_TOPIC, ros2::TF_MESSAGE, None, &transforms)
     }
 
     /// Follows the bindings; whether they changed.
@@ -320,6 +320,16 @@ fn companion<T: Encode>(
         source: source.map(str::to_owned),
         data: cdr::to_vec(message),
     }
+}
+
+/// A MarkerArray made from `topic`, on its sibling `markers`.
+fn markers_companion(topic: &str, markers: &ros2::MarkerArray) -> Companion {
+    companion(
+        &sibling_topic(topic, "markers"),
+        ros2::MARKER_ARRAY,
+        Some(topic),
+        markers,
+    )
 }
 
 /// `/laser/RangeFinder` to `/laser/<leaf>`.

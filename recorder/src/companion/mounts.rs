@@ -1,35 +1,9 @@
-//! Where each sensor sits on the robot: the frames under `base_link`.
+//! Where each sensor sits on the robot, as the robot description says: the frames under
+//! `base_link` of the sensors whose messages do not carry their offsets (the cameras).
 
 use std::collections::BTreeMap;
 
-use lewis_interfaces::msg::RangeFinder;
-
-/// A sensor's frame in `base_link`: planar position, height and heading.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Mount {
-    /// Forward, in m.
-    pub x: f64,
-    /// Left, in m.
-    pub y: f64,
-    /// Up, in m.
-    pub z: f64,
-    /// Heading about z, in rad.
-    pub yaw: f64,
-}
-
-impl Mount {
-    /// A RangeFinder's frame: where its readings are measured from (its offsets), facing
-    /// the robot's way, so that its bearings are the robot's.
-    #[must_use]
-    pub fn of_range_finder(rf: &RangeFinder) -> Self {
-        Self {
-            x: rf.x_offset,
-            y: rf.y_offset,
-            z: rf.z_offset,
-            yaw: 0.0,
-        }
-    }
-}
+use super::Mount;
 
 /// The `mount` parameter of each service of the robot description `toml`
 /// (`mount = { x_m, y_m, heading_deg, height_m }`, a missing key 0). Read as plain TOML

@@ -1,11 +1,10 @@
-//! Each Lewis message's companions, decoded again with their own ros2msg texts.
+//! The companions of each message: their channels, the fixed frames before them, the
+//! broker's bindings followed, and what is skipped. What each ROS 2 message holds is
+//! `lewis_ros2_map::to_ros2`'s, tested there.
 
 use lewis_interfaces::cdr;
 use lewis_interfaces::dynamic::{Decoder, Value};
-use lewis_interfaces::msg::{
-    Blob, Blob3D, Blobs3D, Broker, Egomotion, ImageSource, Point3D, Pose2D, Pose3D, RangeFinder,
-    Sign, Signs,
-};
+use lewis_interfaces::msg::{Blobs3D, Broker, Egomotion, ImageSource, Pose2D, RangeFinder, Signs};
 use lewis_interfaces::ros2;
 
 use super::*;
@@ -57,6 +56,10 @@ fn f(value: &Value, path: &str) -> f64 {
         .unwrap_or_else(|| panic!("{path} in {value:?}"))
 }
 
+fn topics(out: &[Companion]) -> Vec<&str> {
+    out.iter().map(|c| c.topic.as_str()).collect()
+}
+
 fn laser() -> RangeFinder {
     RangeFinder {
         ranges: vec![1.0, 2.5, 8.0],
@@ -72,11 +75,11 @@ fn laser() -> RangeFinder {
 }
 
 #[test]
-fn a_laser_gives_its_frame_then_a_scan_with_its_ranges_and_bearings() {
+fn a_laser_gives_its_frame_then_a_scan_stamped_in_it_on_a_companion_channel() {
     let mut companions = Companions::new(CompanionOptions::default(), None);
     let out = convert(&mut companions, "/laser/RangeFinder", "laser", &laser());
-    let topics: Vec<_> = out.iter().map(|c| c.topic.as_str()).collect();
-    assert_eq!(topics, [TF_STATIC_TOPIC, "/laser/scan"]);
+    assert_eq!(topics(&out), [TF_STATIC_TOPIC, "/laser/scan"]);
+    assert_eq!(out[0].source, None);
     let tf = decoded(&out[0]);
     let transform = &tf.get("transforms").and_then(Value::as_array).unwrap()[0];
     assert_eq!(
@@ -85,30 +88,16 @@ fn a_laser_gives_its_frame_then_a_scan_with_its_ranges_and_bearings() {
     );
     assert_eq!(f(transform, "transform.translation.x"), 0.12);
     assert_eq!(f(transform, "transform.translation.z"), 0.38);
+    assert_eq!(out[1].type_name, ros2::LASER_SCAN);
     let scan = decoded(&out[1]);
     assert_eq!(
         scan.get("header.frame_id").and_then(Value::as_str),
         Some("laser")
     );
     assert_eq!(
-        scan.get("header.stamp.sec").and_then(Value::as_i64),
-        Some(7)
-    );
-    assert_eq!(
         scan.get("header.stamp.nanosec").and_then(Value::as_u64),
         Some(123)
     );
-    assert_eq!(f(&scan, "angle_min"), -0.5);
-    assert_eq!(f(&scan, "angle_max"), 0.5);
-    assert_eq!(f(&scan, "range_max"), 8.0);
-    let ranges: Vec<f64> = scan
-        .get("ranges")
-        .and_then(Value::as_array)
-        .unwrap()
-        .iter()
-        .filter_map(Value::as_f64)
-        .collect();
-    assert_eq!(ranges, [1.0, 2.5, 8.0]);
     assert_eq!(out[1].source.as_deref(), Some("/laser/RangeFinder"));
     assert_eq!(
         out[1]
@@ -118,6 +107,46 @@ fn a_laser_gives_its_frame_then_a_scan_with_its_ranges_and_bearings() {
             .map(String::as_str),
         Some(COMPANION_KIND)
     );
+}
+
+#[test]
+fn each_view_is_on_its_sources_sibling_topic() {
+    let mut companions = Companions::new(CompanionOptions::default(), None);
+    let sonar = RangeFinder {
+        uniform: false,
+        ..laser()
+    };
+    let out = convert(&mut companions, "/sonar/RangeFinder", "sonar", &sonar);
+    assert_eq!(topics(&out), [TF_STATIC_TOPIC, "/sonar/points"]);
+    assert_eq!(out[1].type_name, ros2::POINT_CLOUD2);
+    let ego = Egomotion {
+        pose: Pose2D {
+            x: 1.5,
+            y: -2.0,
+            theta: 2.0,
+        },
+        ..Egomotion::default()
+    };
+    let out = convert(&mut companions, "/base/Egomotion", "base", &ego);
+    assert_eq!(topics(&out), ["/base/odom", TF_TOPIC]);
+    assert_eq!(out[1].source.as_deref(), Some("/base/Egomotion"));
+    let blobs = convert(
+        &mut companions,
+        "/blobfinder3d/Blobs3D",
+        "blobfinder3d",
+        &Blobs3D::default(),
+    );
+    let signs = convert(
+        &mut companions,
+        "/sign_detector/Signs",
+        "sign_detector",
+        &Signs::default(),
+    );
+    assert_eq!(
+        [topics(&blobs), topics(&signs)],
+        [["/blobfinder3d/markers"], ["/sign_detector/markers"]]
+    );
+    assert_eq!(signs[0].type_name, ros2::MARKER_ARRAY);
 }
 
 #[test]
@@ -166,85 +195,6 @@ fn the_fixed_frames_are_written_again_only_for_a_new_frame_or_a_new_part() {
         )),
         1
     );
-}
-
-#[test]
-fn a_sonar_ring_is_a_cloud_of_where_its_beams_end_in_its_frame() {
-    let mut companions = Companions::new(CompanionOptions::default(), None);
-    let sonar = RangeFinder {
-        ranges: vec![1.0, 2.0],
-        range_count: 2,
-        uniform: false,
-        x_offset: 0.1,
-        sensor_positions: vec![
-            Pose3D {
-                x: 0.2,
-                y: 0.0,
-                z: 0.3,
-                theta: 0.0,
-                ..Pose3D::default()
-            },
-            Pose3D {
-                x: 0.0,
-                y: 0.2,
-                z: 0.3,
-                theta: std::f64::consts::FRAC_PI_2,
-                ..Pose3D::default()
-            },
-        ],
-        ..RangeFinder::default()
-    };
-    let out = convert(&mut companions, "/sonar/RangeFinder", "sonar", &sonar);
-    let cloud = out.iter().find(|c| c.topic == "/sonar/points").unwrap();
-    let value = decoded(cloud);
-    assert_eq!(value.get("width").and_then(Value::as_u64), Some(2));
-    let data = value.get("data").and_then(Value::as_bytes).unwrap();
-    let floats: Vec<f32> = data
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect();
-    let want = [1.1, 0.0, 0.3, 1.0, -0.1, 2.2, 0.3, 2.0];
-    for (got, want) in floats.iter().zip(want) {
-        assert!((f64::from(*got) - want).abs() < 1e-6, "{floats:?}");
-    }
-}
-
-#[test]
-fn odometry_and_the_odom_transform_carry_the_same_pose() {
-    let mut companions = Companions::new(CompanionOptions::default(), None);
-    let ego = Egomotion {
-        pose: Pose2D {
-            x: 1.5,
-            y: -2.0,
-            theta: 2.0,
-        },
-        translation_velocity: 0.4,
-        rotation_velocity: -0.1,
-        ..Egomotion::default()
-    };
-    let out = convert(&mut companions, "/base/Egomotion", "base", &ego);
-    let topics: Vec<_> = out.iter().map(|c| c.topic.as_str()).collect();
-    assert_eq!(topics, ["/base/odom", TF_TOPIC]);
-    let odom = decoded(&out[0]);
-    assert_eq!(
-        odom.get("header.frame_id").and_then(Value::as_str),
-        Some(ODOM_FRAME)
-    );
-    assert_eq!(
-        odom.get("child_frame_id").and_then(Value::as_str),
-        Some(BASE_FRAME)
-    );
-    assert_eq!(f(&odom, "pose.pose.position.x"), 1.5);
-    let (z, w) = (
-        f(&odom, "pose.pose.orientation.z"),
-        f(&odom, "pose.pose.orientation.w"),
-    );
-    assert!((2.0 * z.atan2(w) - 2.0).abs() < 1e-12);
-    assert_eq!(f(&odom, "twist.twist.linear.x"), 0.4);
-    assert_eq!(f(&odom, "twist.twist.angular.z"), -0.1);
-    let tf = decoded(&out[1]);
-    let transform = &tf.get("transforms").and_then(Value::as_array).unwrap()[0];
-    assert_eq!(f(transform, "transform.translation.y"), -2.0);
 }
 
 #[test]
@@ -305,75 +255,6 @@ fn the_markers_follow_the_brokers_bindings() {
     assert_eq!(text(&out), "");
 }
 
-#[test]
-fn blobs_and_signs_are_boxes_where_they_were_placed() {
-    let mut companions = Companions::new(CompanionOptions::default(), None);
-    let blob = |valid: bool| Blob3D {
-        blob: Blob {
-            colour_name: "Red".into(),
-            ..Blob::default()
-        },
-        range_valid: valid,
-        position: Point3D {
-            x: 2.0,
-            y: 0.5,
-            z: 0.4,
-        },
-        width: 0.2,
-        height: 0.3,
-    };
-    let blobs = Blobs3D {
-        blob_count: 2,
-        blobs: vec![blob(true), blob(false)],
-        ..Blobs3D::default()
-    };
-    let out = convert(
-        &mut companions,
-        "/blobfinder3d/Blobs3D",
-        "blobfinder3d",
-        &blobs,
-    );
-    let value = decoded(&out[0]);
-    assert_eq!(out[0].topic, "/blobfinder3d/markers");
-    let markers = value.get("markers").and_then(Value::as_array).unwrap();
-    assert_eq!(
-        markers.len(),
-        3,
-        "a clear, then a box and a label for the placed blob only"
-    );
-    assert_eq!(f(&markers[1], "pose.position.x"), 2.0);
-    assert_eq!(f(&markers[1], "color.r"), f64::from(0.9f32));
-    assert_eq!(markers[2].get("text").and_then(Value::as_str), Some("Red"));
-    let sign = Sign {
-        position: Point3D {
-            x: 3.0,
-            y: 0.0,
-            z: 1.0,
-        },
-        arrow: "left".into(),
-        confidence: 0.9,
-        ..Sign::default()
-    };
-    let signs = Signs {
-        sign_count: 1,
-        signs: vec![sign],
-        ..Signs::default()
-    };
-    let out = convert(
-        &mut companions,
-        "/sign_detector/Signs",
-        "sign_detector",
-        &signs,
-    );
-    let value = decoded(&out[0]);
-    let markers = value.get("markers").and_then(Value::as_array).unwrap();
-    assert_eq!(f(&markers[1], "pose.position.x"), 3.0);
-    assert_eq!(
-        markers[2].get("text").and_then(Value::as_str),
-        Some("left (0.90)")
-    );
-}
-
 fn picture(encoding: &str, data: Vec<u8>, width: i32, step: i32) -> ImageSource {
     ImageSource {
         width,
@@ -386,7 +267,7 @@ fn picture(encoding: &str, data: Vec<u8>, width: i32, step: i32) -> ImageSource 
 }
 
 #[test]
-fn images_only_when_asked_in_the_cameras_mounted_frame_with_their_pixels() {
+fn images_only_when_asked_in_the_cameras_mounted_frame() {
     let bgr = picture("bgr8", vec![1, 2, 3, 4, 5, 6, 0, 0], 2, 8);
     let mut off = Companions::new(CompanionOptions::default(), Some(ROBOT));
     assert!(convert(&mut off, "/camera/ImageSource", "camera", &bgr).is_empty());
@@ -402,12 +283,9 @@ fn images_only_when_asked_in_the_cameras_mounted_frame_with_their_pixels() {
     let image = decoded(&out[1]);
     assert_eq!(out[1].topic, "/camera/image/compressed");
     assert_eq!(image.get("format").and_then(Value::as_str), Some("png"));
-    let png = image.get("data").and_then(Value::as_bytes).unwrap();
-    let back = image::load_from_memory(png).unwrap().to_rgb8();
     assert_eq!(
-        back.into_raw(),
-        [3, 2, 1, 6, 5, 4],
-        "bgr8 stored as rgb, the row's padding dropped"
+        image.get("header.frame_id").and_then(Value::as_str),
+        Some("camera")
     );
 }
 

@@ -2,14 +2,17 @@
 //! the uncompressed format every UVC camera offers) and MJPEG (a JPEG per frame, which many
 //! cameras need above 640x480 at 30 Hz).
 //!
-//! YUYV is converted with the inverse of the BT.601 studio-swing integer approximation that
-//! CMVision's thresholds are written in (`lewis_perception::cmvision::rgb_to_yuv`), so a
-//! colour class tuned on recorded RGB frames means the same on a camera's frames (up to one
-//! or two levels of rounding).
+//! YUYV is converted by `lewis_images::yuv` (re-exported here), the one conversion the ROS 2
+//! mappings' `yuv422` images share: the inverse of the BT.601 studio-swing integer
+//! approximation that CMVision's thresholds are written in
+//! (`lewis_perception::cmvision::rgb_to_yuv`), so a colour class tuned on recorded RGB frames
+//! means the same on a camera's frames (up to one or two levels of rounding).
 //!
 //! MJPEG frames from UVC cameras usually omit the Huffman tables (the UVC specification
 //! fixes them to those of the JPEG standard, Annex K.3): [`mjpeg_to_rgb`] inserts them when
 //! the frame has none, as every MJPEG player does.
+
+pub use lewis_images::yuv::{YuyvError, yuv_to_rgb, yuyv_to_rgb};
 
 /// A pixel format of a video device, by its V4L2 four-character code.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,103 +66,12 @@ pub fn fourcc_name(code: u32) -> String {
 /// Why a frame cannot be converted.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ConvertError {
-    /// The frame is shorter than its size says.
-    #[error(
-        "a {width}x{height} YUYV frame with {bytes_per_line} bytes per line needs {needed} bytes, the device gave {got}"
-    )]
-    ShortFrame {
-        /// Width, in px.
-        width: u32,
-        /// Height, in px.
-        height: u32,
-        /// Bytes from one line to the next.
-        bytes_per_line: u32,
-        /// Bytes needed.
-        needed: usize,
-        /// Bytes given.
-        got: usize,
-    },
-    /// Width or height is 0, or a line is shorter than its pixels.
-    #[error("a {width}x{height} YUYV frame cannot have {bytes_per_line} bytes per line")]
-    BadGeometry {
-        /// Width, in px.
-        width: u32,
-        /// Height, in px.
-        height: u32,
-        /// Bytes from one line to the next.
-        bytes_per_line: u32,
-    },
+    /// A YUYV frame's size or length is wrong.
+    #[error(transparent)]
+    Yuyv(#[from] YuyvError),
     /// The JPEG decoder refused the frame.
     #[error("the MJPEG frame does not decode: {0}")]
     Jpeg(String),
-}
-
-/// One Y, U, V sample to RGB: the inverse of the BT.601 studio-swing integer approximation.
-#[inline(always)]
-#[must_use]
-pub fn yuv_to_rgb(y: u8, u: u8, v: u8) -> [u8; 3] {
-    let c = 298 * (i32::from(y) - 16);
-    let d = i32::from(u) - 128;
-    let e = i32::from(v) - 128;
-    let clamp = |x: i32| (x >> 8).clamp(0, 255) as u8;
-    [
-        clamp(c + 409 * e + 128),
-        clamp(c - 100 * d - 208 * e + 128),
-        clamp(c + 516 * d + 128),
-    ]
-}
-
-/// Converts a YUYV frame to RGB8 into `rgb` (resized to `width * height * 3`).
-/// `bytes_per_line` is the device's line stride (at least `2 * width`, rounded up to
-/// whole pixel pairs). An odd width takes its last pixel from the last pair.
-///
-/// # Errors
-/// When the geometry is impossible or the frame is short.
-pub fn yuyv_to_rgb(
-    width: u32,
-    height: u32,
-    bytes_per_line: u32,
-    frame: &[u8],
-    rgb: &mut Vec<u8>,
-) -> Result<(), ConvertError> {
-    let pairs = width.div_ceil(2) as usize;
-    let stride = bytes_per_line as usize;
-    if width == 0 || height == 0 || stride < pairs * 4 {
-        return Err(ConvertError::BadGeometry {
-            width,
-            height,
-            bytes_per_line,
-        });
-    }
-    // The last line needs only its pixels, not its padding.
-    let needed = (height as usize - 1)
-        .checked_mul(stride)
-        .and_then(|n| n.checked_add(pairs * 4))
-        .unwrap_or(usize::MAX);
-    if frame.len() < needed {
-        return Err(ConvertError::ShortFrame {
-            width,
-            height,
-            bytes_per_line,
-            needed,
-            got: frame.len(),
-        });
-    }
-    let width = width as usize;
-    rgb.clear();
-    rgb.resize(width * height as usize * 3, 0);
-    for (line, out) in frame.chunks(stride).zip(rgb.chunks_exact_mut(width * 3)) {
-        // Every line is at least `pairs * 4` long: the length was checked above.
-        let (quads, _) = line.get(..pairs * 4).unwrap_or_default().as_chunks::<4>();
-        let (pixels, _) = out.as_chunks_mut::<3>();
-        for (pair, &[y0, u, y1, v]) in pixels.chunks_mut(2).zip(quads) {
-            pair[0] = yuv_to_rgb(y0, u, v);
-            if let Some(second) = pair.get_mut(1) {
-                *second = yuv_to_rgb(y1, u, v);
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Decodes an MJPEG frame to RGB8; returns (width, height, pixels). Frames without Huffman
@@ -277,61 +189,6 @@ const AC_CHROMINANCE_SYMBOLS: [u8; 162] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn yuyv_pairs_share_their_chroma_and_match_the_bt601_values() {
-        fn check(width: u32, stride: u32, frame: &[u8], expected: &[[u8; 3]]) {
-            let mut rgb = Vec::new();
-            yuyv_to_rgb(width, 1, stride, frame, &mut rgb).unwrap();
-            let (got, _) = rgb.as_chunks::<3>();
-            assert_eq!(got, expected, "{frame:?}");
-        }
-        // Black, white, and pure red (Y 82, U 90, V 240, see cmvision's yuv.rs).
-        check(2, 4, &[16, 128, 235, 128], &[[0, 0, 0], [255, 255, 255]]);
-        // The integer inverse lands one level off in green.
-        check(2, 4, &[82, 90, 82, 240], &[[255, 1, 0], [255, 1, 0]]);
-        // An odd width takes the first pixel of its last pair; padding is skipped.
-        check(
-            3,
-            12,
-            &[16, 128, 235, 128, 235, 128, 16, 128, 9, 9, 9, 9],
-            &[[0, 0, 0], [255, 255, 255], [255, 255, 255]],
-        );
-    }
-
-    #[test]
-    fn yuyv_refuses_short_frames_and_impossible_geometry() {
-        let mut rgb = Vec::new();
-        assert_eq!(
-            yuyv_to_rgb(4, 2, 8, &[0; 15], &mut rgb),
-            Err(ConvertError::ShortFrame {
-                width: 4,
-                height: 2,
-                bytes_per_line: 8,
-                needed: 16,
-                got: 15
-            })
-        );
-        for (width, height, stride) in [(0, 1, 4), (4, 0, 8), (4, 1, 6), (3, 1, 6)] {
-            assert!(
-                matches!(
-                    yuyv_to_rgb(width, height, stride, &[0; 64], &mut rgb),
-                    Err(ConvertError::BadGeometry { .. })
-                ),
-                "{width}x{height} stride {stride}"
-            );
-        }
-        // Huge frames announced by a short buffer are refused without allocating.
-        assert!(matches!(
-            yuyv_to_rgb(60_000, 60_000, 120_000, &[0; 64], &mut rgb),
-            Err(ConvertError::ShortFrame { .. })
-        ));
-        assert!(matches!(
-            yuyv_to_rgb(u32::MAX, u32::MAX, u32::MAX, &[0; 64], &mut rgb),
-            Err(ConvertError::BadGeometry { .. })
-        ));
-        assert!(rgb.is_empty());
-    }
 
     /// A small JPEG made by the `image` crate's encoder (which uses the standard tables).
     fn jpeg_of(width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {

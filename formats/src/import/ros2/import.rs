@@ -16,10 +16,10 @@ use lewis_interfaces::msg::{
 use lewis_perception::blobfinder::{self, BlobFinder};
 use lewis_perception::cmvision::ColorConfig;
 use lewis_perception::range_distance::{self, RangeToDistance};
+use lewis_ros2_map::from_ros2::{self, ImageError, RangeCounts, Scan};
 use lewis_runtime::names::{data_channel, health_channel};
 
 use super::bag::{self, BagMessage};
-use super::convert::{self, ImageError, RangeCounts, Scan};
 use super::topics::{self, Choice, ChoiceError, Role, TopicStats};
 use crate::import::carmen::laser::{SonarOptions, derived_sonar};
 use crate::import::carmen::{ImportedMessage, Payload};
@@ -342,7 +342,7 @@ pub struct Ros2Import {
 enum Converted {
     Laser(RangeFinder, RangeCounts),
     SecondLaser(RangeFinder, RangeCounts),
-    Odometry(convert::Odometry),
+    Odometry(from_ros2::Odometry),
     Image(ImageSource, String),
     Nothing,
 }
@@ -452,28 +452,28 @@ impl Converter {
         let stamp = if role == Role::Tf {
             None
         } else {
-            convert::stamp_ns(&value)
+            from_ros2::stamp_ns(&value)
         };
         self.stamp(m, stamp);
         match role {
             Role::Laser => {
-                let scan = convert::laser_scan(&value).map_err(|r| self.error(m, r))?;
+                let scan = from_ros2::laser_scan(&value).map_err(|r| self.error(m, r))?;
                 self.check_beams(m, &scan)?;
                 let mut counts = RangeCounts::default();
-                let reading = convert::range_finder(&scan, &mut counts);
+                let reading = from_ros2::range_finder(&scan, &mut counts);
                 Ok(if second {
                     Converted::SecondLaser(reading, counts)
                 } else {
                     Converted::Laser(reading, counts)
                 })
             }
-            Role::Odometry => convert::odometry(&value)
+            Role::Odometry => from_ros2::odometry(&value)
                 .map(Converted::Odometry)
                 .map_err(|r| self.error(m, r)),
-            Role::Tf => match convert::tf_odometry(&value).map_err(|r| self.error(m, r))? {
+            Role::Tf => match from_ros2::tf_odometry(&value).map_err(|r| self.error(m, r))? {
                 Some((pose, stamp)) => {
                     self.stamp(m, stamp);
-                    Ok(Converted::Odometry(convert::Odometry {
+                    Ok(Converted::Odometry(from_ros2::Odometry {
                         pose,
                         translation_mps: 0.0,
                         rotation_radps: 0.0,
@@ -489,12 +489,12 @@ impl Converter {
                     .unwrap_or_default()
                     .to_owned();
                 let pixels = if role == Role::Image {
-                    convert::image(&value)
+                    from_ros2::image(&value)
                 } else {
-                    convert::compressed_image(&value)
+                    from_ros2::compressed_image(&value)
                 };
                 match pixels {
-                    Ok((w, h, rgb)) => Ok(Converted::Image(convert::image_source(w, h, rgb), kind)),
+                    Ok((w, h, rgb)) => Ok(Converted::Image(from_ros2::image_source(w, h, rgb), kind)),
                     Err(e @ ImageError::UnknownEncoding(_)) => Err(self.error(
                         m,
                         format!("{e}; map another image topic with --map TOPIC=ImageSource, if the bag has one"),

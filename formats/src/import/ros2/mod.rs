@@ -8,9 +8,10 @@
 //! - [`topics`] chooses the topic of each interface: by type when there is one of a kind,
 //!   by `--map TOPIC=INTERFACE` otherwise (several candidates without a map stop the
 //!   import with a list of them, never a question).
-//! - [`convert`] turns a decoded message into a Lewis one: LaserScan to RangeFinder,
-//!   Odometry (or TF's odom to base_link) to Egomotion, Image (rgb8, bgr8, mono8, yuv422)
-//!   and CompressedImage (JPEG, PNG) to ImageSource in rgb8.
+//! - [`lewis_ros2_map::from_ros2`] (the ROS 2 -> Lewis mappings, which the coming live
+//!   ROS 2 gateway shares) turns a decoded message into a Lewis one: LaserScan to
+//!   RangeFinder, Odometry (or TF's odom to base_link) to Egomotion, Image (rgb8, bgr8,
+//!   mono8, yuv422) and CompressedImage (JPEG, PNG) to ImageSource in rgb8.
 //! - [`import`] runs the passes: [`Ros2Import::open`] chooses and checks everything
 //!   (range counts that change, unknown image encodings, time going backwards on a topic
 //!   are refused with the topic, the message's index and its time), then
@@ -29,7 +30,6 @@
 //! Writing MCAP is the recorder's job (`import::record::write_ros2`).
 
 pub mod bag;
-pub mod convert;
 pub mod import;
 pub mod robot;
 pub mod topics;

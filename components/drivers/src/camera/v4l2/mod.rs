@@ -240,7 +240,7 @@ impl VideoDevice {
                     bytes,
                     rgb,
                 )
-                .map_err(convert_error)?;
+                .map_err(|e| convert_error(e.into()))?;
                 (self.width_px, self.height_px)
             }
             PixelFormat::Mjpeg => {

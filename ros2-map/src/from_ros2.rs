@@ -2,8 +2,9 @@
 //! RangeFinder, `nav_msgs/Odometry` (or a `tf2_msgs/TFMessage`'s odom to base transform)
 //! to an Egomotion pose, `sensor_msgs/Image` and `sensor_msgs/CompressedImage` to an
 //! ImageSource in rgb8. The messages were decoded by the schema-driven decoder
-//! (`lewis_interfaces::dynamic`); this module reads fields of its value trees. Headers are
-//! left to the caller.
+//! ([`lewis_interfaces::dynamic`]) with their own schema texts (a bag's, a live topic's);
+//! this module reads fields of its value trees. Headers are left to the caller
+//! ([`stamp_ns`] reads one's stamp).
 //!
 //! **Ranges.** A reading is kept unchanged (widened from `float32`) when it lies within the
 //! scan's `[range_min, range_max]`; any other reading (NaN, infinite, below the minimum or
@@ -14,7 +15,7 @@ use image::ImageFormat;
 use lewis_interfaces::dynamic::Value;
 use lewis_interfaces::msg::{ImageSource, Pose2D, Pose3D, RangeFinder};
 
-/// The pixel encodings of `sensor_msgs/Image` the import converts.
+/// The pixel encodings of `sensor_msgs/Image` that [`image()`] converts.
 pub const IMAGE_ENCODINGS: &[&str] = &["rgb8", "bgr8", "mono8", "yuv422", "yuv422_yuy2"];
 
 /// A number at `path`, of whatever width the schema gave it.
@@ -111,7 +112,7 @@ pub fn laser_scan(value: &Value) -> Result<Scan, String> {
     Ok(scan)
 }
 
-/// Readings converted, by kind, over an import.
+/// Readings converted, by kind, over many scans (an import's, a gateway's).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RangeCounts {
     /// Readings kept as logged.
@@ -121,7 +122,7 @@ pub struct RangeCounts {
 }
 
 /// The RangeFinder reading of a scan (the laser taken at the robot's centre, facing
-/// forward: the bag's static transforms are not applied).
+/// forward: the static transforms of `/tf_static` are not applied).
 #[must_use]
 pub fn range_finder(scan: &Scan, counts: &mut RangeCounts) -> RangeFinder {
     let max = scan.range_max_m;
@@ -295,7 +296,7 @@ pub fn image(value: &Value) -> Result<(u32, u32, Vec<u8>), ImageError> {
     }
     let mut rgb = Vec::with_capacity(w * h * 3);
     if matches!(encoding, "yuv422" | "yuv422_yuy2") {
-        // ROS's `yuv422` is UYVY; `yuv422_yuy2` is YUYV, the drivers' conversion's order.
+        // ROS's `yuv422` is UYVY; `yuv422_yuy2` is YUYV, the camera driver's order.
         let mut yuyv = Vec::with_capacity(needed);
         for row in 0..h {
             let line = data.get(row * step..row * step + w * 2).unwrap_or_default();
@@ -307,14 +308,8 @@ pub fn image(value: &Value) -> Result<(u32, u32, Vec<u8>), ImageError> {
                 yuyv.extend_from_slice(line);
             }
         }
-        lewis_drivers::camera::pixel_format::yuyv_to_rgb(
-            width,
-            height,
-            width.div_ceil(2) * 4,
-            &yuyv,
-            &mut rgb,
-        )
-        .map_err(|e| ImageError::Bad(e.to_string()))?;
+        lewis_images::yuv::yuyv_to_rgb(width, height, width.div_ceil(2) * 4, &yuyv, &mut rgb)
+            .map_err(|e| ImageError::Bad(e.to_string()))?;
         return Ok((width, height, rgb));
     }
     for row in 0..h {
@@ -360,7 +355,7 @@ pub fn compressed_image(value: &Value) -> Result<(u32, u32, Vec<u8>), ImageError
     Ok((width, height, decoded.into_raw()))
 }
 
-/// An ImageSource message (rgb8; no intrinsics: the bag's CameraInfo is not read).
+/// An ImageSource message (rgb8; no intrinsics: a CameraInfo is not read).
 #[must_use]
 pub fn image_source(width: u32, height: u32, rgb: Vec<u8>) -> ImageSource {
     let none = lewis_images::ImageIntrinsics {
@@ -412,12 +407,12 @@ mod tests {
             image(&mono).unwrap(),
             (2, 2, vec![7, 7, 7, 8, 8, 8, 9, 9, 9, 10, 10, 10])
         );
-        // UYVY grey (Y 128, U = V = 128) is the drivers' YUYV grey.
+        // UYVY grey (Y 128, U = V = 128) is the camera driver's YUYV grey.
         let uyvy = raw("yuv422", 2, 1, 4, vec![128, 128, 128, 128]);
         let (_, _, rgb) = image(&uyvy).unwrap();
         assert_eq!(
             rgb,
-            [lewis_drivers::camera::pixel_format::yuv_to_rgb(128, 128, 128); 2].concat()
+            [lewis_images::yuv::yuv_to_rgb(128, 128, 128); 2].concat()
         );
     }
 
