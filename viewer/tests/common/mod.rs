@@ -134,9 +134,7 @@ pub fn camera_run(dir: &Path, frames: i64) -> PathBuf {
     let (width, height) = (64_i32, 48_i32);
     let mut noise = lewis_service::NoiseBytes::new(1, 0);
     for k in 0..frames {
-        let data: Vec<u8> = (0..width * height * 3)
-            .map(|_| noise.next_byte())
-            .collect();
+        let data: Vec<u8> = (0..width * height * 3).map(|_| noise.next_byte()).collect();
         w.write(
             camera,
             ImageSource {
