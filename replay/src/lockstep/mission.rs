@@ -180,6 +180,7 @@ impl<'a> Lockstep<'a> {
     /// module documentation). Call it before the replay starts.
     pub fn with_mission(&mut self, plan: MissionPlan, programs: &'a dyn Programs) {
         let at = plan.start_ns;
+        self.script.run_past_recorded_stops();
         self.mission = Some(MissionRun::new(plan, programs));
         self.schedule(at, Timer::MissionStarts);
     }

@@ -65,6 +65,9 @@ pub struct Script {
     read_to_ns: i64,
     /// Whether the whole recording has been read ahead.
     read_whole: bool,
+    /// Whether services stop where they stopped live (not when a mission is lived again:
+    /// it ends when it ends in the replay, and its services run until then).
+    stops_as_recorded: bool,
 }
 
 impl Script {
@@ -84,7 +87,14 @@ impl Script {
                 .collect(),
             read_to_ns: i64::MIN,
             read_whole: false,
+            stops_as_recorded: true,
         }
+    }
+
+    /// Services run on past where they stopped live: the mission is lived again, and
+    /// when it ends (and so when `lewis up` would stop them) is the replay's to say.
+    pub fn run_past_recorded_stops(&mut self) {
+        self.stops_as_recorded = false;
     }
 
     /// A message recorded at `time_ns` was read ahead.
@@ -111,10 +121,12 @@ impl Script {
         let Some(script) = self.services.get(service) else {
             return false;
         };
-        script.last_life_ns.is_some_and(|last| {
-            last < now_ns
-                && (self.read_whole || self.read_to_ns.saturating_sub(last) > script.deadline_ns)
-        })
+        self.stops_as_recorded
+            && script.last_life_ns.is_some_and(|last| {
+                last < now_ns
+                    && (self.read_whole
+                        || self.read_to_ns.saturating_sub(last) > script.deadline_ns)
+            })
     }
 
     /// Stops following `service` (it lives otherwise than it did live).
@@ -300,6 +312,9 @@ mod tests {
         assert!(script.gone("front", 205 * MS));
         // A service not followed is never judged.
         assert!(!script.gone("laser", 205 * MS));
+        // Nor one of a mission lived again.
+        script.run_past_recorded_stops();
+        assert!(!script.gone("front", 205 * MS));
     }
 
     #[test]
