@@ -6,7 +6,8 @@
 //!   chapter (the keys are read from the parsers' own "expected one of" errors);
 //! - every keyword of the mission script language is in its chapter;
 //! - the interfaces chapter is generated from `interfaces/idl/`, and compared with the
-//!   committed one (`UPDATE_DOCS=1` writes it again).
+//!   committed one (`UPDATE_DOCS=1` writes it again);
+//! - the README stays at most 300 lines and ARCHITECTURE.md at most 4,000 words.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -485,5 +486,20 @@ fn the_interfaces_chapter_is_generated_from_the_idl() {
         committed == expected,
         "docs/src/reference/interfaces.md differs from interfaces/idl (first at line {first}): \
          run `UPDATE_DOCS=1 cargo test -p lewis-tests --test it docs::` and commit it"
+    );
+}
+
+#[test]
+fn the_readme_and_the_architecture_stay_short_enough_to_read() {
+    // The README says what Lewis is and where to read on; the guide holds the rest. The
+    // architecture is a map, not a changelog: history goes to commit messages.
+    let readme = std::fs::read_to_string(repo_root().join("README.md")).unwrap();
+    let lines = readme.lines().count();
+    assert!(lines <= 300, "README.md has {lines} lines: at most 300");
+    let architecture = std::fs::read_to_string(repo_root().join("ARCHITECTURE.md")).unwrap();
+    let words = architecture.split_whitespace().count();
+    assert!(
+        words <= 4000,
+        "ARCHITECTURE.md has {words} words: at most 4,000"
     );
 }
