@@ -277,24 +277,36 @@ const ROBOT_TABLES: &[(&str, &str)] = &[
 
 #[test]
 fn every_key_the_robot_file_accepts_is_in_its_chapter() {
-    let chapter = std::fs::read_to_string(docs().join("reference/robot-file.md")).unwrap();
     let interfaces = lewis_interfaces::interface_names();
-    let mut gaps = Vec::new();
-    for (heading, text) in ROBOT_TABLES {
-        let error = match lewis_robot::parse(text, Path::new("probe.toml"), &interfaces) {
+    assert_every_key_documented("reference/robot-file.md", ROBOT_TABLES, |heading, text| {
+        match lewis_robot::parse(text, Path::new("probe.toml"), &interfaces) {
             Ok(_) => panic!("the probe of {heading} loaded:\n{text}"),
             Err(e) => e.to_string(),
-        };
+        }
+    });
+}
+
+/// Checks that `chapter` names, under each table's heading, every key its parser lists
+/// when `probe` feeds it that table with an unknown key (and returns the error's text).
+fn assert_every_key_documented(
+    chapter: &str,
+    tables: &[(&str, &str)],
+    mut probe: impl FnMut(&str, &str) -> String,
+) {
+    let text = std::fs::read_to_string(docs().join(chapter)).unwrap();
+    let mut gaps = Vec::new();
+    for (heading, table) in tables {
+        let error = probe(heading, table);
         let keys = expected_keys(&error);
         assert!(!keys.is_empty(), "{heading}: {error}");
-        let absent = missing(section(&chapter, heading), &keys);
+        let absent = missing(section(&text, heading), &keys);
         if !absent.is_empty() {
             gaps.push(format!("{heading}: {}", absent.join(", ")));
         }
     }
     assert!(
         gaps.is_empty(),
-        "docs/src/reference/robot-file.md lacks keys the parser accepts:\n{}",
+        "docs/src/{chapter} lacks keys the parser accepts:\n{}",
         gaps.join("\n")
     );
 }
@@ -313,7 +325,6 @@ const WORLD_TABLES: &[(&str, &str)] = &[
 
 #[test]
 fn every_key_the_world_file_accepts_is_in_its_chapter() {
-    let chapter = std::fs::read_to_string(docs().join("reference/world-file.md")).unwrap();
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(
         repo_root().join("robots/worlds/conference/map.png"),
@@ -321,25 +332,13 @@ fn every_key_the_world_file_accepts_is_in_its_chapter() {
     )
     .unwrap();
     let header = "map = \"map.png\"\nmetres_per_pixel = 0.05\nsize_m = [40.0, 25.0]\n";
-    let mut gaps = Vec::new();
-    for (heading, lines) in WORLD_TABLES {
+    assert_every_key_documented("reference/world-file.md", WORLD_TABLES, |heading, lines| {
         std::fs::write(dir.path().join("world.toml"), format!("{header}{lines}")).unwrap();
-        let error = match lewis_sim::world::World::load(dir.path()) {
+        match lewis_sim::world::World::load(dir.path()) {
             Ok(_) => panic!("the probe of {heading} loaded"),
             Err(e) => e.to_string(),
-        };
-        let keys = expected_keys(&error);
-        assert!(!keys.is_empty(), "{heading}: {error}");
-        let absent = missing(section(&chapter, heading), &keys);
-        if !absent.is_empty() {
-            gaps.push(format!("{heading}: {}", absent.join(", ")));
         }
-    }
-    assert!(
-        gaps.is_empty(),
-        "docs/src/reference/world-file.md lacks keys the parser accepts:\n{}",
-        gaps.join("\n")
-    );
+    });
 }
 
 #[test]
