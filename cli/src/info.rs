@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use lewis_replay::{InfoOptions, inspect};
+use lewis_recording::{InfoOptions, inspect};
 
 /// `lewis info FILE.mcap`
 #[derive(Debug, Args)]
@@ -32,7 +32,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
         scan: args.scan,
     };
     let index = args.file.extension().is_some_and(|e| e == "json");
-    let files = lewis_replay::recording::expand_inputs(std::slice::from_ref(&args.file))?;
+    let files = lewis_recording::expand_inputs(std::slice::from_ref(&args.file))?;
     let mut reports = Vec::new();
     for file in &files {
         reports.push(inspect(file, &options)?);

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use lewis_replay::play::{
+use lewis_recording::play::{
     Controls, NoControls, PlayCommand, PlayOptions, PlayReport, Status, play,
 };
 use lewis_runtime::ipc::Ipc;

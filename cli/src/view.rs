@@ -102,7 +102,7 @@ fn open_hint(rrd: &Path) -> String {
 /// Converts and reports; a recording with undecodable messages or damage still exits 0
 /// (what could be shown was shown, and the report says what was not).
 pub fn run(args: &ViewArgs) -> anyhow::Result<ExitCode> {
-    let files = lewis_replay::recording::expand_inputs(&args.files)?;
+    let files = lewis_recording::expand_inputs(&args.files)?;
     if let Some(png) = &args.png {
         let [file] = files.as_slice() else {
             bail!("--png draws one recording, not {} files", files.len());

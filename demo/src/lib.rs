@@ -14,10 +14,10 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use lewis_launch::{Launch, LaunchError, LaunchOptions, MissionPlan};
+use lewis_recording::RecordingFiles;
 use lewis_replay::fault::FaultSpec;
 use lewis_replay::lockstep::Programs;
 use lewis_replay::outcome::LoopKind;
-use lewis_replay::recording::RecordingFiles;
 use lewis_replay::report::Report;
 use lewis_replay::resim::{ReplayOptions, ServiceSelection, replay_with};
 use lewis_robot::{Known, Robot};

@@ -6,7 +6,7 @@
 //!   Foxglove and RViz (`lewis export`).
 //! - [`whole_file`]: an output written whole or not at all.
 //!
-//! It reads recordings through `lewis_replay::recording` and writes them through
+//! It reads recordings through `lewis_recording` and writes them through
 //! `lewis-recorder`, so an imported log is a recording like any other. Replay does not
 //! depend on it: nothing here is needed to replay a recording.
 

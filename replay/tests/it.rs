@@ -2,10 +2,7 @@
 //! one test binary: one link instead of one per file.
 
 mod dynamic_never_panics;
-mod info;
 mod lockstep;
-mod play;
 mod ros2_recordings;
 mod same_bytes;
 mod sweep;
-mod versions;

@@ -712,7 +712,7 @@ fn the_output_holds_the_recording_and_the_replay_beside_it() {
     let out = dir.path().join("out.mcap");
     let input = make_recording(dir.path(), 1000, 0.25);
     run(&input, &out, &["laser@0.5s"], ServiceSelection::NonSources).unwrap();
-    let info = lewis_replay::inspect(&out, &lewis_replay::InfoOptions::default()).unwrap();
+    let info = lewis_recording::inspect(&out, &lewis_recording::InfoOptions::default()).unwrap();
     let topics: Vec<&str> = info.channels.iter().map(|c| c.topic.as_str()).collect();
     for topic in [
         "/laser/RangeFinder",

@@ -65,6 +65,20 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-ros2-map",
         ],
     ),
+    // Recordings read back (the parts of a run in order, `lewis info`, `lewis play`): above
+    // the recorder, whose channel description and parts index it reads, below everything
+    // that reads a run.
+    (
+        "lewis-recording",
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-robot",
+            "lewis-mcap",
+            "lewis-runtime",
+            "lewis-recorder",
+        ],
+    ),
     (
         "lewis-sequencer",
         &[
@@ -158,14 +172,15 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-mcap",
             "lewis-runtime",
             "lewis-recorder",
+            "lewis-recording",
             "lewis-sequencer",
             // The sub-task programs a mission lived again runs (`lockstep::AppPrograms`).
             "lewis-apps",
         ],
     ),
     // Other robot software's logs in and out: above the recorder (it writes through it) and
-    // replay (it reads recordings through it), with the ROS 2 mappings and the components an
-    // import runs.
+    // the recording reader (it reads through it), with the ROS 2 mappings and the components
+    // an import runs; not replay.
     (
         "lewis-formats",
         &[
@@ -175,7 +190,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-mcap",
             "lewis-runtime",
             "lewis-recorder",
-            "lewis-replay",
+            "lewis-recording",
             "lewis-ros2-map",
             "lewis-motion",
             "lewis-perception",
@@ -191,7 +206,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-images",
             "lewis-perception",
             "lewis-sim",
-            "lewis-replay",
+            "lewis-recording",
             "lewis-recorder",
             "lewis-pages",
         ],
@@ -248,6 +263,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-service",
             "lewis-runtime",
             "lewis-recorder",
+            "lewis-recording",
             "lewis-replay",
             "lewis-sequencer",
             "lewis-launch",
@@ -274,8 +290,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-testkit",
         ],
     ),
-    // The binary: on top. The components it names directly are for `fake-device` and
-    // `info` until they move into crates of their own.
+    // The binary: on top. The components it names directly: the emulators (with geometry's
+    // poses) for `lewis fake-device`, motion's goal for `lewis up --goal`.
     (
         "lewis",
         &[
@@ -285,16 +301,14 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-service",
             "lewis-runtime",
             "lewis-recorder",
+            "lewis-recording",
             "lewis-replay",
             "lewis-formats",
             "lewis-tune",
             "lewis-sequencer",
             "lewis-pages",
             "lewis-geometry",
-            "lewis-images",
-            "lewis-sim",
             "lewis-motion",
-            "lewis-perception",
             "lewis-emulators",
             "lewis-kinds",
             "lewis-launch",
@@ -651,7 +665,7 @@ fn a_crate_that_uses_the_test_kit_outside_its_tests_is_named() {
     assert_eq!(
         violations(&metadata),
         [
-            "lewis -> lewis-testkit: lewis may use only [\"lewis-stdx\", \"lewis-interfaces\", \"lewis-robot\", \"lewis-service\", \"lewis-runtime\", \"lewis-recorder\", \"lewis-replay\", \"lewis-formats\", \"lewis-tune\", \"lewis-sequencer\", \"lewis-pages\", \"lewis-geometry\", \"lewis-images\", \"lewis-sim\", \"lewis-motion\", \"lewis-perception\", \"lewis-emulators\", \"lewis-kinds\", \"lewis-launch\", \"lewis-apps\", \"lewis-bridge\", \"lewis-demo\", \"lewis-viewer\"]",
+            "lewis -> lewis-testkit: lewis may use only [\"lewis-stdx\", \"lewis-interfaces\", \"lewis-robot\", \"lewis-service\", \"lewis-runtime\", \"lewis-recorder\", \"lewis-recording\", \"lewis-replay\", \"lewis-formats\", \"lewis-tune\", \"lewis-sequencer\", \"lewis-pages\", \"lewis-geometry\", \"lewis-motion\", \"lewis-emulators\", \"lewis-kinds\", \"lewis-launch\", \"lewis-apps\", \"lewis-bridge\", \"lewis-demo\", \"lewis-viewer\"]",
             "lewis-testkit -> lewis-sim: lewis-testkit may use only [\"lewis-stdx\", \"lewis-interfaces\", \"lewis-robot\", \"lewis-service\"]",
             "lewis -> lewis-testkit: lewis-testkit is a test-support crate: for dev-dependencies and the tests' helpers only",
             "lewis-sim -> (dev) lewis-testkit -> lewis-sim: a dependency cycle, lewis-sim's tests would build a second lewis-sim",

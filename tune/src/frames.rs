@@ -1,5 +1,5 @@
 //! The frames `lewis tune` works on: the ImageSource messages of a recording (read with
-//! `lewis_replay::recording`, chunk by chunk), or the PNG and JPEG files of a folder or
+//! `lewis_recording`, chunk by chunk), or the PNG and JPEG files of a folder or
 //! glob.
 
 use std::path::{Path, PathBuf};
@@ -10,7 +10,7 @@ use lewis_images::sequence::resolve;
 use lewis_interfaces::Struct as _;
 use lewis_interfaces::msg::ImageSource;
 use lewis_perception::tuning::Tuner;
-use lewis_replay::recording::{Recording, Topic};
+use lewis_recording::{Recording, Topic};
 
 /// The topic that images read from files are written on, and their spacing in time.
 pub const FILES_TOPIC: &str = "/tune/images/ImageSource";

@@ -21,7 +21,7 @@ use lewis_geometry::{Pose2, Vec2};
 use lewis_interfaces::Struct as _;
 use lewis_interfaces::msg::{CameraControl, GroundTruth, ImageSource, PersonState, WorldState};
 use lewis_perception::labels::{LABELS_VERSION, LabelledFrame, LabelledObject, Labels, PixelBox};
-use lewis_replay::recording::{RecordedMessage, Recording};
+use lewis_recording::{RecordedMessage, Recording};
 use lewis_sim::service::CameraParams;
 use lewis_sim::world::{Material, ObjectKind};
 use lewis_sim::{PixelSource, PrimitivePart, SimCamera, World};

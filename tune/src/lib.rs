@@ -25,7 +25,7 @@
 //!   `fit`.
 //!
 //! The perception work is done by `lewis_perception::tuning`; recordings are read
-//! with `lewis_replay::recording` and written with `lewis_recorder`. This crate wires them.
+//! with `lewis_recording` and written with `lewis_recorder`. This crate wires them.
 //! Each command's options are its clap arguments (`lewis tune`'s subcommands take them as
 //! they are); each command returns what it found, as a report whose `Display` is what
 //! `lewis tune` prints, and the `lewis` command prints it.

@@ -25,7 +25,7 @@ use lewis_recorder::{
 };
 
 use crate::whole_file::{RenameError, write_whole};
-use lewis_replay::recording::{RecordingError, RecordingFiles, Topic};
+use lewis_recording::{RecordingError, RecordingFiles, Topic};
 
 /// The provider of the export's recorder stats.
 pub const EXPORT_PROVIDER: &str = "lewis-export";

@@ -26,9 +26,9 @@ use lewis_service::{
 use serde::Serialize;
 
 use crate::lockstep::{Program, Programs};
-use crate::recording::Recording;
 use crate::resim::{ReplayError, ReplayOptions, replay_with};
 use crate::sweep::{SweepRunError, SweepSpec, sweep};
+use lewis_recording::Recording;
 
 /// What the closed-loop benchmark measured.
 #[derive(Debug, Clone, PartialEq, Serialize)]

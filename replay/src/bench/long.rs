@@ -18,7 +18,7 @@ use lewis_recorder::{
     ChannelId, RecordError, Recorder, RecorderOptions, RobotDescription, STATS_TOPIC, Sample,
 };
 
-use crate::recording::{Recording, RecordingError};
+use lewis_recording::{Recording, RecordingError};
 
 /// Time between the end of one lap and the start of the next.
 pub const LAP_GAP_NS: i64 = 1_000_000_000;

@@ -28,9 +28,9 @@ use lewis_service::{
 use serde::Serialize;
 
 use crate::lockstep::{Emitted, Lockstep, Route, Sink, route};
-use crate::recording::{RecordedMessage, Recording};
 use crate::resim::lookahead::Lookahead;
 use crate::resim::{ReplayError, ReplayOptions, prepare, replay};
+use lewis_recording::{RecordedMessage, Recording};
 
 /// How to measure.
 #[derive(Debug, Clone)]

@@ -99,9 +99,9 @@ use lewis_service::{BuildError, ContextState, Level, ServiceConfig, ServiceRegis
 use serde::Serialize;
 
 use crate::fault::{Fault, FaultKind};
-use crate::recording::RecordedMessage;
 pub use book::{CommandBook, default_reply, header_provider};
 use engine::{Sim, Timer, Work, backend_for};
+use lewis_recording::RecordedMessage;
 use mission::MissionRun;
 pub use mission::{Answer, AnswerSource, MissionPlan, Program, Programs};
 pub use programs::{AppPrograms, ReadAppArgs};

@@ -27,7 +27,7 @@ use lewis_sequencer::{
 use crate::fault::{Fault, FaultKind, format_seconds};
 use crate::lockstep::{MissionPlan, Programs};
 use crate::outcome::LoopKind;
-use crate::recording::Recording;
+use lewis_recording::Recording;
 
 /// What closing the loop takes, or why it cannot be closed.
 #[derive(Debug, Default)]

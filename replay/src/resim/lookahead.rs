@@ -18,7 +18,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use crate::recording::{RecordedMessage, RecordingError};
+use lewis_recording::{RecordedMessage, RecordingError};
 
 /// The largest delay between a message's publish time and the recorder's log time that
 /// is taken as the recorder's latency (beyond it, the log time is used).
@@ -54,7 +54,7 @@ pub struct Lookahead<I> {
 
 impl<I: Iterator<Item = Result<RecordedMessage, RecordingError>>> Lookahead<I> {
     /// A window over `source` (messages in log-time order, like
-    /// [`Messages`](crate::recording::Messages)).
+    /// [`Messages`](lewis_recording::Messages)).
     #[must_use]
     pub fn new(source: I) -> Self {
         Self {

@@ -48,9 +48,9 @@ use crate::compare::Comparator;
 use crate::fault::{Fault, FaultError, FaultSpec};
 use crate::lockstep::{Feed, Lockstep, LockstepError, Plan, Programs, Route, route};
 use crate::outcome::{LoopKind, MissionOutcome, MissionReport};
-use crate::recording::{ReadAhead, Recording, RecordingError};
 use crate::report::{CheckOutcome, Failure, FaultWatch, Report};
 use edit::{EditError, ParamEdit, ReplayedRobot, replayed_robot};
+use lewis_recording::{ReadAhead, Recording, RecordingError};
 use lookahead::Lookahead;
 use sink::OutputSink;
 

@@ -18,8 +18,8 @@ use lewis_runtime::names;
 use super::{FAULTS_TOPIC, REPLAY_PREFIX, REPLAY_PROVIDER};
 use crate::compare::Comparator;
 use crate::lockstep::{Emitted, Sink};
-use crate::recording::{RecordedMessage, Topic};
 use crate::report::{Failure, FaultWatch, MAX_FAILURES};
+use lewis_recording::{RecordedMessage, Topic};
 
 /// Writes everything into the output recording, feeds the comparator and the fault
 /// watches.

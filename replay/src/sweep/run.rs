@@ -7,8 +7,8 @@ use super::{FailedPoint, Sweep, SweepPoint, fault_times, run_jobs};
 use crate::fault::{FaultKind, FaultSpec, format_seconds};
 use crate::lockstep::{AnswerSource, Programs};
 use crate::outcome::{LoopKind, MissionOutcome};
-use crate::recording::Recording;
 use crate::resim::{ReplayError, ReplayOptions, prepare, replay_with};
+use lewis_recording::Recording;
 
 /// What to sweep: which providers fail together, how, at how many times, on how many
 /// threads.

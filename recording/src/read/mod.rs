@@ -1,4 +1,4 @@
-//! A recording as replay reads it: one or more MCAP files (the parts of one run, or runs
+//! A recording as Lewis reads it: one or more MCAP files (the parts of one run, or runs
 //! to replay together), their channels, the robot description stored in them, and their
 //! messages merged in one total order: log time, then topic, then the header's sequence
 //! number (then file and position, so that even identical keys have a fixed order).

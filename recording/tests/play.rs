@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use lewis_interfaces::cdr;
 use lewis_interfaces::msg::{Header, RangeFinder};
 use lewis_recorder::{ChannelSpec, Recorder, RecorderOptions, Sample};
-use lewis_replay::play::{Controls, PlayCommand, PlayOptions, PlayReport, play};
+use lewis_recording::play::{Controls, PlayCommand, PlayOptions, PlayReport, play};
 use lewis_runtime::ipc::{Ipc, Namespace, Subscriber, WaitSet, WakeMode};
 use lewis_runtime::live::StopSignals;
 use lewis_runtime::names;
@@ -178,7 +178,7 @@ fn options_that_do_not_fit_the_recording_are_refused_with_the_reason() {
             &options,
             &ipc,
             &stop,
-            &mut lewis_replay::play::NoControls,
+            &mut lewis_recording::play::NoControls,
             &mut |_| {},
         )
         .unwrap_err()

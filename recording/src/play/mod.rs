@@ -39,7 +39,7 @@ use lewis_runtime::ipc::{FdSource, Ipc, IpcError, Publisher, WaitError, WaitSet,
 use lewis_runtime::live::StopSignals;
 use lewis_runtime::names;
 
-use crate::recording::{RecordedMessage, RecordingError, RecordingFiles};
+use crate::{RecordedMessage, RecordingError, RecordingFiles};
 use pace::Pacer;
 
 /// The clock is published at least this often while playing.

@@ -12,8 +12,8 @@ use lewis_mcap::format::{
     FORMAT_VERSION, INTERFACES_METADATA, RECORDING_METADATA, ROBOT_METADATA, interfaces_digest,
 };
 use lewis_recorder::{Recorder, RecorderOptions};
-use lewis_replay::info::{InfoOptions, WarningKind, WrittenBy, inspect};
-use lewis_replay::recording::{RecordingError, RecordingFiles};
+use lewis_recording::info::{InfoOptions, WarningKind, WrittenBy, inspect};
+use lewis_recording::{RecordingError, RecordingFiles};
 
 /// A recording written now, by the recorder.
 fn recorded(dir: &Path) -> PathBuf {
@@ -53,7 +53,7 @@ const BEFORE_VERSIONING: &[(&str, &str)] = &[
     ("stats_topic", "/lewis/recorder/stats"),
 ];
 
-fn info(path: &Path, scan: bool) -> lewis_replay::info::InfoReport {
+fn info(path: &Path, scan: bool) -> lewis_recording::info::InfoReport {
     let options = InfoOptions { messages: 0, scan };
     inspect(path, &options).unwrap()
 }

@@ -1,4 +1,4 @@
-//! `lewis info` (`lewis_replay::inspect`) on the ROS 2 recordings of `../shared/data/mcap/`
+//! `lewis info` (`lewis_recording::inspect`) on the ROS 2 recordings of `../shared/data/mcap/`
 //! and on files written here: without a summary, truncated, with lost-message counts.
 //!
 //! The expected channel tables were produced by the independent Python tool, not by us:
@@ -16,7 +16,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use expect_test::{Expect, expect};
-use lewis_replay::info::{CountSource, InfoOptions, InfoReport, WarningKind, inspect};
+use lewis_recording::info::{CountSource, InfoOptions, InfoReport, WarningKind, inspect};
 
 fn data_file(name: &str) -> PathBuf {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
