@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 
 use lewis_interfaces::{InterfaceInfo, SchemaInfo};
+use lewis_ros2_map::qos::{OFFERED_QOS_PROFILES, QosProfile};
 
 /// Channel metadata key naming the service that publishes on the channel.
 pub const META_PROVIDER: &str = "provider";
@@ -81,10 +82,15 @@ impl ChannelSpec {
         self.extra_metadata.get(META_NUMBERING).map(String::as_str) != Some(NUMBERED_PER_PUBLISHER)
     }
 
-    /// The MCAP channel metadata: the extra entries, then provider, interface and version.
+    /// The MCAP channel metadata: the extra entries, then provider, interface and version,
+    /// and the QoS the topic is offered with (MCAP's `ros2` profile requires it on every
+    /// channel) unless the extra entries carry one (a ROS 2 input recorded as received).
     #[must_use]
     pub fn metadata(&self) -> BTreeMap<String, String> {
         let mut metadata = self.extra_metadata.clone();
+        metadata
+            .entry(OFFERED_QOS_PROFILES.to_owned())
+            .or_insert_with(|| QosProfile::for_topic(&self.topic).to_offered_qos_profiles());
         metadata.insert(META_PROVIDER.to_owned(), self.provider.clone());
         metadata.insert(META_INTERFACE.to_owned(), self.interface.clone());
         metadata.insert(
@@ -119,4 +125,37 @@ pub struct Sample<'a> {
     pub log_time_ns: i64,
     /// The CDR bytes, encapsulation header included, exactly as they travelled.
     pub data: &'a [u8],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(topic: &str) -> ChannelSpec {
+        let interface = lewis_interfaces::interface_info("RangeFinder").expect("a known interface");
+        ChannelSpec::publication(interface, "laser", topic)
+    }
+
+    #[test]
+    fn every_channel_offers_a_qos_and_the_static_transforms_are_latched() {
+        let qos = |spec: &ChannelSpec| spec.metadata()[OFFERED_QOS_PROFILES].clone();
+        assert_eq!(
+            qos(&spec("/laser/RangeFinder")),
+            QosProfile::DEFAULT.to_offered_qos_profiles()
+        );
+        assert_eq!(
+            qos(&spec("/tf_static")),
+            QosProfile::LATCHED.to_offered_qos_profiles()
+        );
+    }
+
+    #[test]
+    fn a_qos_recorded_as_received_is_kept() {
+        let mut received = spec("/scan");
+        let text = QosProfile::SENSOR_DATA.to_offered_qos_profiles();
+        received
+            .extra_metadata
+            .insert(OFFERED_QOS_PROFILES.to_owned(), text.clone());
+        assert_eq!(received.metadata()[OFFERED_QOS_PROFILES], text);
+    }
 }

@@ -43,6 +43,21 @@ fn check_compression(compression: Compression, chunk_name: &str) {
         camera["metadata"],
         serde_json::json!({"provider": "camera", "interface": "ImageSource", "interface_version": "1.0"})
     );
+    // MCAP's ros2 profile requires the offered QoS on every channel, as rosbag2 writes it.
+    let infinite = serde_json::json!({"sec": 9_223_372_036_i64, "nsec": 854_775_807});
+    for (topic, channel) in file["channels"].as_object().unwrap() {
+        let latched = topic == "/tf_static";
+        assert_eq!(
+            channel["qos"],
+            serde_json::json!([{
+                "history": 1, "depth": if latched { 1 } else { 10 }, "reliability": 1,
+                "durability": if latched { 1 } else { 2 }, "deadline": infinite,
+                "lifespan": infinite, "liveliness": 1, "liveliness_lease_duration": infinite,
+                "avoid_ros_namespace_conventions": false,
+            }]),
+            "{topic}"
+        );
+    }
     let metadata = &file["metadata"];
     assert!(
         metadata["lewis.interfaces"]["RangeFinder.xml"]

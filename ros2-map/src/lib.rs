@@ -13,10 +13,13 @@
 //!   [`lewis_interfaces::dynamic`]) to a Lewis one: a LaserScan to a RangeFinder, an
 //!   Odometry or a TF odometry transform to a pose, an Image or CompressedImage to an
 //!   ImageSource.
+//! - [`qos`]: the QoS a publisher offers, as MCAP's `ros2` profile writes it on every
+//!   channel (`offered_qos_profiles`).
 //!
 //! Pure functions over messages: no topics, no channels, no files, no IPC. Where a message
 //! goes (its topic, its channel, what is counted when it cannot be converted) is the
 //! caller's.
 
 pub mod from_ros2;
+pub mod qos;
 pub mod to_ros2;

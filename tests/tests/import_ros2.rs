@@ -60,6 +60,20 @@ fn messages(file: &Path) -> BTreeMap<String, Vec<(u64, Vec<u8>)>> {
     out
 }
 
+/// Each channel's `offered_qos_profiles` (empty when it has none), by topic.
+fn offered_qos(file: &Path) -> BTreeMap<String, String> {
+    let bytes = std::fs::read(file).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    summary
+        .channels
+        .values()
+        .map(|c| {
+            let qos = c.metadata.get("offered_qos_profiles").cloned();
+            (c.topic.clone(), qos.unwrap_or_default())
+        })
+        .collect()
+}
+
 fn replay(dir: &Path, input: &str, out: &str, extra: &[&str]) -> Value {
     let report = format!("{out}.json");
     let mut args = vec!["replay", input, "-o", out, "--report", &report];
@@ -161,6 +175,16 @@ fn a_bag_of_an_independent_writer_arrives_unchanged_field_by_field() {
     for topic in ["/scan", "/odom", "/tf", "/camera/image_raw"] {
         assert_eq!(out[topic], original[topic], "{topic}");
     }
+    // And so is the QoS their publishers offered; Lewis's own channels offer Lewis's.
+    let bag_qos = offered_qos(&bag);
+    let out_qos = offered_qos(&dir.path().join("out.mcap"));
+    assert!(bag_qos["/scan"].contains("reliability: 2"), "{bag_qos:?}");
+    assert_eq!(out_qos["/scan"], bag_qos["/scan"]);
+    assert!(out_qos["/laser/RangeFinder"].contains("reliability: 1\n  durability: 2"));
+    assert_eq!(
+        out_qos.len(),
+        out_qos.values().filter(|q| !q.is_empty()).count()
+    );
     // The import's times are the bag's log times.
     let log_times: Vec<u64> = original["/scan"].iter().map(|(t, _)| *t).collect();
     let laser_times: Vec<u64> = scans.iter().map(|(t, _)| *t).collect();

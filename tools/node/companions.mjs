@@ -2,7 +2,8 @@
 // @foxglove/rosmsg2-serialization's CDR reader), decodes every message of every channel,
 // and checks the ROS 2 companion channels against the Lewis messages they were made from:
 // LaserScan against RangeFinder (ranges, bearings, frame), Odometry against Egomotion,
-// /tf_static's sensor frames against the RangeFinders' offsets.
+// /tf_static's sensor frames against the RangeFinders' offsets; and that every channel
+// carries the ros2 profile's offered_qos_profiles (a YAML list of profile records).
 //
 // Usage: node companions.mjs FILE.mcap
 // Prints one JSON line {decoded: {topic: count}, checked: {topic: count}, mismatches: [...]}
@@ -42,6 +43,10 @@ for (let record; (record = reader.nextRecord()) !== undefined; ) {
     schemas.set(record.id, record);
   } else if (record.type === "Channel") {
     channels.set(record.id, record);
+    const qos = record.metadata.get("offered_qos_profiles");
+    if (qos === undefined || !qos.startsWith("- history: ")) {
+      problem(record.topic, `offered_qos_profiles ${JSON.stringify(qos)}`);
+    }
     const schema = schemas.get(record.schemaId);
     const text = new TextDecoder().decode(schema.data);
     readers.set(record.id, new MessageReader(parse(text, { ros2: true })));

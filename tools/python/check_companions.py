@@ -4,7 +4,9 @@ RangeFinder (ranges, angles, frame), PointCloud2 against the sonar's RangeFinder
 each beam ends), Odometry and /tf against Egomotion (pose, heading, velocities),
 /tf_static against the RangeFinders' offsets and the robot file's camera mounts,
 MarkerArray against Blobs3D, Signs and the broker's bindings, CompressedImage against
-ImageSource (format and size).
+ImageSource (format and size). Every channel must carry `offered_qos_profiles` (MCAP's ros2
+profile requires it): a YAML list of rosbag2 profile records with known policy codes,
+`/tf_static` and `/robot_description` transient local.
 
 Usage: check_companions.py FILE.mcap
 Decodes every message of the file (exits 1 at one that does not decode). Prints `TOPIC TYPE
@@ -16,10 +18,21 @@ import math
 import struct
 import sys
 import tomllib
+
+import yaml
 from collections import Counter, defaultdict
 
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+
+
+DEFAULTS = {"system_default", "unknown", "best_available"}
+QOS_NAMES = {
+    "history": DEFAULTS | {"keep_last", "keep_all"},
+    "reliability": DEFAULTS | {"reliable", "best_effort"},
+    "durability": DEFAULTS | {"transient_local", "volatile"},
+    "liveliness": DEFAULTS | {"automatic", "manual_by_topic"},
+}
 
 
 def f32(x):
@@ -57,6 +70,7 @@ class Checker:
         self.binding_texts = {}
         self.mounts = {}
         self.static_frames = {}
+        self.qos_channels = 0
 
     def problem(self, where, text):
         if len(self.problems) < 50:
@@ -73,6 +87,8 @@ class Checker:
                             mount = service.get("parameters", {}).get("mount")
                             if mount is not None:
                                 self.mounts[service["name"]] = mount
+            for channel in reader.get_summary().channels.values():
+                self.check_qos(channel)
             f.seek(0)
             reader = make_reader(f, decoder_factories=[DecoderFactory()])
             pending = []
@@ -132,6 +148,32 @@ class Checker:
                     self.problem("/tf_static", f"{frame} heading differs from the robot file")
             else:
                 self.problem("/tf_static", f"frame {frame} is neither a range finder nor a mounted camera")
+
+    def check_qos(self, channel):
+        where = f"{channel.topic} offered_qos_profiles"
+        text = channel.metadata.get("offered_qos_profiles")
+        if text is None:
+            self.problem(where, "missing")
+            return
+        profiles = yaml.safe_load(text)
+        if not isinstance(profiles, list) or not profiles:
+            self.problem(where, f"not a non-empty YAML list: {text!r}")
+            return
+        self.qos_channels += 1
+        for profile in profiles:
+            # rmw's codes (Humble writes numbers, Jazzy names): 0 system default, the
+            # policy's values, 3 unknown, 4 best available.
+            for key, names in QOS_NAMES.items():
+                value = profile.get(key)
+                if value not in (0, 1, 2, 3, 4) and str(value).lower() not in names:
+                    self.problem(where, f"{key} = {value!r}")
+            for key in ("deadline", "lifespan", "liveliness_lease_duration"):
+                value = profile.get(key)
+                if not isinstance(value, dict) or set(value) != {"sec", "nsec"}:
+                    self.problem(where, f"{key} = {value!r}")
+            latched = channel.topic.rsplit("/", 1)[-1] in ("tf_static", "robot_description")
+            if latched and profile.get("durability") not in (1, "transient_local"):
+                self.problem(where, f"durability {profile.get('durability')}, transient local (1) expected")
 
     def track_binding(self, broker, log_time):
         key = (broker.client, broker.interface)
@@ -268,6 +310,7 @@ def main(path):
         print(f"{topic} {checker.types[topic]} {count}")
     for topic, count in sorted(checker.decoded.items()):
         print(f"decoded {topic} {count}")
+    print(f"offered_qos_profiles on {checker.qos_channels} channels")
     for problem in checker.problems:
         print(f"MISMATCH {problem}")
     if not checker.counts:

@@ -6,7 +6,8 @@ preceded by its length as 4 little-endian bytes), the decoded header sequence nu
 runs, and whether every decoded header publish time equals the MCAP publish_time. In file
 order (as a streaming player reads it), per file how often log time goes backwards and per
 topic whether its log times strictly increase. Companion channels (ROS 2's own types,
-`kind = ros2-companion`) are left out of the topics.
+`kind = ros2-companion`) are left out of the topics. Each channel's `offered_qos_profiles`
+is given parsed as YAML (`qos`), or null when it has none.
 
 Usage: check_recording.py FILE.mcap [FILE.mcap ...]   (the files are read as one run)
 """
@@ -15,6 +16,8 @@ import json
 import struct
 import sys
 import zlib
+
+import yaml
 
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
@@ -44,7 +47,10 @@ def main():
                         "message_encoding": channel.message_encoding,
                         "schema_name": schema.name if schema else None,
                         "schema_encoding": schema.encoding if schema else None,
-                        "metadata": dict(channel.metadata),
+                        "metadata": {k: v for k, v in channel.metadata.items() if k != "offered_qos_profiles"},
+                        "qos": yaml.safe_load(channel.metadata["offered_qos_profiles"])
+                        if "offered_qos_profiles" in channel.metadata
+                        else None,
                     }
             out["files"].append(info)
             info["log_time_backwards"] = 0

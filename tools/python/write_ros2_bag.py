@@ -14,6 +14,7 @@ first one zero), `compressed` (the images as sensor_msgs/CompressedImage PNG on
 /camera/image_raw/compressed, encoded here with zlib).
 
 The values written are a function of the message index, so the test computes the same.
+/scan carries the offered QoS of a sensor driver (best effort), as rosbag2 records it.
 """
 
 import math
@@ -323,6 +324,14 @@ def pixels(i, width, height):
     return bytes((i * 17 + k * 5) % 256 for k in range(width * height * 3))
 
 
+INFINITE = "    sec: 9223372036\n    nsec: 854775807\n"
+SCAN_QOS = (
+    "- history: 3\n  depth: 0\n  reliability: 2\n  durability: 2\n"
+    f"  deadline:\n{INFINITE}  lifespan:\n{INFINITE}  liveliness: 1\n"
+    f"  liveliness_lease_duration:\n{INFINITE}  avoid_ros_namespace_conventions: false"
+)
+
+
 def main():
     out = sys.argv[1]
     variant = sys.argv[2] if len(sys.argv) > 2 else "good"
@@ -362,6 +371,17 @@ def main():
         compressed_schema = writer.register_msgdef(
             "sensor_msgs/msg/CompressedImage", definition(COMPRESSED_IMAGE, *HEADER_DEPS)
         )
+        # /scan as rosbag2 records a sensor driver's topic: its offered QoS (best effort,
+        # volatile; history unknown from discovery) on the channel, which an import keeps.
+        # The Writer has no argument for a channel's metadata: the channel is registered
+        # here, through the MCAP writer it wraps, before its first message.
+        if variant != "no-laser-no-odom":
+            writer._channel_ids["/scan"] = writer._writer.register_channel(
+                topic="/scan",
+                message_encoding="cdr",
+                schema_id=scan_schema.id,
+                metadata={"offered_qos_profiles": SCAN_QOS},
+            )
         seq = 0
         for i in range(30):
             t = START_NS + i * 100_000_000

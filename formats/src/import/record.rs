@@ -20,6 +20,7 @@ use lewis_recorder::{
     RobotDescription, Sample,
 };
 use lewis_robot::RobotError;
+use lewis_ros2_map::qos::OFFERED_QOS_PROFILES;
 
 use crate::whole_file::{RenameError, write_whole};
 
@@ -423,6 +424,10 @@ fn original_spec(topic: &ros2::bag::Topic, source: &str) -> ChannelSpec {
     let mut extra = BTreeMap::new();
     extra.insert(META_KIND.to_owned(), "original".to_owned());
     extra.insert("imported_from".to_owned(), source.to_owned());
+    // Without it, the recorder writes the topic's usual QoS.
+    if let Some(qos) = &topic.offered_qos {
+        extra.insert(OFFERED_QOS_PROFILES.to_owned(), qos.clone());
+    }
     ChannelSpec {
         topic: topic.name.clone(),
         schema_name: topic.type_name.clone(),

@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use lewis_mcap::records::Record;
 use lewis_mcap::{At, Damage, Flow, McapFile, ScanError, Visitor};
+use lewis_ros2_map::qos::OFFERED_QOS_PROFILES;
 
 use super::ImportError;
 
@@ -26,6 +27,9 @@ pub struct Topic {
     pub schema_text: String,
     /// The messages' encoding (`cdr` for ROS 2 bags).
     pub message_encoding: String,
+    /// The QoS its publishers offered (`offered_qos_profiles`), when the bag says (a
+    /// non-empty list): kept on the imported channel as received.
+    pub offered_qos: Option<String>,
 }
 
 impl Topic {
@@ -102,6 +106,11 @@ where
                         schema_encoding,
                         schema_text,
                         message_encoding: channel.message_encoding,
+                        offered_qos: channel
+                            .metadata
+                            .get(OFFERED_QOS_PROFILES)
+                            .filter(|text| !matches!(text.trim(), "" | "[]"))
+                            .cloned(),
                     }),
                 );
             }

@@ -288,6 +288,7 @@ mod tests {
                 schema_encoding: "ros2msg".to_owned(),
                 schema_text: String::new(),
                 message_encoding: "cdr".to_owned(),
+                offered_qos: None,
             },
             count,
             span_ns: Some((0, (count.max(2) - 1) * 100_000_000)),
