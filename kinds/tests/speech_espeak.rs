@@ -43,8 +43,7 @@ fn speech_with(audio_dir: &std::path::Path, parameters: &str) -> Harness {
 #[test]
 fn espeak_speech_writes_a_wav_per_utterance_and_hears_only_the_supervisor() {
     if !espeak_installed() {
-        eprintln!("skipped: espeak-ng is not installed (apt-get install espeak-ng)");
-        return;
+        lewis_testkit::skip_unless_ci!("espeak-ng is not installed (apt-get install espeak-ng)");
     }
     let dir = tempfile::tempdir().unwrap();
     let audio = dir.path().join("speech");
@@ -121,8 +120,7 @@ fn until_silent(h: &mut Harness, mut t: i64) -> i64 {
 #[test]
 fn a_player_that_cannot_play_leaves_the_voice_working_and_the_wavs_written() {
     if !espeak_installed() {
-        eprintln!("skipped: espeak-ng is not installed (apt-get install espeak-ng)");
-        return;
+        lewis_testkit::skip_unless_ci!("espeak-ng is not installed (apt-get install espeak-ng)");
     }
     let dir = tempfile::tempdir().unwrap();
     let audio = dir.path().join("speech");

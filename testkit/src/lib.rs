@@ -12,7 +12,8 @@
 //!   independent MCAP checkers ([`doctor`]); a browser for the GUI tests ([`browser`]), a
 //!   small disk ([`small_disk`]), several hosts on one machine ([`hosts`]) and the robot
 //!   files they run ([`robot_files`]); files of the repository ([`repository_path`],
-//!   [`shared_data`]).
+//!   [`shared_data`]); a test that cannot set up what it needs, skipped on a developer's
+//!   machine and failed under CI ([`skip_unless_ci!`]).
 //!
 //! It does not own any service kind, world or device model: the tests bring their own
 //! registry and use the real simulator (`lewis-sim`) for a world. It is a test-support
@@ -31,6 +32,7 @@ pub mod hosts;
 pub mod process;
 pub mod robot_files;
 pub mod scene;
+pub mod skip;
 pub mod small_disk;
 
 pub use process::{

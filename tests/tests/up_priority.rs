@@ -62,8 +62,7 @@ fn a_robot_not_allowed_its_priority_runs_and_says_why() {
     // Without CAP_SYS_NICE (dropped by setpriv where the test runs as root) no process
     // may raise its priority.
     let Ok(setpriv) = which_setpriv() else {
-        eprintln!("skipped: setpriv (util-linux) is not installed");
-        return;
+        lewis_testkit::skip_unless_ci!("setpriv (util-linux) is not installed");
     };
     let dir = tempfile::tempdir().unwrap();
     let mut setpriv = Command::new(setpriv);
@@ -86,15 +85,13 @@ fn a_robot_not_allowed_its_priority_runs_and_says_why() {
 fn the_cores_are_kept_awake_while_the_robot_runs_and_sleep_again_after() {
     // A request made and dropped at once: whether this machine lets the test make one.
     if let Err(e) = keep_cores_awake() {
-        eprintln!("skipped: {e}");
-        return;
+        lewis_testkit::skip_unless_ci!("{e}");
     }
     // Another process (a benchmark, tuned's latency profile) may hold the cores awake
     // already: the robot's request and its end could not be seen then.
     let before = cpu_latency_target_us();
     if before == Some(0) {
-        eprintln!("skipped: the cores are kept awake by another process");
-        return;
+        lewis_testkit::skip_unless_ci!("the cores are kept awake by another process");
     }
     let mut up = Up::start("awake", &robot("keep_cores_awake = true"));
     up.wait_line("the cores are kept awake while the robot runs");
@@ -121,8 +118,7 @@ fn a_robot_whose_machine_refuses_to_keep_the_cores_awake_runs_and_says_why() {
         .arg(&stand_in);
     let (status, stderr) = up_for_a_second(unshare, dir.path(), &robot("keep_cores_awake = true"));
     if stderr.contains("unshare:") || stderr.contains("mount:") {
-        eprintln!("skipped: cannot make the device read-only here: {stderr}");
-        return;
+        lewis_testkit::skip_unless_ci!("cannot make the device read-only here: {stderr}");
     }
     assert!(status.success(), "{stderr}");
     assert!(
