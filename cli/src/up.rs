@@ -122,7 +122,11 @@ pub fn run(args: &UpArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode
             let scratch = scratch_dir(&namespace, &host)?;
             let mut hosts = lewis_bridge::RobotHost::start(&robot, &namespace, &scratch)?;
             tracing::info!("host {host} of robot {}: bridge up", robot.name);
-            launch.run_with_hosts(Some(&mut hosts))?
+            let report = launch.run_with_hosts(Some(&mut hosts))?;
+            // The bridge kept the namespace in use when the run ended: wiped once it is down.
+            drop(hosts);
+            let _ = lewis_runtime::ipc::wipe_ended(&namespace);
+            report
         }
         #[cfg(not(feature = "hosts"))]
         Some(_) => anyhow::bail!(without_hosts(&args.robot)),

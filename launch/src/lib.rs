@@ -219,6 +219,10 @@ impl Launch {
         finish();
         let goal = goal.map(GoalRun::finish).transpose();
         drop(machine);
+        // Every process of the run has ended: what it made in shared memory (channels,
+        // publication ledgers) goes with it, so no run leaves anything behind. Another
+        // host's bridge still running keeps the namespace, and its `lewis up` wipes it.
+        let _ = lewis_runtime::ipc::wipe_ended(namespace);
         let up = up?;
         tracing::info!("broker down ({}), {} decisions", up.ended_by, up.decisions);
         Ok(LaunchReport {

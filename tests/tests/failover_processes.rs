@@ -111,6 +111,42 @@ provides = [{ interface = "Distance", quality = 1, cost = 1 }]
 }
 
 #[test]
+fn a_run_that_ended_leaves_nothing_in_shared_memory() {
+    let robot = test_robot(&TestRobot {
+        laser_start: "always",
+        ..TestRobot::default()
+    });
+    let mut up = Up::start("leaves-nothing", &robot);
+    up.wait_line("broker up");
+    // Its channels, its nodes and every process's publication ledger exist by now.
+    up.wait_status("the laser ready", |r| r.contains("service laser: ready"));
+    let prefix = up.namespace.iceoryx2_prefix();
+    assert!(!entries_named(&prefix).is_empty(), "the run made nothing?");
+    assert!(up.stop().success(), "{}", up.log());
+    assert_eq!(entries_named(&prefix), Vec::<String>::new(), "{}", up.log());
+}
+
+/// Every file or folder under `/dev/shm` and `/tmp/iceoryx2` whose name starts with
+/// `prefix`, at any depth.
+fn entries_named(prefix: &str) -> Vec<String> {
+    fn walk(dir: &std::path::Path, prefix: &str, found: &mut Vec<String>) {
+        for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if entry.file_name().to_string_lossy().starts_with(prefix) {
+                found.push(path.display().to_string());
+            } else if entry.file_type().is_ok_and(|t| t.is_dir()) {
+                walk(&path, prefix, found);
+            }
+        }
+    }
+    let mut found = Vec::new();
+    for root in ["/dev/shm", "/tmp/iceoryx2"] {
+        walk(std::path::Path::new(root), prefix, &mut found);
+    }
+    found
+}
+
+#[test]
 fn malformed_robot_file_gives_a_line_numbered_error() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.toml");

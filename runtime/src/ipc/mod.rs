@@ -52,7 +52,9 @@ pub use namespace::{
     DEFAULT_NAMESPACE, MAX_NAMESPACE_LEN, NAMESPACE_ENV, Namespace, NamespaceError,
 };
 pub use orphans::{OrphanReport, wipe_orphaned_namespaces};
-pub use stale::{WipeReport, remove_abandoned_channels, remove_abandoned_memory, wipe_stale};
+pub use stale::{
+    WipeReport, remove_abandoned_channels, remove_abandoned_memory, wipe_ended, wipe_stale,
+};
 pub(crate) use wait::SPINS_PER_CLOCK_READ;
 pub use wait::{FdSource, Fired, MAX_WAIT_SOURCES, WaitError, WaitSet, Waitable, WakeMode, Woken};
 

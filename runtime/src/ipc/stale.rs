@@ -39,16 +39,40 @@ pub struct WipeReport {
 /// how much it removed when it removed anything.
 #[must_use]
 pub fn wipe_stale(namespace: &Namespace) -> WipeReport {
-    wipe_stale_under(namespace, &ROOTS.map(PathBuf::from))
+    let report = wipe_stale_under(namespace, &ROOTS.map(PathBuf::from));
+    if report.removed > 0 {
+        tracing::info!(
+            "removed {} leftovers of earlier runs in namespace {namespace}",
+            report.removed
+        );
+    }
+    report
+}
+
+/// Removes everything of `namespace` once the run that owned it has ended (every process
+/// of it stopped), unless one of its processes still lives: a run leaves nothing behind in
+/// `/dev/shm` or `/tmp/iceoryx2`. Unlike [`wipe_stale`] it keeps no recent entries for a
+/// process joining: nothing joins a run that has ended, and its last files are seconds old.
+#[must_use]
+pub fn wipe_ended(namespace: &Namespace) -> WipeReport {
+    let report = wipe_under(namespace, &ROOTS.map(PathBuf::from), Duration::ZERO);
+    tracing::debug!("the run's namespace {namespace} wiped: {report:?}");
+    report
 }
 
 pub(super) fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> WipeReport {
+    wipe_under(namespace, roots, JOINING)
+}
+
+/// Removes `namespace`'s entries under `roots` changed more than `joining` ago, unless a
+/// node of the namespace lives.
+fn wipe_under(namespace: &Namespace, roots: &[PathBuf], joining: Duration) -> WipeReport {
     let Ok(config) = namespace.iceoryx2_config() else {
         return WipeReport::default();
     };
     // Taken before the nodes are listed: a node made after this is never mistaken for a
     // leftover, whether or not the listing saw it.
-    let young_from = ago(JOINING);
+    let young_from = ago(joining);
     let mut in_use = false;
     let listed = Node::<ipc::Service>::list(&config, |state| {
         // Only a live process holds its node's lock. A node whose files are incomplete was
@@ -67,9 +91,6 @@ pub(super) fn wipe_stale_under(namespace: &Namespace, roots: &[PathBuf]) -> Wipe
         .iter()
         .map(|root| remove_prefixed(root, &prefix, young_from))
         .sum();
-    if removed > 0 {
-        tracing::info!("removed {removed} leftovers of earlier runs in namespace {namespace}");
-    }
     WipeReport {
         removed,
         in_use: false,
