@@ -265,7 +265,9 @@ impl FaultWatch {
             | Action::Stop { service }
             | Action::RestartScheduled { service, .. }
             | Action::ServiceFailed { service }
-            | Action::ServiceDegraded { service } => struck(service),
+            | Action::ServiceDegraded { service }
+            | Action::ServiceWaiting { service, .. }
+            | Action::ServiceResumed { service } => struck(service),
             Action::Rebind {
                 client,
                 interface,

@@ -528,7 +528,9 @@ impl Lockstep<'_> {
             Action::RestartScheduled { .. }
             | Action::Reject { .. }
             | Action::AskForHelp { .. }
-            | Action::ServiceDegraded { .. } => {}
+            | Action::ServiceDegraded { .. }
+            | Action::ServiceWaiting { .. }
+            | Action::ServiceResumed { .. } => {}
         }
     }
 

@@ -223,6 +223,15 @@ pub fn decision_message(decision: &Decision) -> BrokerMessage {
             m.service.clone_from(service);
             BrokerAction::ServiceDegraded
         }
+        Action::ServiceWaiting { service, interface } => {
+            m.service.clone_from(service);
+            m.interface.clone_from(interface);
+            BrokerAction::ServiceWaiting
+        }
+        Action::ServiceResumed { service } => {
+            m.service.clone_from(service);
+            BrokerAction::ServiceResumed
+        }
     };
     m.action = action.into();
     m
@@ -679,7 +688,9 @@ impl<'r> Driver<'r> {
             Action::Rebind { .. }
             | Action::Unbind { .. }
             | Action::Reject { .. }
-            | Action::RestartScheduled { .. } => tracing::info!(subject = "broker", "{decision}"),
+            | Action::RestartScheduled { .. }
+            | Action::ServiceWaiting { .. }
+            | Action::ServiceResumed { .. } => tracing::info!(subject = "broker", "{decision}"),
             Action::Start { .. } | Action::Stop { .. } | Action::Bind { .. } => {
                 tracing::debug!(subject = "broker", "{decision}");
             }

@@ -81,6 +81,20 @@ pub enum Action {
         /// The service.
         service: String,
     },
+    /// A record only: the service fell silent because an input of its own has no provider
+    /// that serves; it is not failed for that silence (the reason names the root cause),
+    /// keeps its clients and process, and its data is not judged until the input is back.
+    ServiceWaiting {
+        /// The service.
+        service: String,
+        /// The input it waits for.
+        interface: String,
+    },
+    /// A record only: a waiting service's input is served again; its data is judged again.
+    ServiceResumed {
+        /// The service.
+        service: String,
+    },
 }
 
 /// What the broker needs help with.
@@ -101,6 +115,8 @@ impl Action {
             Self::RestartScheduled { .. }
                 | Self::ServiceFailed { .. }
                 | Self::ServiceDegraded { .. }
+                | Self::ServiceWaiting { .. }
+                | Self::ServiceResumed { .. }
         )
     }
 }
@@ -153,6 +169,10 @@ impl fmt::Display for Action {
             } => write!(f, "restart {service} (attempt {attempt})"),
             Self::ServiceFailed { service } => write!(f, "{service} failed"),
             Self::ServiceDegraded { service } => write!(f, "{service} degraded"),
+            Self::ServiceWaiting { service, interface } => {
+                write!(f, "{service} waits for {interface}")
+            }
+            Self::ServiceResumed { service } => write!(f, "{service} resumed"),
         }
     }
 }

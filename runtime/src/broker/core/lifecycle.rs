@@ -85,17 +85,20 @@ impl BrokerCore {
             .get(&(service.to_owned(), interface.to_owned()))
             .copied()
             .unwrap_or_default();
+        // Only a running process's data counts: a late report about a process that has
+        // gone since says nothing of the next one.
+        let running = self.services.get(service).is_some_and(|e| {
+            matches!(
+                e.state,
+                ServiceState::Starting { .. } | ServiceState::Ready { .. }
+            )
+        });
+        if !running || self.waits_for_input(service, check, reason) {
+            return;
+        }
         let Some(entry) = self.services.get_mut(service) else {
             return;
         };
-        // Only a running process's data counts: a late report about a process that has
-        // gone since says nothing of the next one.
-        if !matches!(
-            entry.state,
-            ServiceState::Starting { .. } | ServiceState::Ready { .. }
-        ) {
-            return;
-        }
         let cause = format!("{service} failed its {check} check on {interface}: {reason}");
         match on_failure {
             OnCheckFailure::Failed => self.fail(service, &cause, true, true),
@@ -268,6 +271,7 @@ impl BrokerCore {
         entry.state = ServiceState::Starting { since_ns: now };
         entry.health = Health::Ok;
         entry.data_degraded = None;
+        entry.waiting_for = None;
         self.decide(
             Action::Start {
                 service: service.to_owned(),

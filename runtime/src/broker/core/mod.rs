@@ -41,6 +41,10 @@
 //!   for good also asks for help. Services started on demand keep running when their
 //!   clients leave, as warm standbys, until the operator stops them.
 //!
+//! - A provider that falls silent because an input of its own has no provider that serves
+//!   is not failed for it: it waits for its input, keeps its clients, and the decision
+//!   names the root cause ([`waiting`]).
+//!
 //! Joint choice ([`plan`]): each time clients need a decision (a new client, a provider
 //! that failed, one to fail back to), every client's interface is given its provider
 //! together with the others. The robot file may constrain the set: a CPU budget (the
@@ -64,6 +68,7 @@ mod lifecycle;
 mod plan;
 mod service;
 mod snapshot;
+mod waiting;
 
 #[cfg(test)]
 mod proptests;
@@ -171,6 +176,7 @@ impl BrokerCore {
         self.apply(event);
         self.run_deadlines();
         self.reconcile();
+        self.update_waiting();
         std::mem::take(&mut self.out)
     }
 
@@ -192,13 +198,14 @@ impl BrokerCore {
             .collect()
     }
 
-    /// Whether `service`'s published data is to be checked now: it is ready and not out of
-    /// service (a provider that says it cannot serve is expected to fall silent).
+    /// Whether `service`'s published data is to be checked now: it is ready, not out of
+    /// service (a provider that says it cannot serve is expected to fall silent) and not
+    /// waiting for an input of its own ([`Action::ServiceWaiting`]).
     #[must_use]
     pub fn data_is_judged(&self, service: &str) -> bool {
         self.services
             .get(service)
-            .is_some_and(Entry::ready_to_serve)
+            .is_some_and(|e| e.ready_to_serve() && e.waiting_for.is_none())
     }
 
     /// When `service`'s last heartbeat was taken, while it is ready.

@@ -81,6 +81,9 @@ pub(super) struct Entry {
     pub last_failure: Option<String>,
     /// Why a data check degraded the current process, if one did.
     pub data_degraded: Option<String>,
+    /// The input whose absence silenced the current process, while it waits for it (see
+    /// [`Action::ServiceWaiting`](super::Action::ServiceWaiting)).
+    pub waiting_for: Option<String>,
     /// Retries that failed again before passing their probation: the cool-down's doubling.
     pub retries: u32,
     /// Whether a retried service has yet to prove itself.
@@ -148,6 +151,7 @@ impl Entry {
             restarts: 0,
             last_failure: None,
             data_degraded: None,
+            waiting_for: None,
             retries: 0,
             probation: Probation::Passed,
             excludes: spec.excludes.clone(),

@@ -1791,3 +1791,106 @@ fn a_host_lost_takes_its_providers_and_they_rejoin_through_the_broker() {
         "#]],
     );
 }
+
+/// The sonar renders from the base's pose (it is a client of Egomotion), as the simulated
+/// sonar does; the laser is better; the base is not restarted after a crash.
+const SONAR_ON_BASE: &str = r#"
+[robot]
+name = "bench"
+[broker]
+heartbeat_period_ms = 10
+heartbeat_deadline_ms = 50
+startup_deadline_ms = 1000
+restart = { max_restarts = 0, window_ms = 10000, backoff_initial_ms = 20, backoff_max_ms = 200 }
+[[services]]
+name = "base"
+kind = "test-range"
+provides = [{ interface = "Egomotion", quality = 10, cost = 1 }]
+[[services]]
+name = "laser"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 10, cost = 2 }]
+[[services]]
+name = "sonar"
+kind = "test-range"
+provides = [{ interface = "RangeFinder", quality = 5, cost = 1 }]
+"#;
+
+#[test]
+fn a_provider_silent_for_want_of_its_input_waits_and_the_blame_goes_to_the_input() {
+    let mut core = core_for(SONAR_ON_BASE);
+    let events = [
+        (0, req("app", "RangeFinder")),
+        (5, ready("laser")),
+        // The laser dies for good: the app moves to the sonar, which asks for its input.
+        (10, killed("laser")),
+        (11, req("sonar", "Egomotion")),
+        (15, ready("base")),
+        (16, ready("sonar")),
+        // Then the base dies for good: the sonar falls silent and fails its rate check.
+        (20, killed("base")),
+        (30, beat("sonar")),
+        (40, bad_data("sonar", "rate", "no data for 1 s")),
+        (45, beat("sonar")),
+        // A second report of the same silence says nothing new.
+        (50, bad_data("sonar", "rate", "no data for 1 s")),
+    ];
+    let mut transcript = String::new();
+    for (at_ms, event) in &events {
+        for d in core.handle(at_ms * MS, event) {
+            let _ = writeln!(transcript, "@{at_ms} {d}");
+        }
+        invariants(&core).unwrap_or_else(|e| panic!("{e}\n{transcript}"));
+    }
+    assert!(!core.data_is_judged("sonar"), "{transcript}");
+    // The operator brings the base back: the sonar serves again, with no restart.
+    for (at_ms, event) in [(60, restart("base")), (65, ready("base"))] {
+        for d in core.handle(at_ms * MS, &event) {
+            let _ = writeln!(transcript, "@{at_ms} {d}");
+        }
+    }
+    assert!(core.data_is_judged("sonar"), "{transcript}");
+    expect![[r#"
+        @0 start laser: app needs RangeFinder and laser is its best provider (quality 10, cost 2)
+        @0 bind app to laser for RangeFinder: laser is the best provider of RangeFinder (quality 10, cost 2)
+        @10 laser failed: laser exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+        @10 start sonar: laser exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+        @10 rebind app from laser to sonar for RangeFinder: laser exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy; sonar is the best provider of RangeFinder left (quality 5, cost 1)
+        @11 start base: sonar needs Egomotion and base is its best provider (quality 10, cost 1)
+        @11 bind sonar to base for Egomotion: base is the best provider of Egomotion (quality 10, cost 1)
+        @20 base failed: base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy
+        @20 unbind sonar from base for Egomotion: no provider of Egomotion is left (base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy)
+        @20 ask for help with Egomotion: no provider of Egomotion is left (base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy); clients wait for it
+        @40 sonar waits for Egomotion: sonar's rate check failed (no data for 1 s), but it waits for Egomotion: no provider of Egomotion serves (base failed: base exited with signal 9, its failure 1 within 10000 ms: beyond its restart policy); not failed, its clients stay
+        @60 start base: the operator restarts base
+        @60 bind sonar to base for Egomotion: base is the best provider of Egomotion (quality 10, cost 1)
+        @65 sonar resumed: sonar's input Egomotion is served again by base: its data is judged again
+    "#]].assert_eq(&transcript);
+    assert!(
+        transcript.contains("@40 sonar waits for Egomotion:")
+            && !transcript.contains("sonar failed"),
+        "{transcript}"
+    );
+}
+
+#[test]
+fn values_out_of_range_fail_a_provider_whatever_its_inputs_do() {
+    let mut core = core_for(SONAR_ON_BASE);
+    for (at_ms, event) in [
+        (0, req("app", "RangeFinder")),
+        (1, stop("laser")),
+        (11, req("sonar", "Egomotion")),
+        (16, ready("sonar")),
+        (20, start_failed("base", "no such program")),
+    ] {
+        core.handle(at_ms * MS, &event);
+    }
+    let decisions = core.handle(40 * MS, &bad_data("sonar", "values", "range -1 m"));
+    assert!(
+        decisions.iter().any(|d| d.action
+            == Action::ServiceFailed {
+                service: s("sonar")
+            }),
+        "{decisions:?}"
+    );
+}
