@@ -9,6 +9,8 @@
 //!   PointCloud2 in its sensor's frame, an Egomotion to an Odometry and the `odom` to
 //!   `base_link` transform, an ImageSource to a CompressedImage, Blobs3D, Signs and the
 //!   broker's bindings to a MarkerArray, a velocity command to a Twist.
+//! - [`robot`]: the messages of a live robot the import does not read (Range,
+//!   BatteryState, the Create 3's IR and hazards, TwistStamped), their texts and DDS names.
 //! - [`from_ros2`]: one decoded ROS 2 message (a value tree of
 //!   [`lewis_interfaces::dynamic`]) to a Lewis one: a LaserScan to a RangeFinder, an
 //!   Odometry or a TF odometry transform to a pose, an Image or CompressedImage to an
@@ -19,4 +21,5 @@
 //! caller's.
 
 pub mod from_ros2;
+pub mod robot;
 pub mod to_ros2;

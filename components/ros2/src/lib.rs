@@ -1,0 +1,3 @@
+//! The live ROS 2 gateway.
+
+pub mod dds;
