@@ -1,0 +1,340 @@
+//! What every gateway kind shares: the robot file's link to the ROS 2 robot (domain,
+//! namespace, interfaces), the topics it reads with their decoders, the accounting of bad
+//! input (counted, said once), and health from the data (waiting, flowing, silent).
+
+use std::collections::BTreeMap;
+use std::net::IpAddr;
+use std::os::fd::BorrowedFd;
+use std::time::{Duration, Instant};
+
+use lewis_interfaces::dynamic::{Decoder, Value};
+use lewis_ros2_map::from_ros2::stamp_ns;
+use lewis_ros2_map::robot::{dds_type_name, schema_texts};
+use lewis_service::{Context, Health};
+use serde::Deserialize;
+
+use crate::dds::{MAX_DOMAIN_ID, Participant, Qos, RawCdr, Readers, Taken, dds_topic};
+
+/// The variable ROS 2 reads its domain from.
+pub const DOMAIN_ENV: &str = "ROS_DOMAIN_ID";
+
+/// Samples taken in one wake-up, at most: a flood waits for the next one.
+const DRAIN_LIMIT: usize = 256;
+
+/// How the gateway reaches the robot: the robot file's keys every kind shares.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Link {
+    /// The DDS domain (ROS 2's `ROS_DOMAIN_ID`); absent: the variable, else 0.
+    pub domain_id: Option<u16>,
+    /// The robot's namespace, put in front of every topic (`/robot1`); empty: none.
+    #[serde(default)]
+    pub namespace: String,
+    /// The addresses of the interfaces DDS may use; empty: every interface.
+    #[serde(default)]
+    pub interfaces: Vec<IpAddr>,
+}
+
+impl Link {
+    /// The domain: the robot file's, else `ROS_DOMAIN_ID`, else 0.
+    ///
+    /// # Errors
+    /// A domain beyond [`MAX_DOMAIN_ID`] or a variable that is not a number.
+    pub fn domain(&self) -> Result<u16, String> {
+        let domain = match self.domain_id {
+            Some(d) => d,
+            None => match std::env::var(DOMAIN_ENV) {
+                Ok(text) if !text.trim().is_empty() => text.trim().parse().map_err(|_| {
+                    format!("{DOMAIN_ENV} is `{text}`: give a domain from 0 to {MAX_DOMAIN_ID}")
+                })?,
+                _ => 0,
+            },
+        };
+        if domain > MAX_DOMAIN_ID {
+            return Err(format!(
+                "domain {domain} is beyond {MAX_DOMAIN_ID}, the last one RTPS's ports allow"
+            ));
+        }
+        Ok(domain)
+    }
+}
+
+/// One topic the gateway reads: its decoders, what was wrong with its samples.
+pub struct Intake {
+    /// The ROS 2 topic, as the robot file names it (`/scan`).
+    pub topic: String,
+    type_name: String,
+    decoders: Vec<Decoder>,
+    /// Bad samples by what was wrong.
+    pub bad: BTreeMap<&'static str, u64>,
+    /// Good samples.
+    pub good: u64,
+    last_stamp_ns: Option<i64>,
+}
+
+impl Intake {
+    fn new(topic: &str, type_name: &str) -> Result<Self, String> {
+        let decoders = schema_texts(type_name)
+            .iter()
+            .map(|text| Decoder::new(type_name, text).map_err(|e| e.to_string()))
+            .collect::<Result<Vec<_>, _>>()?;
+        if decoders.is_empty() {
+            return Err(format!("no schema of {type_name} is known"));
+        }
+        Ok(Self {
+            topic: topic.to_owned(),
+            type_name: type_name.to_owned(),
+            decoders,
+            bad: BTreeMap::new(),
+            good: 0,
+            last_stamp_ns: None,
+        })
+    }
+
+    /// Counts a bad sample; says so the first time this kind of trouble is seen.
+    pub fn bad(&mut self, ctx: &mut Context<'_>, what: &'static str, detail: &str) {
+        let count = self.bad.entry(what).or_insert(0);
+        *count += 1;
+        if *count == 1 {
+            ctx.warn(&format!(
+                "{}: {what}: {detail} (such samples are dropped and counted; said once)",
+                self.topic
+            ));
+        }
+    }
+
+    /// The sample as a value tree, or `None` when it is not one (counted).
+    pub fn decode(&mut self, ctx: &mut Context<'_>, raw: &RawCdr) -> Option<Value> {
+        if !raw.is_plain_cdr() {
+            let id = raw.0.get(..2).unwrap_or_default().to_vec();
+            self.bad(
+                ctx,
+                "not plain CDR",
+                &format!("representation {id:02x?}, not ROS 2's XCDR1"),
+            );
+            return None;
+        }
+        let mut first_error = None;
+        for decoder in &self.decoders {
+            match decoder.decode(&raw.0) {
+                Ok(value) => {
+                    if let Some(stamp) = stamp_ns(&value) {
+                        if self.last_stamp_ns.is_some_and(|last| stamp < last) {
+                            self.bad(
+                                ctx,
+                                "stamp went back",
+                                "a header stamp earlier than the one before (kept: Lewis stamps with its own clock)",
+                            );
+                            // Kept: the reading is still a reading.
+                        }
+                        self.last_stamp_ns = Some(stamp);
+                    }
+                    return Some(value);
+                }
+                Err(e) => {
+                    first_error.get_or_insert(e.to_string());
+                }
+            }
+        }
+        let detail = format!(
+            "{} bytes that do not decode as {}: {}",
+            raw.0.len(),
+            self.type_name,
+            first_error.unwrap_or_default()
+        );
+        self.bad(ctx, "undecodable", &detail);
+        None
+    }
+
+    /// What was wrong with its samples so far, for a health reason (`3 undecodable`).
+    #[must_use]
+    pub fn bad_summary(&self) -> String {
+        self.bad
+            .iter()
+            .map(|(what, n)| format!("{n} {what}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// A topic to read: its name, ROS 2 type and QoS.
+#[derive(Debug, Clone)]
+pub struct TopicSpec {
+    /// The ROS 2 topic (`/scan`).
+    pub topic: String,
+    /// The ROS 2 type (`sensor_msgs/msg/LaserScan`).
+    pub type_name: &'static str,
+    /// Its QoS.
+    pub qos: Qos,
+}
+
+/// The DDS side of a gateway process: its participant, readers and their intakes.
+pub struct Gateway {
+    /// The participant (writers are made from it).
+    pub participant: Participant,
+    readers: Readers,
+    /// One per reader, in the order given.
+    pub intakes: Vec<Intake>,
+    namespace: String,
+    taken: Vec<Taken>,
+}
+
+impl Gateway {
+    /// Joins the robot's domain and reads `topics`.
+    ///
+    /// # Errors
+    /// When DDS cannot be joined or a topic read.
+    pub fn open(link: &Link, topics: &[TopicSpec]) -> Result<Self, String> {
+        let participant = Participant::join(link.domain()?, &link.interfaces)?;
+        let mut readers = Readers::new()?;
+        let mut intakes = Vec::new();
+        for spec in topics {
+            let dds_type = dds_type_name(spec.type_name)
+                .ok_or_else(|| format!("{} is not a ROS 2 type name", spec.type_name))?;
+            let reader = participant.reader(
+                &dds_topic(&link.namespace, &spec.topic),
+                &dds_type,
+                spec.qos,
+            )?;
+            readers.add(reader)?;
+            intakes.push(Intake::new(&spec.topic, spec.type_name)?);
+        }
+        Ok(Self {
+            participant,
+            readers,
+            intakes,
+            namespace: link.namespace.clone(),
+            taken: Vec::new(),
+        })
+    }
+
+    /// The DDS name of a topic of this robot.
+    #[must_use]
+    pub fn dds_topic(&self, topic: &str) -> String {
+        dds_topic(&self.namespace, topic)
+    }
+
+    /// Readable when samples may be waiting.
+    #[must_use]
+    pub fn fd(&self) -> BorrowedFd<'_> {
+        self.readers.fd()
+    }
+
+    /// Every sample waiting, decoded (bad ones counted and left out): `(reader, value)`.
+    pub fn take(&mut self, ctx: &mut Context<'_>) -> Vec<(usize, Value)> {
+        self.taken.clear();
+        self.readers.drain(DRAIN_LIMIT, &mut self.taken);
+        let mut values = Vec::with_capacity(self.taken.len());
+        for taken in self.taken.drain(..) {
+            if let Some(intake) = self.intakes.get_mut(taken.reader)
+                && let Some(value) = intake.decode(ctx, &taken.sample)
+            {
+                values.push((taken.reader, value));
+            }
+        }
+        values
+    }
+
+    /// Blocks (at most `limit`) until reader `reader` has a good sample; returns it.
+    pub fn wait_first(
+        &mut self,
+        ctx: &mut Context<'_>,
+        reader: usize,
+        limit: Duration,
+    ) -> Option<Value> {
+        let deadline = Instant::now() + limit;
+        loop {
+            let got = self.take(ctx);
+            if let Some(value) = got.into_iter().rev().find(|(r, _)| *r == reader) {
+                return Some(value.1);
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return None;
+            }
+            let mut fds = [nix::poll::PollFd::new(
+                self.readers.fd(),
+                nix::poll::PollFlags::POLLIN,
+            )];
+            let wait_ms = u16::try_from(left.as_millis().min(100)).unwrap_or(100);
+            let _ = nix::poll::poll(&mut fds, wait_ms);
+        }
+    }
+}
+
+/// Health from one topic's data: waiting for a first sample, flowing, or silent for longer
+/// than the robot file allows (a topic whose samples are all bad is silent too: only good
+/// samples count).
+#[derive(Debug, Clone)]
+pub struct Freshness {
+    silence_ns: i64,
+    last_good_ns: Option<i64>,
+}
+
+impl Freshness {
+    /// Silent after `silence` without a good sample.
+    #[must_use]
+    pub fn new(silence: Duration) -> Self {
+        Self {
+            silence_ns: i64::try_from(silence.as_nanos()).unwrap_or(i64::MAX),
+            last_good_ns: None,
+        }
+    }
+
+    /// A good sample at `now_ns`.
+    pub fn good(&mut self, now_ns: i64) {
+        self.last_good_ns = Some(now_ns);
+    }
+
+    /// The health at `now_ns` of `intake`'s topic.
+    #[must_use]
+    pub fn health(&self, now_ns: i64, intake: &Intake) -> Health {
+        let bad = intake.bad_summary();
+        let bad = if bad.is_empty() {
+            String::new()
+        } else {
+            format!("; bad samples: {bad}")
+        };
+        match self.last_good_ns {
+            None => Health::OutOfService(format!("no {} yet{bad}", intake.topic)),
+            Some(last) if now_ns - last > self.silence_ns => Health::OutOfService(format!(
+                "no {} for {} ms{bad}",
+                intake.topic,
+                (now_ns - last) / 1_000_000
+            )),
+            Some(_) => Health::Ok,
+        }
+    }
+}
+
+/// Declares `health` when it changed, saying so in the log.
+pub fn declare(ctx: &mut Context<'_>, health: Health) {
+    if *ctx.health() == health {
+        return;
+    }
+    match &health {
+        Health::Ok => ctx.info("data flowing: healthy"),
+        Health::Degraded(why) => ctx.warn(&format!("degraded: {why}")),
+        Health::OutOfService(why) => ctx.warn(&format!("out of service: {why}")),
+    }
+    ctx.set_health(health);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_domain_comes_from_the_robot_file_and_is_bounded() {
+        let link = Link {
+            domain_id: Some(7),
+            ..Link::default()
+        };
+        assert_eq!(link.domain(), Ok(7));
+        let far = Link {
+            domain_id: Some(233),
+            ..Link::default()
+        };
+        assert!(far.domain().is_err());
+    }
+}

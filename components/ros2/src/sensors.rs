@@ -1,0 +1,912 @@
+//! The sensor kinds: one ROS 2 topic (or a few of one sensor) in, one Lewis interface out,
+//! one process each, so that one silent topic fails over alone.
+//!
+//! | kind | ROS 2 | Lewis |
+//! |---|---|---|
+//! | `ros2-laser` | `sensor_msgs/msg/LaserScan` | RangeFinder (uniform) |
+//! | `ros2-ir` | `irobot_create_msgs/msg/IrIntensityVector` | RangeFinder (one reading per IR sensor, [`crate::ir`]'s model) |
+//! | `ros2-range` | `sensor_msgs/msg/Range`, one topic per sensor | RangeFinder (one reading per topic) |
+//! | `ros2-odometry` | `nav_msgs/msg/Odometry` | Egomotion |
+//! | `ros2-battery` | `sensor_msgs/msg/BatteryState` | Power |
+//!
+//! Each waits in `on_start` (at most `first_sample_ms`) for its topic's first good sample,
+//! so that the broker's rate check starts on a flowing topic; from then on it publishes
+//! one Lewis message per good sample, stamped with Lewis's clock, and is out of service
+//! while no good sample has come for `silence_ms` (the broker moves its clients; with
+//! `fail_back` they come back when it is healthy again).
+
+use std::time::Duration;
+
+use lewis_interfaces::Interface;
+use lewis_interfaces::dynamic::Value;
+use lewis_interfaces::msg::{
+    Egomotion, EgomotionCommand, EgomotionResetOdometryReply, Pose2D, Pose3D, Power, PowerCommand,
+    PowerSetLowThresholdReply, RangeFinder, RangeFinderCommand, RangeFinderGetGeometryReply,
+};
+use lewis_interfaces::ros2::{LASER_SCAN, ODOMETRY};
+use lewis_ros2_map::from_ros2::{self, RangeCounts};
+use lewis_ros2_map::robot::{self, BATTERY_STATE, IR_INTENSITY_VECTOR, RANGE};
+use lewis_service::{
+    BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
+};
+use serde::Deserialize;
+
+use crate::dds::Qos;
+use crate::gateway::{Freshness, Gateway, Link, TopicSpec, declare};
+use crate::ir::IrModel;
+
+/// Where a sensor sits on the robot, as robot files write it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Mount {
+    /// Forward of the robot's centre, in m.
+    pub x_m: f64,
+    /// Left of the robot's centre, in m.
+    pub y_m: f64,
+    /// Where it looks, counter-clockwise from straight ahead, in degrees.
+    pub heading_deg: f64,
+    /// Above the floor, in m.
+    pub height_m: f64,
+}
+
+impl Mount {
+    fn pose(&self, bearing_rad: f64) -> Pose3D {
+        Pose3D {
+            x: self.x_m,
+            y: self.y_m,
+            z: self.height_m,
+            theta: self.heading_deg.to_radians() + bearing_rad,
+            ..Pose3D::default()
+        }
+    }
+}
+
+/// The keys every sensor kind takes besides its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Timing {
+    /// No good sample for this long is out of service, in ms.
+    pub silence_ms: u64,
+    /// How long the start waits for a first good sample, in ms (the robot file's startup
+    /// deadline must be longer).
+    pub first_sample_ms: u64,
+}
+
+impl Default for Timing {
+    fn default() -> Self {
+        Self {
+            silence_ms: 500,
+            first_sample_ms: 5_000,
+        }
+    }
+}
+
+fn invalid(config: &ServiceConfig<'_>, reason: impl Into<String>) -> BuildError {
+    BuildError::Parameters {
+        service: config.name().to_owned(),
+        reason: reason.into(),
+    }
+}
+
+fn check_timing(config: &ServiceConfig<'_>, timing: Timing) -> Result<(), BuildError> {
+    for (name, ms) in [
+        ("silence_ms", timing.silence_ms),
+        ("first_sample_ms", timing.first_sample_ms),
+    ] {
+        if ms == 0 || ms > 600_000 {
+            return Err(invalid(
+                config,
+                format!("`{name}` is {ms}: give 1 to 600000 ms"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// What one kind makes of its samples and commands.
+trait Kind {
+    /// The interface it publishes.
+    const INTERFACE: &'static str;
+
+    /// A good sample of reader `reader`: publish what it means. `Err` counts it as
+    /// unusable (a field out of its limits).
+    fn sample(&mut self, ctx: &mut Context<'_>, reader: usize, value: &Value)
+    -> Result<(), String>;
+
+    /// A command of its interface.
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError>;
+}
+
+/// A sensor kind as a service: the gateway, its health, the kind.
+struct Sensor<K> {
+    link: Link,
+    topics: Vec<TopicSpec>,
+    timing: Timing,
+    gateway: Option<Gateway>,
+    freshness: Freshness,
+    kind: K,
+}
+
+impl<K: Kind> Sensor<K> {
+    fn new(link: Link, topics: Vec<TopicSpec>, timing: Timing, kind: K) -> Self {
+        Self {
+            link,
+            topics,
+            timing,
+            gateway: None,
+            freshness: Freshness::new(Duration::from_millis(timing.silence_ms)),
+            kind,
+        }
+    }
+
+    fn handle(&mut self, ctx: &mut Context<'_>, values: Vec<(usize, Value)>) {
+        for (reader, value) in values {
+            match self.kind.sample(ctx, reader, &value) {
+                Ok(()) => self.freshness.good(ctx.now()),
+                Err(why) => {
+                    if let Some(intake) = self
+                        .gateway
+                        .as_mut()
+                        .and_then(|g| g.intakes.get_mut(reader))
+                    {
+                        intake.bad(ctx, "unusable", &why);
+                    }
+                }
+            }
+        }
+        self.check(ctx);
+    }
+
+    fn check(&mut self, ctx: &mut Context<'_>) {
+        if let Some(intake) = self.gateway.as_ref().and_then(|g| g.intakes.first()) {
+            let health = self.freshness.health(ctx.now(), intake);
+            declare(ctx, health);
+        }
+    }
+}
+
+impl<K: Kind> Service for Sensor<K> {
+    fn tick_period_ns(&self) -> Option<i64> {
+        // A quarter of the silence allowed: silence is seen within 125% of it.
+        Some(i64::try_from(self.timing.silence_ms).unwrap_or(500) * 250_000)
+    }
+
+    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
+        let mut gateway = Gateway::open(&self.link, &self.topics)?;
+        let names: Vec<&str> = self.topics.iter().map(|t| t.topic.as_str()).collect();
+        ctx.info(&format!(
+            "reading {} in DDS domain {} as {}",
+            names.join(", "),
+            self.link.domain()?,
+            K::INTERFACE
+        ));
+        let limit = Duration::from_millis(self.timing.first_sample_ms);
+        match gateway.wait_first(ctx, 0, limit) {
+            Some(first) => {
+                self.gateway = Some(gateway);
+                self.handle(ctx, vec![(0, first)]);
+            }
+            None => {
+                ctx.warn(&format!(
+                    "no {} within {} ms of the start: is the robot on, in this domain and namespace?",
+                    names.first().copied().unwrap_or_default(),
+                    self.timing.first_sample_ms
+                ));
+                self.gateway = Some(gateway);
+                self.check(ctx);
+            }
+        }
+        Ok(())
+    }
+
+    fn device(&self) -> Option<std::os::fd::BorrowedFd<'_>> {
+        self.gateway.as_ref().map(Gateway::fd)
+    }
+
+    fn on_device(&mut self, ctx: &mut Context<'_>) {
+        let values = match self.gateway.as_mut() {
+            Some(gateway) => gateway.take(ctx),
+            None => return,
+        };
+        self.handle(ctx, values);
+    }
+
+    fn on_tick(&mut self, ctx: &mut Context<'_>) {
+        // Whatever a missed wake-up left behind, then the health.
+        self.on_device(ctx);
+    }
+
+    fn on_command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        if command.interface != K::INTERFACE {
+            return Err(CommandError::new(format!(
+                "this service serves {}, not {}",
+                K::INTERFACE,
+                command.interface
+            )));
+        }
+        self.kind.command(ctx, command)
+    }
+}
+
+fn publish<T: Interface>(ctx: &mut Context<'_>, message: &mut T) {
+    if let Err(e) = ctx.publish(message) {
+        ctx.warn(&format!("cannot publish {}: {e}", T::NAME));
+    }
+}
+
+fn geometry_reply(
+    ctx: &mut Context<'_>,
+    command: &IncomingCommand<'_>,
+    range_count: usize,
+    max_range: f64,
+    rate_hz: f64,
+) -> Result<Reply, CommandError> {
+    match command.decode::<RangeFinder>()? {
+        RangeFinderCommand::GetGeometry(_) => Ok(ctx.reply(RangeFinderGetGeometryReply {
+            range_count: i32::try_from(range_count).unwrap_or(i32::MAX),
+            max_range,
+            rate: rate_hz,
+            ..RangeFinderGetGeometryReply::default()
+        })),
+    }
+}
+
+// ---- ros2-laser ---------------------------------------------------------------------
+
+/// The kind name of the laser.
+pub const LASER: &str = "ros2-laser";
+
+/// The parameters of `ros2-laser`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserParams {
+    /// The LaserScan topic.
+    #[serde(default = "defaults::scan")]
+    pub topic: String,
+    /// Its QoS (default: ROS 2's sensor data, best effort).
+    #[serde(default = "defaults::sensor_qos")]
+    pub qos: Qos,
+    /// How to reach the robot.
+    #[serde(default)]
+    pub dds: Link,
+    /// Where the laser sits on the robot.
+    #[serde(default)]
+    pub mount: Mount,
+    /// Scans per second, for the geometry clients ask for.
+    #[serde(default = "defaults::laser_rate_hz")]
+    pub rate_hz: f64,
+    /// Silence and start.
+    #[serde(default)]
+    pub timing: Timing,
+    /// Accepted so that every robot file may give one.
+    pub seed: Option<u64>,
+}
+
+mod defaults {
+    use crate::dds::Qos;
+
+    pub(super) fn scan() -> String {
+        "/scan".to_owned()
+    }
+    pub(super) fn ir() -> String {
+        "/ir_intensity".to_owned()
+    }
+    pub(super) fn odom() -> String {
+        "/odom".to_owned()
+    }
+    pub(super) fn battery() -> String {
+        "/battery_state".to_owned()
+    }
+    pub(super) fn sensor_qos() -> Qos {
+        Qos::SENSOR_DATA
+    }
+    pub(super) fn laser_rate_hz() -> f64 {
+        10.0
+    }
+    pub(super) fn ir_rate_hz() -> f64 {
+        62.0
+    }
+    pub(super) fn low_charge_fraction() -> f64 {
+        0.2
+    }
+}
+
+struct Laser {
+    mount: Mount,
+    rate_hz: f64,
+    counts: RangeCounts,
+    last: (usize, f64),
+}
+
+impl Kind for Laser {
+    const INTERFACE: &'static str = RangeFinder::NAME;
+
+    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+        let scan = from_ros2::laser_scan(value)?;
+        let mut reading = from_ros2::range_finder(&scan, &mut self.counts);
+        reading.sensor_positions = (0..reading.ranges.len())
+            .map(|i| {
+                self.mount
+                    .pose(scan.angle_min_rad + scan.angle_increment_rad * i as f64)
+            })
+            .collect();
+        reading.x_offset = self.mount.x_m;
+        reading.y_offset = self.mount.y_m;
+        reading.z_offset = self.mount.height_m;
+        reading.theta_offset = self.mount.heading_deg.to_radians() + scan.angle_min_rad;
+        self.last = (reading.ranges.len(), reading.max_range);
+        publish(ctx, &mut reading);
+        Ok(())
+    }
+
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        geometry_reply(ctx, command, self.last.0, self.last.1, self.rate_hz)
+    }
+}
+
+fn build_laser(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+    let params: LaserParams = config.parameters()?;
+    check_timing(config, params.timing)?;
+    params.dds.domain().map_err(|e| invalid(config, e))?;
+    let topics = vec![TopicSpec {
+        topic: params.topic,
+        type_name: LASER_SCAN,
+        qos: params.qos,
+    }];
+    Ok(Box::new(Sensor::new(
+        params.dds,
+        topics,
+        params.timing,
+        Laser {
+            mount: params.mount,
+            rate_hz: params.rate_hz,
+            counts: RangeCounts::default(),
+            last: (0, 0.0),
+        },
+    )))
+}
+
+// ---- ros2-ir ------------------------------------------------------------------------
+
+/// The kind name of the Create 3's IR ring.
+pub const IR: &str = "ros2-ir";
+
+/// One IR sensor: its frame in the IrIntensityVector and where it looks.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IrSensor {
+    /// Its `header.frame_id` in the vector (`ir_intensity_front_left`).
+    pub frame: String,
+    /// Forward of the robot's centre, in m.
+    #[serde(default)]
+    pub x_m: f64,
+    /// Left of the robot's centre, in m.
+    #[serde(default)]
+    pub y_m: f64,
+    /// Where it looks, counter-clockwise from straight ahead, in degrees.
+    #[serde(default)]
+    pub heading_deg: f64,
+    /// Above the floor, in m.
+    #[serde(default)]
+    pub height_m: f64,
+}
+
+/// The parameters of `ros2-ir`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IrParams {
+    /// The IrIntensityVector topic.
+    #[serde(default = "defaults::ir")]
+    pub topic: String,
+    /// Its QoS (default: sensor data).
+    #[serde(default = "defaults::sensor_qos")]
+    pub qos: Qos,
+    /// How to reach the robot.
+    #[serde(default)]
+    pub dds: Link,
+    /// The sensors, in the order of the RangeFinder's readings.
+    pub sensors: Vec<IrSensor>,
+    /// Intensity to distance.
+    #[serde(default)]
+    pub model: IrModel,
+    /// Vectors per second, for the geometry clients ask for.
+    #[serde(default = "defaults::ir_rate_hz")]
+    pub rate_hz: f64,
+    /// Silence and start.
+    #[serde(default)]
+    pub timing: Timing,
+    /// Accepted so that every robot file may give one.
+    pub seed: Option<u64>,
+}
+
+struct IrRing {
+    sensors: Vec<IrSensor>,
+    model: IrModel,
+    rate_hz: f64,
+    missing_said: bool,
+}
+
+impl Kind for IrRing {
+    const INTERFACE: &'static str = RangeFinder::NAME;
+
+    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+        let readings = robot::ir_intensities(value)?;
+        let mut ranges = Vec::with_capacity(self.sensors.len());
+        let mut missing = Vec::new();
+        for sensor in &self.sensors {
+            match readings.iter().find(|r| r.frame_id == sensor.frame) {
+                // Raw intensities are int16: exact in f64.
+                Some(r) => ranges.push(self.model.distance_m(r.value as f64)),
+                None => {
+                    missing.push(sensor.frame.as_str());
+                    ranges.push(self.model.max_range_m);
+                }
+            }
+        }
+        if missing.len() == self.sensors.len() {
+            return Err(format!(
+                "none of the robot file's IR frames is in the vector (it has {})",
+                readings
+                    .iter()
+                    .map(|r| r.frame_id.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        if !missing.is_empty() && !self.missing_said {
+            self.missing_said = true;
+            ctx.warn(&format!(
+                "IR frames missing from the vector, read as nothing seen: {} (said once)",
+                missing.join(", ")
+            ));
+        }
+        let mut reading = RangeFinder {
+            range_count: i32::try_from(ranges.len()).unwrap_or(i32::MAX),
+            ranges,
+            max_range: self.model.max_range_m,
+            uniform: false,
+            sensor_positions: self
+                .sensors
+                .iter()
+                .map(|s| Pose3D {
+                    x: s.x_m,
+                    y: s.y_m,
+                    z: s.height_m,
+                    theta: s.heading_deg.to_radians(),
+                    ..Pose3D::default()
+                })
+                .collect(),
+            ..RangeFinder::default()
+        };
+        publish(ctx, &mut reading);
+        Ok(())
+    }
+
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        geometry_reply(
+            ctx,
+            command,
+            self.sensors.len(),
+            self.model.max_range_m,
+            self.rate_hz,
+        )
+    }
+}
+
+fn build_ir(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+    let params: IrParams = config.parameters()?;
+    check_timing(config, params.timing)?;
+    params.dds.domain().map_err(|e| invalid(config, e))?;
+    params.model.check().map_err(|e| invalid(config, e))?;
+    if params.sensors.is_empty() {
+        return Err(invalid(config, "`sensors` is empty: name the IR frames"));
+    }
+    let topics = vec![TopicSpec {
+        topic: params.topic,
+        type_name: IR_INTENSITY_VECTOR,
+        qos: params.qos,
+    }];
+    Ok(Box::new(Sensor::new(
+        params.dds,
+        topics,
+        params.timing,
+        IrRing {
+            sensors: params.sensors,
+            model: params.model,
+            rate_hz: params.rate_hz,
+            missing_said: false,
+        },
+    )))
+}
+
+// ---- ros2-range ---------------------------------------------------------------------
+
+/// The kind name of `sensor_msgs/msg/Range` sensors.
+pub const RANGE_KIND: &str = "ros2-range";
+
+/// One Range topic and where its sensor sits.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RangeTopic {
+    /// The topic.
+    pub topic: String,
+    /// Where the sensor sits.
+    #[serde(default)]
+    pub mount: Mount,
+}
+
+/// The parameters of `ros2-range`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RangeParams {
+    /// The sensors, one topic each, in the order of the RangeFinder's readings.
+    pub topics: Vec<RangeTopic>,
+    /// Their QoS (default: sensor data).
+    #[serde(default = "defaults::sensor_qos")]
+    pub qos: Qos,
+    /// How to reach the robot.
+    #[serde(default)]
+    pub dds: Link,
+    /// The farthest reading, in m, until each sensor said its own.
+    pub max_range_m: f64,
+    /// Readings per second of each sensor, for the geometry clients ask for.
+    #[serde(default = "defaults::laser_rate_hz")]
+    pub rate_hz: f64,
+    /// Silence (of the first topic) and start.
+    #[serde(default)]
+    pub timing: Timing,
+    /// Accepted so that every robot file may give one.
+    pub seed: Option<u64>,
+}
+
+struct Ranges {
+    mounts: Vec<Mount>,
+    latest: Vec<f64>,
+    max_range_m: f64,
+    rate_hz: f64,
+}
+
+impl Kind for Ranges {
+    const INTERFACE: &'static str = RangeFinder::NAME;
+
+    fn sample(&mut self, ctx: &mut Context<'_>, reader: usize, value: &Value) -> Result<(), String> {
+        let reading = robot::range(value)?;
+        if let Some(slot) = self.latest.get_mut(reader) {
+            *slot = reading.distance_m();
+        }
+        self.max_range_m = self.max_range_m.max(reading.max_range_m);
+        let mut message = RangeFinder {
+            range_count: i32::try_from(self.latest.len()).unwrap_or(i32::MAX),
+            ranges: self.latest.clone(),
+            max_range: self.max_range_m,
+            uniform: false,
+            sensor_positions: self.mounts.iter().map(|m| m.pose(0.0)).collect(),
+            ..RangeFinder::default()
+        };
+        publish(ctx, &mut message);
+        Ok(())
+    }
+
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        geometry_reply(
+            ctx,
+            command,
+            self.latest.len(),
+            self.max_range_m,
+            self.rate_hz,
+        )
+    }
+}
+
+fn build_range(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+    let params: RangeParams = config.parameters()?;
+    check_timing(config, params.timing)?;
+    params.dds.domain().map_err(|e| invalid(config, e))?;
+    if params.topics.is_empty() {
+        return Err(invalid(config, "`topics` is empty: name the Range topics"));
+    }
+    if !(params.max_range_m.is_finite() && params.max_range_m > 0.0) {
+        return Err(invalid(
+            config,
+            format!("`max_range_m` is {}: give a positive number", params.max_range_m),
+        ));
+    }
+    let topics = params
+        .topics
+        .iter()
+        .map(|t| TopicSpec {
+            topic: t.topic.clone(),
+            type_name: RANGE,
+            qos: params.qos,
+        })
+        .collect();
+    Ok(Box::new(Sensor::new(
+        params.dds,
+        topics,
+        params.timing,
+        Ranges {
+            latest: vec![params.max_range_m; params.topics.len()],
+            mounts: params.topics.iter().map(|t| t.mount).collect(),
+            max_range_m: params.max_range_m,
+            rate_hz: params.rate_hz,
+        },
+    )))
+}
+
+// ---- ros2-odometry ------------------------------------------------------------------
+
+/// The kind name of odometry.
+pub const ODOMETRY_KIND: &str = "ros2-odometry";
+
+/// The parameters of `ros2-odometry`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OdometryParams {
+    /// The Odometry topic.
+    #[serde(default = "defaults::odom")]
+    pub topic: String,
+    /// Its QoS (default: sensor data; a reader of best effort matches reliable writers too).
+    #[serde(default = "defaults::sensor_qos")]
+    pub qos: Qos,
+    /// How to reach the robot.
+    #[serde(default)]
+    pub dds: Link,
+    /// Silence and start.
+    #[serde(default)]
+    pub timing: Timing,
+    /// Accepted so that every robot file may give one.
+    pub seed: Option<u64>,
+}
+
+/// The planar transform `a` then `b`.
+fn compose(a: &Pose2D, b: &Pose2D) -> Pose2D {
+    let (s, c) = a.theta.sin_cos();
+    Pose2D {
+        x: a.x + c * b.x - s * b.y,
+        y: a.y + s * b.x + c * b.y,
+        theta: wrap(a.theta + b.theta),
+    }
+}
+
+fn inverse(a: &Pose2D) -> Pose2D {
+    let (s, c) = a.theta.sin_cos();
+    Pose2D {
+        x: -c * a.x - s * a.y,
+        y: s * a.x - c * a.y,
+        theta: wrap(-a.theta),
+    }
+}
+
+/// Into [-pi, pi), Lewis's one angle convention.
+fn wrap(angle: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    (angle + std::f64::consts::PI).rem_euclid(two_pi) - std::f64::consts::PI
+}
+
+struct Odometry {
+    /// Published pose = `offset` then the robot's pose (after `reset_odometry`).
+    offset: Pose2D,
+    last_raw: Option<Pose2D>,
+    travelled_m: f64,
+}
+
+impl Kind for Odometry {
+    const INTERFACE: &'static str = Egomotion::NAME;
+
+    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+        let odometry = from_ros2::odometry(value)?;
+        let raw = odometry.pose;
+        if let Some(last) = &self.last_raw {
+            self.travelled_m += (raw.x - last.x).hypot(raw.y - last.y);
+        }
+        let pose = compose(&self.offset, &raw);
+        self.last_raw = Some(raw);
+        let mut message = Egomotion {
+            pose,
+            translation_velocity: odometry.translation_mps,
+            rotation_velocity: odometry.rotation_radps,
+            distance_travelled: self.travelled_m,
+            ..Egomotion::default()
+        };
+        publish(ctx, &mut message);
+        Ok(())
+    }
+
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        match command.decode::<Egomotion>()? {
+            EgomotionCommand::ResetOdometry(c) => {
+                let pose = c.pose;
+                if !(pose.x.is_finite() && pose.y.is_finite() && pose.theta.is_finite()) {
+                    return Err(CommandError::new(
+                        "reset_odometry: the pose has a coordinate that is not a number",
+                    ));
+                }
+                // The robot's odometry is its own: Lewis's pose is shifted so that the
+                // robot's present pose reads `pose`.
+                let raw = self.last_raw.clone().unwrap_or_default();
+                self.offset = compose(&pose, &inverse(&raw));
+                Ok(ctx.reply(EgomotionResetOdometryReply::default()))
+            }
+        }
+    }
+}
+
+fn build_odometry(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+    let params: OdometryParams = config.parameters()?;
+    check_timing(config, params.timing)?;
+    params.dds.domain().map_err(|e| invalid(config, e))?;
+    let topics = vec![TopicSpec {
+        topic: params.topic,
+        type_name: ODOMETRY,
+        qos: params.qos,
+    }];
+    Ok(Box::new(Sensor::new(
+        params.dds,
+        topics,
+        params.timing,
+        Odometry {
+            offset: Pose2D::default(),
+            last_raw: None,
+            travelled_m: 0.0,
+        },
+    )))
+}
+
+// ---- ros2-battery -------------------------------------------------------------------
+
+/// The kind name of the battery.
+pub const BATTERY: &str = "ros2-battery";
+
+/// The parameters of `ros2-battery`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatteryParams {
+    /// The BatteryState topic.
+    #[serde(default = "defaults::battery")]
+    pub topic: String,
+    /// Its QoS (default: sensor data).
+    #[serde(default = "defaults::sensor_qos")]
+    pub qos: Qos,
+    /// How to reach the robot.
+    #[serde(default)]
+    pub dds: Link,
+    /// Below this charge fraction, Power says low.
+    #[serde(default = "defaults::low_charge_fraction")]
+    pub low_charge_fraction: f64,
+    /// Silence and start (a battery speaks seldom: give a long silence).
+    #[serde(default)]
+    pub timing: Timing,
+    /// Accepted so that every robot file may give one.
+    pub seed: Option<u64>,
+}
+
+struct Battery {
+    low_charge_fraction: f64,
+}
+
+impl Kind for Battery {
+    const INTERFACE: &'static str = Power::NAME;
+
+    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+        let battery = robot::battery(value)?;
+        if !(battery.voltage_v.is_finite() && battery.charge_fraction.is_finite()) {
+            return Err(format!(
+                "voltage {} V, percentage {}: not numbers Power can carry",
+                battery.voltage_v, battery.charge_fraction
+            ));
+        }
+        let mut power = Power {
+            voltage: battery.voltage_v,
+            charge_fraction: battery.charge_fraction,
+            charging: battery.charging,
+            low: battery.charge_fraction < self.low_charge_fraction,
+            ..Power::default()
+        };
+        publish(ctx, &mut power);
+        Ok(())
+    }
+
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        match command.decode::<Power>()? {
+            PowerCommand::SetLowThreshold(c) => {
+                if !(0.0..=1.0).contains(&c.charge_fraction) {
+                    return Err(CommandError::new(format!(
+                        "set_low_threshold: charge_fraction is {}, expected between 0 and 1",
+                        c.charge_fraction
+                    )));
+                }
+                self.low_charge_fraction = c.charge_fraction;
+                Ok(ctx.reply(PowerSetLowThresholdReply::default()))
+            }
+        }
+    }
+}
+
+fn build_battery(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+    let params: BatteryParams = config.parameters()?;
+    check_timing(config, params.timing)?;
+    params.dds.domain().map_err(|e| invalid(config, e))?;
+    if !(0.0..=1.0).contains(&params.low_charge_fraction) {
+        return Err(invalid(
+            config,
+            format!(
+                "`low_charge_fraction` is {}: give 0 to 1",
+                params.low_charge_fraction
+            ),
+        ));
+    }
+    let topics = vec![TopicSpec {
+        topic: params.topic,
+        type_name: BATTERY_STATE,
+        qos: params.qos,
+    }];
+    Ok(Box::new(Sensor::new(
+        params.dds,
+        topics,
+        params.timing,
+        Battery {
+            low_charge_fraction: params.low_charge_fraction,
+        },
+    )))
+}
+
+/// Registers the sensor kinds with their parameters.
+pub fn register(registry: &mut lewis_service::ServiceRegistry) {
+    registry.register_with_parameters::<LaserParams>(LASER, build_laser);
+    registry.register_with_parameters::<IrParams>(IR, build_ir);
+    registry.register_with_parameters::<RangeParams>(RANGE_KIND, build_range);
+    registry.register_with_parameters::<OdometryParams>(ODOMETRY_KIND, build_odometry);
+    registry.register_with_parameters::<BatteryParams>(BATTERY, build_battery);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reset_makes_the_present_pose_read_the_given_one() {
+        let raw = Pose2D {
+            x: 2.0,
+            y: -1.0,
+            theta: 0.7,
+        };
+        let want = Pose2D {
+            x: 0.5,
+            y: 0.25,
+            theta: -1.0,
+        };
+        let offset = compose(&want, &inverse(&raw));
+        let got = compose(&offset, &raw);
+        assert!((got.x - want.x).abs() < 1e-12);
+        assert!((got.y - want.y).abs() < 1e-12);
+        assert!((got.theta - want.theta).abs() < 1e-12);
+    }
+}
