@@ -262,8 +262,9 @@ impl Commander {
 struct Base {
     params: BaseParams,
     commander: Commander,
-    gateway: Option<Gateway>,
+    // Fields drop in order: the writer before the gateway's participant.
     writer: Option<DataWriter<RawCdr, RawAdapter>>,
+    gateway: Option<Gateway>,
     hazard_reader: Option<usize>,
     odom_reader: Option<usize>,
     pressed: Vec<bool>,

@@ -220,9 +220,10 @@ pub const MAX_DOMAIN_ID: u16 = 232;
 
 /// The process's DDS participant.
 pub struct Participant {
-    participant: DomainParticipant,
+    // Fields drop in order: the participant last.
     subscriber: rustdds::Subscriber,
     publisher: rustdds::Publisher,
+    participant: DomainParticipant,
 }
 
 impl Participant {

@@ -170,13 +170,14 @@ pub struct TopicSpec {
 
 /// The DDS side of a gateway process: its participant, readers and their intakes.
 pub struct Gateway {
-    /// The participant (writers are made from it).
-    pub participant: Participant,
+    // Fields drop in order: the readers before the participant they belong to.
     readers: Readers,
     /// One per reader, in the order given.
     pub intakes: Vec<Intake>,
     namespace: String,
     taken: Vec<Taken>,
+    /// The participant (writers are made from it; drop them before the gateway).
+    pub participant: Participant,
 }
 
 impl Gateway {
@@ -297,10 +298,11 @@ impl Freshness {
         };
         match self.last_good_ns {
             None => Health::OutOfService(format!("no {} yet{bad}", intake.topic)),
+            // The reason stays the same while the silence lasts: one change of health.
             Some(last) if now_ns - last > self.silence_ns => Health::OutOfService(format!(
-                "no {} for {} ms{bad}",
+                "no {} for more than {} ms{bad}",
                 intake.topic,
-                (now_ns - last) / 1_000_000
+                self.silence_ns / 1_000_000
             )),
             Some(_) => Health::Ok,
         }
