@@ -56,8 +56,7 @@ pub fn dds_type_name(type_name: &str) -> Option<String> {
         return None;
     };
     let word = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-    (word(package) && word(kind) && word(name))
-        .then(|| format!("{package}::{kind}::dds_::{name}_"))
+    (word(package) && word(kind) && word(name)).then(|| format!("{package}::{kind}::dds_::{name}_"))
 }
 
 fn with_dependencies(main: &str, dependencies: &[(&str, &str)]) -> String {

@@ -223,7 +223,11 @@ fn twist(event: &Value) -> Option<(f64, f64)> {
     }
     let axis = |part: &str, i: usize| event[part][i].as_f64().expect("a number");
     for (part, i) in [("linear", 1), ("linear", 2), ("angular", 0), ("angular", 1)] {
-        assert_eq!(axis(part, i), 0.0, "a planar base gets no {part}[{i}]: {event}");
+        assert_eq!(
+            axis(part, i),
+            0.0,
+            "a planar base gets no {part}[{i}]: {event}"
+        );
     }
     Some((axis("linear", 0), axis("angular", 2)))
 }

@@ -181,7 +181,12 @@ pub struct Commander {
 impl Commander {
     /// A base at rest.
     #[must_use]
-    pub fn new(timeout: Duration, idle_zero: Duration, max_translation: f64, max_rotation: f64) -> Self {
+    pub fn new(
+        timeout: Duration,
+        idle_zero: Duration,
+        max_translation: f64,
+        max_rotation: f64,
+    ) -> Self {
         Self {
             timeout_ns: i64::try_from(timeout.as_nanos()).unwrap_or(i64::MAX),
             idle_zero_ns: i64::try_from(idle_zero.as_nanos()).unwrap_or(i64::MAX),
@@ -197,7 +202,12 @@ impl Commander {
     ///
     /// # Errors
     /// A velocity that is not a number, or the brake.
-    pub fn set_velocity(&mut self, now_ns: i64, translation: f64, rotation: f64) -> Result<(), String> {
+    pub fn set_velocity(
+        &mut self,
+        now_ns: i64,
+        translation: f64,
+        rotation: f64,
+    ) -> Result<(), String> {
         if !(translation.is_finite() && rotation.is_finite()) {
             return Err("set_velocity: a velocity is not a number".to_owned());
         }
@@ -364,7 +374,11 @@ impl Base {
     }
 
     fn unusable(&mut self, ctx: &mut Context<'_>, reader: usize, why: &str) {
-        if let Some(intake) = self.gateway.as_mut().and_then(|g| g.intakes.get_mut(reader)) {
+        if let Some(intake) = self
+            .gateway
+            .as_mut()
+            .and_then(|g| g.intakes.get_mut(reader))
+        {
             intake.bad(ctx, "unusable", why);
         }
     }
@@ -517,7 +531,10 @@ fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
         ("match_wait_ms", params.match_wait_ms),
     ] {
         if ms == 0 || ms > 60_000 {
-            return Err(invalid(config, format!("`{name}` is {ms}: give 1 to 60000 ms")));
+            return Err(invalid(
+                config,
+                format!("`{name}` is {ms}: give 1 to 60000 ms"),
+            ));
         }
     }
     for (name, x) in [
@@ -525,7 +542,10 @@ fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
         ("max_rotation_rad_s", params.max_rotation_rad_s),
     ] {
         if !(x.is_finite() && x > 0.0) {
-            return Err(invalid(config, format!("`{name}` is {x}: give a positive number")));
+            return Err(invalid(
+                config,
+                format!("`{name}` is {x}: give a positive number"),
+            ));
         }
     }
     let commander = Commander::new(

@@ -384,7 +384,10 @@ mod tests {
         assert_eq!(dds_topic("", "/scan"), "rt/scan");
         assert_eq!(dds_topic("/", "scan"), "rt/scan");
         assert_eq!(dds_topic("/robot1", "/scan"), "rt/robot1/scan");
-        assert_eq!(dds_topic("robot1/", "/oakd/rgb/image"), "rt/robot1/oakd/rgb/image");
+        assert_eq!(
+            dds_topic("robot1/", "/oakd/rgb/image"),
+            "rt/robot1/oakd/rgb/image"
+        );
     }
 
     #[test]

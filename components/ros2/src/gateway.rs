@@ -324,7 +324,100 @@ pub fn declare(ctx: &mut Context<'_>, health: Health) {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use lewis_interfaces::cdr;
+    use lewis_interfaces::ros2::{Header, LASER_SCAN, LaserScan};
+    use lewis_service::{ContextState, Level};
+    use lewis_testkit::RecordingBackend;
+
     use super::*;
+
+    fn scan_bytes(stamp_ns: i64) -> Vec<u8> {
+        cdr::to_vec(&LaserScan {
+            header: Header {
+                stamp_ns,
+                frame_id: "laser".into(),
+            },
+            angle_min: -1.0,
+            angle_max: 1.0,
+            angle_increment: 0.5,
+            time_increment: 0.0,
+            scan_time: 0.1,
+            range_min: 0.1,
+            range_max: 5.0,
+            ranges: vec![1.0, 2.0, 3.0, 4.0, 5.0],
+            intensities: vec![],
+        })
+    }
+
+    #[test]
+    fn bad_samples_are_counted_and_said_once_per_kind_of_trouble() {
+        let mut backend = RecordingBackend::default();
+        let mut state = ContextState::new("laser", 1);
+        let mut ctx = state.context(&mut backend);
+        let mut intake = Intake::new("/scan", LASER_SCAN).unwrap();
+        let good = scan_bytes(2_000_000_000);
+        assert!(intake.decode(&mut ctx, &RawCdr(good.clone())).is_some());
+        // Truncated, garbage, another representation (XCDR2), each a few times.
+        for _ in 0..3 {
+            assert!(
+                intake
+                    .decode(&mut ctx, &RawCdr(good[..good.len() - 9].to_vec()))
+                    .is_none()
+            );
+            assert!(
+                intake
+                    .decode(&mut ctx, &RawCdr(vec![0, 1, 0, 0, 0xff, 0xff, 0xff, 0x7f]))
+                    .is_none()
+            );
+            let mut xcdr2 = good.clone();
+            xcdr2[1] = 0x07;
+            assert!(intake.decode(&mut ctx, &RawCdr(xcdr2)).is_none());
+        }
+        // A stamp going back is said, and the reading kept.
+        assert!(
+            intake
+                .decode(&mut ctx, &RawCdr(scan_bytes(1_000_000_000)))
+                .is_some()
+        );
+        assert_eq!(intake.bad.get("undecodable"), Some(&6));
+        assert_eq!(intake.bad.get("not plain CDR"), Some(&3));
+        assert_eq!(intake.bad.get("stamp went back"), Some(&1));
+        assert_eq!(
+            intake.bad_summary(),
+            "3 not plain CDR, 1 stamp went back, 6 undecodable"
+        );
+        let warnings: Vec<&String> = backend
+            .logs
+            .iter()
+            .filter(|(level, _)| *level == Level::Warn)
+            .map(|(_, text)| text)
+            .collect();
+        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        assert!(
+            warnings.iter().all(|w| w.starts_with("/scan: ")),
+            "{warnings:?}"
+        );
+    }
+
+    #[test]
+    fn silence_is_out_of_service_with_one_reason_while_it_lasts() {
+        let intake = Intake::new("/scan", LASER_SCAN).unwrap();
+        let mut freshness = Freshness::new(Duration::from_millis(500));
+        assert_eq!(
+            freshness.health(0, &intake),
+            Health::OutOfService("no /scan yet".into())
+        );
+        freshness.good(1_000_000_000);
+        assert_eq!(freshness.health(1_500_000_000, &intake), Health::Ok);
+        let silent = freshness.health(1_600_000_000, &intake);
+        assert_eq!(
+            silent,
+            Health::OutOfService("no /scan for more than 500 ms".into())
+        );
+        assert_eq!(freshness.health(9_000_000_000, &intake), silent);
+    }
 
     #[test]
     fn the_domain_comes_from_the_robot_file_and_is_bounded() {

@@ -117,7 +117,7 @@ impl IrModel {
         let mean_x = xs.iter().sum::<f64>() / n;
         let mean_y = ys.iter().sum::<f64>() / n;
         let sxx: f64 = xs.iter().map(|x| (x - mean_x).powi(2)).sum();
-        if !(sxx > 1e-12) {
+        if sxx.is_nan() || sxx <= 1e-12 {
             return None;
         }
         let sxy: f64 = xs

@@ -585,7 +585,12 @@ struct Ranges {
 impl Kind for Ranges {
     const INTERFACE: &'static str = RangeFinder::NAME;
 
-    fn sample(&mut self, ctx: &mut Context<'_>, reader: usize, value: &Value) -> Result<(), String> {
+    fn sample(
+        &mut self,
+        ctx: &mut Context<'_>,
+        reader: usize,
+        value: &Value,
+    ) -> Result<(), String> {
         let reading = robot::range(value)?;
         if let Some(slot) = self.latest.get_mut(reader) {
             *slot = reading.distance_m();
@@ -628,7 +633,10 @@ fn build_range(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErro
     if !(params.max_range_m.is_finite() && params.max_range_m > 0.0) {
         return Err(invalid(
             config,
-            format!("`max_range_m` is {}: give a positive number", params.max_range_m),
+            format!(
+                "`max_range_m` is {}: give a positive number",
+                params.max_range_m
+            ),
         ));
     }
     let topics = params
@@ -889,7 +897,136 @@ pub fn register(registry: &mut lewis_service::ServiceRegistry) {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use lewis_interfaces::cdr::{self, Encode, Sink};
+    use lewis_interfaces::dynamic::Decoder;
+    use lewis_interfaces::ros2::Header;
+    use lewis_ros2_map::robot::schema_texts;
+    use lewis_service::ContextState;
+    use lewis_testkit::{RecordingBackend, decoded};
+
     use super::*;
+
+    /// A message of `type_name` encoded by `encode`, as the gateway's decoder reads it.
+    fn value(type_name: &str, message: &impl Encode) -> Value {
+        Decoder::new(type_name, &schema_texts(type_name)[0])
+            .unwrap()
+            .decode(&cdr::to_vec(message))
+            .unwrap()
+    }
+
+    struct IrVector(Vec<(&'static str, i16)>);
+
+    impl Encode for IrVector {
+        fn encode<S: Sink>(&self, sink: &mut S) {
+            let header = |frame: &str| Header {
+                stamp_ns: 1,
+                frame_id: frame.into(),
+            };
+            header("base_link").encode(sink);
+            u32::try_from(self.0.len()).unwrap().encode(sink);
+            for (frame, value) in &self.0 {
+                header(frame).encode(sink);
+                value.encode(sink);
+            }
+        }
+    }
+
+    fn sensor(frame: &str, heading_deg: f64) -> IrSensor {
+        IrSensor {
+            frame: frame.into(),
+            x_m: 0.1,
+            y_m: 0.0,
+            heading_deg,
+            height_m: 0.05,
+        }
+    }
+
+    #[test]
+    fn ir_intensities_become_distances_where_the_sensors_look() {
+        let mut ring = IrRing {
+            sensors: vec![
+                sensor("ir_left", 30.0),
+                sensor("ir_front", 0.0),
+                sensor("ir_gone", -30.0),
+            ],
+            model: IrModel::default(),
+            rate_hz: 62.0,
+            missing_said: false,
+        };
+        let mut backend = RecordingBackend::default();
+        let mut state = ContextState::new("ir", 1);
+        let mut ctx = state.context(&mut backend);
+        let vector = value(
+            IR_INTENSITY_VECTOR,
+            &IrVector(vec![("ir_front", 400), ("ir_left", 3)]),
+        );
+        ring.sample(&mut ctx, 0, &vector).unwrap();
+        ring.sample(&mut ctx, 0, &vector).unwrap();
+        let published = decoded::<RangeFinder>(&backend.published);
+        assert_eq!(published.len(), 2);
+        let reading = &published[0];
+        assert!(!reading.uniform);
+        assert_eq!(reading.ranges.len(), 3);
+        assert_eq!(reading.ranges[0], 0.2, "below the floor: nothing seen");
+        assert!((reading.ranges[1] - 0.05).abs() < 1e-12);
+        assert_eq!(reading.ranges[2], 0.2, "missing: nothing seen");
+        assert!((reading.sensor_positions[0].theta - 30f64.to_radians()).abs() < 1e-12);
+        let missing = backend
+            .logs
+            .iter()
+            .filter(|(_, t)| t.contains("ir_gone"))
+            .count();
+        assert_eq!(missing, 1, "a missing frame is said once");
+        // A vector with none of the robot file's frames is unusable, not a reading.
+        let strange = value(IR_INTENSITY_VECTOR, &IrVector(vec![("other", 5)]));
+        let mut ctx = state.context(&mut backend);
+        assert!(ring.sample(&mut ctx, 0, &strange).is_err());
+    }
+
+    #[test]
+    fn a_scan_is_a_range_finder_at_the_lasers_mount() {
+        let mut laser = Laser {
+            mount: Mount {
+                x_m: -0.04,
+                y_m: 0.0,
+                heading_deg: 90.0,
+                height_m: 0.19,
+            },
+            rate_hz: 7.7,
+            counts: RangeCounts::default(),
+            last: (0, 0.0),
+        };
+        let scan = lewis_interfaces::ros2::LaserScan {
+            header: Header {
+                stamp_ns: 5,
+                frame_id: "laser".into(),
+            },
+            angle_min: -0.5,
+            angle_max: 0.5,
+            angle_increment: 0.5,
+            time_increment: 0.0,
+            scan_time: 0.13,
+            range_min: 0.15,
+            range_max: 12.0,
+            ranges: vec![1.0, f32::INFINITY, 0.05],
+            intensities: vec![],
+        };
+        let mut backend = RecordingBackend::default();
+        let mut state = ContextState::new("laser", 1);
+        let mut ctx = state.context(&mut backend);
+        laser
+            .sample(&mut ctx, 0, &value(LASER_SCAN, &scan))
+            .unwrap();
+        let reading = &decoded::<RangeFinder>(&backend.published)[0];
+        assert_eq!(reading.ranges, [1.0, 12.0, 12.0]);
+        assert_eq!(reading.max_range, 12.0);
+        assert!((reading.theta_offset - (90f64.to_radians() - 0.5)).abs() < 1e-6);
+        assert!((reading.sensor_positions[2].theta - (90f64.to_radians() + 0.5)).abs() < 1e-6);
+        assert_eq!(reading.x_offset, -0.04);
+        assert_eq!(laser.counts.out_of_limits, 2);
+    }
 
     #[test]
     fn a_reset_makes_the_present_pose_read_the_given_one() {
