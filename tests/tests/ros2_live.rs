@@ -280,12 +280,10 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
     // The robot file as shipped, with a goal that stays ahead of the robot for the whole
     // session (the played scans do not move with it) and patience for a scene that never
     // changes.
-    let robot = std::fs::read_to_string(repository_root().join("robots/turtlebot4.toml"))
-        .unwrap()
-        .replace(
-            "robot_radius_m = 0.18\n",
-            "robot_radius_m = 0.18\nno_progress_timeout_ms = 120000\nfail_after_ms = 120000\n",
-        );
+    let robot = lewis_testkit::robot_files::shipped_robot("turtlebot4.toml").replace(
+        "robot_radius_m = 0.18\n",
+        "robot_radius_m = 0.18\nno_progress_timeout_ms = 120000\nfail_after_ms = 120000\n",
+    );
     let mut command = netns.command(lewis_exe());
     command.env("ROS_DOMAIN_ID", domain.to_string());
     let dir = tempfile::tempdir().unwrap();
