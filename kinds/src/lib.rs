@@ -57,6 +57,7 @@ mod tests {
                 "rflex",
                 "ros2-base",
                 "ros2-battery",
+                "ros2-camera",
                 "ros2-ir",
                 "ros2-laser",
                 "ros2-odometry",
@@ -75,7 +76,7 @@ mod tests {
                 "test-range"
             ]
         );
-        assert_eq!(registry.source_kinds().len(), 17);
+        assert_eq!(registry.source_kinds().len(), 18);
     }
 
     #[test]

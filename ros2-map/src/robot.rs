@@ -1,6 +1,7 @@
 //! The messages a live ROS 2 robot sends or takes that neither the import nor the
 //! companions use: `sensor_msgs/msg/Range`, `sensor_msgs/msg/BatteryState`, the Create 3's
-//! `irobot_create_msgs/msg/IrIntensityVector` and `HazardDetectionVector`, and
+//! `irobot_create_msgs/msg/IrIntensityVector` and `HazardDetectionVector`,
+//! `sensor_msgs/msg/Image` (live; the import reads a bag's own text), and
 //! `geometry_msgs/msg/TwistStamped` (Jazzy's `/cmd_vel`). Their ros2msg texts (for the
 //! schema-driven decoder, [`lewis_interfaces::dynamic`]), the DDS type names ROS 2 gives
 //! them on the wire, and what each means to Lewis.
@@ -25,6 +26,8 @@ pub const IR_INTENSITY_VECTOR: &str = "irobot_create_msgs/msg/IrIntensityVector"
 pub const HAZARD_DETECTION_VECTOR: &str = "irobot_create_msgs/msg/HazardDetectionVector";
 /// `geometry_msgs/msg/TwistStamped`.
 pub const TWIST_STAMPED: &str = "geometry_msgs/msg/TwistStamped";
+/// `sensor_msgs/msg/Image`.
+pub const IMAGE: &str = "sensor_msgs/msg/Image";
 
 const TIME: &str = "int32 sec\nuint32 nanosec\n";
 const HEADER: &str = "builtin_interfaces/Time stamp\nstring frame_id\n";
@@ -85,6 +88,11 @@ pub fn schema_texts(type_name: &str) -> Vec<String> {
             with_dependencies(RANGE_HUMBLE, &header),
         ],
         BATTERY_STATE => vec![with_dependencies(BATTERY, &header)],
+        IMAGE => vec![with_dependencies(
+            "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\n\
+             uint8 is_bigendian\nuint32 step\nuint8[] data\n",
+            &header,
+        )],
         IR_INTENSITY_VECTOR => vec![with_dependencies(
             "std_msgs/Header header\nirobot_create_msgs/IrIntensity[] readings\n",
             &[
@@ -307,6 +315,8 @@ mod tests {
             IR_INTENSITY_VECTOR,
             HAZARD_DETECTION_VECTOR,
             TWIST_STAMPED,
+            IMAGE,
+            lewis_interfaces::ros2::COMPRESSED_IMAGE,
             lewis_interfaces::ros2::LASER_SCAN,
             lewis_interfaces::ros2::ODOMETRY,
         ] {

@@ -7,7 +7,7 @@
 //!
 //! - [`sensors`]: `ros2-laser` (LaserScan), `ros2-ir` (the Create 3's IR intensities, with
 //!   [`ir`]'s model), `ros2-range` (Range), `ros2-odometry` (Odometry), `ros2-battery`
-//!   (BatteryState);
+//!   (BatteryState), `ros2-camera` (Image or CompressedImage);
 //! - [`base`]: `ros2-base`, Synchrodrive to Twist or TwistStamped, bumpers from the Create
 //!   3's hazards;
 //! - [`gateway`]: what they share (the robot file's `dds` table, decoding and counting bad
@@ -31,6 +31,7 @@ pub const KINDS: &[&str] = &[
     sensors::RANGE_KIND,
     sensors::ODOMETRY_KIND,
     sensors::BATTERY,
+    sensors::CAMERA,
 ];
 
 /// Registers the gateway's kinds, as devices.

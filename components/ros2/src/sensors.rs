@@ -8,6 +8,7 @@
 //! | `ros2-range` | `sensor_msgs/msg/Range`, one topic per sensor | RangeFinder (one reading per topic) |
 //! | `ros2-odometry` | `nav_msgs/msg/Odometry` | Egomotion |
 //! | `ros2-battery` | `sensor_msgs/msg/BatteryState` | Power |
+//! | `ros2-camera` | `sensor_msgs/msg/Image` or `CompressedImage` | ImageSource (rgb8) |
 //!
 //! Each waits in `on_start` (at most `first_sample_ms`) for its topic's first good sample,
 //! so that the broker's rate check starts on a flowing topic; from then on it publishes
@@ -20,12 +21,13 @@ use std::time::Duration;
 use lewis_interfaces::Interface;
 use lewis_interfaces::dynamic::Value;
 use lewis_interfaces::msg::{
-    Egomotion, EgomotionCommand, EgomotionResetOdometryReply, Pose2D, Pose3D, Power, PowerCommand,
-    PowerSetLowThresholdReply, RangeFinder, RangeFinderCommand, RangeFinderGetGeometryReply,
+    Egomotion, EgomotionCommand, EgomotionResetOdometryReply, ImageSource, ImageSourceCommand,
+    ImageSourceSetRateReply, Pose2D, Pose3D, Power, PowerCommand, PowerSetLowThresholdReply,
+    RangeFinder, RangeFinderCommand, RangeFinderGetGeometryReply,
 };
-use lewis_interfaces::ros2::{LASER_SCAN, ODOMETRY};
+use lewis_interfaces::ros2::{COMPRESSED_IMAGE, LASER_SCAN, ODOMETRY};
 use lewis_ros2_map::from_ros2::{self, RangeCounts};
-use lewis_ros2_map::robot::{self, BATTERY_STATE, IR_INTENSITY_VECTOR, RANGE};
+use lewis_ros2_map::robot::{self, BATTERY_STATE, IMAGE, IR_INTENSITY_VECTOR, RANGE};
 use lewis_service::{
     BuildError, CommandError, Context, IncomingCommand, Reply, Service, ServiceConfig,
 };
@@ -316,6 +318,9 @@ mod defaults {
     }
     pub(super) fn low_charge_fraction() -> f64 {
         0.2
+    }
+    pub(super) fn image_type() -> super::ImageType {
+        super::ImageType::Image
     }
 }
 
@@ -886,6 +891,154 @@ fn build_battery(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildEr
     )))
 }
 
+// ---- ros2-camera --------------------------------------------------------------------
+
+/// The kind name of a camera.
+pub const CAMERA: &str = "ros2-camera";
+
+/// Which message the camera's topic carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ImageType {
+    /// `sensor_msgs/msg/Image` (rgb8, bgr8, mono8, yuv422, yuv422_yuy2).
+    Image,
+    /// `sensor_msgs/msg/CompressedImage` (JPEG or PNG).
+    CompressedImage,
+}
+
+/// A pinhole camera's intrinsics, as `sensor_msgs/msg/CameraInfo`'s `k` gives them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Intrinsics {
+    /// Focal length along the rows, in px (`k[0]`).
+    pub fx: f64,
+    /// Focal length along the columns, in px (`k[4]`).
+    pub fy: f64,
+    /// Principal point, column (`k[2]`).
+    pub cx: f64,
+    /// Principal point, row (`k[5]`).
+    pub cy: f64,
+}
+
+/// The parameters of `ros2-camera`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraParams {
+    /// The image topic.
+    pub topic: String,
+    /// Image or CompressedImage.
+    #[serde(default = "defaults::image_type")]
+    pub image_type: ImageType,
+    /// Its QoS (default: sensor data).
+    #[serde(default = "defaults::sensor_qos")]
+    pub qos: Qos,
+    /// How to reach the robot.
+    #[serde(default)]
+    pub dds: Link,
+    /// The camera's intrinsics (absent: zeros, "unknown", as an import without CameraInfo).
+    pub intrinsics: Option<Intrinsics>,
+    /// Frames per second published at most (`ImageSource.set_rate` changes it; absent: every
+    /// frame).
+    pub max_rate_hz: Option<f64>,
+    /// Silence and start.
+    #[serde(default)]
+    pub timing: Timing,
+    /// Accepted so that every robot file may give one.
+    pub seed: Option<u64>,
+}
+
+struct Camera {
+    image_type: ImageType,
+    intrinsics: Intrinsics,
+    /// Frames per second published at most.
+    max_rate_hz: Option<f64>,
+    last_published_ns: Option<i64>,
+}
+
+impl Kind for Camera {
+    const INTERFACE: &'static str = ImageSource::NAME;
+
+    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+        let now = ctx.now();
+        if let (Some(rate), Some(last)) = (self.max_rate_hz, self.last_published_ns)
+            && ((now - last) as f64) < 1e9 / rate
+        {
+            // A good frame, not wanted now.
+            return Ok(());
+        }
+        let (width, height, rgb) = match self.image_type {
+            ImageType::Image => from_ros2::image(value),
+            ImageType::CompressedImage => from_ros2::compressed_image(value),
+        }
+        .map_err(|e| e.to_string())?;
+        let mut image = from_ros2::image_source(width, height, rgb);
+        image.focal_length_x = self.intrinsics.fx;
+        image.focal_length_y = self.intrinsics.fy;
+        image.principal_point_x = self.intrinsics.cx;
+        image.principal_point_y = self.intrinsics.cy;
+        publish(ctx, &mut image);
+        self.last_published_ns = Some(now);
+        Ok(())
+    }
+
+    fn command(
+        &mut self,
+        ctx: &mut Context<'_>,
+        command: &IncomingCommand<'_>,
+    ) -> Result<Reply, CommandError> {
+        match command.decode::<ImageSource>()? {
+            ImageSourceCommand::SetRate(c) => {
+                if !(c.rate.is_finite() && c.rate > 0.0) {
+                    return Err(CommandError::new(format!(
+                        "set_rate: {} Hz is not a rate",
+                        c.rate
+                    )));
+                }
+                // The robot's camera keeps its own rate: Lewis publishes at most this many.
+                self.max_rate_hz = Some(c.rate);
+                Ok(ctx.reply(ImageSourceSetRateReply {
+                    rate: c.rate,
+                    ..ImageSourceSetRateReply::default()
+                }))
+            }
+        }
+    }
+}
+
+fn build_camera(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
+    let params: CameraParams = config.parameters()?;
+    check_timing(config, params.timing)?;
+    params.dds.domain().map_err(|e| invalid(config, e))?;
+    if let Some(rate) = params.max_rate_hz
+        && !(rate.is_finite() && rate > 0.0)
+    {
+        return Err(invalid(
+            config,
+            format!("`max_rate_hz` is {rate}: give a positive rate"),
+        ));
+    }
+    let type_name = match params.image_type {
+        ImageType::Image => IMAGE,
+        ImageType::CompressedImage => COMPRESSED_IMAGE,
+    };
+    let topics = vec![TopicSpec {
+        topic: params.topic,
+        type_name,
+        qos: params.qos,
+    }];
+    Ok(Box::new(Sensor::new(
+        params.dds,
+        topics,
+        params.timing,
+        Camera {
+            image_type: params.image_type,
+            intrinsics: params.intrinsics.unwrap_or_default(),
+            max_rate_hz: params.max_rate_hz,
+            last_published_ns: None,
+        },
+    )))
+}
+
 /// Registers the sensor kinds with their parameters.
 pub fn register(registry: &mut lewis_service::ServiceRegistry) {
     registry.register_with_parameters::<LaserParams>(LASER, build_laser);
@@ -893,6 +1046,7 @@ pub fn register(registry: &mut lewis_service::ServiceRegistry) {
     registry.register_with_parameters::<RangeParams>(RANGE_KIND, build_range);
     registry.register_with_parameters::<OdometryParams>(ODOMETRY_KIND, build_odometry);
     registry.register_with_parameters::<BatteryParams>(BATTERY, build_battery);
+    registry.register_with_parameters::<CameraParams>(CAMERA, build_camera);
 }
 
 #[cfg(test)]
@@ -983,6 +1137,87 @@ mod tests {
         let strange = value(IR_INTENSITY_VECTOR, &IrVector(vec![("other", 5)]));
         let mut ctx = state.context(&mut backend);
         assert!(ring.sample(&mut ctx, 0, &strange).is_err());
+    }
+
+    struct Image {
+        encoding: &'static str,
+        width: u32,
+        height: u32,
+        step: u32,
+        data: Vec<u8>,
+    }
+
+    impl Encode for Image {
+        fn encode<S: Sink>(&self, sink: &mut S) {
+            Header {
+                stamp_ns: 1,
+                frame_id: "oakd_rgb_camera_optical_frame".into(),
+            }
+            .encode(sink);
+            self.height.encode(sink);
+            self.width.encode(sink);
+            self.encoding.to_owned().encode(sink);
+            0u8.encode(sink);
+            self.step.encode(sink);
+            self.data.encode(sink);
+        }
+    }
+
+    #[test]
+    fn images_become_rgb8_with_their_intrinsics_at_most_at_the_rate_asked() {
+        let mut camera = Camera {
+            image_type: ImageType::Image,
+            intrinsics: Intrinsics {
+                fx: 200.0,
+                fy: 201.0,
+                cx: 1.0,
+                cy: 0.5,
+            },
+            max_rate_hz: Some(10.0),
+            last_published_ns: None,
+        };
+        let bgr = value(
+            IMAGE,
+            &Image {
+                encoding: "bgr8",
+                width: 2,
+                height: 1,
+                step: 6,
+                data: vec![1, 2, 3, 4, 5, 6],
+            },
+        );
+        let mut backend = RecordingBackend::default();
+        let mut state = ContextState::new("camera", 1);
+        for now_ns in [0, 50_000_000, 100_000_000] {
+            backend.now_ns = now_ns;
+            let mut ctx = state.context(&mut backend);
+            camera.sample(&mut ctx, 0, &bgr).unwrap();
+        }
+        let images = decoded::<ImageSource>(&backend.published);
+        assert_eq!(
+            images.len(),
+            2,
+            "10 Hz at most: the frame 50 ms after is left out"
+        );
+        assert_eq!(images[0].data, [3, 2, 1, 6, 5, 4]);
+        assert_eq!(
+            (images[0].width, images[0].height, images[0].step),
+            (2, 1, 6)
+        );
+        assert_eq!(images[0].focal_length_y, 201.0);
+        let bayer = value(
+            IMAGE,
+            &Image {
+                encoding: "bayer_rggb8",
+                width: 2,
+                height: 1,
+                step: 2,
+                data: vec![0; 2],
+            },
+        );
+        backend.now_ns = 1_000_000_000;
+        let mut ctx = state.context(&mut backend);
+        assert!(camera.sample(&mut ctx, 0, &bayer).is_err());
     }
 
     #[test]
