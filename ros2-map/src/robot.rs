@@ -267,6 +267,89 @@ pub fn battery(value: &Value) -> Result<Battery, String> {
     })
 }
 
+/// One transform of a `tf2_msgs/msg/TFMessage`, planar: the child frame's place in its
+/// parent's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanarTransform {
+    /// The parent frame (leading `/` removed).
+    pub parent: String,
+    /// The child frame (leading `/` removed).
+    pub child: String,
+    /// Forward, in m.
+    pub x: f64,
+    /// Left, in m.
+    pub y: f64,
+    /// Up, in m.
+    pub z: f64,
+    /// About z, in rad.
+    pub yaw: f64,
+}
+
+/// The transforms of a `tf2_msgs/msg/TFMessage`, planar.
+///
+/// # Errors
+/// A field is missing or of another type.
+pub fn transforms(value: &Value) -> Result<Vec<PlanarTransform>, String> {
+    let list = value
+        .get("transforms")
+        .and_then(Value::as_array)
+        .ok_or("`transforms` is missing or not an array")?;
+    list.iter()
+        .map(|t| {
+            let frame = |path: &str| {
+                t.get(path)
+                    .and_then(Value::as_str)
+                    .map(|f| f.trim_start_matches('/').to_owned())
+                    .ok_or_else(|| format!("`{path}` is missing"))
+            };
+            Ok(PlanarTransform {
+                parent: frame("header.frame_id")?,
+                child: frame("child_frame_id")?,
+                x: number(t, "transform.translation.x")?,
+                y: number(t, "transform.translation.y")?,
+                z: number(t, "transform.translation.z")?,
+                yaw: crate::from_ros2::yaw(t, "transform.rotation")?,
+            })
+        })
+        .collect()
+}
+
+/// Where `frame` is in `base` by a chain of `transforms` (composed in the plane, heights
+/// added), or `None` when no chain joins them.
+#[must_use]
+pub fn frame_in(
+    transforms: &[PlanarTransform],
+    base: &str,
+    frame: &str,
+) -> Option<PlanarTransform> {
+    let mut at = PlanarTransform {
+        parent: frame.to_owned(),
+        child: frame.to_owned(),
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+        yaw: 0.0,
+    };
+    // At most one step per transform: a cycle ends the walk.
+    for _ in 0..=transforms.len() {
+        if at.parent == base {
+            at.parent = base.to_owned();
+            return Some(at);
+        }
+        let step = transforms.iter().find(|t| t.child == at.parent)?;
+        let (s, c) = step.yaw.sin_cos();
+        at = PlanarTransform {
+            parent: step.parent.clone(),
+            child: at.child,
+            x: step.x + c * at.x - s * at.y,
+            y: step.y + s * at.x + c * at.y,
+            z: step.z + at.z,
+            yaw: step.yaw + at.yaw,
+        };
+    }
+    None
+}
+
 /// `geometry_msgs/msg/TwistStamped`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TwistStamped {
@@ -358,6 +441,47 @@ mod tests {
             value.get("header.frame_id").and_then(Value::as_str),
             Some("base_link")
         );
+    }
+
+    #[test]
+    fn a_frame_is_found_through_a_chain_of_transforms() {
+        let t = |parent: &str, child: &str, x, y, z, yaw| PlanarTransform {
+            parent: parent.into(),
+            child: child.into(),
+            x,
+            y,
+            z,
+            yaw,
+        };
+        let tree = [
+            t(
+                "base_link",
+                "shell_link",
+                0.0,
+                0.0,
+                0.1,
+                std::f64::consts::FRAC_PI_2,
+            ),
+            t("shell_link", "rplidar_link", 0.1, 0.0, 0.09, 0.0),
+            t("base_link", "imu", 0.05, 0.03, 0.07, 0.0),
+        ];
+        let lidar = frame_in(&tree, "base_link", "rplidar_link").unwrap();
+        assert!(
+            lidar.x.abs() < 1e-12 && (lidar.y - 0.1).abs() < 1e-12,
+            "{lidar:?}"
+        );
+        assert!((lidar.z - 0.19).abs() < 1e-12);
+        assert!((lidar.yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert_eq!(
+            frame_in(&tree, "base_link", "base_link").map(|f| f.x),
+            Some(0.0)
+        );
+        assert_eq!(frame_in(&tree, "base_link", "camera"), None);
+        let cycle = [
+            t("a", "b", 0.0, 0.0, 0.0, 0.0),
+            t("b", "a", 0.0, 0.0, 0.0, 0.0),
+        ];
+        assert_eq!(frame_in(&cycle, "base_link", "a"), None);
     }
 
     #[test]

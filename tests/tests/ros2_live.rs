@@ -7,6 +7,8 @@
 //!
 //! - the peer receives `/cmd_vel` as `geometry_msgs/msg/Twist`, at the base's 20 Hz, within
 //!   the robot file's limits;
+//! - the laser's mount in the robot file is checked against the peer's `/tf_static`
+//!   (transient local, sent before Lewis started), and the mismatch said;
 //! - `/scan` stops: the laser gateway goes out of service and the broker moves the avoider
 //!   to the IR ring (decided on `/lewis/broker`) while the base keeps being commanded;
 //!   `/scan` resumes: the avoider moves back;
@@ -309,6 +311,12 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
     up.wait_status("the avoider on the laser", |report| {
         report.contains("client obstacle_avoider RangeFinder -> laser")
     });
+    // The peer's /tf_static puts its laser elsewhere than the TurtleBot 4's robot file.
+    let mismatch = up.wait_line("mount mismatch");
+    assert!(
+        mismatch.contains("laser") && mismatch.contains("heading 0.0 deg"),
+        "{mismatch}"
+    );
     peer.wait_for("a twist that moves", |e| {
         twist(e).is_some_and(|(v, w)| v != 0.0 || w != 0.0)
     });

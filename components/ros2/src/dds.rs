@@ -174,6 +174,13 @@ impl Qos {
         durability: QosDurability::Volatile,
         depth: 5,
     };
+    /// `/tf_static`'s: reliable, transient local (a late reader gets what was sent), the
+    /// last 100 (one per frame of a robot).
+    pub const LATCHED: Self = Self {
+        reliability: QosReliability::Reliable,
+        durability: QosDurability::TransientLocal,
+        depth: 100,
+    };
     /// ROS 2's default: reliable, volatile, the last 10.
     pub const DEFAULT: Self = Self {
         reliability: QosReliability::Reliable,

@@ -236,22 +236,25 @@ impl Gateway {
         values
     }
 
-    /// Blocks (at most `limit`) until reader `reader` has a good sample; returns it.
+    /// Blocks (at most `limit`) until reader `reader` has a good sample; returns every
+    /// sample taken meanwhile (of any reader), that one last, or all of them with `false`
+    /// when none of `reader` came in time.
     pub fn wait_first(
         &mut self,
         ctx: &mut Context<'_>,
         reader: usize,
         limit: Duration,
-    ) -> Option<Value> {
+    ) -> (Vec<(usize, Value)>, bool) {
         let deadline = Instant::now() + limit;
+        let mut taken = Vec::new();
         loop {
-            let got = self.take(ctx);
-            if let Some(value) = got.into_iter().rev().find(|(r, _)| *r == reader) {
-                return Some(value.1);
+            taken.extend(self.take(ctx));
+            if taken.iter().any(|(r, _)| *r == reader) {
+                return (taken, true);
             }
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
-                return None;
+                return (taken, false);
             }
             let mut fds = [nix::poll::PollFd::new(
                 self.readers.fd(),

@@ -25,7 +25,7 @@ use lewis_interfaces::msg::{
     ImageSourceSetRateReply, Pose2D, Pose3D, Power, PowerCommand, PowerSetLowThresholdReply,
     RangeFinder, RangeFinderCommand, RangeFinderGetGeometryReply,
 };
-use lewis_interfaces::ros2::{COMPRESSED_IMAGE, LASER_SCAN, ODOMETRY};
+use lewis_interfaces::ros2::{COMPRESSED_IMAGE, LASER_SCAN, ODOMETRY, TF_MESSAGE};
 use lewis_ros2_map::from_ros2::{self, RangeCounts};
 use lewis_ros2_map::robot::{self, BATTERY_STATE, IMAGE, IR_INTENSITY_VECTOR, RANGE};
 use lewis_service::{
@@ -115,6 +115,13 @@ trait Kind {
     fn sample(&mut self, ctx: &mut Context<'_>, reader: usize, value: &Value)
     -> Result<(), String>;
 
+    /// Whether reader `reader`'s samples are the sensor's data (what keeps it healthy), not
+    /// something beside it (`/tf_static`).
+    fn is_data(&self, reader: usize) -> bool {
+        let _ = reader;
+        true
+    }
+
     /// A command of its interface.
     fn command(
         &mut self,
@@ -148,7 +155,8 @@ impl<K: Kind> Sensor<K> {
     fn handle(&mut self, ctx: &mut Context<'_>, values: Vec<(usize, Value)>) {
         for (reader, value) in values {
             match self.kind.sample(ctx, reader, &value) {
-                Ok(()) => self.freshness.good(ctx.now()),
+                Ok(()) if self.kind.is_data(reader) => self.freshness.good(ctx.now()),
+                Ok(()) => {}
                 Err(why) => {
                     if let Some(intake) = self
                         .gateway
@@ -187,21 +195,16 @@ impl<K: Kind> Service for Sensor<K> {
             K::INTERFACE
         ));
         let limit = Duration::from_millis(self.timing.first_sample_ms);
-        match gateway.wait_first(ctx, 0, limit) {
-            Some(first) => {
-                self.gateway = Some(gateway);
-                self.handle(ctx, vec![(0, first)]);
-            }
-            None => {
-                ctx.warn(&format!(
-                    "no {} within {} ms of the start: is the robot on, in this domain and namespace?",
-                    names.first().copied().unwrap_or_default(),
-                    self.timing.first_sample_ms
-                ));
-                self.gateway = Some(gateway);
-                self.check(ctx);
-            }
+        let (taken, arrived) = gateway.wait_first(ctx, 0, limit);
+        self.gateway = Some(gateway);
+        if !arrived {
+            ctx.warn(&format!(
+                "no {} within {} ms of the start: is the robot on, in this domain and namespace?",
+                names.first().copied().unwrap_or_default(),
+                self.timing.first_sample_ms
+            ));
         }
+        self.handle(ctx, taken);
         Ok(())
     }
 
@@ -285,6 +288,13 @@ pub struct LaserParams {
     /// Scans per second, for the geometry clients ask for.
     #[serde(default = "defaults::laser_rate_hz")]
     pub rate_hz: f64,
+    /// The robot's static transforms, against which `mount` is checked once both the
+    /// scan's frame and a chain from `base_frame` to it are known ("": no check).
+    #[serde(default = "defaults::tf_static")]
+    pub tf_static_topic: String,
+    /// The robot's frame, whose origin `mount` is given from.
+    #[serde(default = "defaults::base_frame")]
+    pub base_frame: String,
     /// Silence and start.
     #[serde(default)]
     pub timing: Timing,
@@ -293,6 +303,12 @@ pub struct LaserParams {
 }
 
 mod defaults {
+    pub(super) fn tf_static() -> String {
+        "/tf_static".to_owned()
+    }
+    pub(super) fn base_frame() -> String {
+        "base_link".to_owned()
+    }
     use crate::dds::Qos;
 
     pub(super) fn scan() -> String {
@@ -329,13 +345,97 @@ struct Laser {
     rate_hz: f64,
     counts: RangeCounts,
     last: (usize, f64),
+    mount_check: MountCheck,
+}
+
+/// The robot file's mount of a sensor against the robot's `/tf_static`, said once.
+#[derive(Debug, Clone, Default)]
+struct MountCheck {
+    base_frame: String,
+    frame: Option<String>,
+    transforms: Vec<robot::PlanarTransform>,
+    done: bool,
+}
+
+impl MountCheck {
+    /// Distance and angle within which the two agree.
+    const TOLERANCE_M: f64 = 0.02;
+    const TOLERANCE_DEG: f64 = 2.0;
+
+    fn frame(&mut self, ctx: &mut Context<'_>, frame: &str, mount: &Mount) {
+        if self.frame.as_deref() != Some(frame) {
+            self.frame = Some(frame.trim_start_matches('/').to_owned());
+            self.check(ctx, mount);
+        }
+    }
+
+    fn transforms(
+        &mut self,
+        ctx: &mut Context<'_>,
+        value: &Value,
+        mount: &Mount,
+    ) -> Result<(), String> {
+        for t in robot::transforms(value)? {
+            self.transforms.retain(|known| known.child != t.child);
+            self.transforms.push(t);
+        }
+        self.check(ctx, mount);
+        Ok(())
+    }
+
+    fn check(&mut self, ctx: &mut Context<'_>, mount: &Mount) {
+        let Some(frame) = &self.frame else { return };
+        if self.done {
+            return;
+        }
+        let Some(tf) = robot::frame_in(&self.transforms, &self.base_frame, frame) else {
+            return;
+        };
+        self.done = true;
+        let heading = tf.yaw.to_degrees();
+        let turn = (heading - mount.heading_deg + 180.0).rem_euclid(360.0) - 180.0;
+        let agree = (tf.x - mount.x_m).abs() <= Self::TOLERANCE_M
+            && (tf.y - mount.y_m).abs() <= Self::TOLERANCE_M
+            && (tf.z - mount.height_m).abs() <= Self::TOLERANCE_M
+            && turn.abs() <= Self::TOLERANCE_DEG;
+        let tf_text = format!(
+            "x {:.3} m, y {:.3} m, height {:.3} m, heading {heading:.1} deg",
+            tf.x, tf.y, tf.z
+        );
+        if agree {
+            ctx.info(&format!(
+                "mount agrees with /tf_static's {} -> {frame} ({tf_text})",
+                self.base_frame
+            ));
+        } else {
+            ctx.warn(&format!(
+                "mount mismatch: the robot file puts {frame} at x {:.3} m, y {:.3} m, height {:.3} m, heading {:.1} deg; /tf_static's {} -> {frame} is {tf_text} (the robot file's is used)",
+                mount.x_m, mount.y_m, mount.height_m, mount.heading_deg, self.base_frame
+            ));
+        }
+    }
 }
 
 impl Kind for Laser {
     const INTERFACE: &'static str = RangeFinder::NAME;
 
-    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+    fn is_data(&self, reader: usize) -> bool {
+        reader == 0
+    }
+
+    fn sample(
+        &mut self,
+        ctx: &mut Context<'_>,
+        reader: usize,
+        value: &Value,
+    ) -> Result<(), String> {
+        if reader == 1 {
+            return self.mount_check.transforms(ctx, value, &self.mount);
+        }
         let scan = from_ros2::laser_scan(value)?;
+        if let Some(frame) = value.get("header.frame_id").and_then(Value::as_str) {
+            self.mount_check.frame(ctx, frame, &self.mount);
+        }
         let mut reading = from_ros2::range_finder(&scan, &mut self.counts);
         reading.sensor_positions = (0..reading.ranges.len())
             .map(|i| {
@@ -365,11 +465,18 @@ fn build_laser(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErro
     let params: LaserParams = config.parameters()?;
     check_timing(config, params.timing)?;
     params.dds.domain().map_err(|e| invalid(config, e))?;
-    let topics = vec![TopicSpec {
+    let mut topics = vec![TopicSpec {
         topic: params.topic,
         type_name: LASER_SCAN,
         qos: params.qos,
     }];
+    if !params.tf_static_topic.is_empty() {
+        topics.push(TopicSpec {
+            topic: params.tf_static_topic,
+            type_name: TF_MESSAGE,
+            qos: Qos::LATCHED,
+        });
+    }
     Ok(Box::new(Sensor::new(
         params.dds,
         topics,
@@ -379,6 +486,10 @@ fn build_laser(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErro
             rate_hz: params.rate_hz,
             counts: RangeCounts::default(),
             last: (0, 0.0),
+            mount_check: MountCheck {
+                base_frame: params.base_frame,
+                ..MountCheck::default()
+            },
         },
     )))
 }
@@ -1220,6 +1331,58 @@ mod tests {
         assert!(camera.sample(&mut ctx, 0, &bayer).is_err());
     }
 
+    fn tf_static(x: f64, yaw: f64) -> Value {
+        use lewis_interfaces::ros2::{Pose, TfMessage, TransformStamped};
+        value(
+            TF_MESSAGE,
+            &TfMessage {
+                transforms: vec![TransformStamped {
+                    header: Header {
+                        stamp_ns: 1,
+                        frame_id: "base_link".into(),
+                    },
+                    child_frame_id: "rplidar_link".into(),
+                    transform: Pose::planar(x, 0.0, 0.193, yaw),
+                }],
+            },
+        )
+    }
+
+    #[test]
+    fn the_mount_is_checked_once_against_tf_static() {
+        let mount = Mount {
+            x_m: -0.04,
+            y_m: 0.0,
+            heading_deg: 90.0,
+            height_m: 0.193,
+        };
+        for (x, yaw, said) in [
+            (-0.04, std::f64::consts::FRAC_PI_2, "mount agrees"),
+            (0.10, 0.0, "mount mismatch"),
+        ] {
+            let mut check = MountCheck {
+                base_frame: "base_link".into(),
+                ..MountCheck::default()
+            };
+            let mut backend = RecordingBackend::default();
+            let mut state = ContextState::new("laser", 1);
+            let mut ctx = state.context(&mut backend);
+            // The frame first, the transforms later (or the other way): said once both are
+            // known, and never again.
+            check.frame(&mut ctx, "rplidar_link", &mount);
+            assert!(!check.done);
+            check
+                .transforms(&mut ctx, &tf_static(x, yaw), &mount)
+                .unwrap();
+            check
+                .transforms(&mut ctx, &tf_static(x, yaw), &mount)
+                .unwrap();
+            let lines: Vec<&String> = backend.logs.iter().map(|(_, t)| t).collect();
+            assert_eq!(lines.len(), 1, "{lines:?}");
+            assert!(lines[0].starts_with(said), "{lines:?}");
+        }
+    }
+
     #[test]
     fn a_scan_is_a_range_finder_at_the_lasers_mount() {
         let mut laser = Laser {
@@ -1232,6 +1395,10 @@ mod tests {
             rate_hz: 7.7,
             counts: RangeCounts::default(),
             last: (0, 0.0),
+            mount_check: MountCheck {
+                base_frame: "base_link".into(),
+                ..MountCheck::default()
+            },
         };
         let scan = lewis_interfaces::ros2::LaserScan {
             header: Header {
