@@ -12,6 +12,8 @@
 //! - `/scan` stops: the laser gateway goes out of service and the broker moves the avoider
 //!   to the IR ring (decided on `/lewis/broker`) while the base keeps being commanded;
 //!   `/scan` resumes: the avoider moves back;
+//! - `/scan` carries something else under its type name (undecodable samples): counted,
+//!   said once, the same failover and return, no crash;
 //! - the base gateway killed outright: the broker restarts it and the restarted process
 //!   holds the robot still (a zero twist) before any new command;
 //! - `lewis up` stopped: the last twist the peer receives is zero.
@@ -362,6 +364,36 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
             && d.from_service == "ir"
             && d.to_service == "laser"
     });
+
+    // A publisher of something else under /scan's type name: every sample is undecodable,
+    // counted and said once, the laser out of service again and the avoider on the IR
+    // ring; never a crash, and back when real scans return.
+    peer.send("scan garbage");
+    let moved = decisions.wait_for("the avoider moved away from garbage", |d| {
+        d.action == "rebind"
+            && d.client == "obstacle_avoider"
+            && d.from_service == "laser"
+            && d.to_service == "ir"
+    });
+    assert!(
+        moved.reason.contains("undecodable"),
+        "the reason counts the bad samples: {}",
+        moved.reason
+    );
+    peer.send("scan on");
+    decisions.wait_for("the avoider back on the laser after the garbage", |d| {
+        d.action == "rebind"
+            && d.client == "obstacle_avoider"
+            && d.from_service == "ir"
+            && d.to_service == "laser"
+    });
+    up.drain();
+    let said = up
+        .seen
+        .iter()
+        .filter(|l| l.contains("/scan: undecodable"))
+        .count();
+    assert_eq!(said, 1, "undecodable scans are said once:\n{}", up.log());
 
     // The base's gateway killed outright: restarted, it holds the robot still before any
     // new command reaches it.

@@ -20,11 +20,12 @@ time (and, when the file is played again from its start, go on increasing).
 It receives /cmd_vel (geometry_msgs/Twist, reliable) and prints each one as a JSON line:
 {"event": "cmd_vel", "t": SECONDS, "linear": [x, y, z], "angular": [x, y, z]}, `t` being
 this process's monotonic clock. Other lines: {"event": "ready"} once every writer and the
-reader exist, {"event": "scan", "on": BOOL} when /scan is stopped or resumed,
+reader exist, {"event": "scan", "mode": "off" | "on" | "garbage"} when /scan changes,
 {"event": "done", "scans": N, "cmd_vel": N} at the end.
 
 Commands on standard input, one a line: `scan off` (stop publishing /scan: the lidar went
-silent), `scan on`, `quit`. It ends on `quit`, at the end of its input, or after
+silent), `scan garbage` (publish, in place of each scan, a message of the same type name
+that is no LaserScan, from a participant of its own), `scan on`, `quit`. It ends on `quit`, at the end of its input, or after
 --max-seconds.
 
 Usage:
@@ -59,6 +60,7 @@ from ros2_types import (  # noqa: E402
     IrIntensity,
     IrIntensityVector,
     LaserScan,
+    NotALaserScan,
     Odometry,
     Point,
     Pose,
@@ -174,6 +176,9 @@ def main():
     hazard_w = writer("/hazard_detection", HazardDetectionVector, SENSOR_DATA)
     battery_w = writer("/battery_state", BatteryState, SENSOR_DATA)
     cmd_r = DataReader(dp, Topic(dp, "rt/cmd_vel", Twist), qos=DEFAULT)
+    # Another participant: one may not have one topic name with two types.
+    liar = DomainParticipant(args.domain)
+    garbage_w = DataWriter(liar, Topic(liar, "rt/scan", NotALaserScan), qos=SENSOR_DATA)
 
     start = time.monotonic()
     wall_ns = time.time_ns
@@ -195,7 +200,7 @@ def main():
 
     x = y = theta = 0.0
     v = w = 0.0
-    scan_on = True
+    scan_mode = "on"
     scan_index = 0
     loop_offset = 0
     play_start = time.monotonic()
@@ -226,9 +231,16 @@ def main():
         if now >= next_scan:
             log_time, scan = scans[scan_index]
             last_scan = scan
-            if scan_on:
+            if scan_mode == "on":
                 scan_w.write(laser_scan(scan, log_time + loop_offset + shift))
                 published_scans += 1
+            elif scan_mode == "garbage":
+                garbage_w.write(
+                    NotALaserScan(
+                        header=Header(stamp=Time.from_ns(wall_ns()), frame_id="laser"),
+                        value=published_scans,
+                    )
+                )
             if scan_index + 1 == len(scans):
                 # Played again from the start, 100 ms on.
                 gap = 0.1
@@ -303,9 +315,9 @@ def main():
                 if line == "quit":
                     say(event="done", scans=published_scans, cmd_vel=received)
                     return
-                if line in ("scan off", "scan on"):
-                    scan_on = line == "scan on"
-                    say(event="scan", on=scan_on)
+                if line in ("scan off", "scan on", "scan garbage"):
+                    scan_mode = line.split()[1]
+                    say(event="scan", mode=scan_mode)
     say(event="done", scans=published_scans, cmd_vel=received)
 
 

@@ -188,6 +188,17 @@ class BatteryState(IdlStruct, typename="sensor_msgs::msg::dds_::BatteryState_"):
     serial_number: str = ""
 
 
+@dataclass
+@annotate.final
+class NotALaserScan(IdlStruct, typename="sensor_msgs::msg::dds_::LaserScan_"):
+    """Bad input from the network: a publisher that calls its messages LaserScans but sends
+    something else (a header and one number), so that a reader of real LaserScans gets
+    samples that do not decode."""
+
+    header: Header = field(default_factory=Header)
+    value: int16 = 0
+
+
 # The QoS profiles of rclcpp, as rmw_cyclonedds sets them, with plain CDR (XCDR1).
 XCDR1 = Policy.DataRepresentation(use_cdrv0_representation=True)
 
