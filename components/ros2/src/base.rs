@@ -2,7 +2,8 @@
 //!
 //! `set_velocity` and `stop` become `geometry_msgs/msg/Twist` (or `TwistStamped`, the robot
 //! file's `command_type`) on the command topic, sent at `rate_hz`, the pace a ROS 2 base
-//! expects (the Create 3 stops by itself when `/cmd_vel` pauses). The base never drives on
+//! expects (the Create 3 stops by itself when `/cmd_vel` pauses), and at once when the
+//! velocity commanded changes. The base never drives on
 //! a stale command:
 //!
 //! - `stop`, and `set_brake` on, send a zero twist at once;
@@ -475,9 +476,15 @@ impl Service for Base {
         let now = ctx.now();
         match command.decode::<Synchrodrive>()? {
             SynchrodriveCommand::SetVelocity(c) => {
+                let before = self.commander.commanded();
                 self.commander
                     .set_velocity(now, c.translation_velocity, c.rotation_velocity)
                     .map_err(CommandError::new)?;
+                // A change goes out at once, not at the next tick.
+                let after = self.commander.commanded();
+                if after != before {
+                    self.send(ctx, after.0, after.1);
+                }
                 Ok(ctx.reply(SynchrodriveSetVelocityReply::default()))
             }
             SynchrodriveCommand::Stop(_) => {
