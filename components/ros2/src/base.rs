@@ -2,8 +2,8 @@
 //!
 //! `set_velocity` and `stop` become `geometry_msgs/msg/Twist` (or `TwistStamped`, the robot
 //! file's `command_type`) on the command topic, sent at `rate_hz`, the pace a ROS 2 base
-//! expects (the Create 3 stops by itself when `/cmd_vel` pauses), and at once when the
-//! velocity commanded changes. The base never drives on
+//! expects (the Create 3 stops by itself when `/cmd_vel` pauses); a change of the velocity
+//! commanded goes out at once and stands for that period's twist. The base never drives on
 //! a stale command:
 //!
 //! - `stop`, and `set_brake` on, send a zero twist at once;
@@ -11,8 +11,9 @@
 //!   away) and the twist sent is zero;
 //! - when the service stops (`lewis up` ends, the broker stops it) it sends a zero twist
 //!   and waits for the robot to acknowledge it; a gateway killed outright sends nothing,
-//!   but its restarted process sends zero twists until a client commands again (and the
-//!   base's own timeout stops it meanwhile).
+//!   but its restarted process holds the robot still (a zero twist the robot acknowledges,
+//!   then `start_hold_ms` of zero twists whatever is commanded), and the base's own timeout
+//!   stops it meanwhile.
 //!
 //! After motion ends, zero twists go on for `idle_zero_ms`, then the gateway says nothing,
 //! so that a person's teleop can drive the robot while Lewis does not.
@@ -108,6 +109,10 @@ pub struct BaseParams {
     /// How long the start waits for the robot's reader of the command topic, in ms.
     #[serde(default = "defaults::match_wait_ms")]
     pub match_wait_ms: u64,
+    /// After the start (also a restart after a kill), the robot is held still this long,
+    /// zero twists sent whatever is commanded, in ms.
+    #[serde(default = "defaults::start_hold_ms")]
+    pub start_hold_ms: u64,
     /// Accepted so that every robot file may give one.
     pub seed: Option<u64>,
 }
@@ -119,6 +124,9 @@ mod defaults {
 
     pub(super) fn match_wait_ms() -> u64 {
         5_000
+    }
+    pub(super) fn start_hold_ms() -> u64 {
+        300
     }
 
     pub(super) fn command_topic() -> String {
@@ -282,6 +290,10 @@ struct Base {
     hazard_at_ns: Option<i64>,
     measured: Option<(f64, f64)>,
     sent: u64,
+    /// When the last twist was sent.
+    last_sent_ns: Option<i64>,
+    /// Until when the robot is held still after the start.
+    hold_until_ns: Option<i64>,
     /// Readers of the command topic on the robot, as DDS matched them.
     readers: i32,
 }
@@ -289,6 +301,11 @@ struct Base {
 impl Base {
     fn send(&mut self, ctx: &mut Context<'_>, v: f64, w: f64) {
         let Some(writer) = &self.writer else { return };
+        let (v, w) = if self.hold_until_ns.is_some_and(|until| ctx.now() < until) {
+            (0.0, 0.0)
+        } else {
+            (v, w)
+        };
         let twist = Twist {
             linear: [v, 0.0, 0.0],
             angular: [0.0, 0.0, w],
@@ -301,7 +318,10 @@ impl Base {
             }),
         };
         match writer.write(RawCdr(bytes), None) {
-            Ok(()) => self.sent += 1,
+            Ok(()) => {
+                self.sent += 1;
+                self.last_sent_ns = Some(ctx.now());
+            }
             Err(e) => ctx.warn(&format!("cannot send {}: {e}", self.params.command_topic)),
         }
     }
@@ -432,8 +452,18 @@ impl Service for Base {
             self.params.rate_hz,
             self.params.dds.domain()?
         ));
-        // A fresh base (also one restarted after a kill) holds the robot still.
-        self.commander.stop(ctx.now());
+        // A fresh base (also one restarted after a kill) holds the robot still, first with
+        // a zero twist the robot acknowledged (so it knows this writer), then for
+        // `start_hold_ms` whatever is commanded.
+        let now = ctx.now();
+        self.commander.stop(now);
+        self.hold_until_ns =
+            Some(now + i64::try_from(self.params.start_hold_ms).unwrap_or(0) * 1_000_000);
+        self.send(ctx, 0.0, 0.0);
+        if let Some(writer) = &self.writer {
+            let _ =
+                writer.wait_for_acknowledgments(Duration::from_millis(self.params.match_wait_ms));
+        }
         self.on_tick(ctx);
         Ok(())
     }
@@ -454,8 +484,17 @@ impl Service for Base {
 
     fn on_tick(&mut self, ctx: &mut Context<'_>) {
         self.on_device(ctx);
-        if let Some((v, w)) = self.commander.due(ctx.now()) {
-            self.send(ctx, v, w);
+        let now = ctx.now();
+        if let Some((v, w)) = self.commander.due(now) {
+            // A twist sent at once since the last tick stands for this one: the rate stays
+            // the base's (a millisecond of slack for the timer's jitter).
+            let period = self.tick_period_ns().unwrap_or(0);
+            if self
+                .last_sent_ns
+                .is_none_or(|at| now - at >= period - 1_000_000)
+            {
+                self.send(ctx, v, w);
+            }
         }
         self.publish_state(ctx);
         let health = self.matched();
@@ -536,6 +575,7 @@ fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
         ("command_timeout_ms", params.command_timeout_ms),
         ("hazard_timeout_ms", params.hazard_timeout_ms),
         ("match_wait_ms", params.match_wait_ms),
+        ("start_hold_ms", params.start_hold_ms),
     ] {
         if ms == 0 || ms > 60_000 {
             return Err(invalid(
@@ -576,6 +616,8 @@ fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
         hazard_at_ns: None,
         measured: None,
         sent: 0,
+        last_sent_ns: None,
+        hold_until_ns: None,
         readers: 0,
         params,
     }))
