@@ -48,23 +48,17 @@ mod tests {
                 .filter(|kind| registry.role(kind) == Some(role))
                 .collect::<Vec<_>>()
         };
-        assert_eq!(
-            kinds(Role::Device),
-            [
-                "camera",
-                "emulated-camera",
-                "espeak-speech",
-                "rflex",
-                "ros2-base",
-                "ros2-battery",
-                "ros2-camera",
-                "ros2-ir",
-                "ros2-laser",
-                "ros2-odometry",
-                "ros2-range",
-                "sick"
-            ]
-        );
+        let mut devices = vec![
+            "camera",
+            "emulated-camera",
+            "espeak-speech",
+            "rflex",
+            "sick",
+        ];
+        #[cfg(feature = "ros2")]
+        devices.extend(lewis_ros2::KINDS);
+        devices.sort_unstable();
+        assert_eq!(kinds(Role::Device), devices);
         assert_eq!(
             kinds(Role::SimulatedDevice),
             [
@@ -76,7 +70,7 @@ mod tests {
                 "test-range"
             ]
         );
-        assert_eq!(registry.source_kinds().len(), 18);
+        assert_eq!(registry.source_kinds().len(), devices.len() + 6);
     }
 
     #[test]
