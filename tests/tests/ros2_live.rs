@@ -14,6 +14,7 @@
 //!   `/scan` resumes: the avoider moves back;
 //! - `/scan` carries something else under its type name (undecodable samples): counted,
 //!   said once, the same failover and return, no crash;
+//! - `/scan` floods at ten times its rate: the excess dropped and said once, nobody moved;
 //! - the base gateway killed outright: the broker restarts it and the restarted process
 //!   holds the robot still (a zero twist) before any new command;
 //! - `lewis up` stopped: the last twist the peer receives is zero.
@@ -395,6 +396,26 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
         .count();
     assert_eq!(said, 1, "undecodable scans are said once:\n{}", up.log());
 
+    // Ten times the rate: the excess is dropped and said once, the laser keeps serving.
+    peer.send("scan flood");
+    peer.wait_for("the flood", |e| {
+        e["event"] == "scan" && e["mode"] == "flood"
+    });
+    peer.twists_for(Duration::from_millis(1500));
+    peer.send("scan on");
+    peer.wait_for("the flood's end", |e| {
+        e["event"] == "scan" && e["mode"] == "on"
+    });
+    decisions.take();
+    let since_flood = decisions.seen.len();
+    up.drain();
+    let flooding = up
+        .seen
+        .iter()
+        .filter(|l| l.contains("/scan: flooding"))
+        .count();
+    assert_eq!(flooding, 1, "a flood is said once:\n{}", up.log());
+
     // The base's gateway killed outright: restarted, it holds the robot still before any
     // new command reaches it.
     let base = service_pid(&up, "base");
@@ -406,6 +427,14 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
     peer.wait_for("a zero twist from the restarted base", |e| {
         e["t"].as_f64().is_some_and(|t| t > killed_at) && twist(e) == Some((0.0, 0.0))
     });
+
+    assert!(
+        !decisions.seen[since_flood..]
+            .iter()
+            .any(|d| d.from_service == "laser" || d.service == "laser"),
+        "the flood moved nobody off the laser:\n{}",
+        decisions.describe()
+    );
 
     // `lewis up` ends: the last twist is zero.
     peer.wait_for("the robot driven again", |e| {

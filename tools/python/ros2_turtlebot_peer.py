@@ -20,12 +20,13 @@ time (and, when the file is played again from its start, go on increasing).
 It receives /cmd_vel (geometry_msgs/Twist, reliable) and prints each one as a JSON line:
 {"event": "cmd_vel", "t": SECONDS, "linear": [x, y, z], "angular": [x, y, z]}, `t` being
 this process's monotonic clock. Other lines: {"event": "ready"} once every writer and the
-reader exist, {"event": "scan", "mode": "off" | "on" | "garbage"} when /scan changes,
+reader exist, {"event": "scan", "mode": "off" | "on" | "garbage" | "flood"} when /scan changes,
 {"event": "done", "scans": N, "cmd_vel": N} at the end.
 
 Commands on standard input, one a line: `scan off` (stop publishing /scan: the lidar went
 silent), `scan garbage` (publish, in place of each scan, a message of the same type name
-that is no LaserScan, from a participant of its own), `scan on`, `quit`. It ends on `quit`, at the end of its input, or after
+that is no LaserScan, from a participant of its own), `scan flood` (each scan ten times, with noise),
+`scan on`, `quit`. It ends on `quit`, at the end of its input, or after
 --max-seconds.
 
 Usage:
@@ -231,9 +232,15 @@ def main():
         if now >= next_scan:
             log_time, scan = scans[scan_index]
             last_scan = scan
-            if scan_mode == "on":
-                scan_w.write(laser_scan(scan, log_time + loop_offset + shift))
-                published_scans += 1
+            if scan_mode in ("on", "flood"):
+                # Flooding: each scan ten times (ten times the rate), each copy with its
+                # own noise as a laser's scans have (identical ones would be frozen).
+                for copy in range(10 if scan_mode == "flood" else 1):
+                    message = laser_scan(scan, log_time + loop_offset + shift)
+                    if copy:
+                        message.ranges = [r + rng.uniform(-0.005, 0.005) for r in message.ranges]
+                    scan_w.write(message)
+                    published_scans += 1
             elif scan_mode == "garbage":
                 garbage_w.write(
                     NotALaserScan(
@@ -315,7 +322,7 @@ def main():
                 if line == "quit":
                     say(event="done", scans=published_scans, cmd_vel=received)
                     return
-                if line in ("scan off", "scan on", "scan garbage"):
+                if line in ("scan off", "scan on", "scan garbage", "scan flood"):
                     scan_mode = line.split()[1]
                     say(event="scan", mode=scan_mode)
     say(event="done", scans=published_scans, cmd_vel=received)

@@ -137,7 +137,47 @@ struct Sensor<K> {
     timing: Timing,
     gateway: Option<Gateway>,
     freshness: Freshness,
+    flood: Option<Flood>,
     kind: K,
+}
+
+/// A topic published much faster than the robot file says: samples beyond
+/// [`Flood::FACTOR`] times the declared rate over the last second are dropped (counted, said
+/// once), so a flooding publisher cannot drown the gateway or its clients; a burst within
+/// that is taken.
+#[derive(Debug, Clone)]
+struct Flood {
+    per_second: usize,
+    taken_ns: std::collections::VecDeque<i64>,
+}
+
+impl Flood {
+    /// How much faster than declared a topic may go.
+    const FACTOR: f64 = 3.0;
+
+    fn new(declared_hz: f64) -> Option<Self> {
+        (declared_hz.is_finite() && declared_hz > 0.0).then(|| Self {
+            // At most a few thousand: a count, not a rate.
+            per_second: (declared_hz * Self::FACTOR).ceil().max(1.0) as usize,
+            taken_ns: std::collections::VecDeque::new(),
+        })
+    }
+
+    /// Whether a sample at `now_ns` is within the rate (and so taken).
+    fn admit(&mut self, now_ns: i64) -> bool {
+        while self
+            .taken_ns
+            .front()
+            .is_some_and(|&at| now_ns - at >= 1_000_000_000)
+        {
+            self.taken_ns.pop_front();
+        }
+        if self.taken_ns.len() >= self.per_second {
+            return false;
+        }
+        self.taken_ns.push_back(now_ns);
+        true
+    }
 }
 
 impl<K: Kind> Sensor<K> {
@@ -148,12 +188,38 @@ impl<K: Kind> Sensor<K> {
             timing,
             gateway: None,
             freshness: Freshness::new(Duration::from_millis(timing.silence_ms)),
+            flood: None,
             kind,
         }
     }
 
+    /// Samples of the first topic beyond three times `config`'s declared rate (its
+    /// `data_rate_hz`, if any) are dropped.
+    fn with_rate_of(mut self, config: &ServiceConfig<'_>) -> Self {
+        self.flood = config
+            .spec
+            .provision(K::INTERFACE)
+            .and_then(|p| p.data_rate_hz)
+            .and_then(Flood::new);
+        self
+    }
+
     fn handle(&mut self, ctx: &mut Context<'_>, values: Vec<(usize, Value)>) {
+        let now = ctx.now();
         for (reader, value) in values {
+            if reader == 0
+                && let Some(flood) = &mut self.flood
+                && !flood.admit(now)
+            {
+                if let Some(intake) = self.gateway.as_mut().and_then(|g| g.intakes.first_mut()) {
+                    let detail = format!(
+                        "faster than {} times the robot file's data_rate_hz",
+                        Flood::FACTOR
+                    );
+                    intake.bad(ctx, "flooding", &detail);
+                }
+                continue;
+            }
             match self.kind.sample(ctx, reader, &value) {
                 Ok(()) if self.kind.is_data(reader) => self.freshness.good(ctx.now()),
                 Ok(()) => {}
@@ -477,21 +543,24 @@ fn build_laser(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErro
             qos: Qos::LATCHED,
         });
     }
-    Ok(Box::new(Sensor::new(
-        params.dds,
-        topics,
-        params.timing,
-        Laser {
-            mount: params.mount,
-            rate_hz: params.rate_hz,
-            counts: RangeCounts::default(),
-            last: (0, 0.0),
-            mount_check: MountCheck {
-                base_frame: params.base_frame,
-                ..MountCheck::default()
+    Ok(Box::new(
+        Sensor::new(
+            params.dds,
+            topics,
+            params.timing,
+            Laser {
+                mount: params.mount,
+                rate_hz: params.rate_hz,
+                counts: RangeCounts::default(),
+                last: (0, 0.0),
+                mount_check: MountCheck {
+                    base_frame: params.base_frame,
+                    ..MountCheck::default()
+                },
             },
-        },
-    )))
+        )
+        .with_rate_of(config),
+    ))
 }
 
 // ---- ros2-ir ------------------------------------------------------------------------
@@ -638,17 +707,20 @@ fn build_ir(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> 
         type_name: IR_INTENSITY_VECTOR,
         qos: params.qos,
     }];
-    Ok(Box::new(Sensor::new(
-        params.dds,
-        topics,
-        params.timing,
-        IrRing {
-            sensors: params.sensors,
-            model: params.model,
-            rate_hz: params.rate_hz,
-            missing_said: false,
-        },
-    )))
+    Ok(Box::new(
+        Sensor::new(
+            params.dds,
+            topics,
+            params.timing,
+            IrRing {
+                sensors: params.sensors,
+                model: params.model,
+                rate_hz: params.rate_hz,
+                missing_said: false,
+            },
+        )
+        .with_rate_of(config),
+    ))
 }
 
 // ---- ros2-range ---------------------------------------------------------------------
@@ -764,17 +836,20 @@ fn build_range(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErro
             qos: params.qos,
         })
         .collect();
-    Ok(Box::new(Sensor::new(
-        params.dds,
-        topics,
-        params.timing,
-        Ranges {
-            latest: vec![params.max_range_m; params.topics.len()],
-            mounts: params.topics.iter().map(|t| t.mount).collect(),
-            max_range_m: params.max_range_m,
-            rate_hz: params.rate_hz,
-        },
-    )))
+    Ok(Box::new(
+        Sensor::new(
+            params.dds,
+            topics,
+            params.timing,
+            Ranges {
+                latest: vec![params.max_range_m; params.topics.len()],
+                mounts: params.topics.iter().map(|t| t.mount).collect(),
+                max_range_m: params.max_range_m,
+                rate_hz: params.rate_hz,
+            },
+        )
+        .with_rate_of(config),
+    ))
 }
 
 // ---- ros2-odometry ------------------------------------------------------------------
@@ -888,16 +963,19 @@ fn build_odometry(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildE
         type_name: ODOMETRY,
         qos: params.qos,
     }];
-    Ok(Box::new(Sensor::new(
-        params.dds,
-        topics,
-        params.timing,
-        Odometry {
-            offset: Pose2D::default(),
-            last_raw: None,
-            travelled_m: 0.0,
-        },
-    )))
+    Ok(Box::new(
+        Sensor::new(
+            params.dds,
+            topics,
+            params.timing,
+            Odometry {
+                offset: Pose2D::default(),
+                last_raw: None,
+                travelled_m: 0.0,
+            },
+        )
+        .with_rate_of(config),
+    ))
 }
 
 // ---- ros2-battery -------------------------------------------------------------------
@@ -992,14 +1070,17 @@ fn build_battery(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildEr
         type_name: BATTERY_STATE,
         qos: params.qos,
     }];
-    Ok(Box::new(Sensor::new(
-        params.dds,
-        topics,
-        params.timing,
-        Battery {
-            low_charge_fraction: params.low_charge_fraction,
-        },
-    )))
+    Ok(Box::new(
+        Sensor::new(
+            params.dds,
+            topics,
+            params.timing,
+            Battery {
+                low_charge_fraction: params.low_charge_fraction,
+            },
+        )
+        .with_rate_of(config),
+    ))
 }
 
 // ---- ros2-camera --------------------------------------------------------------------
@@ -1137,17 +1218,20 @@ fn build_camera(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErr
         type_name,
         qos: params.qos,
     }];
-    Ok(Box::new(Sensor::new(
-        params.dds,
-        topics,
-        params.timing,
-        Camera {
-            image_type: params.image_type,
-            intrinsics: params.intrinsics.unwrap_or_default(),
-            max_rate_hz: params.max_rate_hz,
-            last_published_ns: None,
-        },
-    )))
+    Ok(Box::new(
+        Sensor::new(
+            params.dds,
+            topics,
+            params.timing,
+            Camera {
+                image_type: params.image_type,
+                intrinsics: params.intrinsics.unwrap_or_default(),
+                max_rate_hz: params.max_rate_hz,
+                last_published_ns: None,
+            },
+        )
+        .with_rate_of(config),
+    ))
 }
 
 /// Registers the sensor kinds with their parameters.
@@ -1428,6 +1512,20 @@ mod tests {
         assert!((reading.sensor_positions[2].theta - (90f64.to_radians() + 0.5)).abs() < 1e-6);
         assert_eq!(reading.x_offset, -0.04);
         assert_eq!(laser.counts.out_of_limits, 2);
+    }
+
+    #[test]
+    fn a_flood_beyond_three_times_the_declared_rate_is_cut_and_bursts_are_taken() {
+        let mut flood = Flood::new(10.0).unwrap();
+        // A burst of 30 at once is within a second's 30.
+        assert!((0..30).all(|_| flood.admit(0)));
+        assert!(!flood.admit(1));
+        assert!(flood.admit(1_000_000_000));
+        // 100 Hz for two seconds: 30 a second taken.
+        let mut flood = Flood::new(10.0).unwrap();
+        let taken = (0..200).filter(|i| flood.admit(i * 10_000_000)).count();
+        assert_eq!(taken, 60);
+        assert!(Flood::new(0.0).is_none());
     }
 
     #[test]
