@@ -17,7 +17,8 @@
 //! - `/scan` floods at ten times its rate: the excess dropped and said once, nobody moved;
 //! - the base gateway killed outright: the broker restarts it and the restarted process
 //!   holds the robot still (a zero twist) before any new command;
-//! - `lewis up` stopped: the last twist the peer receives is zero.
+//! - `lewis up` stopped: the last twist the peer receives is zero; its recording replays
+//!   with `lewis replay --check` (the gateways fed from it, the avoider run again).
 //!
 //! Isolation: everything DDS runs in a network namespace of its own with only a loopback
 //! device (no packet leaves it, parallel tests never meet), in a DDS domain of its own too.
@@ -462,5 +463,25 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
     assert!(
         log.contains("stopped: a zero twist sent on /cmd_vel"),
         "the base says it stopped the robot:\n{log}"
+    );
+
+    // The session's recording replays as any Lewis recording: the gateways (devices) fed
+    // from it, Lewis's own services run again to the same outputs.
+    let recording = std::fs::read_dir(up.path("logs"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .expect("lewis up recorded the session");
+    let replay = lewis_testkit::run_ok(
+        Command::new(lewis_exe())
+            .arg("replay")
+            .arg(&recording)
+            .arg("--check")
+            .current_dir(up.path("")),
+    );
+    assert!(
+        replay.contains("check: outputs match the recording"),
+        "{replay}"
     );
 }
