@@ -630,7 +630,103 @@ pub fn register(registry: &mut lewis_service::ServiceRegistry) {
 
 #[cfg(test)]
 mod tests {
+    #![allow(clippy::unwrap_used)]
+
+    use lewis_interfaces::cdr::{Encode, Sink};
+    use lewis_interfaces::dynamic::Decoder;
+    use lewis_interfaces::ros2::Header;
+    use lewis_ros2_map::robot::schema_texts;
+    use lewis_service::ContextState;
+    use lewis_testkit::{RecordingBackend, decoded};
+
     use super::*;
+
+    struct Hazards(Vec<(u8, &'static str)>);
+
+    impl Encode for Hazards {
+        fn encode<S: Sink>(&self, sink: &mut S) {
+            let header = |frame: &str| Header {
+                stamp_ns: 1,
+                frame_id: frame.into(),
+            };
+            header("base_link").encode(sink);
+            u32::try_from(self.0.len()).unwrap().encode(sink);
+            for (kind, frame) in &self.0 {
+                header(frame).encode(sink);
+                kind.encode(sink);
+            }
+        }
+    }
+
+    fn hazards(list: Vec<(u8, &'static str)>) -> Value {
+        Decoder::new(
+            HAZARD_DETECTION_VECTOR,
+            &schema_texts(HAZARD_DETECTION_VECTOR)[0],
+        )
+        .unwrap()
+        .decode(&cdr::to_vec(&Hazards(list)))
+        .unwrap()
+    }
+
+    /// A base as `build` makes it, never started (no DDS in unit tests).
+    fn base() -> Base {
+        let params: BaseParams = toml::from_str(r#"hazard_topic = "/hazard_detection""#).unwrap();
+        let mut base = Base {
+            commander: Commander::new(
+                Duration::from_millis(500),
+                Duration::from_millis(1000),
+                0.3,
+                1.9,
+            ),
+            writer: None,
+            gateway: None,
+            hazard_reader: Some(0),
+            odom_reader: None,
+            pressed: vec![false; params.bumpers.len()],
+            hazard_at_ns: None,
+            measured: None,
+            sent: 0,
+            last_sent_ns: None,
+            hold_until_ns: None,
+            readers: 0,
+            params,
+        };
+        base.commander.stop(0);
+        base
+    }
+
+    #[test]
+    fn bumps_press_their_bumpers_until_the_hazards_are_stale() {
+        let mut base = base();
+        let mut backend = RecordingBackend::default();
+        let mut state = ContextState::new("base", 1);
+        backend.now_ns = 1_000_000_000;
+        let mut ctx = state.context(&mut backend);
+        // A bump at the front centre and a cliff (not a bumper).
+        base.sample(
+            &mut ctx,
+            0,
+            &hazards(vec![(1, "bump_front_center"), (2, "cliff_front_left")]),
+        );
+        let drive = decoded::<Synchrodrive>(&backend.published);
+        assert_eq!(
+            drive.len(),
+            1,
+            "a change of the bumpers is published at once"
+        );
+        assert_eq!(drive[0].bumpers, [false, false, true, false, false]);
+        // The same again: no extra publication; then hazards go stale and the bumper is released.
+        backend.now_ns = 1_100_000_000;
+        let mut ctx = state.context(&mut backend);
+        base.sample(&mut ctx, 0, &hazards(vec![(1, "bump_front_center")]));
+        assert_eq!(decoded::<Synchrodrive>(&backend.published).len(), 1);
+        backend.now_ns = 1_700_000_000;
+        let mut ctx = state.context(&mut backend);
+        base.publish_state(&mut ctx);
+        let last = decoded::<Synchrodrive>(&backend.published).pop().unwrap();
+        assert_eq!(last.bumpers, [false; 5]);
+        assert_eq!(last.bumper_count, 5);
+    }
 
     const MS: i64 = 1_000_000;
 
