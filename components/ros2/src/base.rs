@@ -47,7 +47,7 @@ use rustdds::{DataWriterStatus, StatusEvented as _};
 use serde::Deserialize;
 
 use crate::dds::{Qos, RawAdapter, RawCdr};
-use crate::gateway::{Gateway, Link, TopicSpec, declare};
+use crate::gateway::{Gateway, Link, Millis, TopicSpec, declare};
 
 /// The kind name.
 pub const KIND: &str = "ros2-base";
@@ -86,7 +86,7 @@ pub struct BaseParams {
     pub rate_hz: f64,
     /// No `set_velocity` for this long and the twist is zero, in ms.
     #[serde(default = "defaults::command_timeout_ms")]
-    pub command_timeout_ms: u64,
+    pub command_timeout_ms: Millis,
     /// Zero twists go on this long after motion ends, in ms.
     #[serde(default = "defaults::idle_zero_ms")]
     pub idle_zero_ms: u64,
@@ -103,30 +103,31 @@ pub struct BaseParams {
     pub bumpers: Vec<String>,
     /// A hazard vector older than this presses no bumper, in ms.
     #[serde(default = "defaults::hazard_timeout_ms")]
-    pub hazard_timeout_ms: u64,
+    pub hazard_timeout_ms: Millis,
     /// An Odometry topic for the measured velocities (absent: the commanded ones).
     pub odom_topic: Option<String>,
     /// How long the start waits for the robot's reader of the command topic, in ms.
     #[serde(default = "defaults::match_wait_ms")]
-    pub match_wait_ms: u64,
+    pub match_wait_ms: Millis,
     /// After the start (also a restart after a kill), the robot is held still this long,
     /// zero twists sent whatever is commanded, in ms.
     #[serde(default = "defaults::start_hold_ms")]
-    pub start_hold_ms: u64,
+    pub start_hold_ms: Millis,
     /// Accepted so that every robot file may give one.
     pub seed: Option<u64>,
 }
 
 mod defaults {
     use crate::dds::Qos;
+    use crate::gateway::Millis;
 
     use super::CommandType;
 
-    pub(super) fn match_wait_ms() -> u64 {
-        5_000
+    pub(super) fn match_wait_ms() -> Millis {
+        Millis(5_000)
     }
-    pub(super) fn start_hold_ms() -> u64 {
-        300
+    pub(super) fn start_hold_ms() -> Millis {
+        Millis(300)
     }
 
     pub(super) fn command_topic() -> String {
@@ -144,8 +145,8 @@ mod defaults {
     pub(super) fn rate_hz() -> f64 {
         20.0
     }
-    pub(super) fn command_timeout_ms() -> u64 {
-        500
+    pub(super) fn command_timeout_ms() -> Millis {
+        Millis(500)
     }
     pub(super) fn idle_zero_ms() -> u64 {
         1_000
@@ -167,8 +168,8 @@ mod defaults {
         .map(str::to_owned)
         .to_vec()
     }
-    pub(super) fn hazard_timeout_ms() -> u64 {
-        500
+    pub(super) fn hazard_timeout_ms() -> Millis {
+        Millis(500)
     }
 }
 
@@ -329,7 +330,7 @@ impl Base {
     fn publish_state(&mut self, ctx: &mut Context<'_>) {
         let now = ctx.now();
         let stale = self.hazard_at_ns.is_none_or(|at| {
-            now - at > i64::try_from(self.params.hazard_timeout_ms).unwrap_or(500) * 1_000_000
+            now - at > i64::try_from(self.params.hazard_timeout_ms.get()).unwrap_or(500) * 1_000_000
         });
         if stale {
             self.pressed.iter_mut().for_each(|p| *p = false);
@@ -442,7 +443,7 @@ impl Service for Base {
         // The first twist (zero) goes once the robot reads the topic: a sample written
         // before DDS matched the two sides is lost, and a base restarted after a kill must
         // be held still.
-        let deadline = std::time::Instant::now() + Duration::from_millis(self.params.match_wait_ms);
+        let deadline = std::time::Instant::now() + self.params.match_wait_ms.duration();
         while self.matched() != Health::Ok && std::time::Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(10));
         }
@@ -458,11 +459,10 @@ impl Service for Base {
         let now = ctx.now();
         self.commander.stop(now);
         self.hold_until_ns =
-            Some(now + i64::try_from(self.params.start_hold_ms).unwrap_or(0) * 1_000_000);
+            Some(now + i64::try_from(self.params.start_hold_ms.get()).unwrap_or(0) * 1_000_000);
         self.send(ctx, 0.0, 0.0);
         if let Some(writer) = &self.writer {
-            let _ =
-                writer.wait_for_acknowledgments(Duration::from_millis(self.params.match_wait_ms));
+            let _ = writer.wait_for_acknowledgments(self.params.match_wait_ms.duration());
         }
         self.on_tick(ctx);
         Ok(())
@@ -564,25 +564,11 @@ fn invalid(config: &ServiceConfig<'_>, reason: impl Into<String>) -> BuildError 
 
 fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: BaseParams = config.parameters()?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
     if !(params.rate_hz.is_finite() && (1.0..=200.0).contains(&params.rate_hz)) {
         return Err(invalid(
             config,
             format!("`rate_hz` is {}: give 1 to 200", params.rate_hz),
         ));
-    }
-    for (name, ms) in [
-        ("command_timeout_ms", params.command_timeout_ms),
-        ("hazard_timeout_ms", params.hazard_timeout_ms),
-        ("match_wait_ms", params.match_wait_ms),
-        ("start_hold_ms", params.start_hold_ms),
-    ] {
-        if ms == 0 || ms > 60_000 {
-            return Err(invalid(
-                config,
-                format!("`{name}` is {ms}: give 1 to 60000 ms"),
-            ));
-        }
     }
     for (name, x) in [
         ("max_translation_m_s", params.max_translation_m_s),
@@ -596,7 +582,7 @@ fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
         }
     }
     let commander = Commander::new(
-        Duration::from_millis(params.command_timeout_ms),
+        params.command_timeout_ms.duration(),
         Duration::from_millis(params.idle_zero_ms),
         params.max_translation_m_s,
         params.max_rotation_rad_s,

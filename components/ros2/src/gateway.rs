@@ -21,12 +21,63 @@ pub const DOMAIN_ENV: &str = "ROS_DOMAIN_ID";
 /// Samples taken in one wake-up, at most: a flood waits for the next one.
 const DRAIN_LIMIT: usize = 256;
 
+/// A duration in milliseconds from 1 to 600000 (ten minutes), checked when the robot file
+/// is loaded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "u64")]
+pub struct Millis(pub(crate) u64);
+
+impl Millis {
+    /// The number of milliseconds.
+    #[must_use]
+    pub fn get(self) -> u64 {
+        self.0
+    }
+
+    /// As a duration.
+    #[must_use]
+    pub fn duration(self) -> Duration {
+        Duration::from_millis(self.0)
+    }
+}
+
+impl TryFrom<u64> for Millis {
+    type Error = String;
+
+    fn try_from(ms: u64) -> Result<Self, String> {
+        if (1..=600_000).contains(&ms) {
+            Ok(Self(ms))
+        } else {
+            Err(format!("{ms} ms is out of range: give 1 to 600000 ms"))
+        }
+    }
+}
+
+/// A DDS domain, 0 to [`MAX_DOMAIN_ID`], checked when the robot file is loaded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(try_from = "u16")]
+pub struct DomainId(u16);
+
+impl TryFrom<u16> for DomainId {
+    type Error = String;
+
+    fn try_from(domain: u16) -> Result<Self, String> {
+        if domain <= MAX_DOMAIN_ID {
+            Ok(Self(domain))
+        } else {
+            Err(format!(
+                "domain {domain} is beyond {MAX_DOMAIN_ID}, the last one RTPS's ports allow"
+            ))
+        }
+    }
+}
+
 /// How the gateway reaches the robot: the robot file's keys every kind shares.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Link {
     /// The DDS domain (ROS 2's `ROS_DOMAIN_ID`); absent: the variable, else 0.
-    pub domain_id: Option<u16>,
+    pub domain_id: Option<DomainId>,
     /// The robot's namespace, put in front of every topic (`/robot1`); empty: none.
     #[serde(default)]
     pub namespace: String,
@@ -42,7 +93,7 @@ impl Link {
     /// A domain beyond [`MAX_DOMAIN_ID`] or a variable that is not a number.
     pub fn domain(&self) -> Result<u16, String> {
         let domain = match self.domain_id {
-            Some(d) => d,
+            Some(DomainId(d)) => d,
             None => match std::env::var(DOMAIN_ENV) {
                 Ok(text) if !text.trim().is_empty() => text.trim().parse().map_err(|_| {
                     format!("{DOMAIN_ENV} is `{text}`: give a domain from 0 to {MAX_DOMAIN_ID}")
@@ -425,14 +476,11 @@ mod tests {
     #[test]
     fn the_domain_comes_from_the_robot_file_and_is_bounded() {
         let link = Link {
-            domain_id: Some(7),
+            domain_id: Some(DomainId(7)),
             ..Link::default()
         };
         assert_eq!(link.domain(), Ok(7));
-        let far = Link {
-            domain_id: Some(233),
-            ..Link::default()
-        };
-        assert!(far.domain().is_err());
+        assert!(DomainId::try_from(233).is_err());
+        assert_eq!(DomainId::try_from(232), Ok(DomainId(232)));
     }
 }

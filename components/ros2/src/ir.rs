@@ -23,9 +23,10 @@
 
 use serde::Deserialize;
 
-/// Intensity to distance: `d = (k / intensity)^(1/p)`, clamped.
+/// Intensity to distance: `d = (k / intensity)^(1/p)`, clamped. Its numbers are checked
+/// ([`IrModel::check`]) when the robot file is loaded.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, try_from = "IrModelFields")]
 pub struct IrModel {
     /// The law's scale: the intensity at 1 m (in raw units times m^p).
     pub k: f64,
@@ -49,6 +50,46 @@ impl Default for IrModel {
             min_range_m: 0.01,
             max_range_m: 0.2,
         }
+    }
+}
+
+/// [`IrModel`] as written, before its check.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct IrModelFields {
+    k: f64,
+    p: f64,
+    floor: f64,
+    min_range_m: f64,
+    max_range_m: f64,
+}
+
+impl Default for IrModelFields {
+    fn default() -> Self {
+        let d = IrModel::default();
+        Self {
+            k: d.k,
+            p: d.p,
+            floor: d.floor,
+            min_range_m: d.min_range_m,
+            max_range_m: d.max_range_m,
+        }
+    }
+}
+
+impl TryFrom<IrModelFields> for IrModel {
+    type Error = String;
+
+    fn try_from(f: IrModelFields) -> Result<Self, String> {
+        let model = Self {
+            k: f.k,
+            p: f.p,
+            floor: f.floor,
+            min_range_m: f.min_range_m,
+            max_range_m: f.max_range_m,
+        };
+        model.check()?;
+        Ok(model)
     }
 }
 

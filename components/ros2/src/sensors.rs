@@ -16,8 +16,6 @@
 //! while no good sample has come for `silence_ms` (the broker moves its clients; with
 //! `fail_back` they come back when it is healthy again).
 
-use std::time::Duration;
-
 use lewis_interfaces::Interface;
 use lewis_interfaces::dynamic::Value;
 use lewis_interfaces::msg::{
@@ -34,7 +32,7 @@ use lewis_service::{
 use serde::Deserialize;
 
 use crate::dds::Qos;
-use crate::gateway::{Freshness, Gateway, Link, TopicSpec, declare};
+use crate::gateway::{Freshness, Gateway, Link, Millis, TopicSpec, declare};
 use crate::ir::IrModel;
 
 /// Where a sensor sits on the robot, as robot files write it.
@@ -68,17 +66,17 @@ impl Mount {
 #[serde(deny_unknown_fields, default)]
 pub struct Timing {
     /// No good sample for this long is out of service, in ms.
-    pub silence_ms: u64,
+    pub silence_ms: Millis,
     /// How long the start waits for a first good sample, in ms (the robot file's startup
     /// deadline must be longer).
-    pub first_sample_ms: u64,
+    pub first_sample_ms: Millis,
 }
 
 impl Default for Timing {
     fn default() -> Self {
         Self {
-            silence_ms: 500,
-            first_sample_ms: 5_000,
+            silence_ms: Millis(500),
+            first_sample_ms: Millis(5_000),
         }
     }
 }
@@ -88,21 +86,6 @@ fn invalid(config: &ServiceConfig<'_>, reason: impl Into<String>) -> BuildError 
         service: config.name().to_owned(),
         reason: reason.into(),
     }
-}
-
-fn check_timing(config: &ServiceConfig<'_>, timing: Timing) -> Result<(), BuildError> {
-    for (name, ms) in [
-        ("silence_ms", timing.silence_ms),
-        ("first_sample_ms", timing.first_sample_ms),
-    ] {
-        if ms == 0 || ms > 600_000 {
-            return Err(invalid(
-                config,
-                format!("`{name}` is {ms}: give 1 to 600000 ms"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// What one kind makes of its samples and commands.
@@ -187,7 +170,7 @@ impl<K: Kind> Sensor<K> {
             topics,
             timing,
             gateway: None,
-            freshness: Freshness::new(Duration::from_millis(timing.silence_ms)),
+            freshness: Freshness::new(timing.silence_ms.duration()),
             flood: None,
             kind,
         }
@@ -248,7 +231,7 @@ impl<K: Kind> Sensor<K> {
 impl<K: Kind> Service for Sensor<K> {
     fn tick_period_ns(&self) -> Option<i64> {
         // A quarter of the silence allowed: silence is seen within 125% of it.
-        Some(i64::try_from(self.timing.silence_ms).unwrap_or(500) * 250_000)
+        Some(i64::try_from(self.timing.silence_ms.get()).unwrap_or(500) * 250_000)
     }
 
     fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
@@ -260,14 +243,14 @@ impl<K: Kind> Service for Sensor<K> {
             self.link.domain()?,
             K::INTERFACE
         ));
-        let limit = Duration::from_millis(self.timing.first_sample_ms);
+        let limit = self.timing.first_sample_ms.duration();
         let (taken, arrived) = gateway.wait_first(ctx, 0, limit);
         self.gateway = Some(gateway);
         if !arrived {
             ctx.warn(&format!(
                 "no {} within {} ms of the start: is the robot on, in this domain and namespace?",
                 names.first().copied().unwrap_or_default(),
-                self.timing.first_sample_ms
+                self.timing.first_sample_ms.get()
             ));
         }
         self.handle(ctx, taken);
@@ -529,8 +512,6 @@ impl Kind for Laser {
 
 fn build_laser(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: LaserParams = config.parameters()?;
-    check_timing(config, params.timing)?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
     let mut topics = vec![TopicSpec {
         topic: params.topic,
         type_name: LASER_SCAN,
@@ -696,9 +677,6 @@ impl Kind for IrRing {
 
 fn build_ir(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: IrParams = config.parameters()?;
-    check_timing(config, params.timing)?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
-    params.model.check().map_err(|e| invalid(config, e))?;
     if params.sensors.is_empty() {
         return Err(invalid(config, "`sensors` is empty: name the IR frames"));
     }
@@ -813,8 +791,6 @@ impl Kind for Ranges {
 
 fn build_range(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: RangeParams = config.parameters()?;
-    check_timing(config, params.timing)?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
     if params.topics.is_empty() {
         return Err(invalid(config, "`topics` is empty: name the Range topics"));
     }
@@ -956,8 +932,6 @@ impl Kind for Odometry {
 
 fn build_odometry(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: OdometryParams = config.parameters()?;
-    check_timing(config, params.timing)?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
     let topics = vec![TopicSpec {
         topic: params.topic,
         type_name: ODOMETRY,
@@ -1054,8 +1028,6 @@ impl Kind for Battery {
 
 fn build_battery(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: BatteryParams = config.parameters()?;
-    check_timing(config, params.timing)?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
     if !(0.0..=1.0).contains(&params.low_charge_fraction) {
         return Err(invalid(
             config,
@@ -1199,8 +1171,6 @@ impl Kind for Camera {
 
 fn build_camera(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: CameraParams = config.parameters()?;
-    check_timing(config, params.timing)?;
-    params.dds.domain().map_err(|e| invalid(config, e))?;
     if let Some(rate) = params.max_rate_hz
         && !(rate.is_finite() && rate > 0.0)
     {
@@ -1512,6 +1482,24 @@ mod tests {
         assert!((reading.sensor_positions[2].theta - (90f64.to_radians() + 0.5)).abs() < 1e-6);
         assert_eq!(reading.x_offset, -0.04);
         assert_eq!(laser.counts.out_of_limits, 2);
+    }
+
+    #[test]
+    fn numbers_out_of_range_are_refused_when_the_robot_file_is_read() {
+        let timing: Result<Timing, _> = toml::from_str("silence_ms = 0");
+        assert!(
+            timing
+                .unwrap_err()
+                .to_string()
+                .contains("give 1 to 600000 ms")
+        );
+        let laser: Result<LaserParams, _> = toml::from_str("dds = { domain_id = 300 }");
+        assert!(laser.unwrap_err().to_string().contains("232"));
+        let ir: Result<IrParams, _> =
+            toml::from_str("sensors = [{ frame = \"f\" }]\nmodel = { p = -1.0 }");
+        assert!(ir.unwrap_err().to_string().contains("`p`"));
+        let fine: Timing = toml::from_str("silence_ms = 250").unwrap();
+        assert_eq!(fine.silence_ms.get(), 250);
     }
 
     #[test]
