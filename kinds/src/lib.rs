@@ -4,7 +4,8 @@
 //! team's own binary adds its kinds to it (`lewis::main_with`).
 //!
 //! It owns no service: the simulator's are in `lewis-sim`, the drivers' in `lewis-drivers`,
-//! motion's in `lewis-motion`, perception's in `lewis-perception`, and the test service
+//! motion's in `lewis-motion`, perception's in `lewis-perception`, the live ROS 2 gateway's
+//! in `lewis-ros2` (feature `ros2`, on by default), and the test service
 //! `test-range` and the emulated B21r's camera `emulated-camera` in `lewis-emulators`
 //! (registered here too, so that a robot file such as `robots/test.toml` or
 //! `robots/b21r-emulated.toml` runs and replays through the same registry as any other).
@@ -24,6 +25,8 @@ pub fn registry() -> ServiceRegistry {
     lewis_drivers::camera::register(&mut registry);
     lewis_drivers::speech::register(&mut registry);
     lewis_perception::register(&mut registry);
+    #[cfg(feature = "ros2")]
+    lewis_ros2::register(&mut registry);
     registry
 }
 
@@ -45,16 +48,17 @@ mod tests {
                 .filter(|kind| registry.role(kind) == Some(role))
                 .collect::<Vec<_>>()
         };
-        assert_eq!(
-            kinds(Role::Device),
-            [
-                "camera",
-                "emulated-camera",
-                "espeak-speech",
-                "rflex",
-                "sick"
-            ]
-        );
+        let mut devices = vec![
+            "camera",
+            "emulated-camera",
+            "espeak-speech",
+            "rflex",
+            "sick",
+        ];
+        #[cfg(feature = "ros2")]
+        devices.extend(lewis_ros2::KINDS);
+        devices.sort_unstable();
+        assert_eq!(kinds(Role::Device), devices);
         assert_eq!(
             kinds(Role::SimulatedDevice),
             [
@@ -66,7 +70,7 @@ mod tests {
                 "test-range"
             ]
         );
-        assert_eq!(registry.source_kinds().len(), 11);
+        assert_eq!(registry.source_kinds().len(), devices.len() + 6);
     }
 
     #[test]

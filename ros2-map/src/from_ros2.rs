@@ -157,8 +157,11 @@ pub fn range_finder(scan: &Scan, counts: &mut RangeCounts) -> RangeFinder {
     }
 }
 
-/// The heading of a quaternion, about z, in rad.
-fn yaw(value: &Value, path: &str) -> Result<f64, String> {
+/// The heading of the quaternion at `path`, about z, in rad.
+///
+/// # Errors
+/// A component is missing or not a number.
+pub fn yaw(value: &Value, path: &str) -> Result<f64, String> {
     let q = |c: &str| number(value, &format!("{path}.{c}"));
     let (x, y, z, w) = (q("x")?, q("y")?, q("z")?, q("w")?);
     Ok((2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)))

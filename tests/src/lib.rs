@@ -91,6 +91,22 @@ impl Up {
         Self::spawn(dir, namespace, robot, args, Command::new(lewis_exe()))
     }
 
+    /// As [`Up::start_with`], with the command that runs `lewis` given (a `lewis` run
+    /// through `nsenter` in a network namespace, with variables of its own).
+    ///
+    /// # Panics
+    /// When the robot file or the process cannot be made.
+    #[must_use]
+    pub fn start_with_command(
+        dir: tempfile::TempDir,
+        namespace: Namespace,
+        robot: &str,
+        args: &[&std::ffi::OsStr],
+        command: Command,
+    ) -> Self {
+        Self::spawn(dir, namespace, robot, args, command)
+    }
+
     /// As [`Up::start`], in a session of its own: what it sets for its session (the
     /// scheduler's session group, by `[broker] nice`) stays its own, not the test's.
     ///

@@ -28,6 +28,7 @@ mod record_mission;
 mod record_up;
 mod replay_reference;
 mod replay_ros2;
+mod ros2_live;
 mod tune;
 mod tune_labels;
 mod tune_open;

@@ -147,6 +147,18 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-sim",
         ],
     ),
+    // The live ROS 2 gateway: a component (the service model, no runtime) that also uses
+    // the ROS 2 mappings, the one place that knows DDS.
+    (
+        "lewis-ros2",
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-robot",
+            "lewis-service",
+            "lewis-ros2-map",
+        ],
+    ),
     // The registry of every kind, above all the components that have kinds.
     (
         "lewis-kinds",
@@ -160,6 +172,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-motion",
             "lewis-perception",
             "lewis-emulators",
+            "lewis-ros2",
         ],
     ),
     (
@@ -365,6 +378,12 @@ const ONLY_IN: &[OnlyIn] = &[
         why: "only the bridge (and the ROS 2 gateway) knows Zenoh, in its tests and benchmarks too",
     },
     OnlyIn {
+        krate: "rustdds",
+        owners: &["lewis-ros2"],
+        dev_too: true,
+        why: "only the ROS 2 gateway knows DDS",
+    },
+    OnlyIn {
         krate: "lewis-emulators",
         owners: &["lewis-kinds", "lewis"],
         dev_too: false,
@@ -399,6 +418,7 @@ const NO_IPC: &[&str] = &[
     "lewis-emulators",
     "lewis-motion",
     "lewis-perception",
+    "lewis-ros2",
     "lewis-kinds",
     "lewis-apps",
     "lewis-testkit",
