@@ -590,6 +590,13 @@ pub struct IrParams {
     /// Vectors per second, for the geometry clients ask for.
     #[serde(default = "defaults::ir_rate_hz")]
     pub rate_hz: f64,
+    /// The robot's static transforms, against which each sensor's pose is checked ("": no
+    /// check).
+    #[serde(default = "defaults::tf_static")]
+    pub tf_static_topic: String,
+    /// The robot's frame, whose origin the sensors' poses are given from.
+    #[serde(default = "defaults::base_frame")]
+    pub base_frame: String,
     /// Silence and start.
     #[serde(default)]
     pub timing: Timing,
@@ -602,12 +609,40 @@ struct IrRing {
     model: IrModel,
     rate_hz: f64,
     missing_said: bool,
+    /// One per sensor, its frame known from the robot file.
+    mount_checks: Vec<MountCheck>,
+}
+
+impl IrSensor {
+    fn mount(&self) -> Mount {
+        Mount {
+            x_m: self.x_m,
+            y_m: self.y_m,
+            heading_deg: self.heading_deg,
+            height_m: self.height_m,
+        }
+    }
 }
 
 impl Kind for IrRing {
     const INTERFACE: &'static str = RangeFinder::NAME;
 
-    fn sample(&mut self, ctx: &mut Context<'_>, _: usize, value: &Value) -> Result<(), String> {
+    fn is_data(&self, reader: usize) -> bool {
+        reader == 0
+    }
+
+    fn sample(
+        &mut self,
+        ctx: &mut Context<'_>,
+        reader: usize,
+        value: &Value,
+    ) -> Result<(), String> {
+        if reader == 1 {
+            for (check, sensor) in self.mount_checks.iter_mut().zip(&self.sensors) {
+                check.transforms(ctx, value, &sensor.mount())?;
+            }
+            return Ok(());
+        }
         let readings = robot::ir_intensities(value)?;
         let mut ranges = Vec::with_capacity(self.sensors.len());
         let mut missing = Vec::new();
@@ -680,11 +715,27 @@ fn build_ir(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> 
     if params.sensors.is_empty() {
         return Err(invalid(config, "`sensors` is empty: name the IR frames"));
     }
-    let topics = vec![TopicSpec {
+    let mut topics = vec![TopicSpec {
         topic: params.topic,
         type_name: IR_INTENSITY_VECTOR,
         qos: params.qos,
     }];
+    if !params.tf_static_topic.is_empty() {
+        topics.push(TopicSpec {
+            topic: params.tf_static_topic,
+            type_name: TF_MESSAGE,
+            qos: Qos::LATCHED,
+        });
+    }
+    let mount_checks = params
+        .sensors
+        .iter()
+        .map(|sensor| MountCheck {
+            base_frame: params.base_frame.clone(),
+            frame: Some(sensor.frame.trim_start_matches('/').to_owned()),
+            ..MountCheck::default()
+        })
+        .collect();
     Ok(Box::new(
         Sensor::new(
             params.dds,
@@ -695,6 +746,7 @@ fn build_ir(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> 
                 model: params.model,
                 rate_hz: params.rate_hz,
                 missing_said: false,
+                mount_checks,
             },
         )
         .with_rate_of(config),
@@ -1273,6 +1325,7 @@ mod tests {
             model: IrModel::default(),
             rate_hz: 62.0,
             missing_said: false,
+            mount_checks: Vec::new(),
         };
         let mut backend = RecordingBackend::default();
         let mut state = ContextState::new("ir", 1);
@@ -1435,6 +1488,50 @@ mod tests {
             assert_eq!(lines.len(), 1, "{lines:?}");
             assert!(lines[0].starts_with(said), "{lines:?}");
         }
+    }
+
+    #[test]
+    fn each_ir_sensor_is_checked_against_tf_static() {
+        use lewis_interfaces::ros2::{Pose, TfMessage, TransformStamped};
+        let sensors = vec![sensor("ir_left", 30.0), sensor("ir_front", 0.0)];
+        let mut ring = IrRing {
+            mount_checks: sensors
+                .iter()
+                .map(|s| MountCheck {
+                    base_frame: "base_link".into(),
+                    frame: Some(s.frame.clone()),
+                    ..MountCheck::default()
+                })
+                .collect(),
+            sensors,
+            model: IrModel::default(),
+            rate_hz: 62.0,
+            missing_said: false,
+        };
+        let transform = |frame: &str, yaw_deg: f64| TransformStamped {
+            header: Header {
+                stamp_ns: 1,
+                frame_id: "base_link".into(),
+            },
+            child_frame_id: frame.into(),
+            transform: Pose::planar(0.1, 0.0, 0.05, yaw_deg.to_radians()),
+        };
+        let tf = value(
+            TF_MESSAGE,
+            &TfMessage {
+                transforms: vec![transform("ir_left", 30.0), transform("ir_front", 45.0)],
+            },
+        );
+        let mut backend = RecordingBackend::default();
+        let mut state = ContextState::new("ir", 1);
+        let mut ctx = state.context(&mut backend);
+        ring.sample(&mut ctx, 1, &tf).unwrap();
+        assert!(backend.published.is_empty(), "transforms are no reading");
+        let lines: Vec<&String> = backend.logs.iter().map(|(_, t)| t).collect();
+        assert_eq!(lines.len(), 2, "{lines:?}");
+        assert!(lines[0].starts_with("mount agrees") && lines[0].contains("ir_left"));
+        assert!(lines[1].starts_with("mount mismatch") && lines[1].contains("ir_front"));
+        assert!(!ring.is_data(1) && ring.is_data(0));
     }
 
     #[test]
