@@ -190,6 +190,20 @@ fn make_recording_of(
     offset_m: f64,
     hosts: &[(i64, &str, &str, &str)],
 ) -> PathBuf {
+    make_recording_with(dir, robot, duration_ms, offset_m, hosts, 0)
+}
+
+/// As [`make_recording_of`], the consumer's process coming up (its first heartbeat)
+/// `consumer_up_ms` after the start: scans published before then reach it as the laser
+/// channel's history, all at once when it comes up.
+fn make_recording_with(
+    dir: &Path,
+    robot: &str,
+    duration_ms: i64,
+    offset_m: f64,
+    hosts: &[(i64, &str, &str, &str)],
+    consumer_up_ms: i64,
+) -> PathBuf {
     let path = dir.join("run.mcap");
     let mut options = RecorderOptions::new(&path);
     options.sync_on_flush = false;
@@ -271,22 +285,25 @@ fn make_recording_of(
         rate: params.rate_hz,
         ..RangeFinderGetGeometryReply::default()
     };
+    // The consumer asks for the geometry as it starts.
+    let up = T0 + consumer_up_ms * MS;
     let request = stamp(
         RangeFinderGetGeometry::default(),
         "consumer",
         1,
-        T0 + 3 * MS,
+        up + 3 * MS,
     );
+    let replied_at = up + 6 * MS;
     let log = CommandLog {
         interface: "RangeFinder".into(),
         command: "get_geometry".into(),
         request: cdr::to_vec(&request),
         status: "ok".into(),
-        reply: cdr::to_vec(&stamp(geometry, "laser", 1, T0 + 6 * MS)),
-        received_ns: T0 + 5 * MS,
+        reply: cdr::to_vec(&stamp(geometry, "laser", 1, replied_at)),
+        received_ns: up + 5 * MS,
         ..CommandLog::default()
     };
-    w.write(commands, T0 + 6 * MS, &stamp(log, "laser", 1, T0 + 6 * MS));
+    w.write(commands, replied_at, &stamp(log, "laser", 1, replied_at));
 
     let end = T0 + duration_ms * MS;
     let (mut health_seq, mut scan_seq) = (0, 0);
@@ -297,11 +314,13 @@ fn make_recording_of(
             state: "ok".into(),
             ..HealthMessage::default()
         };
-        w.write(
-            consumer_health,
-            t,
-            &stamp(ok.clone(), "consumer", health_seq, t),
-        );
+        if t >= up {
+            w.write(
+                consumer_health,
+                t,
+                &stamp(ok.clone(), "consumer", health_seq, t),
+            );
+        }
         w.write(
             laser_health,
             t + 3 * MS,
@@ -317,17 +336,24 @@ fn make_recording_of(
                 scan_at,
             );
             w.write(scans, scan_at, &scan);
+            // A scan from the history is handled before the geometry's reply came.
+            let handled_at = (scan_at + MS).max(up + MS);
+            let max_range_m = if handled_at < replied_at {
+                0.0
+            } else {
+                params.max_range_m
+            };
             let mut distance = stamp(
-                consumer_distance(&scan, offset_m, params.max_range_m),
+                consumer_distance(&scan, offset_m, max_range_m),
                 "consumer",
                 scan_seq,
-                scan_at + MS,
+                handled_at,
             );
             distance.header.inputs = vec![lewis_interfaces::msg::InputRef {
                 channel: names::data_channel("laser", "RangeFinder"),
                 seq: scan_seq,
             }];
-            w.write(distances, scan_at + MS, &distance);
+            w.write(distances, handled_at, &distance);
         }
         t += 10 * MS;
     }
@@ -391,6 +417,28 @@ fn a_replay_without_faults_matches_the_recording() {
     // The geometry call was answered from the laser's recorded command log.
     assert_eq!(report.harness.calls_answered_from_log, 1, "{report}");
     assert_eq!(report.harness.calls_defaulted, 0);
+}
+
+#[test]
+fn a_client_bound_after_a_sample_gets_it_as_the_channels_history() {
+    // The consumer came up after the laser's first scan: live, its new subscriber got
+    // that scan from the channel's history, and its first distance stands on it.
+    let dir = tempfile::tempdir().unwrap();
+    let input = make_recording_with(dir.path(), ROBOT, 2000, 0.25, &[], 150);
+    let report = run(
+        &input,
+        &dir.path().join("out.mcap"),
+        &[],
+        ServiceSelection::NonSources,
+    )
+    .unwrap();
+    assert!(report.check.passed, "{report}");
+    let distance = &report.divergence[0];
+    assert_eq!(
+        (distance.recorded, distance.resimulated, distance.differing),
+        (19, 19, 0),
+        "{report}"
+    );
 }
 
 #[test]

@@ -45,6 +45,14 @@ pub(super) struct Sim {
     pub(super) held: VecDeque<Work>,
 }
 
+/// A provider's newest sample on an interface: the history (depth 1) of its sensor
+/// channel, which a client that subscribes after it was published still gets.
+pub(super) struct Latest {
+    channel: Arc<str>,
+    seq: u64,
+    bytes: Arc<[u8]>,
+}
+
 /// Something due at a time.
 #[derive(Debug)]
 pub(super) enum Timer {
@@ -150,6 +158,15 @@ impl Lockstep<'_> {
         bytes: &[u8],
     ) {
         self.check_data(provider, interface, bytes);
+        let bytes: Arc<[u8]> = Arc::from(bytes);
+        self.latest.insert(
+            (provider.to_owned(), interface.to_owned()),
+            Latest {
+                channel: channel.clone(),
+                seq,
+                bytes: bytes.clone(),
+            },
+        );
         let clients: Vec<String> = self
             .bindings
             .iter()
@@ -158,10 +175,6 @@ impl Lockstep<'_> {
             })
             .map(|((client, _), _)| client.clone())
             .collect();
-        if clients.is_empty() {
-            return;
-        }
-        let bytes: Arc<[u8]> = Arc::from(bytes);
         for client in clients {
             self.work.push_back(Work::Input {
                 client,
@@ -500,31 +513,29 @@ impl Lockstep<'_> {
             }
             Action::Stop { service } => {
                 self.forget_restart(service);
+                self.forget_latest(service);
                 self.stop_service(service, sink);
             }
             Action::Bind {
                 client,
                 interface,
                 service,
-            } => {
-                self.bindings
-                    .insert((client.clone(), interface.clone()), service.clone());
-            }
+            } => self.bind(client, interface, service),
             Action::Rebind {
                 client,
                 interface,
                 to,
                 ..
-            } => {
-                self.bindings
-                    .insert((client.clone(), interface.clone()), to.clone());
-            }
+            } => self.bind(client, interface, to),
             Action::Unbind {
                 client, interface, ..
             } => {
                 self.bindings.remove(&(client.clone(), interface.clone()));
             }
-            Action::ServiceFailed { service, .. } => self.forget_restart(service),
+            Action::ServiceFailed { service, .. } => {
+                self.forget_restart(service);
+                self.forget_latest(service);
+            }
             Action::RestartScheduled { .. }
             | Action::Reject { .. }
             | Action::AskForHelp { .. }
@@ -532,6 +543,40 @@ impl Lockstep<'_> {
             | Action::ServiceWaiting { .. }
             | Action::ServiceResumed { .. } => {}
         }
+    }
+
+    /// Binds `client` to `provider` for `interface`. A re-simulated client gets the
+    /// provider's newest sample at once, as its new subscriber gets the channel's history
+    /// live (the sample is held back like any other when the recording says the client had
+    /// not received it yet).
+    fn bind(&mut self, client: &str, interface: &str, provider: &str) {
+        let before = self.bindings.insert(
+            (client.to_owned(), interface.to_owned()),
+            provider.to_owned(),
+        );
+        // A binding said again (a client asking again) subscribes nothing new.
+        if before.as_deref() == Some(provider) || !self.sims.contains_key(client) {
+            return;
+        }
+        if let Some(latest) = self
+            .latest
+            .get(&(provider.to_owned(), interface.to_owned()))
+        {
+            self.work.push_back(Work::Input {
+                client: client.to_owned(),
+                interface: interface.to_owned(),
+                provider: provider.to_owned(),
+                channel: latest.channel.clone(),
+                seq: latest.seq,
+                published_ns: self.now_ns,
+                bytes: latest.bytes.clone(),
+            });
+        }
+    }
+
+    /// A provider whose process ended: its channels' history went with its publisher.
+    fn forget_latest(&mut self, provider: &str) {
+        self.latest.retain(|(p, _), _| p != provider);
     }
 
     /// A restart that will not come (the service stopped or failed for good): nothing kept

@@ -309,6 +309,10 @@ pub struct Lockstep<'a> {
     /// The last payload of each provider's channel before a `frozen` fault, by provider
     /// and interface: what the fault repeats.
     last_good: BTreeMap<(String, String), Vec<u8>>,
+    /// The newest sample of each provider's channel of each interface, by provider and
+    /// interface: what a client bound to it later gets at once, as a late joiner gets a
+    /// sensor channel's history live.
+    latest: BTreeMap<(String, String), engine::Latest>,
 }
 
 impl std::fmt::Debug for Lockstep<'_> {
@@ -410,6 +414,7 @@ impl<'a> Lockstep<'a> {
             mission: None,
             watches: BTreeMap::new(),
             last_good: BTreeMap::new(),
+            latest: BTreeMap::new(),
         };
         for i in 0..harness.faults.len() {
             let (at, until) = (harness.faults[i].at_ns, harness.faults[i].until_ns);
