@@ -484,6 +484,40 @@ fn the_sonar_is_a_non_uniform_ring_of_48_with_distance_all_around() {
 }
 
 #[test]
+fn a_sensor_falls_silent_when_the_pose_goes_stale_and_renders_again_when_it_comes() {
+    // The base (the simulator) failed: the last pose is of a world that no longer runs.
+    let mut sonar = sonar("");
+    sonar.start(0).unwrap();
+    let pose_at = |sonar: &mut Harness, at: i64, seq: u64| {
+        sonar.input(
+            at,
+            "base",
+            &truth_channel(),
+            &truth_sample(4.0, 10.0, 0.0, seq),
+        );
+    };
+    pose_at(&mut sonar, 0, 1);
+    let scans_between = |sonar: &mut Harness, from: i64, to: i64| {
+        for k in from..=to {
+            sonar.tick(k * 100 * MS);
+        }
+        decoded::<RangeFinder>(&sonar.take_published()).len()
+    };
+    assert_eq!(
+        scans_between(&mut sonar, 1, 5),
+        5,
+        "a pose at most 500 ms old"
+    );
+    assert_eq!(
+        scans_between(&mut sonar, 6, 20),
+        0,
+        "a pose older than 500 ms"
+    );
+    pose_at(&mut sonar, 2050 * MS, 2);
+    assert_eq!(scans_between(&mut sonar, 21, 25), 5, "a new pose");
+}
+
+#[test]
 fn the_sonar_specular_limit_is_a_parameter() {
     // Facing the east wall at 50 degrees of incidence: a 30-degree limit hears nothing from
     // the forward transducer, the 60-degree default hears the wall.
@@ -588,8 +622,15 @@ fn the_camera_drops_frames_to_the_rate_asked_and_never_exceeds_its_own() {
         .unwrap();
     assert_eq!(reply.rate, 2.5);
     for k in 1..=20 {
-        // A live clock's jitter: ticks a little early or late.
-        camera.tick(k * 100 * MS + if k % 2 == 0 { 3 * MS } else { -3 * MS });
+        // A live clock's jitter: ticks a little early or late; the base's pose kept fresh.
+        let at = k * 100 * MS + if k % 2 == 0 { 3 * MS } else { -3 * MS };
+        camera.input(
+            at,
+            "base",
+            &truth_channel(),
+            &truth_sample(3.0, 12.5, 0.0, 1 + u64::try_from(k).unwrap()),
+        );
+        camera.tick(at);
     }
     assert_eq!(decoded::<ImageSource>(&camera.take_published()).len(), 5);
     let reply = camera

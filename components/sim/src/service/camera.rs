@@ -221,8 +221,11 @@ pub struct SimCameraService {
 /// When a parameter is missing, unknown or cannot work, or the world does not load.
 pub fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
     let params: CameraParams = config.parameters()?;
-    let service =
-        SimCameraService::new(config, &params, Truth::Published(TruthFollower::default()))?;
+    let service = SimCameraService::new(
+        config,
+        &params,
+        Truth::Published(TruthFollower::for_sensor()),
+    )?;
     Ok(Box::new(service))
 }
 

@@ -170,16 +170,41 @@ fn publish<T: Interface>(ctx: &mut Context<'_>, message: &mut T) {
 /// The true pose a sensor renders from: the latest GroundTruth sample, and the reference
 /// to it that every publication rendered from it carries as provenance; and where the
 /// people are, from the latest WorldState sample (when the sensor requires WorldState).
+///
+/// A sensor's follower ([`TruthFollower::for_sensor`]) does not render from a pose older
+/// than [`MAX_TRUTH_AGE_NS`]: without the simulator (the base failed) there is no world to
+/// see, and a sensor that went on rendering the last pose would report a world standing
+/// still whatever happened in it. It falls silent instead, and the broker blames its
+/// silence on the missing input, not on the sensor.
 #[derive(Debug, Clone, Default)]
 pub struct TruthFollower {
-    latest: Option<(Pose2, InputRef)>,
+    /// The oldest pose rendered from, if any is too old.
+    max_age_ns: Option<i64>,
+    /// The pose, its provenance, and when it was received.
+    latest: Option<(Pose2, InputRef, i64)>,
     people: Option<(Vec<PersonState>, InputRef)>,
     /// Whether `people` changed since it was last put in a world.
     people_changed: bool,
     warned: bool,
+    /// Whether the pose's going stale was said (once, until a new pose comes).
+    said_stale: bool,
 }
 
+/// The oldest GroundTruth a sensor renders from: 25 periods of the base's 50 Hz, longer
+/// than any restart's gap that the base's own checks let pass.
+pub const MAX_TRUTH_AGE_NS: i64 = 500_000_000;
+
 impl TruthFollower {
+    /// A sensor's follower: nothing is rendered from a pose older than
+    /// [`MAX_TRUTH_AGE_NS`].
+    #[must_use]
+    pub fn for_sensor() -> Self {
+        Self {
+            max_age_ns: Some(MAX_TRUTH_AGE_NS),
+            ..Self::default()
+        }
+    }
+
     /// Takes in `input` when it is a GroundTruth or WorldState sample (other inputs are
     /// ignored).
     pub fn take(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
@@ -189,7 +214,14 @@ impl TruthFollower {
         };
         let taken = if input.interface == GroundTruth::NAME {
             input.decode::<GroundTruth>().map(|truth| {
-                self.latest = Some((Pose2::from_msg(&truth.pose), source(truth.header.seq)));
+                self.latest = Some((
+                    Pose2::from_msg(&truth.pose),
+                    source(truth.header.seq),
+                    ctx.now(),
+                ));
+                if std::mem::take(&mut self.said_stale) {
+                    ctx.info("GroundTruth is back: rendering again");
+                }
             })
         } else if input.interface == WorldState::NAME {
             input.decode::<WorldState>().map(|state| {
@@ -212,13 +244,27 @@ impl TruthFollower {
 
     /// The latest true pose, after putting the people of the latest WorldState sample in
     /// `world` and setting the provenance of the publications that follow to the samples;
-    /// `None` (nothing to render) before the first GroundTruth sample.
+    /// `None` (nothing to render) before the first GroundTruth sample, and for a sensor
+    /// while the latest is older than [`MAX_TRUTH_AGE_NS`].
     pub fn pose_for_rendering(
         &mut self,
         ctx: &mut Context<'_>,
         world: &mut World,
     ) -> Option<Pose2> {
-        let (pose, source) = self.latest.as_ref()?;
+        let (pose, source, received_ns) = self.latest.as_ref()?;
+        if self
+            .max_age_ns
+            .is_some_and(|max| ctx.now().saturating_sub(*received_ns) > max)
+        {
+            if !self.said_stale {
+                self.said_stale = true;
+                ctx.warn(&format!(
+                    "no GroundTruth for more than {} ms: nothing rendered until it comes back",
+                    MAX_TRUTH_AGE_NS / 1_000_000
+                ));
+            }
+            return None;
+        }
         let mut inputs = vec![source.clone()];
         if let Some((people, source)) = &self.people {
             if self.people_changed {

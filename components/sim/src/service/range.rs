@@ -49,7 +49,7 @@ impl<S: RangeSensor> RangeService<S> {
         Self {
             world,
             sensor,
-            truth: TruthFollower::default(),
+            truth: TruthFollower::for_sensor(),
             period_ns,
             sectors,
             publish_range_finder: provides::<RangeFinder>(config),
