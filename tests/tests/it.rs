@@ -8,6 +8,7 @@ mod b21r_fake;
 mod bench_long;
 mod docs;
 mod export_ros2;
+mod failover_blame;
 mod failover_cli;
 mod failover_crash;
 mod failover_data;
