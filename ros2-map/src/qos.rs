@@ -1,5 +1,6 @@
-//! The QoS a channel's publisher offers, as MCAP's `ros2` profile requires it on every
-//! channel (`offered_qos_profiles`, a YAML list of rosbag2's profile records), so that
+//! ROS 2's QoS profiles: what a robot file asks of a topic Lewis reads or writes live
+//! (by ROS 2's names, `reliability = "best-effort"`), and what a channel's publisher
+//! offers, as MCAP's `ros2` profile requires it on every channel (`offered_qos_profiles`, a YAML list of rosbag2's profile records), so that
 //! `ros2 bag play` republishes each topic as its publisher did: `/tf_static` and
 //! `/robot_description` transient local (RViz reads them once, at start), the rest
 //! reliable and volatile.
@@ -10,11 +11,14 @@
 
 use std::fmt::Write as _;
 
+use serde::Deserialize;
+
 /// The MCAP channel metadata key of the ROS 2 profile.
 pub const OFFERED_QOS_PROFILES: &str = "offered_qos_profiles";
 
 /// Whether a publisher resends what a subscriber missed (rmw's `reliability`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Reliability {
     /// Resent until received (the rmw code 1).
     Reliable,
@@ -24,7 +28,8 @@ pub enum Reliability {
 
 /// Whether a late subscriber gets what was published before it joined (rmw's
 /// `durability`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Durability {
     /// The last `depth` messages are kept for late subscribers (the rmw code 1).
     TransientLocal,
@@ -33,8 +38,9 @@ pub enum Durability {
 }
 
 /// One publisher's offered QoS: the policies a subscriber must be compatible with, and its
-/// history depth (keep last).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// history depth (keep last). In a robot file, each key left out is [`QosProfile::DEFAULT`]'s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct QosProfile {
     /// Reliable or best effort.
     pub reliability: Reliability,
@@ -42,6 +48,12 @@ pub struct QosProfile {
     pub durability: Durability,
     /// How many messages the publisher keeps (history keep last).
     pub depth: u32,
+}
+
+impl Default for QosProfile {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
 }
 
 impl QosProfile {

@@ -46,8 +46,9 @@ use rustdds::no_key::DataWriter;
 use rustdds::{DataWriterStatus, StatusEvented as _};
 use serde::Deserialize;
 
-use crate::dds::{Qos, RawAdapter, RawCdr};
+use crate::dds::{RawAdapter, RawCdr};
 use crate::gateway::{Gateway, Link, Millis, TopicSpec, declare};
+use lewis_ros2_map::qos::QosProfile;
 
 /// The kind name.
 pub const KIND: &str = "ros2-base";
@@ -77,7 +78,7 @@ pub struct BaseParams {
     pub frame: String,
     /// The command topic's QoS (default: reliable, as `ros2 topic pub` and Nav2 send).
     #[serde(default = "defaults::command_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
@@ -118,8 +119,8 @@ pub struct BaseParams {
 }
 
 mod defaults {
-    use crate::dds::Qos;
     use crate::gateway::Millis;
+    use lewis_ros2_map::qos::QosProfile;
 
     use super::CommandType;
 
@@ -139,8 +140,8 @@ mod defaults {
     pub(super) fn frame() -> String {
         "base_link".to_owned()
     }
-    pub(super) fn command_qos() -> Qos {
-        Qos::DEFAULT
+    pub(super) fn command_qos() -> QosProfile {
+        QosProfile::DEFAULT
     }
     pub(super) fn rate_hz() -> f64 {
         20.0
@@ -418,7 +419,7 @@ impl Service for Base {
             topics.push(TopicSpec {
                 topic: topic.clone(),
                 type_name: HAZARD_DETECTION_VECTOR,
-                qos: Qos::SENSOR_DATA,
+                qos: QosProfile::SENSOR_DATA,
             });
         }
         if let Some(topic) = &self.params.odom_topic {
@@ -426,7 +427,7 @@ impl Service for Base {
             topics.push(TopicSpec {
                 topic: topic.clone(),
                 type_name: ODOMETRY,
-                qos: Qos::SENSOR_DATA,
+                qos: QosProfile::SENSOR_DATA,
             });
         }
         let gateway = Gateway::open(&self.params.dds, &topics)?;

@@ -16,6 +16,7 @@ use std::convert::Infallible;
 use std::os::fd::{AsFd, AsRawFd as _, BorrowedFd};
 use std::time::Duration;
 
+use lewis_ros2_map::qos::{Durability as QosDurability, QosProfile, Reliability as QosReliability};
 use rustdds::mio1::{Events, Interest, Poll, Token};
 use rustdds::no_key::{
     DataReader, DataWriter, Decode, DefaultDecoder, DeserializerAdapter, SerializerAdapter,
@@ -25,7 +26,6 @@ use rustdds::{
     DomainParticipant, DomainParticipantBuilder, QosPolicies, QosPolicyBuilder,
     RepresentationIdentifier, TopicKind,
 };
-use serde::Deserialize;
 
 /// One sample's bytes as received: the 4-byte encapsulation header (representation
 /// identifier, then two option bytes, zero here), then the serialized message.
@@ -118,95 +118,32 @@ impl SerializerAdapter<RawCdr> for RawAdapter {
     }
 }
 
-/// A topic's QoS as a robot file gives it, by ROS 2's names.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Qos {
-    /// `best-effort` (ROS 2's sensor data) or `reliable` (its default).
-    #[serde(default = "defaults::reliability")]
-    pub reliability: QosReliability,
-    /// `volatile` or `transient-local` (latched: `/tf_static`, `/robot_description`).
-    #[serde(default = "defaults::durability")]
-    pub durability: QosDurability,
-    /// How many samples are kept (ROS 2's `KEEP_LAST` depth).
-    #[serde(default = "defaults::depth")]
-    pub depth: u16,
-}
+/// How a reader of `/tf_static` keeps what the robot's static broadcasters sent: latched,
+/// as they offer it, and deep enough for one transform per frame of a robot.
+pub const TF_STATIC_READER: QosProfile = QosProfile {
+    depth: 100,
+    ..QosProfile::LATCHED
+};
 
-/// ROS 2's reliability.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum QosReliability {
-    /// Samples may be lost; never resent.
-    BestEffort,
-    /// Lost samples are resent.
-    Reliable,
-}
-
-/// ROS 2's durability.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum QosDurability {
-    /// Only samples written after a reader joined.
-    Volatile,
-    /// A late reader gets the last `depth` samples.
-    TransientLocal,
-}
-
-mod defaults {
-    use super::{QosDurability, QosReliability};
-
-    pub(super) fn reliability() -> QosReliability {
-        QosReliability::Reliable
-    }
-    pub(super) fn durability() -> QosDurability {
-        QosDurability::Volatile
-    }
-    pub(super) fn depth() -> u16 {
-        10
-    }
-}
-
-impl Qos {
-    /// ROS 2's `SensorDataQoS`: best effort, volatile, the last 5.
-    pub const SENSOR_DATA: Self = Self {
-        reliability: QosReliability::BestEffort,
-        durability: QosDurability::Volatile,
-        depth: 5,
+/// A profile as rustdds's policies.
+fn policies(qos: QosProfile) -> QosPolicies {
+    let reliability = match qos.reliability {
+        QosReliability::BestEffort => Reliability::BestEffort,
+        QosReliability::Reliable => Reliability::Reliable {
+            max_blocking_time: rustdds::Duration::from_millis(100),
+        },
     };
-    /// `/tf_static`'s: reliable, transient local (a late reader gets what was sent), the
-    /// last 100 (one per frame of a robot).
-    pub const LATCHED: Self = Self {
-        reliability: QosReliability::Reliable,
-        durability: QosDurability::TransientLocal,
-        depth: 100,
+    let durability = match qos.durability {
+        QosDurability::Volatile => Durability::Volatile,
+        QosDurability::TransientLocal => Durability::TransientLocal,
     };
-    /// ROS 2's default: reliable, volatile, the last 10.
-    pub const DEFAULT: Self = Self {
-        reliability: QosReliability::Reliable,
-        durability: QosDurability::Volatile,
-        depth: 10,
-    };
-
-    fn policies(self) -> QosPolicies {
-        let reliability = match self.reliability {
-            QosReliability::BestEffort => Reliability::BestEffort,
-            QosReliability::Reliable => Reliability::Reliable {
-                max_blocking_time: rustdds::Duration::from_millis(100),
-            },
-        };
-        let durability = match self.durability {
-            QosDurability::Volatile => Durability::Volatile,
-            QosDurability::TransientLocal => Durability::TransientLocal,
-        };
-        QosPolicyBuilder::new()
-            .reliability(reliability)
-            .durability(durability)
-            .history(History::KeepLast {
-                depth: i32::from(self.depth.max(1)),
-            })
-            .build()
-    }
+    QosPolicyBuilder::new()
+        .reliability(reliability)
+        .durability(durability)
+        .history(History::KeepLast {
+            depth: i32::try_from(qos.depth.max(1)).unwrap_or(i32::MAX),
+        })
+        .build()
 }
 
 /// The DDS topic name of a ROS 2 topic: `rt` and the namespace before it (`/scan` in
@@ -260,12 +197,12 @@ impl Participant {
         })
     }
 
-    fn topic(&self, name: &str, dds_type: &str, qos: Qos) -> Result<rustdds::Topic, String> {
+    fn topic(&self, name: &str, dds_type: &str, qos: QosProfile) -> Result<rustdds::Topic, String> {
         self.participant
             .create_topic(
                 name.to_owned(),
                 dds_type.to_owned(),
-                &qos.policies(),
+                &policies(qos),
                 TopicKind::NoKey,
             )
             .map_err(|e| format!("cannot make DDS topic {name}: {e}"))
@@ -279,11 +216,11 @@ impl Participant {
         &self,
         topic: &str,
         dds_type: &str,
-        qos: Qos,
+        qos: QosProfile,
     ) -> Result<DataReader<RawCdr, RawAdapter>, String> {
         let t = self.topic(topic, dds_type, qos)?;
         self.subscriber
-            .create_datareader_no_key::<RawCdr, RawAdapter>(&t, Some(qos.policies()))
+            .create_datareader_no_key::<RawCdr, RawAdapter>(&t, Some(policies(qos)))
             .map_err(|e| format!("cannot read DDS topic {topic}: {e}"))
     }
 
@@ -295,11 +232,11 @@ impl Participant {
         &self,
         topic: &str,
         dds_type: &str,
-        qos: Qos,
+        qos: QosProfile,
     ) -> Result<DataWriter<RawCdr, RawAdapter>, String> {
         let t = self.topic(topic, dds_type, qos)?;
         self.publisher
-            .create_datawriter_no_key::<RawCdr, RawAdapter>(&t, Some(qos.policies()))
+            .create_datawriter_no_key::<RawCdr, RawAdapter>(&t, Some(policies(qos)))
             .map_err(|e| format!("cannot write DDS topic {topic}: {e}"))
     }
 }

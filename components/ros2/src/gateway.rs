@@ -13,7 +13,8 @@ use lewis_ros2_map::robot::{dds_type_name, schema_texts};
 use lewis_service::{Context, Health};
 use serde::Deserialize;
 
-use crate::dds::{MAX_DOMAIN_ID, Participant, Qos, RawCdr, Readers, Taken, dds_topic};
+use crate::dds::{MAX_DOMAIN_ID, Participant, RawCdr, Readers, Taken, dds_topic};
+use lewis_ros2_map::qos::QosProfile;
 
 /// The variable ROS 2 reads its domain from.
 pub const DOMAIN_ENV: &str = "ROS_DOMAIN_ID";
@@ -216,7 +217,7 @@ pub struct TopicSpec {
     /// The ROS 2 type (`sensor_msgs/msg/LaserScan`).
     pub type_name: &'static str,
     /// Its QoS.
-    pub qos: Qos,
+    pub qos: QosProfile,
 }
 
 /// The DDS side of a gateway process: its participant, readers and their intakes.

@@ -31,9 +31,9 @@ use lewis_service::{
 };
 use serde::Deserialize;
 
-use crate::dds::Qos;
 use crate::gateway::{Freshness, Gateway, Link, Millis, TopicSpec, declare};
 use crate::ir::IrModel;
+use lewis_ros2_map::qos::QosProfile;
 
 /// Where a sensor sits on the robot, as robot files write it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
@@ -327,7 +327,7 @@ pub struct LaserParams {
     pub topic: String,
     /// Its QoS (default: ROS 2's sensor data, best effort).
     #[serde(default = "defaults::sensor_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
@@ -358,7 +358,7 @@ mod defaults {
     pub(super) fn base_frame() -> String {
         "base_link".to_owned()
     }
-    use crate::dds::Qos;
+    use lewis_ros2_map::qos::QosProfile;
 
     pub(super) fn scan() -> String {
         "/scan".to_owned()
@@ -372,8 +372,8 @@ mod defaults {
     pub(super) fn battery() -> String {
         "/battery_state".to_owned()
     }
-    pub(super) fn sensor_qos() -> Qos {
-        Qos::SENSOR_DATA
+    pub(super) fn sensor_qos() -> QosProfile {
+        QosProfile::SENSOR_DATA
     }
     pub(super) fn laser_rate_hz() -> f64 {
         10.0
@@ -521,7 +521,7 @@ fn build_laser(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildErro
         topics.push(TopicSpec {
             topic: params.tf_static_topic,
             type_name: TF_MESSAGE,
-            qos: Qos::LATCHED,
+            qos: crate::dds::TF_STATIC_READER,
         });
     }
     Ok(Box::new(
@@ -578,7 +578,7 @@ pub struct IrParams {
     pub topic: String,
     /// Its QoS (default: sensor data).
     #[serde(default = "defaults::sensor_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
@@ -724,7 +724,7 @@ fn build_ir(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> 
         topics.push(TopicSpec {
             topic: params.tf_static_topic,
             type_name: TF_MESSAGE,
-            qos: Qos::LATCHED,
+            qos: crate::dds::TF_STATIC_READER,
         });
     }
     let mount_checks = params
@@ -777,7 +777,7 @@ pub struct RangeParams {
     pub topics: Vec<RangeTopic>,
     /// Their QoS (default: sensor data).
     #[serde(default = "defaults::sensor_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
@@ -894,7 +894,7 @@ pub struct OdometryParams {
     pub topic: String,
     /// Its QoS (default: sensor data; a reader of best effort matches reliable writers too).
     #[serde(default = "defaults::sensor_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
@@ -1018,7 +1018,7 @@ pub struct BatteryParams {
     pub topic: String,
     /// Its QoS (default: sensor data).
     #[serde(default = "defaults::sensor_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
@@ -1147,7 +1147,7 @@ pub struct CameraParams {
     pub image_type: ImageType,
     /// Its QoS (default: sensor data).
     #[serde(default = "defaults::sensor_qos")]
-    pub qos: Qos,
+    pub qos: QosProfile,
     /// How to reach the robot.
     #[serde(default)]
     pub dds: Link,
