@@ -84,10 +84,12 @@ pub struct ChannelCounts {
 impl ChannelCounts {
     /// Adds one observation of a written message.
     pub fn add(&mut self, observation: Observation) {
-        self.written += 1;
-        self.lost += observation.lost();
+        // Saturating: the numbers come from files and other processes, and a wild one
+        // must be counted, not panic the recorder.
+        self.written = self.written.saturating_add(1);
+        self.lost = self.lost.saturating_add(observation.lost());
         if matches!(observation, Observation::Restart(_)) {
-            self.restarts += 1;
+            self.restarts = self.restarts.saturating_add(1);
         }
     }
 }
@@ -103,6 +105,16 @@ mod tests {
     }
 
     use Observation::{First, Gap, Next, Restart};
+
+    #[test]
+    fn wild_numbers_are_counted_without_overflow() {
+        let mut counts = ChannelCounts::default();
+        let mut tracker = SequenceTracker::default();
+        for seq in [1, u64::MAX, 1, u64::MAX] {
+            counts.add(tracker.observe(seq));
+        }
+        assert_eq!((counts.written, counts.lost), (4, u64::MAX));
+    }
 
     #[test]
     fn consecutive_numbers_lose_nothing() {

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use lewis_emulators::testing::range::{Params, Room, SyntheticScanner};
 use lewis_interfaces::msg::{
     CommandLog, Distance, Health as HealthMessage, HostLink, RangeFinder, RangeFinderGetGeometry,
-    RangeFinderGetGeometryReply,
+    RangeFinderGetGeometryReply, UnansweredCall,
 };
 use lewis_interfaces::{Interface, Message, cdr};
 use lewis_recorder::{ChannelId, ChannelSpec, Recorder, RecorderOptions, RobotDescription, Sample};
@@ -236,6 +236,24 @@ fn make_recording_with(
     let scans = w.channel::<RangeFinder>("laser", &names::data_channel("laser", "RangeFinder"));
     let distances = w.channel::<Distance>("consumer", &names::data_channel("consumer", "Distance"));
     let commands = w.channel::<CommandLog>("laser", &names::command_log_channel("laser"));
+    // Many publishers, each numbering its own: the copy must keep saying so.
+    let calls = {
+        let info = lewis_interfaces::interface_info(UnansweredCall::NAME).unwrap();
+        let mut spec = ChannelSpec::publication(info, names::BROKER_NODE, names::CALLS_CHANNEL);
+        spec.extra_metadata.insert(
+            lewis_recorder::META_NUMBERING.into(),
+            lewis_recorder::NUMBERED_PER_PUBLISHER.into(),
+        );
+        w.recorder.add_channel(spec).unwrap()
+    };
+    for (client, seq) in [("consumer", 7), ("sonar", 1_000_000), ("consumer", 8)] {
+        let at_ns = T0 + 20 * MS;
+        w.write(
+            calls,
+            at_ns,
+            &stamp(UnansweredCall::default(), client, seq, at_ns),
+        );
+    }
 
     let decisions = [
         (
@@ -772,6 +790,23 @@ fn the_output_holds_the_recording_and_the_replay_beside_it() {
     ] {
         assert!(topics.contains(&topic), "{topic} missing from {topics:?}");
     }
+    // The recording's channels are copied as they were, metadata and all (a channel of
+    // many publishers read as one would count their numbering as losses), and lose nothing.
+    let before = lewis_recording::Recording::open(&[input]).unwrap();
+    let after = lewis_recording::Recording::open(&[out]).unwrap();
+    for (name, topic) in before.topics() {
+        // The replay's recorder writes statistics of its own.
+        if &**name == lewis_recorder::STATS_TOPIC {
+            continue;
+        }
+        let copy = &after.topics()[name];
+        assert_eq!(copy.metadata, topic.metadata, "{name}");
+    }
+    assert!(
+        info.channels.iter().all(|c| c.lost_count.unwrap_or(0) == 0),
+        "{:?}",
+        info.channels
+    );
 }
 
 #[test]

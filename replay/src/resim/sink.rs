@@ -138,16 +138,20 @@ impl OutputSink {
             return;
         }
         let copied = !self.outputs_only;
-        let spec = || ChannelSpec {
-            topic: name.to_owned(),
-            schema_name: topic.map(|t| t.schema_name.clone()).unwrap_or_default(),
-            schema_text: topic.map(|t| t.schema_text.clone()).unwrap_or_default(),
-            provider: topic.and_then(|t| t.provider.clone()).unwrap_or_default(),
-            interface: topic.and_then(|t| t.interface.clone()).unwrap_or_default(),
-            interface_version: topic
-                .and_then(|t| t.interface_version.clone())
-                .unwrap_or_default(),
-            extra_metadata: BTreeMap::new(),
+        // As it was, metadata and all: a channel numbered per publisher stays so.
+        let spec = || {
+            topic.map_or_else(
+                || ChannelSpec {
+                    topic: name.to_owned(),
+                    schema_name: String::new(),
+                    schema_text: String::new(),
+                    provider: String::new(),
+                    interface: String::new(),
+                    interface_version: String::new(),
+                    extra_metadata: BTreeMap::new(),
+                },
+                Topic::channel_spec,
+            )
         };
         if copied && let Some(id) = self.channel(spec, name) {
             self.write(
