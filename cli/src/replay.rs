@@ -28,9 +28,11 @@ use lewis_replay::sweep::{SweepSpec, sweep};
     Regression check of a change: `lewis replay RUN.mcap --check` replays the services as \
     the recording stores them; `--robot robots/sim.toml` replays with the repository's \
     robot file instead, `--set obstacle_avoider.clearance_m=0.3` with one parameter \
-    changed. Unchanged services reproduce their recorded outputs exactly.\n\n\
-    Exit codes: 0 replayed (and, with --check, the outputs match); 1 --check found \
-    outputs beyond the tolerance; 2 the replay could not run."
+    changed. Unchanged services reproduce their recorded outputs exactly. With `--all` \
+    living a mission again, --check compares its states and outcome; --check-outputs the \
+    outputs too.\n\n\
+    Exit codes: 0 replayed (and, with --check, what it compares matches); 1 --check found \
+    outputs beyond the tolerance or a mission gone otherwise; 2 the replay could not run."
 )]
 pub struct ReplayArgs {
     /// The recording (several files: parts of one run, merged in time order).
@@ -76,9 +78,15 @@ pub struct ReplayArgs {
     /// frames, most of a recording's bytes.
     #[arg(long = "leave-out", value_name = "INTERFACE", value_parser = parse_interface)]
     pub left_out: Vec<String>,
-    /// Exit 1 when re-simulated outputs differ from the recorded ones beyond the tolerance.
+    /// Exit 1 when re-simulated outputs differ from the recorded ones beyond the tolerance;
+    /// with `--all` living a mission again, when its states or outcome differ from the
+    /// recorded ones (the outputs not compared: see --check-outputs).
     #[arg(long)]
     pub check: bool,
+    /// As --check, and with `--all` living a mission again, the re-simulated outputs are
+    /// compared with the recorded ones too; the channels beyond the tolerance are listed.
+    #[arg(long)]
+    pub check_outputs: bool,
     /// The absolute tolerance on numbers for --check.
     #[arg(long, default_value_t = DEFAULT_TOLERANCE, value_name = "X")]
     pub tolerance: f64,
@@ -96,7 +104,7 @@ pub struct ReplayArgs {
         value_delimiter = ',',
         value_name = "A,B",
         requires = "all",
-        conflicts_with_all = ["check", "output", "json"]
+        conflicts_with_all = ["check", "check_outputs", "output", "json"]
     )]
     pub sweep_fault: Option<Vec<String>>,
     /// How many fault times a sweep tries, spread evenly across the run.
@@ -169,6 +177,7 @@ pub fn run(args: &ReplayArgs, registry: &ServiceRegistry) -> anyhow::Result<Exit
     options.tolerance = args.tolerance;
     options.outputs_only = args.outputs_only;
     options.left_out = args.left_out.iter().cloned().collect();
+    options.check_outputs = args.check_outputs;
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(
@@ -216,7 +225,8 @@ pub fn run(args: &ReplayArgs, registry: &ServiceRegistry) -> anyhow::Result<Exit
     } else {
         writeln!(out, "{report}")?;
     }
-    Ok(if args.check && !report.check.passed {
+    let checked = args.check || args.check_outputs;
+    Ok(if checked && !report.check.passed {
         ExitCode::FAILURE
     } else {
         ExitCode::SUCCESS

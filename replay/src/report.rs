@@ -185,14 +185,30 @@ pub struct Takeover {
     pub latency_ns: i64,
 }
 
+/// What the check compared with the recording.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Compared {
+    /// The re-simulated outputs (no mission lived again).
+    Outputs,
+    /// The mission lived again: its states in order and its outcome, not the outputs, which
+    /// the closed loop moves by the noise of live timing.
+    MissionOnly,
+    /// The mission lived again, and the re-simulated outputs too (`--check-outputs`).
+    MissionAndOutputs,
+}
+
 /// The outcome of the comparison with the recording.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CheckOutcome {
+    /// What was compared.
+    pub compared: Compared,
     /// The absolute tolerance on numbers.
     pub tolerance: f64,
-    /// Whether every output channel is within it.
+    /// Whether everything compared matched: the mission's course and outcome, and every
+    /// output channel compared within the tolerance.
     pub passed: bool,
-    /// The channels that are not.
+    /// The output channels beyond the tolerance (none when the outputs were not compared).
     pub failing: Vec<String>,
     /// How the replayed mission went otherwise than the recorded one, if it did.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -200,7 +216,7 @@ pub struct CheckOutcome {
 }
 
 impl CheckOutcome {
-    /// The outcome for these divergences.
+    /// The outcome for these divergences, the outputs alone compared.
     #[must_use]
     pub fn of(tolerance: f64, divergence: &[ChannelDivergence]) -> Self {
         let failing: Vec<String> = divergence
@@ -209,10 +225,68 @@ impl CheckOutcome {
             .map(|d| d.channel.clone())
             .collect();
         Self {
+            compared: Compared::Outputs,
             tolerance,
             passed: failing.is_empty(),
             failing,
             mission: None,
+        }
+    }
+
+    /// The outcome of a mission lived again: `course` is how its course and outcome
+    /// compare with the recorded ones; the outputs count only when `with_outputs`.
+    #[must_use]
+    pub fn of_mission(self, course: Result<(), String>, with_outputs: bool) -> Self {
+        let outputs = if with_outputs {
+            self
+        } else {
+            Self {
+                passed: true,
+                failing: Vec::new(),
+                ..self
+            }
+        };
+        Self {
+            compared: if with_outputs {
+                Compared::MissionAndOutputs
+            } else {
+                Compared::MissionOnly
+            },
+            passed: outputs.passed && course.is_ok(),
+            mission: course.err(),
+            ..outputs
+        }
+    }
+
+    /// The check's line of the report: what was compared, then how it went.
+    fn line(&self) -> String {
+        let outputs = if self.failing.is_empty() {
+            format!(
+                "outputs match the recording (tolerance {:e})",
+                self.tolerance
+            )
+        } else {
+            format!(
+                "outputs differ from the recording beyond {:e} on {}",
+                self.tolerance,
+                self.failing.join(", ")
+            )
+        };
+        let mission = self.mission.clone().unwrap_or_else(|| {
+            "the mission went as recorded (the same states in the same order, the same \
+             outcome)"
+                .to_owned()
+        });
+        match self.compared {
+            // The line `lewis replay --check` has always printed: the outputs are all there is.
+            Compared::Outputs => format!("check: {outputs}"),
+            Compared::MissionOnly => format!(
+                "check (the mission's states and outcome only; --check-outputs compares the \
+                 outputs too): {mission}"
+            ),
+            Compared::MissionAndOutputs => format!(
+                "check (the mission's states and outcome, and the outputs): {mission}; {outputs}"
+            ),
         }
     }
 }
@@ -508,34 +582,7 @@ impl fmt::Display for Report {
         if let Some(mission) = &self.mission {
             write!(f, "{mission}")?;
         }
-        if let Some(why) = &self.check.mission {
-            return write!(f, "check: {why}");
-        }
-        let lived_again = self.mission.as_ref().is_some_and(|m| {
-            m.loop_kind == crate::outcome::LoopKind::Closed
-                && m.recorded.is_some()
-                && m.replayed.is_some()
-        });
-        if lived_again {
-            return write!(
-                f,
-                "check: the mission went as recorded (the same states in the same order, the same outcome)"
-            );
-        }
-        if self.check.passed {
-            write!(
-                f,
-                "check: outputs match the recording (tolerance {:e})",
-                self.check.tolerance
-            )
-        } else {
-            write!(
-                f,
-                "check: outputs differ from the recording beyond {:e} on {}",
-                self.check.tolerance,
-                self.check.failing.join(", ")
-            )
-        }
+        write!(f, "{}", self.check.line())
     }
 }
 

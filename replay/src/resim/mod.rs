@@ -104,6 +104,9 @@ pub struct ReplayOptions {
     /// (`--leave-out ImageSource`: camera frames are most of a recording's bytes). They are
     /// still compared.
     pub left_out: BTreeSet<String>,
+    /// With a mission lived again, the check compares the re-simulated outputs with the
+    /// recorded ones too, not only the mission's states and outcome (`--check-outputs`).
+    pub check_outputs: bool,
 }
 
 impl ReplayOptions {
@@ -123,6 +126,7 @@ impl ReplayOptions {
             write_output: true,
             outputs_only: false,
             left_out: BTreeSet::new(),
+            check_outputs: false,
         }
     }
 }
@@ -583,17 +587,10 @@ pub fn replay_with(
     let mut check = CheckOutcome::of(options.tolerance, &divergence);
     // Lived again, the outputs differ from the live ones by the noise of live timing (live
     // ticks land a little late, replayed ones on time), and the closed loop amplifies it:
-    // the check of a mission is its course and outcome.
-    match mission.as_ref().and_then(MissionReport::same_course) {
-        Some(Err(why)) => {
-            check.passed = false;
-            check.mission = Some(why);
-        }
-        Some(Ok(())) if closure.is_closed() => {
-            check.passed = true;
-            check.failing.clear();
-        }
-        _ => {}
+    // the check of a mission is its course and outcome, and its outputs only when asked.
+    // Only a mission lived again has a replayed course to compare.
+    if let Some(course) = mission.as_ref().and_then(MissionReport::same_course) {
+        check = check.of_mission(course, options.check_outputs);
     }
     Ok(Report {
         inputs: options
