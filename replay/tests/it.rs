@@ -3,6 +3,7 @@
 
 mod dynamic_never_panics;
 mod lockstep;
+mod mission;
 mod ros2_recordings;
 mod same_bytes;
 mod sweep;
