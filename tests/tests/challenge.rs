@@ -6,10 +6,13 @@
 //! within about 3 minutes of simulated time. The recording must read in independent
 //! readers, its ROS 2 companion channels equal to the Lewis messages they came from, and a closed-loop replay of it with a fault (`--all`: the mission lived again)
 //! must give the same bytes whatever the output file is called (the demo's replay holds the
-//! replay's own channels without camera frames: `--outputs-only --leave-out ImageSource`). Lived again without a new
-//! fault, the mission goes as it went live; with the laser and the sonar dead before the
-//! door it fails; with the sonar dead at the registration desk it still succeeds. The
-//! demo's picture and Rerun file must be written.
+//! replay's own channels without camera frames: `--outputs-only --leave-out ImageSource`).
+//! The demo's own replay (the laser dead in the middle of the door) fails at the door.
+//! Lived again without a new fault, the mission goes as it went live; with the laser and
+//! the sonar dead before the door it fails; with the speech crashing at the registration
+//! desk (what `register` needs) it still succeeds, the broker restarting it. A sweep of the
+//! sonar's death fails the mission wherever the sonar is the last range finder and a state
+//! still needs one. The demo's picture and Rerun file must be written.
 //!
 //! Its own test binary: the one live mission of CI, a closed loop in real time that should
 //! not share the machine with other end-to-end tests.
@@ -166,10 +169,19 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
     );
     remove(&again);
     remove(&out.join("replay.mcap"));
-    // The demo's replay lived the mission again (closed loop), the live fault applied again.
+    // The demo's replay lived the mission again (closed loop), the live fault applied again,
+    // with the laser dead from the middle of the door on: through the 1.5 m door on the
+    // sonar alone the avoider dithers, and the door runs out of time.
     let mission = &report["mission"];
     assert_eq!(mission["loop"], "closed", "{mission:#}");
-    assert!(mission["replayed"]["succeeded"].is_boolean(), "{mission:#}");
+    assert_eq!(
+        mission["replayed"]["succeeded"], false,
+        "{fault}: {mission:#}"
+    );
+    assert_eq!(
+        mission["replayed"]["states"][0]["left_by"], "recover from door",
+        "{fault}: {mission:#}"
+    );
     assert!(
         mission["recorded_faults"][0]
             .as_str()
@@ -194,12 +206,36 @@ fn the_demo_mission_succeeds_through_a_laser_failure_and_replays_identically() {
         "{deaths:?}"
     );
 
-    closed_loop_verdicts(&run_mcap, dir.path(), &verdict);
-    sweep_on_one_and_two_threads(&run_mcap, dir.path());
+    let same = closed_loop_verdicts(&run_mcap, dir.path(), &verdict);
+    sweep_on_one_and_two_threads(&run_mcap, dir.path(), laser_back_ns(&same));
 }
 
-/// `--sweep-fault laser --steps 3`: the same JSON and plot on one thread as on two.
-fn sweep_on_one_and_two_threads(run: &Path, dir: &Path) {
+/// When the laser is back in the mission lived again without a new fault: the broker
+/// retries a provider it failed (`it will be retried in 20 s`), and a retry that fails on
+/// trial waits longer; the last failure's retry is the one that held.
+fn laser_back_ns(same: &serde_json::Value) -> i64 {
+    let last = same["failures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .rfind(|f| f["service"] == "laser")
+        .unwrap_or_else(|| panic!("the live laser is failed again: {:#}", same["failures"]));
+    let reason = last["reason"].as_str().unwrap();
+    let seconds: f64 = reason
+        .split_once("retried in ")
+        .and_then(|(_, after)| after.split_once(" s"))
+        .and_then(|(number, _)| number.parse().ok())
+        .unwrap_or_else(|| panic!("no retry in the laser's failure: {reason}"));
+    last["at_ns"].as_i64().unwrap() + (seconds * 1e9) as i64
+}
+
+/// `--sweep-fault sonar --steps 3`: the same JSON and plot on one thread as on two, and at
+/// each point the fate the demo's run gives the mission. From the laser's live give-up
+/// until the broker's retry of it holds, the sonar is the only range finder: its death
+/// then leaves `sign` (Distance) and `queue` (RangeFinder) blind, and the mission must
+/// fail; once the laser is back it takes over, and the mission must succeed. Over the
+/// demo's 2-minute run the first two points fall before the laser is back, the third after.
+fn sweep_on_one_and_two_threads(run: &Path, dir: &Path, laser_back_ns: i64) {
     let sweep = |jobs: &str| {
         let json = dir.join(format!("sweep-{jobs}.json"));
         let output = Command::new(lewis_exe())
@@ -209,7 +245,7 @@ fn sweep_on_one_and_two_threads(run: &Path, dir: &Path) {
             .args([
                 "--all",
                 "--sweep-fault",
-                "laser",
+                "sonar",
                 "--steps",
                 "3",
                 "--jobs",
@@ -237,9 +273,27 @@ fn sweep_on_one_and_two_threads(run: &Path, dir: &Path) {
     assert!(one_png == two_png, "the plots differ");
     assert!(one_png.starts_with(b"\x89PNG"), "not a PNG");
     let swept: serde_json::Value = serde_json::from_str(&one).unwrap();
-    assert_eq!(swept["points"].as_array().unwrap().len(), 3, "{text}");
+    let points = swept["points"].as_array().unwrap();
+    assert_eq!(points.len(), 3, "{text}");
     assert!(text.contains("the mission"), "{text}");
     eprintln!("{text}");
+    let mut fates = Vec::new();
+    for point in points {
+        let at_ns = point["fault_at_ns"].as_i64().unwrap();
+        let must_succeed = at_ns > laser_back_ns;
+        assert_eq!(
+            point["succeeded"], must_succeed,
+            "the sonar dead at {at_ns} ns in {} (the laser back at {laser_back_ns} ns): {}\n{text}",
+            point["state_at_fault"], point["reason"]
+        );
+        fates.push(must_succeed);
+    }
+    // Both fates shown: over the demo's 2-minute run the first point falls before the
+    // laser is back (it fails at the door, 1 min in) and the last after.
+    assert!(
+        fates.contains(&false) && fates.contains(&true),
+        "the sweep shows one fate only (the laser back at {laser_back_ns} ns): {fates:?}\n{text}"
+    );
 }
 
 /// `lewis replay RUN --all ARGS -o OUT --report OUT.json`: its report as JSON and its text.
@@ -289,10 +343,10 @@ fn course(mission: &serde_json::Value) -> Vec<String> {
 
 /// The mission lived again from the recording (closed loop): without a new fault it goes as
 /// live (the live laser crash applied again at its recorded time); with the laser and the
-/// sonar gone before the door it fails there; with the sonar gone at the registration desk
-/// (the laser is long dead by then: nothing sees the room any more) it still succeeds, for
-/// registering needs no range.
-fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) {
+/// sonar gone before the door it fails there; with the speech crashing at the registration
+/// desk, which `register` needs, it still succeeds: the broker restarts the speech, and
+/// `register` says its words again. Returns the report of the replay without a new fault.
+fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) -> serde_json::Value {
     let (same, text) = replay_all(run, &["--check"], &dir.join("same.mcap"));
     // What the replayed broker gave up on, beside the printed summary: a closed loop that
     // goes another way than live shows it there first.
@@ -310,6 +364,7 @@ fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) {
     assert_eq!(course(&mission["replayed"]), live_course, "{text}");
     assert_eq!(mission["replayed"]["succeeded"], true, "{text}");
     assert_eq!(same["check"]["passed"], true, "{text}");
+    assert_eq!(same["check"]["compared"], "mission_only", "{text}");
     eprintln!(
         "closed loop without a new fault: the final poses are {} m apart",
         mission["final_pose_distance_m"]
@@ -345,18 +400,35 @@ fn closed_loop_verdicts(run: &Path, dir: &Path, live: &Verdict) {
         .expect("the mission lived again reaches register");
     let during = |key: &str| register[key].as_i64().expect("register starts and ends");
     let at_ms = (during("started_ns") + during("ended_ns")) / 2 / 1_000_000;
-    let sonar = format!("sonar@{}.{:03}s:crash", at_ms / 1000, at_ms % 1000);
-    let (late, text) = replay_all(run, &["--inject-fault", &sonar], &dir.join("late.mcap"));
-    assert_eq!(
-        late["mission"]["replayed"]["succeeded"], true,
-        "{sonar}: {text}"
-    );
+    // A crash for 50 ms: the process dies once, and its restart 100 ms later is up.
+    let seconds = |ms: i64| format!("{}.{:03}s", ms / 1000, ms % 1000);
+    let speech = format!("speech@{}-{}:crash", seconds(at_ms), seconds(at_ms + 50));
+    let (late, text) = replay_all(run, &["--inject-fault", &speech], &dir.join("late.mcap"));
+    let replayed = &late["mission"]["replayed"];
+    assert_eq!(replayed["succeeded"], true, "{speech}: {text}");
+    assert_eq!(course(replayed), live_course, "{speech}: {text}");
+    // The crash cost register its pending answer: it said its words again after its wait.
+    let late_register = replayed["states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|v| v["state"] == "register")
+        .unwrap();
+    let late_ns = late_register["ended_ns"].as_i64().unwrap() - during("started_ns");
+    let same_ns = during("ended_ns") - during("started_ns");
     assert!(
-        late["faults"][0]["reactions"]
-            .as_array()
-            .is_some_and(|r| !r.is_empty()),
-        "the broker never saw {sonar} happen: {text}"
+        late_ns > same_ns + 10_000_000_000,
+        "register took {late_ns} ns with {speech}, {same_ns} ns without: the crash missed \
+         what it needs\n{text}"
     );
+    let reactions = late["faults"][0]["reactions"].as_array().unwrap();
+    assert!(
+        reactions.iter().any(|r| r["action"]
+            .as_str()
+            .is_some_and(|a| a.starts_with("restart speech"))),
+        "the broker never restarted the speech after {speech}: {text}"
+    );
+    same
 }
 
 /// Every decision on `/lewis/broker` in a recording.
