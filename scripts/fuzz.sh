@@ -65,19 +65,20 @@ for manifest in */fuzz/Cargo.toml components/*/fuzz/Cargo.toml; do
         echo "== $package: $target, ${seconds} s" >&2
         # New inputs go to the first folder (scratch); the committed corpus is only read.
         result=ok
-        if ! (cd "$package" && cargo fuzz run "${flags[@]}" "$target" "$root/$found" "$root/$corpus" -- \
+        if ! (cd "$package" && cargo fuzz run "${flags[@]}" "$target" "$found" "$root/$corpus" -- \
             -max_total_time="$seconds" -timeout=10 -print_final_stats=1) >"$log" 2>&1; then
             result=CRASH
             failed=1
             tail -n 40 "$log" >&2
         fi
-        runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -n 1)
+        # A figure missing from the log (a crash before the end) stays empty: `|| true`.
+        runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -n 1) || true
         # The last status line (`#N DONE cov: C ft: F corp: U/S ...`) has the final figures.
-        status=$(grep -E '^#[0-9]+.*cov: ' "$log" | tail -n 1)
-        cov=$(grep -o 'cov: [0-9]*' <<<"$status" | grep -o '[0-9]*')
-        ft=$(grep -o 'ft: [0-9]*' <<<"$status" | grep -o '[0-9]*')
-        units=$(grep -o 'corp: [0-9]*' <<<"$status" | grep -o '[0-9]*')
-        artifact=$(grep -o 'Test unit written to [^ ]*' "$log" | tail -n 1 | sed 's/Test unit written to //')
+        status=$(grep -E '^#[0-9]+.*cov: ' "$log" | tail -n 1) || true
+        cov=$(grep -o 'cov: [0-9]*' <<<"$status" | grep -o '[0-9]*') || true
+        ft=$(grep -o 'ft: [0-9]*' <<<"$status" | grep -o '[0-9]*') || true
+        units=$(grep -o 'corp: [0-9]*' <<<"$status" | grep -o '[0-9]*') || true
+        artifact=$(grep -o 'Test unit written to [^ ]*' "$log" | tail -n 1 | sed 's/Test unit written to //') || true
         if ((update)) && [[ $result == ok ]]; then
             cp -n "$found"/* "$corpus"/ 2>/dev/null || true
             (cd "$package" && cargo fuzz cmin "${flags[@]}" "$target") >"$log" 2>&1 || tail -n 20 "$log" >&2
