@@ -24,7 +24,7 @@ step "clippy (no default features: lewis, drivers)" bash -c '
 # The docs build without a warning (they reuse the dependencies checked by clippy).
 step "cargo doc" env RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --workspace --locked --quiet
 # The fuzz targets, packages of their own, still compile (their own target folder, shared by
-# the five, so their common dependencies are checked once).
+# all of them, so their common dependencies are checked once).
 fuzz_check() {
     local manifest
     for manifest in */fuzz/Cargo.toml components/*/fuzz/Cargo.toml; do

@@ -20,6 +20,7 @@ mod robot_host;
 pub mod routes;
 mod schemas;
 pub mod session;
+pub mod wire;
 
 pub use error::BridgeError;
 pub use forward::{BRIDGE_NODE, ForwardOptions, Forwarder};

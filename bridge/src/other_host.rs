@@ -24,7 +24,7 @@ use zenoh::query::Query;
 use zenoh::sample::SampleKind;
 
 use crate::forward::{Wake, drain};
-use crate::robot_host::exit_text;
+use crate::wire::{self, Order, exit_text};
 use crate::{BridgeError, ForwardOptions, Forwarder, Heard, keys, session};
 
 /// How long a host waits for the robot host before it says it cannot reach it.
@@ -273,17 +273,16 @@ impl Host<'_> {
             .payload()
             .and_then(|p| p.try_to_string().ok().map(std::borrow::Cow::into_owned))
             .unwrap_or_default();
-        let answer = match text.split_once(' ') {
-            Some(("start", service)) => self.start(service.trim()),
-            Some(("stop", service)) => {
-                let service = service.trim();
+        let answer = match wire::parse_order(&text) {
+            Ok(Order::Start(service)) => self.start(service),
+            Ok(Order::Stop(service)) => {
                 if self.supervisor.signal(service, Signal::SIGTERM).is_ok() {
                     self.kills
                         .insert(service.to_owned(), Instant::now() + self.up.stop_grace);
                 }
                 Ok(0)
             }
-            _ => Err(format!("unknown order `{}`", text.escape_debug())),
+            Err(why) => Err(why),
         };
         let reply = match answer {
             Ok(pid) => format!("ok {pid}"),

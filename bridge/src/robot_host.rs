@@ -12,7 +12,6 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use lewis_robot::Robot;
-use lewis_runtime::broker::ExitStatus;
 use lewis_runtime::broker::remote::{HostEvent, RemoteHosts, RemoteStartError};
 use lewis_runtime::ipc::Namespace;
 use zenoh::Session;
@@ -20,7 +19,8 @@ use zenoh::Wait as _;
 use zenoh::sample::SampleKind;
 
 use crate::forward::{BEAT_PERIOD, Wake, drain};
-use crate::{BridgeError, ForwardOptions, Forwarder, Heard, keys, session};
+use crate::wire::parse_exit;
+use crate::{BridgeError, ForwardOptions, Forwarder, Heard, keys, session, wire};
 
 /// How long the robot host waits for another host's answer to a start.
 const ORDER_TIMEOUT: Duration = Duration::from_secs(1);
@@ -290,29 +290,6 @@ fn clock_offset_ns(timestamp: &zenoh::time::Timestamp) -> Option<i64> {
     }
 }
 
-/// `SERVICE code N` or `SERVICE signal N`, as another host's supervisor reports an exit.
-fn parse_exit(text: &str) -> Option<HostEvent> {
-    let mut words = text.split_whitespace();
-    let service = words.next()?.to_owned();
-    let how = words.next()?;
-    let number: i32 = words.next()?.parse().ok()?;
-    let status = match how {
-        "code" => ExitStatus::Code(number),
-        "signal" => ExitStatus::Signal(number),
-        _ => return None,
-    };
-    Some(HostEvent::Exited { service, status })
-}
-
-/// How another host's supervisor reports an exit ([`parse_exit`] reads it).
-#[must_use]
-pub(crate) fn exit_text(service: &str, status: ExitStatus) -> String {
-    match status {
-        ExitStatus::Code(code) => format!("{service} code {code}"),
-        ExitStatus::Signal(signal) => format!("{service} signal {signal}"),
-    }
-}
-
 impl RemoteHosts for RobotHost {
     fn start(&mut self, host: &str, service: &str) -> Result<u32, RemoteStartError> {
         let unreachable = |why: String| RemoteStartError::Unreachable(why);
@@ -333,16 +310,7 @@ impl RemoteHosts for RobotHost {
             RemoteStartError::Refused(e.payload().try_to_string().unwrap_or_default().into_owned())
         })?;
         let text = sample.payload().try_to_string().unwrap_or_default();
-        match text.split_once(' ') {
-            Some(("ok", pid)) => pid
-                .trim()
-                .parse()
-                .map_err(|_| RemoteStartError::Refused(format!("host {host} said `{text}`"))),
-            Some(("error", why)) => Err(RemoteStartError::Refused(format!("on {host}: {why}"))),
-            _ => Err(RemoteStartError::Refused(format!(
-                "host {host} said `{text}`"
-            ))),
-        }
+        wire::parse_answer(host, &text)
     }
 
     fn stop(&mut self, host: &str, service: &str) {
@@ -383,24 +351,5 @@ impl RemoteHosts for RobotHost {
 
     fn wake_fd(&self) -> BorrowedFd<'_> {
         self.wake_rx.as_fd()
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn exits_are_read_as_they_are_written() {
-        for status in [ExitStatus::Code(3), ExitStatus::Signal(9)] {
-            assert_eq!(
-                parse_exit(&exit_text("blobfinder", status)),
-                Some(HostEvent::Exited {
-                    service: "blobfinder".to_owned(),
-                    status
-                })
-            );
-        }
-        assert_eq!(parse_exit("blobfinder died"), None);
     }
 }

@@ -274,6 +274,11 @@ pub fn image(value: &Value) -> Result<(u32, u32, Vec<u8>), ImageError> {
     let step = unsigned(value, "step")? as usize;
     let data = bytes(value, "data")?;
     let (w, h) = (width as usize, height as usize);
+    // A width of 0 needs no bytes whatever the height: 4 billion empty rows held the
+    // gateway for seconds (a timeout of ros2-map/fuzz's ros2_samples).
+    if w == 0 || h == 0 {
+        return Err(ImageError::Bad(format!("{width}x{height}: no pixels")));
+    }
     let bytes_per_pixel = match encoding {
         "mono8" => 1,
         "rgb8" | "bgr8" => 3,
@@ -430,6 +435,21 @@ mod tests {
         assert!(matches!(image(&short), Err(ImageError::Bad(r)) if r.contains("needs 12 bytes")));
         let impossible = raw("rgb8", 4, 2, 6, vec![0; 100]);
         assert!(matches!(image(&impossible), Err(ImageError::Bad(_))));
+    }
+
+    #[test]
+    fn an_image_of_no_pixels_is_refused_at_once() {
+        // The fuzzer's input: no width, 2^32 - 1 rows of no bytes, which took seconds.
+        for encoding in ["mono8", "yuv422"] {
+            let empty = raw(encoding, 0, u64::from(u32::MAX), 0, Vec::new());
+            let started = std::time::Instant::now();
+            assert!(matches!(image(&empty), Err(ImageError::Bad(r)) if r.contains("no pixels")));
+            assert!(started.elapsed() < std::time::Duration::from_millis(100));
+        }
+        assert!(matches!(
+            image(&raw("rgb8", 2, 0, 6, Vec::new())),
+            Err(ImageError::Bad(_))
+        ));
     }
 
     #[test]
