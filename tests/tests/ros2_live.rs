@@ -274,6 +274,8 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
             lewis_testkit::skip_unless_ci!("no network namespace for the ROS 2 test: {why}")
         }
     };
+    // Built (when the tests are run without LEWIS_EXE) before the peer's clock starts.
+    let lewis = lewis_exe();
     // A domain of its own as well (the namespace already keeps every other test away).
     let domain = u16::try_from(std::process::id() % 200).unwrap() + 20;
     let mut peer = Peer::start(&netns, domain);
@@ -285,7 +287,7 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
         "robot_radius_m = 0.18\n",
         "robot_radius_m = 0.18\nno_progress_timeout_ms = 120000\nfail_after_ms = 120000\n",
     );
-    let mut command = netns.command(lewis_exe());
+    let mut command = netns.command(&lewis);
     command.env("ROS_DOMAIN_ID", domain.to_string());
     let dir = tempfile::tempdir().unwrap();
     let namespace = Namespace::unique("ros2-live");
@@ -469,7 +471,7 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
         .find(|p| p.extension().is_some_and(|e| e == "mcap"))
         .expect("lewis up recorded the session");
     let replay = lewis_testkit::run_ok(
-        Command::new(lewis_exe())
+        Command::new(&lewis)
             .arg("replay")
             .arg(&recording)
             .arg("--check")
