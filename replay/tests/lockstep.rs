@@ -7,6 +7,7 @@
 // Test helpers fail the test by panicking, like the tests that call them.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
 use lewis_emulators::testing::range::{Params, Room, SyntheticScanner};
@@ -190,19 +191,118 @@ fn make_recording_of(
     offset_m: f64,
     hosts: &[(i64, &str, &str, &str)],
 ) -> PathBuf {
-    make_recording_with(dir, robot, duration_ms, offset_m, hosts, 0)
+    make_recording_with(dir, robot, duration_ms, offset_m, hosts, Live::default())
 }
 
-/// As [`make_recording_of`], the consumer's process coming up (its first heartbeat)
-/// `consumer_up_ms` after the start: scans published before then reach it as the laser
-/// channel's history, all at once when it comes up.
+/// How the recorded live run went, where it differs from the plain one.
+#[derive(Debug, Clone, Copy, Default)]
+struct Live {
+    /// When the consumer's process came up (its first heartbeat), from the start: it
+    /// subscribed as it started, so the scan published before then waits in its buffer.
+    consumer_up_ms: i64,
+    /// What befalls the laser, the sonar running from the start at 5 Hz (none: the sonar
+    /// never runs).
+    laser: Option<LaserTrouble>,
+}
+
+/// What befalls the laser in a [`Live`] run.
+#[derive(Debug, Clone, Copy)]
+enum LaserTrouble {
+    /// It stalls for good at this time (no heartbeat nor scan from then on); the broker
+    /// moves the consumer to the sonar 50 ms later (its deadline).
+    Stalls { at_ms: i64 },
+    /// It says it is out of service from `from_ms` until `to_ms` and publishes no scan
+    /// then; the broker moves the consumer to the sonar as it says so, and back as it says
+    /// it is ready again. The consumer takes in the move back late: the sonar's next scan
+    /// still reaches it.
+    OutOfService { from_ms: i64, to_ms: i64 },
+}
+
+/// The time of the generator's first 10 ms step at or after `ms` from the start (steps
+/// are at 2 ms, 12 ms, ...).
+fn step_at_or_after(ms: i64) -> i64 {
+    T0 + 2 * MS + ((ms - 2).max(0) + 9) / 10 * 10 * MS
+}
+
+/// The robot whose sonar runs from the start (see [`Live::laser`]), its clients moving
+/// back to the laser when it is ready again.
+fn robot_with_sonar_running() -> String {
+    ROBOT
+        .replacen(
+            "name = \"sonar\"\n",
+            "name = \"sonar\"\nstart = \"always\"\n",
+            1,
+        )
+        .replacen(
+            "data_checks = true\n",
+            "data_checks = true\nfail_back = true\n",
+            1,
+        )
+}
+
+/// What the consumer's RangeFinder subscriber got live, as iceoryx2 delivers: a sample of
+/// its provider as it is published (or as the consumer comes up, for one published before);
+/// after a move, the new provider's history (its sample before) with its next sample; with
+/// `late`, the old provider's next sample still, the consumer taking in the move after it.
+struct ConsumerSubscriber {
+    /// The moves still to come: when, and to which provider.
+    moves: VecDeque<(i64, &'static str)>,
+    late: bool,
+    up_ns: i64,
+    provider: &'static str,
+    history_due: bool,
+    /// The provider left behind whose next sample still reaches the consumer.
+    leaving: Option<&'static str>,
+    /// Each provider's newest sample: its channel's history.
+    newest: BTreeMap<&'static str, RangeFinder>,
+    /// What the consumer handled: when, from which provider.
+    handled: Vec<(i64, &'static str, RangeFinder)>,
+}
+
+impl ConsumerSubscriber {
+    fn new(moves: Vec<(i64, &'static str)>, late: bool, up_ns: i64) -> Self {
+        Self {
+            moves: moves.into(),
+            late,
+            up_ns,
+            provider: "laser",
+            history_due: false,
+            leaving: None,
+            newest: BTreeMap::new(),
+            handled: Vec::new(),
+        }
+    }
+
+    fn published(&mut self, provider: &'static str, at_ns: i64, scan: RangeFinder) {
+        while let Some((_, to)) = self.moves.pop_front_if(|(m, _)| *m <= at_ns) {
+            self.leaving = self.late.then_some(self.provider);
+            self.provider = to;
+            self.history_due = true;
+        }
+        let handled_at = (at_ns + MS).max(self.up_ns + MS);
+        if provider == self.provider {
+            if std::mem::take(&mut self.history_due)
+                && let Some(history) = self.newest.get(provider)
+            {
+                self.handled.push((handled_at, provider, history.clone()));
+            }
+            self.handled.push((handled_at, provider, scan.clone()));
+        } else if self.leaving == Some(provider) {
+            self.leaving = None;
+            self.handled.push((handled_at, provider, scan.clone()));
+        }
+        self.newest.insert(provider, scan);
+    }
+}
+
+/// As [`make_recording_of`], the run going as `live` says.
 fn make_recording_with(
     dir: &Path,
     robot: &str,
     duration_ms: i64,
     offset_m: f64,
     hosts: &[(i64, &str, &str, &str)],
-    consumer_up_ms: i64,
+    live: Live,
 ) -> PathBuf {
     let path = dir.join("run.mcap");
     let mut options = RecorderOptions::new(&path);
@@ -234,6 +334,12 @@ fn make_recording_with(
     let consumer_health =
         w.channel::<HealthMessage>("consumer", &names::health_channel("consumer"));
     let scans = w.channel::<RangeFinder>("laser", &names::data_channel("laser", "RangeFinder"));
+    let sonar = live.laser.map(|_| {
+        (
+            w.channel::<HealthMessage>("sonar", &names::health_channel("sonar")),
+            w.channel::<RangeFinder>("sonar", &names::data_channel("sonar", "RangeFinder")),
+        )
+    });
     let distances = w.channel::<Distance>("consumer", &names::data_channel("consumer", "Distance"));
     let commands = w.channel::<CommandLog>("laser", &names::command_log_channel("laser"));
     // Many publishers, each numbering its own: the copy must keep saying so.
@@ -255,7 +361,7 @@ fn make_recording_with(
         );
     }
 
-    let decisions = [
+    let mut decisions = vec![
         (
             T0,
             Action::Start {
@@ -277,6 +383,50 @@ fn make_recording_with(
             },
         ),
     ];
+    // When the broker moved the consumer, to which provider; whether the consumer took in
+    // the moves late.
+    let (moves, late): (Vec<(i64, &str)>, bool) = match live.laser {
+        None => (Vec::new(), false),
+        // The broker's deadline is 50 ms after the laser's last heartbeat.
+        Some(LaserTrouble::Stalls { at_ms }) => (vec![(T0 + (at_ms + 50) * MS, "sonar")], false),
+        // As the laser's health says so, 3 ms into a step.
+        Some(LaserTrouble::OutOfService { from_ms, to_ms }) => (
+            vec![
+                (step_at_or_after(from_ms) + 3 * MS, "sonar"),
+                (step_at_or_after(to_ms) + 3 * MS, "laser"),
+            ],
+            true,
+        ),
+    };
+    if live.laser.is_some() {
+        decisions.push((
+            T0 + MS,
+            Action::Start {
+                service: "sonar".into(),
+            },
+        ));
+    }
+    if let Some(LaserTrouble::Stalls { .. }) = live.laser {
+        decisions.push((
+            moves[0].0,
+            Action::ServiceFailed {
+                service: "laser".into(),
+            },
+        ));
+    }
+    let mut from = "laser";
+    for &(at_ns, to) in &moves {
+        decisions.push((
+            at_ns,
+            Action::Rebind {
+                client: "consumer".into(),
+                interface: "RangeFinder".into(),
+                from: from.into(),
+                to: to.into(),
+            },
+        ));
+        from = to;
+    }
     for (seq, (at_ns, action)) in (1..).zip(decisions) {
         let message = decision_message(&Decision {
             at_ns,
@@ -304,7 +454,7 @@ fn make_recording_with(
         ..RangeFinderGetGeometryReply::default()
     };
     // The consumer asks for the geometry as it starts.
-    let up = T0 + consumer_up_ms * MS;
+    let up = T0 + live.consumer_up_ms * MS;
     let request = stamp(
         RangeFinderGetGeometry::default(),
         "consumer",
@@ -324,7 +474,30 @@ fn make_recording_with(
     w.write(commands, replied_at, &stamp(log, "laser", 1, replied_at));
 
     let end = T0 + duration_ms * MS;
-    let (mut health_seq, mut scan_seq) = (0, 0);
+    let stall = match live.laser {
+        Some(LaserTrouble::Stalls { at_ms }) => T0 + at_ms * MS,
+        _ => i64::MAX,
+    };
+    let out_of_service = match live.laser {
+        Some(LaserTrouble::OutOfService { from_ms, to_ms }) => {
+            step_at_or_after(from_ms)..step_at_or_after(to_ms)
+        }
+        _ => 0..0,
+    };
+    let sonar_scanner = SyntheticScanner::new(
+        &Params {
+            beams: 24,
+            field_of_view_deg: 360.0,
+            max_range_m: 5.0,
+            rate_hz: 5.0,
+            noise_m: 0.05,
+            ..Params::default()
+        },
+        Room::DEFAULT,
+    );
+    let mut subscriber = ConsumerSubscriber::new(moves, late, up);
+    let (mut health_seq, mut distance_seq) = (0, 0);
+    let (mut scan_seq, mut sonar_seq) = (0, 0);
     let mut t = T0 + 2 * MS;
     while t <= end {
         health_seq += 1;
@@ -339,12 +512,27 @@ fn make_recording_with(
                 &stamp(ok.clone(), "consumer", health_seq, t),
             );
         }
-        w.write(
-            laser_health,
-            t + 3 * MS,
-            &stamp(ok, "laser", health_seq, t + 3 * MS),
-        );
-        if (t - T0 - 2 * MS) % (100 * MS) == 0 && t > T0 + 50 * MS {
+        if t < stall {
+            let health = if out_of_service.contains(&t) {
+                HealthMessage {
+                    state: "out-of-service".into(),
+                    reason: "no scan".into(),
+                    ..HealthMessage::default()
+                }
+            } else {
+                ok.clone()
+            };
+            w.write(
+                laser_health,
+                t + 3 * MS,
+                &stamp(health, "laser", health_seq, t + 3 * MS),
+            );
+        }
+        if (t - T0 - 2 * MS) % (100 * MS) == 0
+            && t > T0 + 50 * MS
+            && t < stall
+            && !out_of_service.contains(&t)
+        {
             scan_seq += 1;
             let scan_at = t + 5 * MS;
             let scan = stamp(
@@ -354,22 +542,44 @@ fn make_recording_with(
                 scan_at,
             );
             w.write(scans, scan_at, &scan);
+            subscriber.published("laser", scan_at, scan);
+        }
+        if let Some((sonar_health, sonar_scans)) = sonar {
+            w.write(
+                sonar_health,
+                t + 4 * MS,
+                &stamp(ok, "sonar", health_seq, t + 4 * MS),
+            );
+            if (t - T0 - 2 * MS) % (200 * MS) == 0 && t > T0 + 50 * MS {
+                sonar_seq += 1;
+                let scan_at = t + 6 * MS;
+                let scan = stamp(
+                    sonar_scanner.range_finder(sonar_scanner.ranges(&mut rng)),
+                    "sonar",
+                    sonar_seq,
+                    scan_at,
+                );
+                w.write(sonar_scans, scan_at, &scan);
+                subscriber.published("sonar", scan_at, scan);
+            }
+        }
+        for (handled_at, provider, scan) in subscriber.handled.drain(..) {
             // A scan from the history is handled before the geometry's reply came.
-            let handled_at = (scan_at + MS).max(up + MS);
             let max_range_m = if handled_at < replied_at {
                 0.0
             } else {
                 params.max_range_m
             };
+            distance_seq += 1;
             let mut distance = stamp(
                 consumer_distance(&scan, offset_m, max_range_m),
                 "consumer",
-                scan_seq,
+                distance_seq,
                 handled_at,
             );
             distance.header.inputs = vec![lewis_interfaces::msg::InputRef {
-                channel: names::data_channel("laser", "RangeFinder"),
-                seq: scan_seq,
+                channel: names::data_channel(provider, "RangeFinder"),
+                seq: scan.header.seq,
             }];
             w.write(distances, handled_at, &distance);
         }
@@ -442,7 +652,11 @@ fn a_client_bound_after_a_sample_gets_it_as_the_channels_history() {
     // The consumer came up after the laser's first scan: live, its new subscriber got
     // that scan from the channel's history, and its first distance stands on it.
     let dir = tempfile::tempdir().unwrap();
-    let input = make_recording_with(dir.path(), ROBOT, 2000, 0.25, &[], 150);
+    let live = Live {
+        consumer_up_ms: 150,
+        ..Live::default()
+    };
+    let input = make_recording_with(dir.path(), ROBOT, 2000, 0.25, &[], live);
     let report = run(
         &input,
         &dir.path().join("out.mcap"),
@@ -455,6 +669,71 @@ fn a_client_bound_after_a_sample_gets_it_as_the_channels_history() {
     assert_eq!(
         (distance.recorded, distance.resimulated, distance.differing),
         (19, 19, 0),
+        "{report}"
+    );
+}
+
+#[test]
+fn a_client_moved_to_a_running_provider_gets_its_history_with_its_next_sample() {
+    // Live, the laser stalled at 1.5 s and the broker moved the consumer to the sonar at
+    // 1.55 s; the sonar had run all along. The consumer's new subscriber got the sonar's scan
+    // of 1.408 s (its history) only with the next one, at 1.608 s: a run that ended before
+    // then had no distance from the sonar at all, one that went on had two at 1.609 s (and
+    // one more at 1.809 s).
+    for (duration_ms, from_sonar) in [(1600, 0), (2000, 3)] {
+        let dir = tempfile::tempdir().unwrap();
+        let live = Live {
+            laser: Some(LaserTrouble::Stalls { at_ms: 1500 }),
+            ..Live::default()
+        };
+        let robot = robot_with_sonar_running();
+        let input = make_recording_with(dir.path(), &robot, duration_ms, 0.25, &[], live);
+        let report = run(
+            &input,
+            &dir.path().join("out.mcap"),
+            &[],
+            ServiceSelection::NonSources,
+        )
+        .unwrap();
+        assert!(report.check.passed, "{duration_ms} ms: {report}");
+        let distance = &report.divergence[0];
+        assert_eq!(
+            (distance.recorded, distance.resimulated, distance.differing),
+            (14 + from_sonar, 14 + from_sonar, 0),
+            "{duration_ms} ms: {report}"
+        );
+    }
+}
+
+#[test]
+fn a_client_slow_to_take_in_a_move_still_gets_what_the_old_provider_sent_meanwhile() {
+    // Live, the laser was out of service from 1 s to 1.3 s: the consumer moved to the sonar
+    // and back. It took in the move back only after the sonar's scan of 1.408 s, which it
+    // handled: the recording names that scan, so the replay hands it over too.
+    let dir = tempfile::tempdir().unwrap();
+    let live = Live {
+        laser: Some(LaserTrouble::OutOfService {
+            from_ms: 1000,
+            to_ms: 1300,
+        }),
+        ..Live::default()
+    };
+    let robot = robot_with_sonar_running();
+    let input = make_recording_with(dir.path(), &robot, 2000, 0.25, &[], live);
+    let report = run(
+        &input,
+        &dir.path().join("out.mcap"),
+        &[],
+        ServiceSelection::NonSources,
+    )
+    .unwrap();
+    assert!(report.check.passed, "{report}");
+    let distance = &report.divergence[0];
+    // 16 scans of the laser and its history again after the move back; the sonar's
+    // history, 2 scans of its own and the one after the move back.
+    assert_eq!(
+        (distance.recorded, distance.resimulated, distance.differing),
+        (21, 21, 0),
         "{report}"
     );
 }

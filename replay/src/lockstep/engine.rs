@@ -3,7 +3,7 @@
 //! (or holding them back, see [`super::script`]) and carrying out what a handler did.
 
 use std::borrow::Cow;
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 
 use lewis_interfaces::msg::InputRef;
@@ -19,7 +19,7 @@ use lewis_service::{
 use super::backend::{Effect, StepBackend};
 use super::calls::ReplyTo;
 use super::faults::{SIGABRT, injected_out_of_service};
-use super::{Emitted, Feed, Gap, Lockstep, Sink};
+use super::{Emitted, Feed, Gap, Lockstep, Sink, script};
 use crate::fault::FaultKind;
 
 /// The longest a start is held back to when the service came up live: a process's start
@@ -43,10 +43,13 @@ pub(super) struct Sim {
     pub(super) commands_answered: u64,
     /// Samples held back until its next recorded event ([`Work::Input`] only).
     pub(super) held: VecDeque<Work>,
+    /// The interfaces it has been bound for in this life: binding one again later is a new
+    /// subscriber of a running process.
+    pub(super) subscribed: BTreeSet<String>,
 }
 
 /// A provider's newest sample on an interface: the history (depth 1) of its sensor
-/// channel, which a client that subscribes after it was published still gets.
+/// channel, which a client that subscribes after it was published gets with the next.
 pub(super) struct Latest {
     channel: Arc<str>,
     seq: u64,
@@ -148,7 +151,8 @@ impl Lockstep<'_> {
     }
 
     /// Hands a provider's sample to the broker's data checks, then to every re-simulated
-    /// client bound to it.
+    /// client bound to it; a client whose subscriber is new gets the channel's history
+    /// (the provider's sample before this one) first.
     pub(super) fn deliver(
         &mut self,
         provider: &str,
@@ -159,7 +163,7 @@ impl Lockstep<'_> {
     ) {
         self.check_data(provider, interface, bytes);
         let bytes: Arc<[u8]> = Arc::from(bytes);
-        self.latest.insert(
+        let history = self.latest.insert(
             (provider.to_owned(), interface.to_owned()),
             Latest {
                 channel: channel.clone(),
@@ -175,7 +179,46 @@ impl Lockstep<'_> {
             })
             .map(|((client, _), _)| client.clone())
             .collect();
+        // Live, a client moved away had not taken in the move yet when its next recorded
+        // event names this sample (shortly after the move: a replay gone another way does
+        // not keep it on the old provider).
+        let not_yet_moved: Vec<String> = self
+            .left
+            .iter()
+            .filter(|((client, i), (p, moved_ns))| {
+                i == interface
+                    && p == provider
+                    && self.now_ns - moved_ns < script::MAX_HOLD_NS
+                    && self.sims.contains_key(client)
+                    && self.script.next_names(client, channel, seq)
+            })
+            .map(|((client, _), _)| client.clone())
+            .collect();
+        for client in not_yet_moved {
+            self.work.push_back(Work::Input {
+                client,
+                interface: interface.to_owned(),
+                provider: provider.to_owned(),
+                channel: channel.clone(),
+                seq,
+                published_ns: self.now_ns,
+                bytes: bytes.clone(),
+            });
+        }
         for client in clients {
+            let key = (client.clone(), interface.to_owned());
+            let due = self.history_due.remove(&key);
+            if let Some(history) = history.as_ref().filter(|_| due) {
+                self.work.push_back(Work::Input {
+                    client: client.clone(),
+                    interface: interface.to_owned(),
+                    provider: provider.to_owned(),
+                    channel: history.channel.clone(),
+                    seq: history.seq,
+                    published_ns: self.now_ns,
+                    bytes: history.bytes.clone(),
+                });
+            }
             self.work.push_back(Work::Input {
                 client,
                 interface: interface.to_owned(),
@@ -530,7 +573,11 @@ impl Lockstep<'_> {
             Action::Unbind {
                 client, interface, ..
             } => {
-                self.bindings.remove(&(client.clone(), interface.clone()));
+                let key = (client.clone(), interface.clone());
+                self.history_due.remove(&key);
+                if let Some(old) = self.bindings.remove(&key) {
+                    self.left.insert(key, (old, self.now_ns));
+                }
             }
             Action::ServiceFailed { service, .. } => {
                 self.forget_restart(service);
@@ -545,33 +592,51 @@ impl Lockstep<'_> {
         }
     }
 
-    /// Binds `client` to `provider` for `interface`. A re-simulated client gets the
-    /// provider's newest sample at once, as its new subscriber gets the channel's history
-    /// live (the sample is held back like any other when the recording says the client had
-    /// not received it yet).
+    /// Binds `client` to `provider` for `interface`, as its subscriber sees it live:
+    /// - The first binding of an interface in a client's life is made as the process starts,
+    ///   before its first heartbeat (where the replay starts it): what the provider published
+    ///   since waited in the subscriber's buffer, so the provider's newest sample is handed at
+    ///   once (held back like any other when the recording says it had not arrived yet).
+    /// - A running client moved to another provider gets a new subscriber, which iceoryx2
+    ///   connects, and hands the channel's history (depth 1), when the provider next
+    ///   publishes: the provider's sample before that one comes with it, and nothing before
+    ///   (a rebind in a run's last moments hands over nothing). Until it takes in the move
+    ///   (when it next wakes), the old provider's samples still reach it: those the
+    ///   recording says it had are handed over ([`Lockstep::deliver`]).
     fn bind(&mut self, client: &str, interface: &str, provider: &str) {
-        let before = self.bindings.insert(
-            (client.to_owned(), interface.to_owned()),
-            provider.to_owned(),
-        );
+        let key = (client.to_owned(), interface.to_owned());
+        let before = self.bindings.insert(key.clone(), provider.to_owned());
+        let Some(sim) = self.sims.get_mut(client) else {
+            return;
+        };
+        let first = sim.subscribed.insert(interface.to_owned());
         // A binding said again (a client asking again) subscribes nothing new.
-        if before.as_deref() == Some(provider) || !self.sims.contains_key(client) {
+        if !first && before.as_deref() == Some(provider) {
             return;
         }
-        if let Some(latest) = self
-            .latest
-            .get(&(provider.to_owned(), interface.to_owned()))
-        {
-            self.work.push_back(Work::Input {
-                client: client.to_owned(),
-                interface: interface.to_owned(),
-                provider: provider.to_owned(),
-                channel: latest.channel.clone(),
-                seq: latest.seq,
-                published_ns: self.now_ns,
-                bytes: latest.bytes.clone(),
-            });
+        self.history_due.remove(&key);
+        self.left.remove(&key);
+        if first {
+            if let Some(latest) = self
+                .latest
+                .get(&(provider.to_owned(), interface.to_owned()))
+            {
+                self.work.push_back(Work::Input {
+                    client: client.to_owned(),
+                    interface: interface.to_owned(),
+                    provider: provider.to_owned(),
+                    channel: latest.channel.clone(),
+                    seq: latest.seq,
+                    published_ns: self.now_ns,
+                    bytes: latest.bytes.clone(),
+                });
+            }
+            return;
         }
+        if let Some(old) = before {
+            self.left.insert(key.clone(), (old, self.now_ns));
+        }
+        self.history_due.insert(key);
     }
 
     /// A provider whose process ended: its channels' history went with its publisher.
@@ -617,6 +682,7 @@ impl Lockstep<'_> {
         sim.stalled = stalling;
         sim.commands_answered = 0;
         sim.held.clear();
+        sim.subscribed.clear();
         let generation = sim.generation;
         if let Ok(instance) = self.registry.build(&config) {
             sim.tick_period_ns = instance.tick_period_ns().filter(|p| *p > 0);

@@ -22,7 +22,7 @@
 //! choice), else the script's suggestion, else `stop`; [`Answer`] says which. Every record
 //! the sequencer makes goes to the sink, as live it goes to `/lewis/sequencer`.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeSet, VecDeque};
 use std::path::{Path, PathBuf};
 
 use lewis_runtime::broker::Event as BrokerEvent;
@@ -405,6 +405,7 @@ impl<'a> Lockstep<'a> {
             tick_period_ns,
             commands_answered: 0,
             held: VecDeque::new(),
+            subscribed: BTreeSet::new(),
         };
         self.sims.insert(name.clone(), sim);
         if let Some(run) = self.mission.as_mut() {

@@ -36,6 +36,12 @@
 //!   newest sample of every input it stood on. A sample that the service's next recorded
 //!   event says it had not received yet is held back and handed over right after that
 //!   event ([`script`]); every other sample is handed over at its own time.
+//! - **Subscribes when it subscribed.** A data channel keeps its newest sample (history
+//!   1). A client bound as it starts subscribed before its first heartbeat, where the
+//!   replay starts it, so it gets the provider's newest sample at once; a running client
+//!   moved to another provider gets that provider's history only with its next sample, as
+//!   iceoryx2 connects a late subscriber when the publisher next sends; until it takes in
+//!   the move, the old provider's samples its recorded events name still reach it.
 //! - **Takes up calls when it took them up.** A call from another re-simulated service
 //!   whose request bytes equal a recorded one (same caller, same sequence number, same
 //!   virtual time, same arguments) reaches it at the time its recorded command log says;
@@ -310,9 +316,15 @@ pub struct Lockstep<'a> {
     /// and interface: what the fault repeats.
     last_good: BTreeMap<(String, String), Vec<u8>>,
     /// The newest sample of each provider's channel of each interface, by provider and
-    /// interface: what a client bound to it later gets at once, as a late joiner gets a
-    /// sensor channel's history live.
+    /// interface: the channel's history, which a client bound to it later gets.
     latest: BTreeMap<(String, String), engine::Latest>,
+    /// Clients, by interface, whose binding changed and whose new subscriber has not had
+    /// the channel's history yet (it comes with the provider's next sample).
+    history_due: BTreeSet<(String, String)>,
+    /// The provider each client was last moved away from and when, by client and
+    /// interface: live, the client takes in a rebind when it next wakes, and the old
+    /// provider's samples that came before then still reach it (the recording names them).
+    left: BTreeMap<(String, String), (String, i64)>,
 }
 
 impl std::fmt::Debug for Lockstep<'_> {
@@ -363,6 +375,7 @@ impl<'a> Lockstep<'a> {
                     tick_period_ns: None,
                     commands_answered: 0,
                     held: VecDeque::new(),
+                    subscribed: BTreeSet::new(),
                 },
             );
         }
@@ -415,6 +428,8 @@ impl<'a> Lockstep<'a> {
             watches: BTreeMap::new(),
             last_good: BTreeMap::new(),
             latest: BTreeMap::new(),
+            history_due: BTreeSet::new(),
+            left: BTreeMap::new(),
         };
         for i in 0..harness.faults.len() {
             let (at, until) = (harness.faults[i].at_ns, harness.faults[i].until_ns);

@@ -217,6 +217,16 @@ impl Script {
         next.inputs.get(channel).copied().unwrap_or(0) < seq
     }
 
+    /// Whether the next recorded event of `service` names sample `seq` of `channel` or a
+    /// newer one: live, that sample had reached it.
+    pub fn next_names(&self, service: &str, channel: &str, seq: u64) -> bool {
+        self.services
+            .get(service)
+            .and_then(|script| script.events.first_key_value())
+            .and_then(|(_, event)| event.inputs.get(channel))
+            .is_some_and(|named| *named >= seq)
+    }
+
     /// `server` took up, at `taken_ns`, a call from the re-simulated `caller` whose request
     /// bytes were `request`.
     pub fn expect_call(&mut self, server: &str, caller: &str, request: &[u8], taken_ns: i64) {
