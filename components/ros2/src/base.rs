@@ -456,15 +456,17 @@ impl Service for Base {
         ));
         // A fresh base (also one restarted after a kill) holds the robot still, first with
         // a zero twist the robot acknowledged (so it knows this writer), then for
-        // `start_hold_ms` whatever is commanded.
-        let now = ctx.now();
-        self.commander.stop(now);
-        self.hold_until_ns =
-            Some(now + i64::try_from(self.params.start_hold_ms.get()).unwrap_or(0) * 1_000_000);
+        // `start_hold_ms` whatever is commanded. The hold counts from the acknowledgement:
+        // a reader that matched this writer after the first twist may acknowledge it
+        // without having it (a volatile reader gets nothing written before it matched),
+        // and the wait can outlast the hold on a loaded machine; zeros sent after it arrive.
+        self.commander.stop(ctx.now());
         self.send(ctx, 0.0, 0.0);
         if let Some(writer) = &self.writer {
             let _ = writer.wait_for_acknowledgments(self.params.match_wait_ms.duration());
         }
+        let hold_ns = i64::try_from(self.params.start_hold_ms.get()).unwrap_or(0) * 1_000_000;
+        self.hold_until_ns = Some(ctx.now() + hold_ns);
         self.on_tick(ctx);
         Ok(())
     }
