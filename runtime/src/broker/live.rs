@@ -336,6 +336,11 @@ struct Driver<'r> {
     cleaner: NodeCleaner,
     /// The cleanup tickets asked for at each service's last two exits.
     exit_cleanups: BTreeMap<String, ExitCleanups>,
+    /// The process id each service of another host last had there.
+    remote_pids: BTreeMap<String, u32>,
+    /// What a process of another host that lived on through its host's loss asks again
+    /// (see [`Driver::carry_out_remote`]), to be handed to the core after its start.
+    asked_again: Vec<Event>,
     decisions_out: Publisher,
     server: CommandServer,
     health: Vec<(String, Subscriber)>,
@@ -438,6 +443,8 @@ impl<'r> Driver<'r> {
             ipc,
             cleaner,
             exit_cleanups: BTreeMap::new(),
+            remote_pids: BTreeMap::new(),
+            asked_again: Vec::new(),
             decisions_out,
             server,
             health,
@@ -608,6 +615,7 @@ impl<'r> Driver<'r> {
                 if let Some(next) = self.carry_out(&decision.action) {
                     queue.push_back(next);
                 }
+                queue.extend(self.asked_again.drain(..));
                 all.push(decision);
             }
         }
@@ -794,6 +802,19 @@ impl<'r> Driver<'r> {
             Action::Start { .. } => Some(match remote.start(host, service) {
                 Ok(pid) => {
                     tracing::debug!(service, "started on {host} (pid {pid})");
+                    // Its process lived on through its host's loss (the robot host judged
+                    // the host lost, the host did not judge the robot host so): it asked
+                    // for its inputs once, as it started, and the core dropped those
+                    // requests with the host. They are asked again for it.
+                    if self.remote_pids.insert(service.to_owned(), pid) == Some(pid)
+                        && let Some(spec) = self.robot.service(service)
+                    {
+                        self.asked_again
+                            .extend(spec.requires.iter().map(|interface| Event::ClientRequest {
+                                client: service.to_owned(),
+                                interface: interface.clone(),
+                            }));
+                    }
                     Event::ProviderStarted {
                         service: service.to_owned(),
                     }
