@@ -627,6 +627,20 @@ fn replay_robot(
     .unwrap()
 }
 
+/// Replays, re-simulating every service but the sources, `duration_ms` of `robot` run live
+/// as `live` says ([`make_recording_with`]).
+fn replay_live(robot: &str, duration_ms: i64, live: Live) -> Report {
+    let dir = tempfile::tempdir().unwrap();
+    let input = make_recording_with(dir.path(), robot, duration_ms, 0.25, &[], live);
+    run(
+        &input,
+        &dir.path().join("out.mcap"),
+        &[],
+        ServiceSelection::NonSources,
+    )
+    .unwrap()
+}
+
 #[test]
 fn a_replay_without_faults_matches_the_recording() {
     let dir = tempfile::tempdir().unwrap();
@@ -651,19 +665,11 @@ fn a_replay_without_faults_matches_the_recording() {
 fn a_client_bound_after_a_sample_gets_it_as_the_channels_history() {
     // The consumer came up after the laser's first scan: live, its new subscriber got
     // that scan from the channel's history, and its first distance stands on it.
-    let dir = tempfile::tempdir().unwrap();
     let live = Live {
         consumer_up_ms: 150,
         ..Live::default()
     };
-    let input = make_recording_with(dir.path(), ROBOT, 2000, 0.25, &[], live);
-    let report = run(
-        &input,
-        &dir.path().join("out.mcap"),
-        &[],
-        ServiceSelection::NonSources,
-    )
-    .unwrap();
+    let report = replay_live(ROBOT, 2000, live);
     assert!(report.check.passed, "{report}");
     let distance = &report.divergence[0];
     assert_eq!(
@@ -681,20 +687,11 @@ fn a_client_moved_to_a_running_provider_gets_its_history_with_its_next_sample() 
     // then had no distance from the sonar at all, one that went on had two at 1.609 s (and
     // one more at 1.809 s).
     for (duration_ms, from_sonar) in [(1600, 0), (2000, 3)] {
-        let dir = tempfile::tempdir().unwrap();
         let live = Live {
             laser: Some(LaserTrouble::Stalls { at_ms: 1500 }),
             ..Live::default()
         };
-        let robot = robot_with_sonar_running();
-        let input = make_recording_with(dir.path(), &robot, duration_ms, 0.25, &[], live);
-        let report = run(
-            &input,
-            &dir.path().join("out.mcap"),
-            &[],
-            ServiceSelection::NonSources,
-        )
-        .unwrap();
+        let report = replay_live(&robot_with_sonar_running(), duration_ms, live);
         assert!(report.check.passed, "{duration_ms} ms: {report}");
         let distance = &report.divergence[0];
         assert_eq!(
@@ -710,7 +707,6 @@ fn a_client_slow_to_take_in_a_move_still_gets_what_the_old_provider_sent_meanwhi
     // Live, the laser was out of service from 1 s to 1.3 s: the consumer moved to the sonar
     // and back. It took in the move back only after the sonar's scan of 1.408 s, which it
     // handled: the recording names that scan, so the replay hands it over too.
-    let dir = tempfile::tempdir().unwrap();
     let live = Live {
         laser: Some(LaserTrouble::OutOfService {
             from_ms: 1000,
@@ -718,15 +714,7 @@ fn a_client_slow_to_take_in_a_move_still_gets_what_the_old_provider_sent_meanwhi
         }),
         ..Live::default()
     };
-    let robot = robot_with_sonar_running();
-    let input = make_recording_with(dir.path(), &robot, 2000, 0.25, &[], live);
-    let report = run(
-        &input,
-        &dir.path().join("out.mcap"),
-        &[],
-        ServiceSelection::NonSources,
-    )
-    .unwrap();
+    let report = replay_live(&robot_with_sonar_running(), 2000, live);
     assert!(report.check.passed, "{report}");
     let distance = &report.divergence[0];
     // 16 scans of the laser and its history again after the move back; the sonar's

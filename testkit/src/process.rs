@@ -204,6 +204,24 @@ impl Watched {
     }
 }
 
+/// The process of Lewis service `service` (`lewis service NAME`) descended from `pid`,
+/// found by its command line: for a process the local broker does not report (one on
+/// another host).
+///
+/// # Panics
+/// When `/proc` cannot be read.
+#[must_use]
+pub fn service_process_under(pid: u32, service: &str) -> Option<u32> {
+    descendants(pid).into_iter().find(|pid| {
+        std::fs::read(format!("/proc/{pid}/cmdline")).is_ok_and(|cmdline| {
+            let words: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
+            words
+                .windows(2)
+                .any(|w| w[0] == b"service" && w[1] == service.as_bytes())
+        })
+    })
+}
+
 /// Every process descended from `pid` (children, their children, ...), from `/proc`.
 ///
 /// # Panics

@@ -18,6 +18,7 @@ use std::path::Path;
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
+use lewis_testkit::process::service_process_under;
 use lewis_tests::hosts::Hosts;
 use lewis_tests::{doctor, hosts_or_skip, lewis_exe, python_tool, repo_root, run_ok};
 
@@ -419,7 +420,8 @@ fn a_host_judged_lost_whose_services_lived_on_has_their_inputs_bound_again() {
         let before = |needle| run.robot_log_count(needle);
         let (lost_before, joined_before, bound_before) =
             (before(lost), before(joined), before(bound));
-        let blobfinder = service_pid_on(&run.workstation, "blobfinder");
+        let blobfinder = service_process_under(run.workstation.id(), "blobfinder")
+            .expect("the blob finder runs on the workstation");
         // The workstation's Lewis (its bridge) held still for a moment: nothing of it
         // crosses, its services run on.
         signal(&run.workstation, nix::sys::signal::Signal::SIGSTOP);
@@ -427,7 +429,7 @@ fn a_host_judged_lost_whose_services_lived_on_has_their_inputs_bound_again() {
         signal(&run.workstation, nix::sys::signal::Signal::SIGCONT);
         run.wait_robot_log(joined, joined_before + 1);
         wait_status(&run.hosts, "service blobfinder: ready");
-        if find_service_pid_on(&run.workstation, "blobfinder") != Some(blobfinder) {
+        if service_process_under(run.workstation.id(), "blobfinder") != Some(blobfinder) {
             eprintln!("attempt {attempt}: the blob finder was restarted; pausing again");
             continue;
         }
@@ -443,26 +445,6 @@ fn a_host_judged_lost_whose_services_lived_on_has_their_inputs_bound_again() {
         "in 3 pauses the blob finder never lived on through its host's loss:\n{}",
         logs()
     );
-}
-
-/// The process of `service` among the descendants of a host's `lewis up`.
-fn service_pid_on(up: &Child, service: &str) -> u32 {
-    find_service_pid_on(up, service)
-        .unwrap_or_else(|| panic!("no process of {service} under lewis up"))
-}
-
-/// As [`service_pid_on`], `None` when there is none.
-fn find_service_pid_on(up: &Child, service: &str) -> Option<u32> {
-    lewis_testkit::process::descendants(up.id())
-        .into_iter()
-        .find(|pid| {
-            std::fs::read(format!("/proc/{pid}/cmdline")).is_ok_and(|cmdline| {
-                let words: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-                words
-                    .windows(2)
-                    .any(|w| w[0] == b"service" && w[1] == service.as_bytes())
-            })
-        })
 }
 
 /// Prints each channel with messages, its host and count, whether a broker decision says a

@@ -34,7 +34,6 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
 use std::time::{Duration, Instant};
 
 use lewis_runtime::ipc::Namespace;
-use lewis_testkit::process::descendants;
 use lewis_tests::broker::Decisions;
 use lewis_tests::{Up, WATCHDOG, lewis_exe};
 use serde_json::Value;
@@ -251,21 +250,6 @@ fn repository_root() -> PathBuf {
         .to_owned()
 }
 
-/// The process of `service` among `lewis up`'s descendants (`lewis service NAME`).
-fn service_pid(up: &Up, service: &str) -> u32 {
-    descendants(up.pid())
-        .into_iter()
-        .find(|pid| {
-            std::fs::read(format!("/proc/{pid}/cmdline")).is_ok_and(|cmdline| {
-                let words: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-                words
-                    .windows(2)
-                    .any(|w| w[0] == b"service" && w[1] == service.as_bytes())
-            })
-        })
-        .unwrap_or_else(|| panic!("no process of {service} under lewis up"))
-}
-
 #[test]
 fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
     let netns = match NetNs::new() {
@@ -416,7 +400,7 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
 
     // The base's gateway killed outright: restarted, it holds the robot still before any
     // new command reaches it.
-    let base = service_pid(&up, "base");
+    let base = up.pid_of("base");
     let killed_at = monotonic_s();
     lewis_testkit::process::signal(base, nix::sys::signal::Signal::SIGKILL);
     decisions.wait_for("the base restarted", |d| {

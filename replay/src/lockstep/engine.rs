@@ -48,8 +48,9 @@ pub(super) struct Sim {
     pub(super) subscribed: BTreeSet<String>,
 }
 
-/// A provider's newest sample on an interface: the history (depth 1) of its sensor
+/// A provider's sample on an interface. The newest is the history (depth 1) of its sensor
 /// channel, which a client that subscribes after it was published gets with the next.
+#[derive(Clone)]
 pub(super) struct Latest {
     channel: Arc<str>,
     seq: u64,
@@ -162,15 +163,14 @@ impl Lockstep<'_> {
         bytes: &[u8],
     ) {
         self.check_data(provider, interface, bytes);
-        let bytes: Arc<[u8]> = Arc::from(bytes);
-        let history = self.latest.insert(
-            (provider.to_owned(), interface.to_owned()),
-            Latest {
-                channel: channel.clone(),
-                seq,
-                bytes: bytes.clone(),
-            },
-        );
+        let sample = Latest {
+            channel: channel.clone(),
+            seq,
+            bytes: Arc::from(bytes),
+        };
+        let history = self
+            .latest
+            .insert((provider.to_owned(), interface.to_owned()), sample.clone());
         let clients: Vec<String> = self
             .bindings
             .iter()
@@ -195,40 +195,30 @@ impl Lockstep<'_> {
             .map(|((client, _), _)| client.clone())
             .collect();
         for client in not_yet_moved {
-            self.work.push_back(Work::Input {
-                client,
-                interface: interface.to_owned(),
-                provider: provider.to_owned(),
-                channel: channel.clone(),
-                seq,
-                published_ns: self.now_ns,
-                bytes: bytes.clone(),
-            });
+            self.queue_input(client, interface, provider, &sample);
         }
         for client in clients {
-            let key = (client.clone(), interface.to_owned());
-            let due = self.history_due.remove(&key);
+            let due = self
+                .history_due
+                .remove(&(client.clone(), interface.to_owned()));
             if let Some(history) = history.as_ref().filter(|_| due) {
-                self.work.push_back(Work::Input {
-                    client: client.clone(),
-                    interface: interface.to_owned(),
-                    provider: provider.to_owned(),
-                    channel: history.channel.clone(),
-                    seq: history.seq,
-                    published_ns: self.now_ns,
-                    bytes: history.bytes.clone(),
-                });
+                self.queue_input(client.clone(), interface, provider, history);
             }
-            self.work.push_back(Work::Input {
-                client,
-                interface: interface.to_owned(),
-                provider: provider.to_owned(),
-                channel: channel.clone(),
-                seq,
-                published_ns: self.now_ns,
-                bytes: bytes.clone(),
-            });
+            self.queue_input(client, interface, provider, &sample);
         }
+    }
+
+    /// Queues `sample` of `provider`'s channel of `interface` for `client`, as published now.
+    fn queue_input(&mut self, client: String, interface: &str, provider: &str, sample: &Latest) {
+        self.work.push_back(Work::Input {
+            client,
+            interface: interface.to_owned(),
+            provider: provider.to_owned(),
+            channel: sample.channel.clone(),
+            seq: sample.seq,
+            published_ns: self.now_ns,
+            bytes: sample.bytes.clone(),
+        });
     }
 
     pub(super) fn note_gap(&mut self, client: &str, interface: &str, from_ns: i64, to_ns: i64) {
@@ -620,16 +610,9 @@ impl Lockstep<'_> {
             if let Some(latest) = self
                 .latest
                 .get(&(provider.to_owned(), interface.to_owned()))
+                .cloned()
             {
-                self.work.push_back(Work::Input {
-                    client: client.to_owned(),
-                    interface: interface.to_owned(),
-                    provider: provider.to_owned(),
-                    channel: latest.channel.clone(),
-                    seq: latest.seq,
-                    published_ns: self.now_ns,
-                    bytes: latest.bytes.clone(),
-                });
+                self.queue_input(client.to_owned(), interface, provider, &latest);
             }
             return;
         }

@@ -338,9 +338,6 @@ struct Driver<'r> {
     exit_cleanups: BTreeMap<String, ExitCleanups>,
     /// The process id each service of another host last had there.
     remote_pids: BTreeMap<String, u32>,
-    /// What a process of another host that lived on through its host's loss asks again
-    /// (see [`Driver::carry_out_remote`]), to be handed to the core after its start.
-    asked_again: Vec<Event>,
     decisions_out: Publisher,
     server: CommandServer,
     health: Vec<(String, Subscriber)>,
@@ -444,7 +441,6 @@ impl<'r> Driver<'r> {
             cleaner,
             exit_cleanups: BTreeMap::new(),
             remote_pids: BTreeMap::new(),
-            asked_again: Vec::new(),
             decisions_out,
             server,
             health,
@@ -612,10 +608,7 @@ impl<'r> Driver<'r> {
             let client_left = matches!(event, Event::ClientGone { .. });
             for decision in self.core.handle(at_ns, &event) {
                 self.publish(&decision, client_left);
-                if let Some(next) = self.carry_out(&decision.action) {
-                    queue.push_back(next);
-                }
-                queue.extend(self.asked_again.drain(..));
+                queue.extend(self.carry_out(&decision.action));
                 all.push(decision);
             }
         }
@@ -771,15 +764,15 @@ impl<'r> Driver<'r> {
         }
     }
 
-    /// Does what an action asks; returns the event that follows from it at once, if any.
-    fn carry_out(&mut self, action: &Action) -> Option<Event> {
+    /// Does what an action asks; returns the events that follow from it at once, in order.
+    fn carry_out(&mut self, action: &Action) -> Vec<Event> {
         if let Action::Start { service } | Action::Stop { service } = action
             && let Some(host) = self.remote_host_of(service)
         {
             return self.carry_out_remote(action, &host, service);
         }
         match action {
-            Action::Start { service } => Some(self.start(service)),
+            Action::Start { service } => vec![self.start(service)],
             Action::Stop { service } => {
                 match self.supervisor.signal(service, Signal::SIGTERM) {
                     Ok(()) => {
@@ -789,53 +782,53 @@ impl<'r> Driver<'r> {
                     // Already gone: its exit event is on its way.
                     Err(e) => tracing::debug!("stop {service}: {e}"),
                 }
-                None
+                Vec::new()
             }
-            _ => None,
+            _ => Vec::new(),
         }
     }
 
     /// A start or a stop of a service of another host, by its supervisor.
-    fn carry_out_remote(&mut self, action: &Action, host: &str, service: &str) -> Option<Event> {
-        let remote = self.remote.as_mut()?;
-        match action {
-            Action::Start { .. } => Some(match remote.start(host, service) {
-                Ok(pid) => {
-                    tracing::debug!(service, "started on {host} (pid {pid})");
-                    // Its process lived on through its host's loss (the robot host judged
-                    // the host lost, the host did not judge the robot host so): it asked
-                    // for its inputs once, as it started, and the core dropped those
-                    // requests with the host. They are asked again for it.
-                    if self.remote_pids.insert(service.to_owned(), pid) == Some(pid)
-                        && let Some(spec) = self.robot.service(service)
-                    {
-                        self.asked_again
-                            .extend(spec.requires.iter().map(|interface| Event::ClientRequest {
-                                client: service.to_owned(),
-                                interface: interface.clone(),
-                            }));
-                    }
-                    Event::ProviderStarted {
-                        service: service.to_owned(),
-                    }
-                }
-                Err(RemoteStartError::Refused(error)) => Event::StartFailed {
+    fn carry_out_remote(&mut self, action: &Action, host: &str, service: &str) -> Vec<Event> {
+        let Some(remote) = self.remote.as_mut() else {
+            return Vec::new();
+        };
+        if !matches!(action, Action::Start { .. }) {
+            remote.stop(host, service);
+            return Vec::new();
+        }
+        match remote.start(host, service) {
+            Ok(pid) => {
+                tracing::debug!(service, "started on {host} (pid {pid})");
+                let mut events = vec![Event::ProviderStarted {
                     service: service.to_owned(),
-                    error,
-                },
-                // Not the service's fault: its host is cut off, and the service starts again
-                // when the host is back.
-                Err(RemoteStartError::Unreachable(why)) => {
-                    remote.mark_lost(host);
-                    Event::HostLost {
-                        host: host.to_owned(),
-                        why,
-                    }
+                }];
+                // Its process lived on through its host's loss (the robot host judged the
+                // host lost, the host did not judge the robot host so): it asked for its
+                // inputs once, as it started, and the core dropped those requests with the
+                // host. They are asked again for it, after its start.
+                if self.remote_pids.insert(service.to_owned(), pid) == Some(pid)
+                    && let Some(spec) = self.robot.service(service)
+                {
+                    events.extend(spec.requires.iter().map(|interface| Event::ClientRequest {
+                        client: service.to_owned(),
+                        interface: interface.clone(),
+                    }));
                 }
-            }),
-            _ => {
-                remote.stop(host, service);
-                None
+                events
+            }
+            Err(RemoteStartError::Refused(error)) => vec![Event::StartFailed {
+                service: service.to_owned(),
+                error,
+            }],
+            // Not the service's fault: its host is cut off, and the service starts again
+            // when the host is back.
+            Err(RemoteStartError::Unreachable(why)) => {
+                remote.mark_lost(host);
+                vec![Event::HostLost {
+                    host: host.to_owned(),
+                    why,
+                }]
             }
         }
     }
