@@ -1,5 +1,5 @@
-//! `lewis fault SERVICE --kill|--stall|--out-of-service|--clear`: take a service of a
-//! running `lewis up` down, for demonstrations and tests.
+//! `lewis fault SERVICE --kill|--stall|--out-of-service|--frozen|--garbage|--clear`: take a
+//! service of a running `lewis up` down, for demonstrations and tests.
 //!
 //! `--kill` sends SIGKILL to the service's process, found in the broker's status reply
 //! (the broker sees a crash and restarts it within its policy; kill it often enough and it
@@ -7,7 +7,9 @@
 //! service's live harness, on `/lewis/fault/<service>` (see
 //! [`lewis_runtime::live::fault`]): `--stall` stops it dead, heartbeats included (the
 //! broker sees a missed deadline); `--out-of-service` silences it and declares it out of
-//! service (the broker moves its clients at once); `--clear` ends either.
+//! service (the broker moves its clients at once); `--frozen` and `--garbage` make it
+//! publish the same payload again and again, or bytes that do not decode, under good
+//! heartbeats (the broker's data checks must catch them); `--clear` ends any of them.
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -23,7 +25,7 @@ use lewis_runtime::ipc::Namespace;
 #[command(group(
     ArgGroup::new("fault")
         .required(true)
-        .args(["kill", "stall", "out_of_service", "clear"])
+        .args(["kill", "stall", "out_of_service", "frozen", "garbage", "clear"])
 ))]
 pub struct FaultArgs {
     /// The service, by its name in the robot file (`laser`).
@@ -37,7 +39,14 @@ pub struct FaultArgs {
     /// Silence it and declare it out of service (its clients move away at once).
     #[arg(long)]
     pub out_of_service: bool,
-    /// End an injected stall or out-of-service.
+    /// Publish its first sample from now on again and again (new headers), heartbeats as
+    /// usual.
+    #[arg(long)]
+    pub frozen: bool,
+    /// Publish bytes that do not decode in place of its samples, heartbeats as usual.
+    #[arg(long)]
+    pub garbage: bool,
+    /// End an injected stall, out-of-service, freeze or garbage.
     #[arg(long)]
     pub clear: bool,
     /// The IPC namespace of the running `lewis up` (default: `LEWIS_NAMESPACE`, else
@@ -60,6 +69,10 @@ pub fn run(args: &FaultArgs) -> anyhow::Result<ExitCode> {
         Some(ServiceFault::Stall)
     } else if args.out_of_service {
         Some(ServiceFault::OutOfService)
+    } else if args.frozen {
+        Some(ServiceFault::Frozen)
+    } else if args.garbage {
+        Some(ServiceFault::Garbage)
     } else if args.clear {
         None
     } else {

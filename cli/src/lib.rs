@@ -103,7 +103,7 @@ pub enum Command {
     /// Show a recording in the Rerun viewer, or write it as a Rerun file (--save OUT.rrd).
     #[cfg(feature = "viewer")]
     View(view::ViewArgs),
-    /// Take a service of a running robot down: kill, stall or put it out of service.
+    /// Take a service of a running robot down: kill, stall, freeze, garble or put it out of service.
     Fault(fault::FaultArgs),
     /// Emulate the SICK laser or the RFlex base on a pseudo-terminal and print its path, until
     /// Ctrl-C.

@@ -18,6 +18,7 @@
 use std::fmt;
 use std::time::Duration;
 
+use lewis_interfaces::cdr;
 use serde::Serialize;
 
 /// How a service fails: the faults of a service.
@@ -101,13 +102,15 @@ pub struct ServiceFaultWords {
 }
 
 /// What a running service's harness can be put in (`lewis fault`, the fault channel):
-/// `stall`, `out-of-service`, or `clear` for no fault. A crash needs no harness: the
-/// process is killed (`lewis fault --kill`).
+/// `stall`, `out-of-service`, `frozen`, `garbage`, or `clear` for no fault. A crash needs
+/// no harness: the process is killed (`lewis fault --kill`).
 pub const LIVE_FAULTS: ServiceFaultWords = ServiceFaultWords {
     none: Some("clear"),
     faults: &[
         Some(ServiceFault::Stall),
         Some(ServiceFault::OutOfService),
+        Some(ServiceFault::Frozen),
+        Some(ServiceFault::Garbage),
         None,
     ],
 };
@@ -430,6 +433,31 @@ fn show(time: Duration) -> String {
     format!("{}s", time.as_secs_f64())
 }
 
+/// What a `frozen` fault publishes: the last good payload with the header of the new one
+/// (its sequence number and publish time), as a stuck device's driver sends it; the last payload as it was when the two
+/// headers differ in length.
+pub fn frozen_payload(last: &[u8], new: &[u8]) -> Vec<u8> {
+    let mut out = last.to_vec();
+    if let Ok(header) = cdr::peek_header(new) {
+        let _ = cdr::replace_header(&mut out, &header);
+    }
+    out
+}
+
+/// What a `garbage` fault publishes: bytes that do not decode, of the given length, the same for the same provider and
+/// sequence number.
+pub fn garbled_payload(provider: &str, seq: u64, len: usize) -> Vec<u8> {
+    let mut rng = crate::Rng::new(crate::Rng::seed_from_name(provider) ^ seq);
+    let mut out = cdr::ENCAPSULATION_LE.to_vec();
+    while out.len() < len.max(cdr::ENCAPSULATION_LE.len() + 4) {
+        out.extend_from_slice(&rng.next_u64().to_le_bytes());
+    }
+    // A provider string longer than the message: no decoder accepts it.
+    out[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+    out.truncate(len.max(cdr::ENCAPSULATION_LE.len() + 4));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -440,11 +468,11 @@ mod tests {
         assert_eq!(LIVE_FAULTS.parse("clear"), Ok(None));
         assert_eq!(
             LIVE_FAULTS.parse("explode").unwrap_err().to_string(),
-            "unknown fault `explode`: expected stall, out-of-service or clear"
+            "unknown fault `explode`: expected stall, out-of-service, frozen, garbage or clear"
         );
         assert_eq!(
             LIVE_FAULTS.parse("stal").unwrap_err().to_string(),
-            "unknown fault `stal`: expected stall, out-of-service or clear; did you mean `stall`?"
+            "unknown fault `stal`: expected stall, out-of-service, frozen, garbage or clear; did you mean `stall`?"
         );
         // A fault of a service that this place cannot make is refused like any other word.
         assert!(LIVE_FAULTS.parse("crash").is_err());

@@ -123,6 +123,45 @@ fn lewis_fault_out_of_service_moves_the_client_at_once_and_clear_brings_it_back(
     up.stop();
 }
 
+/// `lewis fault laser FLAG` under the broker's data checks: the harness publishes bad
+/// data under good heartbeats, the check named `check` fails the laser and the client
+/// moves to the sonar.
+fn bad_live_data_is_caught(flag: &str, word: &str, check: &str) {
+    let (mut up, mut app, mut decisions) = running(
+        &format!("cli-{word}"),
+        &TestRobot {
+            data_checks: true,
+            declare_rate: true,
+            rate_hz: 20.0,
+            ..TestRobot::default()
+        },
+    );
+    fault(&up, flag, word);
+    let failed = decisions.wait_for("the laser failed", |d| {
+        d.action == "service-failed" && d.service == "laser"
+    });
+    assert!(
+        failed
+            .reason
+            .contains(&format!("laser failed its {check} check on RangeFinder")),
+        "the reason names the check: {}",
+        failed.reason
+    );
+    decisions.wait_for("the client moved to sonar", rebind("laser", "sonar"));
+    app.wait_for("sonar", 5);
+    up.stop();
+}
+
+#[test]
+fn lewis_fault_frozen_is_caught_by_the_frozen_check() {
+    bad_live_data_is_caught("--frozen", "frozen", "frozen");
+}
+
+#[test]
+fn lewis_fault_garbage_is_caught_by_the_values_check() {
+    bad_live_data_is_caught("--garbage", "garbage", "values");
+}
+
 #[test]
 fn lewis_fault_kill_beyond_the_limit_of_every_provider_asks_for_help() {
     let (mut up, mut app, mut decisions) = running(

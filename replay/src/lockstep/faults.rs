@@ -3,10 +3,9 @@
 
 use std::borrow::Cow;
 
-use lewis_interfaces::cdr::{self, ENCAPSULATION_LE};
 use lewis_runtime::broker::{Event, ExitStatus};
 use lewis_service::Health;
-use lewis_service::Rng;
+use lewis_service::fault::{frozen_payload, garbled_payload};
 
 use super::engine::Work;
 use super::{Emitted, Lockstep, Sink};
@@ -53,7 +52,7 @@ impl Lockstep<'_> {
             }
             Some(FaultKind::Garbage) => {
                 self.stats.faulted_publications += 1;
-                Some(Cow::Owned(garble(provider, seq, bytes.len())))
+                Some(Cow::Owned(garbled_payload(provider, seq, bytes.len())))
             }
             Some(FaultKind::Frozen) => {
                 self.stats.faulted_publications += 1;
@@ -62,7 +61,7 @@ impl Lockstep<'_> {
                     self.last_good.insert(key, bytes.to_vec());
                     return Some(Cow::Borrowed(bytes));
                 };
-                Some(Cow::Owned(frozen(last, bytes)))
+                Some(Cow::Owned(frozen_payload(last, bytes)))
             }
             Some(FaultKind::Slow) => {
                 if seq.is_multiple_of(3) {
@@ -210,29 +209,4 @@ impl Lockstep<'_> {
 /// The health an out-of-service fault declares.
 pub(super) fn injected_out_of_service() -> Health {
     Health::OutOfService("injected fault: out-of-service".to_owned())
-}
-
-/// The last good payload with the header of the new one (its sequence number and publish
-/// time), as a stuck device's driver sends it; the last payload as it was when the two
-/// headers differ in length.
-fn frozen(last: &[u8], new: &[u8]) -> Vec<u8> {
-    let mut out = last.to_vec();
-    if let Ok(header) = cdr::peek_header(new) {
-        let _ = cdr::replace_header(&mut out, &header);
-    }
-    out
-}
-
-/// Bytes that do not decode, of the given length, the same for the same provider and
-/// sequence number.
-fn garble(provider: &str, seq: u64, len: usize) -> Vec<u8> {
-    let mut rng = Rng::new(Rng::seed_from_name(provider) ^ seq);
-    let mut out = ENCAPSULATION_LE.to_vec();
-    while out.len() < len.max(ENCAPSULATION_LE.len() + 4) {
-        out.extend_from_slice(&rng.next_u64().to_le_bytes());
-    }
-    // A provider string longer than the message: no decoder accepts it.
-    out[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
-    out.truncate(len.max(ENCAPSULATION_LE.len() + 4));
-    out
 }

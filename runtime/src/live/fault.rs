@@ -10,7 +10,13 @@
 //! |---|---|
 //! | `stall` | it stops running the service: no ticks, inputs, commands, publications or heartbeats (the broker sees a missed heartbeat deadline, as for a service stuck in a handler); it still ends on SIGTERM and still hears `clear` |
 //! | `out-of-service` | it drops the service's publications and declares the service out of service in every heartbeat, whatever the service itself declares; the service keeps running |
+//! | `frozen` | it publishes the first payload the service publishes after the fault again and again, each time with the new sample's header (as a stuck device's driver does); heartbeats as usual |
+//! | `garbage` | it publishes bytes that do not decode in place of each sample, of the sample's length; heartbeats as usual |
 //! | `clear` | back to normal: publications flow, heartbeats say what the service declares |
+//!
+//! `frozen` and `garbage` publish the bytes replay's faults of the same names make
+//! ([`lewis_service::fault::frozen_payload`], [`lewis_service::fault::garbled_payload`]),
+//! so that the data checks see the same thing live and in a replay.
 //!
 //! A crash needs no cooperation: `lewis fault NAME --kill` sends SIGKILL to the process.
 //!
@@ -24,8 +30,9 @@ use crate::names;
 pub use lewis_service::fault::{LIVE_FAULTS, ServiceFault};
 use lewis_service::wire;
 
-/// A fault the live harness can put its service in ([`ServiceFault::Stall`] or
-/// [`ServiceFault::OutOfService`]), or `None` to clear any; its word is
+/// A fault the live harness can put its service in ([`ServiceFault::Stall`],
+/// [`ServiceFault::OutOfService`], [`ServiceFault::Frozen`] or [`ServiceFault::Garbage`]),
+/// or `None` to clear any; its word is
 /// [`LIVE_FAULTS`]`.word(fault)`.
 pub type InjectedFault = Option<ServiceFault>;
 
@@ -206,6 +213,10 @@ pub(crate) enum FaultState {
     OutOfService,
     /// Stalled: nothing runs.
     Stalled,
+    /// Frozen: the first payload after the fault, again and again.
+    Frozen,
+    /// Garbage: bytes that do not decode.
+    Garbage,
 }
 
 impl FaultState {
@@ -214,6 +225,8 @@ impl FaultState {
         match fault {
             Some(ServiceFault::Stall) => Self::Stalled,
             Some(ServiceFault::OutOfService) => Self::OutOfService,
+            Some(ServiceFault::Frozen) => Self::Frozen,
+            Some(ServiceFault::Garbage) => Self::Garbage,
             // `clear`; the harness takes no other word ([`read_request`]).
             _ => Self::Normal,
         }
@@ -248,6 +261,9 @@ impl super::Harness<'_> {
     fn apply(&mut self, fault: InjectedFault) {
         let before = self.backend.fault;
         self.backend.fault = FaultState::after(fault);
+        // A new freeze repeats what the service publishes next, not what an earlier one
+        // repeated.
+        self.backend.frozen.clear();
         tracing::warn!(
             service = self.backend.service,
             "fault injected: {} ({OUT_OF_SERVICE_REASON})",
@@ -284,11 +300,14 @@ mod tests {
         }
         assert_eq!(
             read_request(&wire::request_to_vec("explode", &[])),
-            Err("unknown fault `explode`: expected stall, out-of-service or clear".to_owned())
+            Err(
+                "unknown fault `explode`: expected stall, out-of-service, frozen, garbage or clear"
+                    .to_owned()
+            )
         );
         assert_eq!(
             read_request(&wire::request_to_vec("clera", &[])),
-            Err("unknown fault `clera`: expected stall, out-of-service or clear; did you mean `clear`?".to_owned())
+            Err("unknown fault `clera`: expected stall, out-of-service, frozen, garbage or clear; did you mean `clear`?".to_owned())
         );
     }
 
@@ -301,6 +320,14 @@ mod tests {
         assert_eq!(
             FaultState::after(Some(ServiceFault::OutOfService)),
             FaultState::OutOfService
+        );
+        assert_eq!(
+            FaultState::after(Some(ServiceFault::Frozen)),
+            FaultState::Frozen
+        );
+        assert_eq!(
+            FaultState::after(Some(ServiceFault::Garbage)),
+            FaultState::Garbage
         );
         assert_eq!(FaultState::after(None), FaultState::Normal);
         assert_eq!(fault_channel("laser"), "/lewis/fault/laser");

@@ -74,6 +74,8 @@ const fn fault_code(fault: FaultState) -> u8 {
         FaultState::Normal => 0,
         FaultState::OutOfService => 1,
         FaultState::Stalled => 2,
+        FaultState::Frozen => 3,
+        FaultState::Garbage => 4,
     }
 }
 
@@ -81,6 +83,8 @@ const fn fault_of(code: u8) -> FaultState {
     match code {
         0 => FaultState::Normal,
         1 => FaultState::OutOfService,
+        3 => FaultState::Frozen,
+        4 => FaultState::Garbage,
         _ => FaultState::Stalled,
     }
 }
@@ -471,7 +475,8 @@ impl Beater {
                     FaultState::OutOfService => {
                         (HealthState::OutOfService, OUT_OF_SERVICE_REASON.to_owned())
                     }
-                    FaultState::Normal => {
+                    // Bad data under good heartbeats: what the data checks are for.
+                    FaultState::Normal | FaultState::Frozen | FaultState::Garbage => {
                         let (state, reason) = health_fields(&self.declared);
                         (state, reason.to_owned())
                     }
@@ -621,6 +626,8 @@ mod tests {
             FaultState::Normal,
             FaultState::OutOfService,
             FaultState::Stalled,
+            FaultState::Frozen,
+            FaultState::Garbage,
         ] {
             assert_eq!(fault_of(fault_code(fault)), fault);
         }

@@ -252,6 +252,8 @@ fn run_one(
         calls: BTreeMap::new(),
         watch: heartbeat::LoopWatch::new(),
         fault: fault::FaultState::Normal,
+        frozen: BTreeMap::new(),
+        garbled: 0,
         command_log,
         command_log_seq: 0,
         event_ns: 0,
@@ -608,6 +610,10 @@ struct LiveBackend {
     watch: heartbeat::LoopWatch,
     /// The fault injected from outside, if any ([`fault`]).
     fault: fault::FaultState,
+    /// Under a `frozen` fault, the payload repeated, by interface.
+    frozen: BTreeMap<String, Vec<u8>>,
+    /// Samples garbled so far: each garbage sample differs from the last.
+    garbled: u64,
     /// `/lewis/commands/<service>`: every answered command, for the recorder (`None` for a
     /// program, which answers none).
     command_log: Option<Publisher>,
@@ -724,12 +730,34 @@ impl Backend for LiveBackend {
                     service: self.service.clone(),
                     interface: interface.to_owned(),
                 })?;
-        if self.fault != fault::FaultState::Normal {
-            // An injected fault silences the service: the publication is dropped.
-            return Ok(());
-        }
+        let faulted = match self.fault {
+            fault::FaultState::Normal => None,
+            fault::FaultState::Frozen | fault::FaultState::Garbage => {
+                let mut sample = vec![0; len_bytes];
+                encode(&mut sample);
+                Some(if self.fault == fault::FaultState::Garbage {
+                    self.garbled += 1;
+                    lewis_service::fault::garbled_payload(&self.service, self.garbled, len_bytes)
+                } else {
+                    match self.frozen.get(interface) {
+                        Some(first) => lewis_service::fault::frozen_payload(first, &sample),
+                        None => {
+                            self.frozen.insert(interface.to_owned(), sample.clone());
+                            sample
+                        }
+                    }
+                })
+            }
+            // Stalled or out of service: the publication is dropped.
+            fault::FaultState::OutOfService | fault::FaultState::Stalled => return Ok(()),
+        };
         self.watch
-            .ipc(|| publisher.publish_with(len_bytes, |buf| encode(buf)))
+            .ipc(|| match &faulted {
+                None => publisher.publish_with(len_bytes, |buf| encode(buf)),
+                Some(bytes) => {
+                    publisher.publish_with(bytes.len(), |buf| buf.copy_from_slice(bytes))
+                }
+            })
             .map(|_| ())
             .map_err(|e| ContextError::Publish {
                 interface: interface.to_owned(),
