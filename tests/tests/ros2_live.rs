@@ -164,10 +164,17 @@ impl Peer {
                         return event;
                     }
                 }
-                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => panic!(
-                    "the peer never reported {what}; its last events:\n{}",
-                    self.describe()
-                ),
+                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {
+                    // Every event, kept for whoever studies the failure.
+                    let kept = std::env::temp_dir()
+                        .join(format!("ros2-live-peer-{}.jsonl", std::process::id()));
+                    let all: Vec<String> = self.seen.iter().map(Value::to_string).collect();
+                    let kept = std::fs::write(&kept, all.join("\n")).map(|()| kept);
+                    panic!(
+                        "the peer never reported {what}; its last events:\n{}\nall of them: {kept:?}",
+                        self.describe()
+                    )
+                }
             }
         }
     }
@@ -461,8 +468,11 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
             .arg("--check")
             .current_dir(up.path("")),
     );
-    assert!(
-        replay.contains("check: outputs match the recording"),
-        "{replay}"
-    );
+    if !replay.contains("check: outputs match the recording") {
+        // A differing replay is studied from its recording: kept where the run's temporary
+        // folder would have removed it.
+        let kept = std::env::temp_dir().join(format!("ros2-live-{}.mcap", std::process::id()));
+        let copied = std::fs::copy(&recording, &kept).map(|_| kept.display().to_string());
+        panic!("{replay}\nthe recording, kept: {copied:?}");
+    }
 }

@@ -127,8 +127,13 @@ mod defaults {
     pub(super) fn match_wait_ms() -> Millis {
         Millis(5_000)
     }
+    /// Long enough for the robot's side of discovery: the writer learns of the robot's
+    /// reader first, and the reader may learn of the writer a second later on a loaded
+    /// machine (seen: 0.5 s on 2 busy cores), dropping what was sent before. rustdds's
+    /// acknowledgement wait does not cover that gap (it returns at once while the
+    /// writer's own bookkeeping of the reader lags its match), so the hold does.
     pub(super) fn start_hold_ms() -> Millis {
-        Millis(300)
+        Millis(1_500)
     }
 
     pub(super) fn command_topic() -> String {
@@ -294,8 +299,10 @@ struct Base {
     sent: u64,
     /// When the last twist was sent.
     last_sent_ns: Option<i64>,
-    /// Until when the robot is held still after the start.
-    hold_until_ns: Option<i64>,
+    /// Until when the robot is held still after the start. An instant of the machine's
+    /// clock, not the service's: the service's time stands still through `on_start` (it is
+    /// the start event's), and the hold must outlast the waits for the robot in it.
+    hold_until: Option<std::time::Instant>,
     /// Readers of the command topic on the robot, as DDS matched them.
     readers: i32,
 }
@@ -303,7 +310,10 @@ struct Base {
 impl Base {
     fn send(&mut self, ctx: &mut Context<'_>, v: f64, w: f64) {
         let Some(writer) = &self.writer else { return };
-        let (v, w) = if self.hold_until_ns.is_some_and(|until| ctx.now() < until) {
+        let (v, w) = if self
+            .hold_until
+            .is_some_and(|until| std::time::Instant::now() < until)
+        {
             (0.0, 0.0)
         } else {
             (v, w)
@@ -454,19 +464,19 @@ impl Service for Base {
             self.params.rate_hz,
             self.params.dds.domain()?
         ));
-        // A fresh base (also one restarted after a kill) holds the robot still, first with
-        // a zero twist the robot acknowledged (so it knows this writer), then for
-        // `start_hold_ms` whatever is commanded. The hold counts from the acknowledgement:
-        // a reader that matched this writer after the first twist may acknowledge it
-        // without having it (a volatile reader gets nothing written before it matched),
-        // and the wait can outlast the hold on a loaded machine; zeros sent after it arrive.
+        // A fresh base (also one restarted after a kill) holds the robot still: a zero
+        // twist, the wait for the robot's acknowledgement, then `start_hold_ms` of zero
+        // twists whatever is commanded (a command queued for the process that died is one
+        // of them). The hold counts from the wait's end, on the machine's clock: the robot's
+        // reader may match this writer well after the writer matched it, and drops what
+        // was sent before; zeros sent after it arrive.
         self.commander.stop(ctx.now());
+        self.hold_until = None;
         self.send(ctx, 0.0, 0.0);
         if let Some(writer) = &self.writer {
             let _ = writer.wait_for_acknowledgments(self.params.match_wait_ms.duration());
         }
-        let hold_ns = i64::try_from(self.params.start_hold_ms.get()).unwrap_or(0) * 1_000_000;
-        self.hold_until_ns = Some(ctx.now() + hold_ns);
+        self.hold_until = Some(std::time::Instant::now() + self.params.start_hold_ms.duration());
         self.on_tick(ctx);
         Ok(())
     }
@@ -606,7 +616,7 @@ fn build(config: &ServiceConfig<'_>) -> Result<Box<dyn Service>, BuildError> {
         measured: None,
         sent: 0,
         last_sent_ns: None,
-        hold_until_ns: None,
+        hold_until: None,
         readers: 0,
         params,
     }))
@@ -676,7 +686,7 @@ mod tests {
             measured: None,
             sent: 0,
             last_sent_ns: None,
-            hold_until_ns: None,
+            hold_until: None,
             readers: 0,
             params,
         };
