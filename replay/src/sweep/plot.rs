@@ -7,27 +7,17 @@
 //! (through ab_glyph: no system font is read, no C font library linked) and encoded by
 //! `image`: the same sweep gives the same bytes.
 
-use std::ops::Range;
-use std::path::Path;
-use std::sync::OnceLock;
-
-use image::ImageEncoder as _;
-use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use plotters::style::{FontStyle, register_font};
+use std::ops::Range;
+use std::path::Path;
 
 use super::table::failure_spans;
 use super::{Sweep, SweepError};
 use crate::fault::format_seconds;
 
-/// DejaVu Sans (`replay/assets/DejaVuSans-LICENSE.txt` has its licence).
-static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
-
-/// The family every text of the plot asks for; plotters' own defaults (tick labels) ask
-/// for it too.
-const FAMILY: &str = "sans-serif";
+use crate::picture::{FAMILY, ensure_font, rgb_png};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 600;
@@ -68,15 +58,10 @@ impl Sweep {
         // Three bytes a pixel, as plotters' bitmap backend draws by default.
         let mut pixels = vec![0_u8; (WIDTH * HEIGHT * 3) as usize];
         self.draw(&mut pixels).map_err(draw_error)?;
-        let mut png = Vec::new();
-        // Best compression: the plot is flat colours, this keeps it to tens of KB.
-        PngEncoder::new_with_quality(&mut png, CompressionType::Best, FilterType::Adaptive)
-            .write_image(&pixels, WIDTH, HEIGHT, image::ExtendedColorType::Rgb8)
-            .map_err(|source| SweepError::Encode {
-                path: path.to_owned(),
-                source,
-            })?;
-        Ok(png)
+        rgb_png(&pixels, WIDTH, HEIGHT).map_err(|source| SweepError::Encode {
+            path: path.to_owned(),
+            source,
+        })
     }
 
     fn draw(&self, pixels: &mut [u8]) -> Result<(), String> {
@@ -405,17 +390,6 @@ fn seconds(ns: i64) -> f64 {
 }
 
 /// Registers the bundled font with plotters, once for the process.
-fn ensure_font() -> Result<(), String> {
-    static REGISTERED: OnceLock<bool> = OnceLock::new();
-    let registered =
-        *REGISTERED.get_or_init(|| register_font(FAMILY, FontStyle::Normal, FONT).is_ok());
-    if registered {
-        Ok(())
-    } else {
-        Err("the bundled font DejaVuSans.ttf cannot be read".to_owned())
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
