@@ -116,6 +116,7 @@ impl MissionArgs {
             events: self.events.clone(),
             open_page: false,
             echo,
+            unattended: false,
         }
     }
 }

@@ -58,6 +58,10 @@ pub struct SessionOptions {
     /// Print the decisions and the programs' lines (`[state] text`) on stdout and stderr;
     /// without, they go to the logs only (a caller whose logs already show them).
     pub echo: bool,
+    /// Ask nobody, whatever the standard input is (a batch of missions, a chaos run): after
+    /// recovery the recovery state's own actions apply, and the terminal's keys answer
+    /// nothing.
+    pub unattended: bool,
 }
 
 /// Why a mission could not run (not how it ended: that is an [`Outcome`]).
@@ -216,8 +220,12 @@ fn execute(
             None
         }
     };
-    let supervision =
-        Supervision::decide(mission.use_gui(), options.no_gui, io::stdin().is_terminal());
+    let terminal = io::stdin().is_terminal() && !options.unattended;
+    let supervision = Supervision::decide(
+        mission.use_gui(),
+        options.no_gui || options.unattended,
+        terminal,
+    );
     if options.echo {
         // `lewis up` has the driver's log line; `lewis seq run` logs nothing else.
         let line = match supervision {
@@ -246,7 +254,7 @@ fn execute(
     // standard input is a terminal in the foreground; restored when this is dropped,
     // however the mission ends.
     let keys = match robot.filter(|r| r.speech.is_some()) {
-        Some(_) if io::stdin().is_terminal() => match KeyTerminal::stdin() {
+        Some(_) if terminal => match KeyTerminal::stdin() {
             Ok(keys) => Some(keys),
             Err(e) => {
                 tracing::debug!("no answers from the terminal's keys: {e}");
