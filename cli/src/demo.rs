@@ -26,7 +26,8 @@ use lewis_runtime::ipc::Namespace;
                   Exits 0 when the mission succeeded, 1 when it failed."
 )]
 pub struct DemoArgs {
-    /// The seed of the simulated devices (their noise, the people's timing).
+    /// The seed of the simulated devices (their noise, the people's timing); with --chaos,
+    /// of the faults too (default 1).
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
     /// Do not serve the supervisor's page (else it is opened in the desktop's browser when
@@ -39,7 +40,7 @@ pub struct DemoArgs {
     pub out: PathBuf,
     /// Another live fault, in the `lewis replay --inject-fault` grammar with the time from
     /// the mission's start (`sonar@20s:crash`, `laser@30s:stall`; without a time, when the
-    /// first state is over); `garbage` only exists in a replay.
+    /// first state is over); `slow`, `stuck` and a host's loss only exist in a replay.
     #[arg(long, value_name = "SPEC", value_parser = parse_fault)]
     pub fault: Option<FaultSpec>,
     /// The supervisor page's port (0 picks a free one).
@@ -54,11 +55,29 @@ pub struct DemoArgs {
     /// Another robot file (for tests of the demo itself).
     #[arg(long, hide = true, default_value = lewis_demo::ROBOT)]
     pub robot: PathBuf,
+    /// Chaos: run the mission again and again, for --duration, while random providers are
+    /// killed, stalled, frozen, garbled and put out of service at random times (drawn from
+    /// --seed); report per mission and in total what the broker did, what was recorded and
+    /// lost, and what the machine paid (memory, descriptors, shared memory, CPU). Writes
+    /// chaos.json in --out (default logs/chaos) and keeps each failed mission's folder.
+    #[arg(long)]
+    pub chaos: bool,
+    /// How long a chaos run starts new missions (`30m`, `1h`).
+    #[arg(long, value_name = "TIME", default_value = "1h", value_parser = parse_duration, requires = "chaos")]
+    pub duration: std::time::Duration,
+    /// With --chaos: do not live each failed mission again to see whether the replay fails
+    /// the same way.
+    #[arg(long, requires = "chaos")]
+    pub no_reproduce: bool,
     /// Run nothing: write the picture and the Rerun file of the demo already in --out
     /// (`scripts/demo.sh` runs the mission with a `lewis` built without the viewer first,
     /// for a quicker first run, and this after building the viewer).
     #[arg(long)]
     pub pictures_only: bool,
+}
+
+fn parse_duration(text: &str) -> Result<std::time::Duration, String> {
+    lewis_stdx::parse_duration(text).map_err(|e| e.to_string())
 }
 
 fn parse_fault(text: &str) -> Result<FaultSpec, String> {
@@ -77,6 +96,9 @@ pub fn run(args: &DemoArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCo
         );
         write_pictures(&files, &mut std::io::stdout().lock())?;
         return Ok(ExitCode::SUCCESS);
+    }
+    if args.chaos {
+        return run_chaos(args, registry);
     }
     let fault = match &args.fault {
         Some(spec) => LiveFault::from_spec(spec).map_err(anyhow::Error::msg)?,
@@ -158,4 +180,70 @@ fn write_pictures(_files: &lewis_demo::DemoFiles, out: &mut dyn Write) -> anyhow
         "picture and rerun: none (this lewis is built without the viewer: `lewis demo --pictures-only` with one built with it writes them)"
     )?;
     Ok(())
+}
+
+/// `lewis demo --chaos`: missions under random faults until `--duration` has passed; exit 0
+/// when nothing was lost or left behind and every mission that failed had lost every
+/// provider of something it needed.
+fn run_chaos(args: &DemoArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        args.fault.is_none(),
+        "--fault and --chaos do not go together: chaos draws its own faults"
+    );
+    let out = if args.out == std::path::Path::new(lewis_demo::OUT_DIR) {
+        PathBuf::from(lewis_demo::chaos::OUT_DIR)
+    } else {
+        args.out.clone()
+    };
+    let options = lewis_demo::chaos::ChaosOptions {
+        robot: args.robot.clone(),
+        script: args.script.clone(),
+        seed: args.seed.unwrap_or(1),
+        duration: args.duration,
+        out: out.clone(),
+        lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
+        sample_every: std::time::Duration::from_secs(5),
+        reproduce: !args.no_reproduce,
+    };
+    {
+        let mut out = std::io::stdout().lock();
+        writeln!(
+            out,
+            "chaos: the Challenge again and again for {}, random faults from seed {}; results in {}",
+            lewis_stdx::format_duration_ns(
+                i64::try_from(args.duration.as_nanos()).unwrap_or(i64::MAX)
+            ),
+            options.seed,
+            out_display(&options.out)
+        )?;
+        out.flush()?;
+    }
+    let report = lewis_demo::chaos::run_chaos(
+        &options,
+        registry,
+        &crate::app::programs(),
+        &mut |mission| {
+            let mut out = std::io::stdout().lock();
+            let _ = writeln!(out, "{}", lewis_demo::chaos::mission_line(mission));
+            let _ = out.flush();
+        },
+    )?;
+    let mut stdout = std::io::stdout().lock();
+    write!(stdout, "{}", report.summary())?;
+    writeln!(stdout, "report: {}", out.join("chaos.json").display())?;
+    let clean = report.lost() == 0
+        && report.leftovers() == 0
+        && !report
+            .missions
+            .iter()
+            .any(lewis_demo::chaos::MissionResult::failed_with_providers_left);
+    Ok(if clean {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn out_display(path: &std::path::Path) -> String {
+    format!("{}/", path.display())
 }

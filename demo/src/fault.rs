@@ -3,8 +3,8 @@
 //!
 //! A crash is the paper's demonstration: the provider's process is killed (SIGKILL) again
 //! after every restart until the broker gives it up (`service-failed`) and moves its
-//! clients to another provider. A stall or an out-of-service is injected once through the
-//! service's harness.
+//! clients to another provider. A stall, an out-of-service, a freeze or garbage is
+//! injected once through the service's harness.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -42,7 +42,7 @@ pub enum Strike {
 pub struct LiveFault {
     /// The service.
     pub provider: String,
-    /// Crash (the kill loop), stall or out-of-service; garbage cannot be made live.
+    /// Crash (the kill loop), stall, out-of-service, frozen or garbage.
     pub kind: FaultKind,
     /// When.
     pub strike: Strike,
@@ -63,16 +63,20 @@ impl LiveFault {
     /// mission's start, none: after the first state).
     ///
     /// # Errors
-    /// For `garbage`, `frozen`, `slow` and `stuck` (only a replay can make any service
-    /// publish bad data or stick its loop) and for a time window (a live fault is not
+    /// For `slow`, `stuck` and a host's loss (only a replay can thin a service's data,
+    /// stick its loop or cut a host off) and for a time window (a live fault is not
     /// cleared).
     pub fn from_spec(spec: &FaultSpec) -> Result<Self, String> {
         if matches!(
             spec.kind,
-            FaultKind::Garbage | FaultKind::Frozen | FaultKind::Slow | FaultKind::Stuck
+            FaultKind::Slow
+                | FaultKind::Stuck
+                | FaultKind::HostLost
+                | FaultKind::Nan
+                | FaultKind::Degraded
         ) {
             return Err(format!(
-                "--fault {}: `{}` can only be injected in a replay; use crash, stall or out-of-service",
+                "--fault {}: `{}` can only be injected in a replay; use crash, stall, out-of-service, frozen or garbage",
                 spec.text, spec.kind
             ));
         }
@@ -224,14 +228,12 @@ impl Watch {
         let provider = self.fault.provider.clone();
         match self.fault.kind {
             FaultKind::Crash => self.kill_until_failed(),
-            FaultKind::Stall | FaultKind::OutOfService => {
+            FaultKind::Stall | FaultKind::OutOfService | FaultKind::Frozen | FaultKind::Garbage => {
                 if let Err(e) = inject(&self.ipc, &provider, Some(self.fault.kind), CALL_TIMEOUT) {
                     self.log.error = Some(e.to_string());
                 }
             }
-            FaultKind::Garbage
-            | FaultKind::Frozen
-            | FaultKind::Slow
+            FaultKind::Slow
             | FaultKind::Stuck
             | FaultKind::HostLost
             | FaultKind::Nan
@@ -363,7 +365,7 @@ impl Watch {
 }
 
 /// The wall clock, as the sequencer's records read it.
-fn now_ns() -> i64 {
+pub(crate) fn now_ns() -> i64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
