@@ -10,7 +10,11 @@
 //! - `seq > last + 1`: `seq - last - 1` lost;
 //! - `seq <= 1`: the provider restarted (a new run numbered from 1): no loss;
 //! - `1 < seq <= last`: the provider restarted and the first `seq - 1` messages of its new
-//!   run were lost (a channel is delivered in order, so this is the only way back).
+//!   run were lost (a channel is delivered in order, so this is the only way back);
+//! - `seq == 0`: the message has no readable header (garbage on the wire, a provider's
+//!   bytes that do not decode). It was received and recorded all the same: it stands for
+//!   one of the numbers missing before the next numbered message, which are that many
+//!   fewer losses.
 //!
 //! Messages lost at the very end of a run cannot be seen from numbers alone: the live tap
 //! reads what a dead provider sent from its publication ledger
@@ -46,16 +50,27 @@ impl Observation {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SequenceTracker {
     last: Option<u64>,
+    /// Messages without a number since the last numbered one.
+    unnumbered: u64,
 }
 
 impl SequenceTracker {
-    /// Accounts for the next sequence number seen.
+    /// Accounts for the next sequence number seen (0: a message without a readable
+    /// header).
     pub fn observe(&mut self, seq: u64) -> Observation {
+        if seq == 0 {
+            self.unnumbered = self.unnumbered.saturating_add(1);
+            return Observation::Next;
+        }
+        let unnumbered = std::mem::take(&mut self.unnumbered);
         let observation = match self.last {
             None => Observation::First,
             Some(last) if seq == last.wrapping_add(1) => Observation::Next,
-            Some(last) if seq > last => Observation::Gap(seq - last - 1),
-            Some(_) => Observation::Restart(seq.saturating_sub(1)),
+            Some(last) if seq > last => match (seq - last - 1).saturating_sub(unnumbered) {
+                0 => Observation::Next,
+                lost => Observation::Gap(lost),
+            },
+            Some(_) => Observation::Restart(seq.saturating_sub(1).saturating_sub(unnumbered)),
         };
         self.last = Some(seq);
         observation
@@ -117,6 +132,18 @@ mod tests {
     }
 
     #[test]
+    fn messages_without_a_number_fill_the_gap_they_leave() {
+        // One garbled message between 3 and 6: one number is really missing.
+        check(&[1, 2, 3, 0, 6], &[First, Next, Next, Next, Gap(1)]);
+        // As many as the gap: nothing lost.
+        check(&[1, 0, 0, 4], &[First, Next, Next, Next]);
+        // Counted once: the next gap is a loss again.
+        check(&[1, 0, 3, 5], &[First, Next, Next, Gap(1)]);
+        // After a restart, they may be the new run's first messages.
+        check(&[5, 6, 0, 2], &[First, Next, Next, Restart(0)]);
+    }
+
+    #[test]
     fn consecutive_numbers_lose_nothing() {
         check(&[1, 2, 3], &[First, Next, Next]);
     }
@@ -142,8 +169,9 @@ mod tests {
     }
 
     #[test]
-    fn sequence_zero_is_taken_as_a_new_run() {
-        check(&[4, 0, 1], &[First, Restart(0), Next]);
+    fn sequence_zero_is_a_message_without_a_number_not_a_new_run() {
+        check(&[4, 0, 1], &[First, Next, Restart(0)]);
+        check(&[4, 0, 5], &[First, Next, Next]);
     }
 
     #[test]

@@ -51,6 +51,14 @@ pub trait Backend {
     /// The service's clock, in nanoseconds.
     fn now_ns(&self) -> i64;
 
+    /// Whether what the service publishes goes out now: `false` while the harness
+    /// silences the service (an injected stall or out-of-service). A silenced message is
+    /// not numbered either: a silent service publishes nothing, and a gap in a channel's
+    /// numbers is a loss to the recorder.
+    fn publishing(&self) -> bool {
+        true
+    }
+
     /// Publishes a message of `len_bytes` on the service's channel of `interface`;
     /// `encode` writes it in place (call it exactly once).
     ///
@@ -196,13 +204,17 @@ impl Context<'_> {
     /// Publishes `message` on this service's channel of its interface. Its header is filled
     /// in place first: provider, the channel's next sequence number (from 1), the publish
     /// time, and, unless the service set them, the inputs of the event being handled.
-    /// Returns the sequence number.
+    /// Returns the sequence number (the last one given, when the harness silences the
+    /// service: nothing is published then).
     ///
     /// # Errors
     /// When the service does not provide `T`, an array disagrees with its size field, or the
     /// channel refuses the message.
     pub fn publish<T: Interface>(&mut self, message: &mut T) -> Result<u64, ContextError> {
         message.check_sizes()?;
+        if !self.backend.publishing() {
+            return Ok(self.last_seq(T::NAME));
+        }
         let seq = self.stamp(T::NAME, message.header_mut());
         let len = cdr::encoded_len(message);
         let mut encode = |buf: &mut [u8]| {
@@ -231,6 +243,9 @@ impl Context<'_> {
         fill: impl FnOnce(T::Bulk<'_>),
     ) -> Result<u64, ContextError> {
         message.check_shape(lens)?;
+        if !self.backend.publishing() {
+            return Ok(self.last_seq(T::NAME));
+        }
         let seq = self.stamp(T::NAME, message.header_mut());
         let len = cdr::in_place_len(message, lens);
         let mut fill = Some(fill);
@@ -326,6 +341,11 @@ impl Context<'_> {
         self.log(Level::Warn, text);
     }
 
+    /// The last sequence number given on the channel of `key` (0: none yet).
+    fn last_seq(&self, key: &str) -> u64 {
+        self.state.seqs.get(key).copied().unwrap_or(0)
+    }
+
     fn stamp(&mut self, key: &str, header: &mut Header) -> u64 {
         // Looked up before inserting: the key is allocated once per channel, not per message.
         if !self.state.seqs.contains_key(key) {
@@ -358,11 +378,15 @@ mod tests {
         published: Vec<(String, Vec<u8>)>,
         calls: Vec<(CallId, String, String, Vec<u8>)>,
         health: Vec<Health>,
+        silenced: bool,
     }
 
     impl Backend for Recorder {
         fn now_ns(&self) -> i64 {
             self.now_ns
+        }
+        fn publishing(&self) -> bool {
+            !self.silenced
         }
         fn publish(
             &mut self,
@@ -391,6 +415,20 @@ mod tests {
             self.health.push(health.clone());
         }
         fn log(&mut self, _service: &str, _level: Level, _text: &str) {}
+    }
+
+    #[test]
+    fn a_silenced_service_publishes_nothing_and_numbers_nothing() {
+        let mut state = ContextState::new("laser", 1);
+        let mut backend = Recorder::default();
+        let mut scan = RangeFinder::default();
+        assert_eq!(state.context(&mut backend).publish(&mut scan), Ok(1));
+        backend.silenced = true;
+        assert_eq!(state.context(&mut backend).publish(&mut scan), Ok(1));
+        backend.silenced = false;
+        // No gap for the recorder to count as a loss.
+        assert_eq!(state.context(&mut backend).publish(&mut scan), Ok(2));
+        assert_eq!(backend.published.len(), 2);
     }
 
     #[test]

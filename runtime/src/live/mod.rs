@@ -717,6 +717,13 @@ impl Backend for LiveBackend {
         self.event_ns
     }
 
+    fn publishing(&self) -> bool {
+        !matches!(
+            self.fault,
+            fault::FaultState::OutOfService | fault::FaultState::Stalled
+        )
+    }
+
     fn publish(
         &mut self,
         interface: &str,
