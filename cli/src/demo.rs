@@ -62,7 +62,8 @@ pub struct DemoArgs {
     /// chaos.json in --out (default logs/chaos) and keeps each failed mission's folder.
     #[arg(long)]
     pub chaos: bool,
-    /// How long a chaos run starts new missions (`30m`, `1h`).
+    /// How long a chaos run lasts (`3m`, `1h`): the mission running then is stopped and
+    /// not judged.
     #[arg(long, value_name = "TIME", default_value = "1h", value_parser = parse_duration, requires = "chaos")]
     pub duration: std::time::Duration,
     /// With --chaos: do not live each failed mission again to see whether the replay fails

@@ -52,7 +52,8 @@ pub struct ChaosOptions {
     /// The seed of the faults and of the simulated devices: mission `i` draws its faults
     /// from it and seeds its devices with `seed + 100 i`.
     pub seed: u64,
-    /// No new mission starts after this much time; the one running ends as it ends.
+    /// How long the run lasts: the mission running then is stopped, and counted as cut
+    /// short rather than judged.
     pub duration: Duration,
     /// The output folder: `chaos.json`, and a folder per failed mission.
     pub out: PathBuf,
@@ -74,6 +75,9 @@ pub struct MissionResult {
     pub device_seed: u64,
     /// Whether it succeeded.
     pub succeeded: bool,
+    /// Whether the run's end stopped it before it was over (then it is not judged: neither
+    /// a success nor a failure).
+    pub cut_short: bool,
     /// The verdict's reason.
     pub reason: String,
     /// The states it went through.
@@ -106,7 +110,13 @@ impl MissionResult {
     /// asked for help): the failures chaos is meant to find.
     #[must_use]
     pub fn failed_with_providers_left(&self) -> bool {
-        !self.succeeded && self.broker.help_for.is_empty()
+        self.failed() && self.broker.help_for.is_empty()
+    }
+
+    /// Whether it failed (a mission cut short by the run's end did not).
+    #[must_use]
+    pub fn failed(&self) -> bool {
+        !self.succeeded && !self.cut_short
     }
 }
 
@@ -151,6 +161,12 @@ impl ChaosReport {
         self.missions.iter().filter(|m| m.succeeded).count()
     }
 
+    /// Missions judged: all but one the run's end cut short.
+    #[must_use]
+    pub fn judged(&self) -> usize {
+        self.missions.iter().filter(|m| !m.cut_short).count()
+    }
+
     /// Messages lost over the run.
     #[must_use]
     pub fn lost(&self) -> u64 {
@@ -167,7 +183,7 @@ impl ChaosReport {
     #[must_use]
     pub fn summary(&self) -> String {
         let mut s = String::new();
-        let n = self.missions.len();
+        let n = self.judged();
         let sum = |f: fn(&MissionResult) -> u64| self.missions.iter().map(f).sum::<u64>();
         let struck = sum(|m| m.faults.iter().filter(|f| f.struck_ns.is_some()).count() as u64);
         let _ = writeln!(
@@ -235,7 +251,7 @@ impl ChaosReport {
             .iter()
             .filter(|m| m.failed_with_providers_left())
             .count();
-        if n > self.succeeded() {
+        if self.missions.iter().any(MissionResult::failed) {
             let _ = writeln!(
                 s,
                 "  failed with a provider of everything left: {unexpected} (the others lost every provider of {})",
@@ -243,7 +259,7 @@ impl ChaosReport {
                     let mut needs: Vec<&str> = self
                         .missions
                         .iter()
-                        .filter(|m| !m.succeeded)
+                        .filter(|m| m.failed())
                         .flat_map(|m| m.broker.help_for.iter().map(String::as_str))
                         .collect();
                     needs.sort_unstable();
@@ -287,9 +303,15 @@ pub fn mission_line(m: &MissionResult) -> String {
     let kinds: Vec<String> = kinds.iter().map(|(k, n)| format!("{n} {k}")).collect();
     let missed = m.faults.len() - struck.len();
     let mut s = format!(
-        "mission {}: {} in {:.0} s; {} faults ({}){}; {} restarts, {} failovers, {} retries; blind {:.1} s; {} recorded, {} lost{}",
+        "mission {}: {} after {:.0} s; {} faults ({}){}; {} restarts, {} failovers, {} retries; blind {:.1} s; {} recorded, {} lost{}",
         m.number,
-        if m.succeeded { "succeeded" } else { "FAILED" },
+        if m.succeeded {
+            "succeeded"
+        } else if m.cut_short {
+            "cut short by the run's end"
+        } else {
+            "FAILED"
+        },
         m.duration_s,
         struck.len(),
         if kinds.is_empty() {
@@ -314,7 +336,7 @@ pub fn mission_line(m: &MissionResult) -> String {
             String::new()
         }
     );
-    if !m.succeeded {
+    if m.failed() {
         let _ = write!(s, "\n  why: {}", m.reason);
         if !m.broker.help_for.is_empty() {
             let _ = write!(s, " (no provider left of {})", m.broker.help_for.join(", "));
@@ -367,10 +389,14 @@ pub fn run_chaos(
     let mission = load_mission(&options.script)?;
 
     let started = Instant::now();
+    let end = started + options.duration;
     let sampler = SamplerThread::start(options.sample_every, started);
     let mut missions = Vec::new();
     let mut number = 0;
-    while started.elapsed() < options.duration {
+    while let Some(left) = end
+        .checked_duration_since(Instant::now())
+        .filter(|d| !d.is_zero())
+    {
         number += 1;
         sampler.mission.store(number - 1, Ordering::Relaxed);
         let dir = options.out.join(format!("mission-{number:03}"));
@@ -380,7 +406,7 @@ pub fn run_chaos(
             programs,
             (&robot_text, &mission),
             number,
-            &dir,
+            (&dir, left),
             &sampler.active,
         );
         let result = match result {
@@ -417,7 +443,7 @@ fn run_mission(
     programs: &dyn Programs,
     (robot_text, mission): (&str, &lewis_sequencer::Mission),
     number: u32,
-    dir: &Path,
+    (dir, left): (&Path, Duration),
     sampling: &AtomicBool,
 ) -> Result<Option<MissionResult>, DemoError> {
     let write_error = |path: &Path| {
@@ -462,7 +488,8 @@ fn run_mission(
             robot_path,
             namespace: namespace.clone(),
             lewis_exe: options.lewis_exe.clone(),
-            duration: None,
+            // The run's end stops the mission running then.
+            duration: Some(left),
             stop_grace: lewis_runtime::supervise::DEFAULT_STOP_GRACE,
             clock: ClockSource::Wall,
         },
@@ -498,6 +525,7 @@ fn run_mission(
     if launched.up.ended_by == "signal" {
         return Ok(None);
     }
+    let cut_short = launched.up.ended_by == "duration";
     let report = launched.mission.ok_or(DemoError::NoMission)?;
     let verdict = &report.verdict;
     let (recorded, lost) = match inspect(&run, &InfoOptions::default()) {
@@ -520,6 +548,7 @@ fn run_mission(
         number,
         device_seed,
         succeeded: report.succeeded(),
+        cut_short: cut_short && !report.succeeded(),
         reason: verdict.reason.clone(),
         states: verdict
             .states_visited
@@ -537,7 +566,7 @@ fn run_mission(
         replay_fails_too: None,
         replay_error: None,
     };
-    if result.succeeded {
+    if !result.failed() {
         // Its line says it all; an hour of recordings would fill the disk.
         let _ = std::fs::remove_dir_all(dir);
     } else {

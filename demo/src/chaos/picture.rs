@@ -50,13 +50,13 @@ fn draw(report: &ChaosReport, pixels: &mut [u8]) -> Result<(), String> {
     let root = BitMapBackend::with_buffer(pixels, (WIDTH, HEIGHT)).into_drawing_area();
     root.fill(&WHITE).map_err(show)?;
     let (title, body) = root.split_vertically(TITLE_PX);
-    let n = report.missions.len();
     title
         .draw_text(
             &format!(
-                "Chaos, seed {}: {} of {n} missions succeeded, {} messages lost, {} entries left in shared memory",
+                "Chaos, seed {}: {} of {} missions succeeded, {} messages lost, {} entries left in shared memory",
                 report.seed,
                 report.succeeded(),
+                report.judged(),
                 report.lost(),
                 report.leftovers()
             ),
@@ -137,7 +137,7 @@ fn mission_bands(report: &ChaosReport, minutes: &dyn Fn(f64) -> f64) -> Vec<(f64
                 .collect();
             let from = times.iter().copied().fold(f64::INFINITY, f64::min);
             let to = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            (from <= to).then_some((from, to, m.succeeded))
+            (from <= to && !m.cut_short).then_some((from, to, m.succeeded))
         })
         .collect()
 }
@@ -219,6 +219,7 @@ mod tests {
             number,
             device_seed: 1,
             succeeded,
+            cut_short: false,
             reason: String::new(),
             states: Vec::new(),
             duration_s: 100.0,
