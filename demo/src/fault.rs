@@ -118,7 +118,7 @@ pub struct FaultLog {
 #[derive(Debug)]
 pub struct FaultThread {
     stop: Arc<AtomicBool>,
-    thread: JoinHandle<FaultLog>,
+    thread: JoinHandle<Option<FaultLog>>,
 }
 
 impl FaultThread {
@@ -130,42 +130,29 @@ impl FaultThread {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&stop);
         let namespace = namespace.clone();
-        // IPC ports stay on the thread that opens them; it says when it listens.
-        let (ready, listening) = std::sync::mpsc::channel();
-        let thread = std::thread::Builder::new()
-            .name("lewis-demo-fault".into())
-            .spawn(move || {
-                let mut watch = match Watch::open(&namespace, fault, flag) {
-                    Ok(watch) => {
-                        let _ = ready.send(Ok(()));
-                        watch
-                    }
-                    Err(e) => {
-                        let _ = ready.send(Err(e.clone()));
-                        return FaultLog {
-                            error: Some(e),
-                            ..FaultLog::default()
-                        };
-                    }
-                };
+        let thread = spawn_listening(
+            "lewis-demo-fault",
+            move || Watch::open(&namespace, fault, flag),
+            |mut watch| {
                 watch.run();
                 watch.log
-            })?;
-        match listening.recv() {
-            Ok(Ok(())) => Ok(Self { stop, thread }),
-            Ok(Err(e)) => Err(std::io::Error::other(e)),
-            Err(_) => Err(std::io::Error::other("the fault thread ended at once")),
-        }
+            },
+        )?;
+        Ok(Self { stop, thread })
     }
 
     /// Stops the thread and returns what it did.
     #[must_use]
     pub fn finish(self) -> FaultLog {
         self.stop.store(true, Ordering::Relaxed);
-        self.thread.join().unwrap_or_else(|_| FaultLog {
-            error: Some("the fault thread panicked".to_owned()),
-            ..FaultLog::default()
-        })
+        self.thread
+            .join()
+            .ok()
+            .flatten()
+            .unwrap_or_else(|| FaultLog {
+                error: Some("the fault thread panicked".to_owned()),
+                ..FaultLog::default()
+            })
     }
 }
 
@@ -361,6 +348,38 @@ impl Watch {
                 ));
             }
         }
+    }
+}
+
+/// Starts thread `name`, which opens what it listens with (`open`: IPC ports stay on the
+/// thread that opens them) and then runs `run`; returns once it listens, so that it hears
+/// everything from then on. The thread's result is `None` when `open` failed (the error
+/// is returned here).
+///
+/// # Errors
+/// When `open` fails, or the thread cannot start.
+pub(crate) fn spawn_listening<W, T: Send + 'static>(
+    name: &str,
+    open: impl FnOnce() -> Result<W, String> + Send + 'static,
+    run: impl FnOnce(W) -> T + Send + 'static,
+) -> Result<JoinHandle<Option<T>>, std::io::Error> {
+    let (ready, listening) = std::sync::mpsc::channel();
+    let thread = std::thread::Builder::new()
+        .name(name.to_owned())
+        .spawn(move || match open() {
+            Ok(watch) => {
+                let _ = ready.send(Ok(()));
+                Some(run(watch))
+            }
+            Err(e) => {
+                let _ = ready.send(Err(e));
+                None
+            }
+        })?;
+    match listening.recv() {
+        Ok(Ok(())) => Ok(thread),
+        Ok(Err(e)) => Err(std::io::Error::other(e)),
+        Err(_) => Err(std::io::Error::other(format!("{name} ended at once"))),
     }
 }
 

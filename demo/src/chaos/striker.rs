@@ -19,7 +19,7 @@ use lewis_sequencer::{Entry, from_message};
 use serde::Serialize;
 
 use super::schedule::ChaosFault;
-use crate::fault::now_ns;
+use crate::fault::{now_ns, spawn_listening};
 
 /// How long one injection or kill may take.
 const CALL_TIMEOUT: Duration = Duration::from_secs(2);
@@ -76,7 +76,7 @@ pub struct ChaosLog {
 #[derive(Debug)]
 pub struct Striker {
     stop: Arc<AtomicBool>,
-    thread: JoinHandle<ChaosLog>,
+    thread: JoinHandle<Option<ChaosLog>>,
 }
 
 impl Striker {
@@ -88,42 +88,29 @@ impl Striker {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&stop);
         let namespace = namespace.clone();
-        // IPC ports stay on the thread that opens them; it says when it listens.
-        let (ready, listening) = std::sync::mpsc::channel();
-        let thread = std::thread::Builder::new()
-            .name("lewis-chaos".into())
-            .spawn(move || {
-                let mut watch = match Watch::open(&namespace, faults, flag) {
-                    Ok(watch) => {
-                        let _ = ready.send(Ok(()));
-                        watch
-                    }
-                    Err(e) => {
-                        let _ = ready.send(Err(e.clone()));
-                        return ChaosLog {
-                            error: Some(e),
-                            ..ChaosLog::default()
-                        };
-                    }
-                };
+        let thread = spawn_listening(
+            "lewis-chaos",
+            move || Watch::open(&namespace, faults, flag),
+            |mut watch| {
                 watch.run();
                 watch.finish()
-            })?;
-        match listening.recv() {
-            Ok(Ok(())) => Ok(Self { stop, thread }),
-            Ok(Err(e)) => Err(std::io::Error::other(e)),
-            Err(_) => Err(std::io::Error::other("the chaos thread ended at once")),
-        }
+            },
+        )?;
+        Ok(Self { stop, thread })
     }
 
     /// Stops the thread (its IPC node closes with it) and returns what it did.
     #[must_use]
     pub fn finish(self) -> ChaosLog {
         self.stop.store(true, Ordering::Relaxed);
-        self.thread.join().unwrap_or_else(|_| ChaosLog {
-            error: Some("the chaos thread panicked".to_owned()),
-            ..ChaosLog::default()
-        })
+        self.thread
+            .join()
+            .ok()
+            .flatten()
+            .unwrap_or_else(|| ChaosLog {
+                error: Some("the chaos thread panicked".to_owned()),
+                ..ChaosLog::default()
+            })
     }
 }
 
