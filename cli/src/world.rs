@@ -255,6 +255,17 @@ fn check_text(report: &CheckReport, held_scans: usize, used_scans: usize) -> Str
         report.no_return_beams, report.moving_beams
     );
     let held = report.held_out.is_some();
+    let far = report.far_off.beyond + report.far_off.short;
+    if far > 0 {
+        let _ = writeln!(
+            t,
+            "beams off by more than 20 cm{}: {} ({:.0}%) went on beyond the reading (holes: walls seen too sparsely, or things the map leaves out), {} stopped short of it (walls the laser did not see there)",
+            if held { " (held out)" } else { "" },
+            report.far_off.beyond,
+            100.0 * report.far_off.beyond as f64 / far as f64,
+            report.far_off.short
+        );
+    }
     for part in report.poor_parts() {
         let f = if held { &part.held_out } else { &part.used };
         let _ = writeln!(

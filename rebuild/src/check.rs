@@ -107,6 +107,19 @@ pub struct CheckReport {
     pub moving_beams: u64,
     /// Beams without a return (not compared).
     pub no_return_beams: u64,
+    /// Of the counting beams off by more than 20 cm: how many the world let pass beyond
+    /// the reading (a hole in the map, or something the world leaves out), and how many it
+    /// stopped short of it (something in the map the laser did not see there).
+    pub far_off: FarOff,
+}
+
+/// Beams off by more than 20 cm, by which way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FarOff {
+    /// The world's range was longer than the reading.
+    pub beyond: u64,
+    /// The world's range was shorter than the reading.
+    pub short: u64,
 }
 
 impl CheckReport {
@@ -225,6 +238,7 @@ pub fn check(run: &Run, dir: &Path, parts: usize) -> Result<(CheckReport, ErrorM
     let mut centres = vec![(Vec2::new(0.0, 0.0), 0_u32); parts];
     let mut map = ErrorMap::default();
     let (mut moving_beams, mut no_return_beams) = (0, 0);
+    let mut far_off = FarOff::default();
     for (scan, place) in run.scans.iter().zip(&placed) {
         let part = part_of(scan.time_ns);
         let centre = &mut centres[part];
@@ -254,6 +268,13 @@ pub fn check(run: &Run, dir: &Path, parts: usize) -> Result<(CheckReport, ErrorM
             }
             if place.used != held_out_any {
                 map.points.push((end, error));
+                if f64::from(error) > NEAR_M {
+                    if simulated > f64::from(r) {
+                        far_off.beyond += 1;
+                    } else {
+                        far_off.short += 1;
+                    }
+                }
             }
         }
     }
@@ -280,6 +301,7 @@ pub fn check(run: &Run, dir: &Path, parts: usize) -> Result<(CheckReport, ErrorM
         parts,
         moving_beams,
         no_return_beams,
+        far_off,
     };
     Ok((report, map))
 }

@@ -5,7 +5,8 @@
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
-use lewis_formats::import::carmen::{self, CarmenImport, ImportedMessage, Payload};
+use lewis_formats::import::carmen::parse::{LaserId, Record};
+use lewis_formats::import::carmen::{self, CarmenImport, ImportedMessage, LogReader, Payload};
 use lewis_formats::import::ros2::{self, Out, Ros2Import};
 use lewis_geometry::{Pose2, Vec2, wrap_angle};
 use lewis_interfaces::msg::{Egomotion, GroundTruth, RangeFinder};
@@ -415,14 +416,63 @@ fn read_carmen(path: &Path) -> Result<Run, RunError> {
     for message in import.messages()? {
         take(&mut gathered, &message?, &channel);
     }
-    let source = PoseSource::Odometry(match import.report().odometry {
-        carmen::OdometrySource::OdomLines => {
-            "the log's ODOM lines; a corrected log's are its corrected trajectory".to_owned()
+    let report = import.report();
+    let laser_source = report.laser.source;
+    let laser = laser_source.line_type().to_owned();
+    // The pose in each scan line: in a corrected log, the corrected trajectory (its ODOM
+    // lines are only near it: centimetres and degrees off). The import makes Egomotion
+    // from the ODOM lines, so the scan lines are read again here, by the same reader, and
+    // their poses put on the imported scans in order.
+    if let Some(poses) = scan_line_poses(path, laser_source)?
+        && poses.len() == gathered.scans.len()
+    {
+        let mut run = gathered.into_run(path, RunFormat::Carmen, laser, PoseSource::None);
+        for (scan, laser_pose) in run.scans.iter_mut().zip(poses) {
+            // The line gives the laser's pose: the robot is the mount's offset behind it.
+            let back = (-scan.mount_m).rotated(laser_pose.heading_rad);
+            scan.recorded_pose = Some(Pose2::new(
+                laser_pose.x_m + back.x,
+                laser_pose.y_m + back.y,
+                laser_pose.heading_rad,
+            ));
         }
+        run.poses = PoseSource::Odometry(format!(
+            "the pose of each {} line; a corrected log's corrected trajectory",
+            laser_source.line_type()
+        ));
+        return Ok(run);
+    }
+    let source = PoseSource::Odometry(match report.odometry {
+        carmen::OdometrySource::OdomLines => "the log's ODOM lines".to_owned(),
         carmen::OdometrySource::ScanPoses => "the odometry pose of each scan line".to_owned(),
     });
-    let laser = import.report().laser.source.line_type().to_owned();
     Ok(gathered.into_run(path, RunFormat::Carmen, laser, source))
+}
+
+/// The pose of every scan line of the imported laser, in order; `None` when a line has
+/// none that is finite.
+fn scan_line_poses(
+    path: &Path,
+    source: carmen::LaserSource,
+) -> Result<Option<Vec<Pose2>>, RunError> {
+    let id = match source {
+        carmen::LaserSource::Flaser => LaserId::Front,
+        carmen::LaserSource::RobotLaser1 => LaserId::Robot(1),
+    };
+    let mut reader = LogReader::open(path).map_err(carmen::ImportError::from)?;
+    let mut poses = Vec::new();
+    while let Some(record) = reader.next_record().map_err(carmen::ImportError::from)? {
+        if let Record::Laser(scan) = record.value
+            && scan.laser == id
+        {
+            let pose = Pose2::from_msg(&scan.laser_pose);
+            if !(pose.x_m.is_finite() && pose.y_m.is_finite() && pose.heading_rad.is_finite()) {
+                return Ok(None);
+            }
+            poses.push(pose);
+        }
+    }
+    Ok(Some(poses))
 }
 
 fn read_ros2(path: &Path) -> Result<Run, RunError> {
