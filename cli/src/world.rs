@@ -11,7 +11,9 @@ use anyhow::Context as _;
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use lewis_rebuild::check::{CLOSE_M, NEAR_M};
-use lewis_rebuild::{BuildOptions, CheckReport, Figures, Run, build, check, plots, read_run, world_dir};
+use lewis_rebuild::{
+    BuildOptions, CheckReport, Figures, Run, build, check, plots, read_run, world_dir,
+};
 
 /// What `lewis world` does.
 #[derive(Debug, Subcommand)]
@@ -167,7 +169,11 @@ fn from(args: &FromArgs) -> anyhow::Result<ExitCode> {
         written.size_m.0,
         written.size_m.1,
         r.used,
-        if args.hold_out { " (every other: --hold-out)" } else { "" },
+        if args.hold_out {
+            " (every other: --hold-out)"
+        } else {
+            ""
+        },
         r.occupied_cells,
         r.left_out_cells
     );
@@ -205,7 +211,11 @@ fn figures_line(what: &str, scans: usize, f: &Figures) -> String {
         CLOSE_M * 100.0,
         f.within_near * 100.0,
         NEAR_M * 100.0,
-        if f.meets_goal() { "meets the goal" } else { "misses the goal (median under 5 cm, 90% within 20 cm)" }
+        if f.meets_goal() {
+            "meets the goal"
+        } else {
+            "misses the goal (median under 5 cm, 90% within 20 cm)"
+        }
     )
 }
 
@@ -227,7 +237,12 @@ fn check_world(args: &CheckArgs) -> anyhow::Result<ExitCode> {
     plots::write_error_map(&world, &errors, &map_png)?;
     let mut out = std::io::stdout().lock();
     out.write_all(text.as_bytes())?;
-    writeln!(out, "wrote {} and {}", time_png.display(), map_png.display())?;
+    writeln!(
+        out,
+        "wrote {} and {}",
+        time_png.display(),
+        map_png.display()
+    )?;
     Ok(if report.counting().meets_goal() {
         ExitCode::SUCCESS
     } else {
@@ -248,7 +263,11 @@ fn check_text(report: &CheckReport, held_scans: usize, used_scans: usize) -> Str
             );
         }
     }
-    let _ = writeln!(t, "{}", figures_line("built from", used_scans, &report.used));
+    let _ = writeln!(
+        t,
+        "{}",
+        figures_line("built from", used_scans, &report.used)
+    );
     let _ = writeln!(
         t,
         "not compared: {} beams without a return, {} beams ending on things that moved",

@@ -246,7 +246,10 @@ fn report(run: &Run, grid: &Grid, placed: &[Placed]) -> BuildReport {
     let matched: Vec<&Placed> = placed.iter().filter(|p| p.matched).collect();
     let drift_m = placed
         .iter()
-        .filter_map(|p| p.recorded.map(|r| (p.pose.position() - r.position()).norm()))
+        .filter_map(|p| {
+            p.recorded
+                .map(|r| (p.pose.position() - r.position()).norm())
+        })
         .reduce(f64::max);
     let (occupied_cells, left_out_cells) = grid.census();
     BuildReport {

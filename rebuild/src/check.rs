@@ -13,7 +13,6 @@ use std::path::{Path, PathBuf};
 use lewis_geometry::Vec2;
 use lewis_sim::world::{World, WorldError};
 
-
 use crate::run::Run;
 use crate::world_dir::{self, WorldDirError};
 
@@ -306,20 +305,20 @@ pub fn check(run: &Run, dir: &Path, parts: usize) -> Result<(CheckReport, ErrorM
     Ok((report, map))
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn figures_are_the_median_the_p90_and_the_shares() {
-        let mut errors: Vec<f32> = (0..100).map(|i| i as f32 / 100.0).collect();
+        // 0.5 cm to 99.5 cm, one a centimetre, in reverse order.
+        let mut errors: Vec<f32> = (0..100).rev().map(|i| (i as f32 + 0.5) / 100.0).collect();
         let f = Figures::of(&mut errors);
         assert_eq!(f.beams, 100);
-        assert!((f.median_m - 0.5).abs() < 0.011, "{f:?}");
-        assert!((f.p90_m - 0.89).abs() < 0.011, "{f:?}");
-        assert!((f.within_close - 0.06).abs() < 1e-9, "{f:?}");
-        assert!((f.within_near - 0.21).abs() < 1e-9, "{f:?}");
+        assert!((f.median_m - 0.505).abs() < 1e-6, "{f:?}");
+        assert!((f.p90_m - 0.895).abs() < 1e-6, "{f:?}");
+        assert!((f.within_close - 0.05).abs() < 1e-9, "{f:?}");
+        assert!((f.within_near - 0.20).abs() < 1e-9, "{f:?}");
         assert!(!f.meets_goal());
         let mut good = vec![0.01_f32; 95];
         good.extend([1.0; 5]);

@@ -212,7 +212,10 @@ impl Grid {
         }
         const MARGIN: i64 = 128;
         let (old_lo, old_w, old_h) = (self.lo, self.width, self.height);
-        let (mut new_lo, mut new_hi) = ([lo[0] - MARGIN, lo[1] - MARGIN], [hi[0] + MARGIN, hi[1] + MARGIN]);
+        let (mut new_lo, mut new_hi) = (
+            [lo[0] - MARGIN, lo[1] - MARGIN],
+            [hi[0] + MARGIN, hi[1] + MARGIN],
+        );
         if old_w > 0 {
             new_lo = [new_lo[0].min(old_lo[0]), new_lo[1].min(old_lo[1])];
             new_hi = [
@@ -260,8 +263,8 @@ impl Grid {
             if !scan.is_return(r) {
                 continue;
             }
-            let end = sensor
-                + Vec2::from_angle(pose.heading_rad + scan.bearing_rad(i)) * f64::from(r);
+            let end =
+                sensor + Vec2::from_angle(pose.heading_rad + scan.bearing_rad(i)) * f64::from(r);
             if !end.is_finite() {
                 continue;
             }

@@ -128,7 +128,10 @@ pub fn match_scan(
             *cell = [(w.x / size).floor() as i64, (w.y / size).floor() as i64];
         }
         let score_at = |dx: i64, dy: i64| -> u32 {
-            cells.iter().map(|cell| lookup(cell[0] + dx, cell[1] + dy)).sum()
+            cells
+                .iter()
+                .map(|cell| lookup(cell[0] + dx, cell[1] + dy))
+                .sum()
         };
         // Every second cell over the window, then every cell around the best of those.
         let mut local = (0_u32, 0_i64, 0_i64);
@@ -167,7 +170,8 @@ pub fn match_scan(
     let pose = match refined {
         Some(p)
             if (p.position() - coarse.position()).norm() <= 2.0 * size
-                && wrap_angle(p.heading_rad - coarse.heading_rad).abs() <= 2.0 * options.step_rad =>
+                && wrap_angle(p.heading_rad - coarse.heading_rad).abs()
+                    <= 2.0 * options.step_rad =>
         {
             p
         }
@@ -298,7 +302,10 @@ mod tests {
         let ranges = (0..n)
             .map(|i| {
                 let bearing = -std::f64::consts::PI + step * i as f64;
-                walls(pose.position(), Vec2::from_angle(pose.heading_rad + bearing)) as f32
+                walls(
+                    pose.position(),
+                    Vec2::from_angle(pose.heading_rad + bearing),
+                ) as f32
             })
             .collect();
         Scan {
@@ -314,7 +321,10 @@ mod tests {
 
     fn check(true_pose: Pose2, guess: Pose2, options: &MatchOptions) {
         let mut grid = Grid::new(0.05, OccupancyRule::default());
-        grid.insert(&room_scan(Pose2::new(0.0, 0.0, 0.0)), Pose2::new(0.0, 0.0, 0.0));
+        grid.insert(
+            &room_scan(Pose2::new(0.0, 0.0, 0.0)),
+            Pose2::new(0.0, 0.0, 0.0),
+        );
         let scan = room_scan(true_pose);
         let points = thin(&scan.points_in_robot(), 0.05, 300);
         let found = match_scan(&grid, &points, guess, options);
@@ -352,7 +362,10 @@ mod tests {
     #[test]
     fn a_scan_of_another_place_is_no_match() {
         let mut grid = Grid::new(0.05, OccupancyRule::default());
-        grid.insert(&room_scan(Pose2::new(0.0, 0.0, 0.0)), Pose2::new(0.0, 0.0, 0.0));
+        grid.insert(
+            &room_scan(Pose2::new(0.0, 0.0, 0.0)),
+            Pose2::new(0.0, 0.0, 0.0),
+        );
         let scan = room_scan(Pose2::new(0.0, 0.0, 0.0));
         let points = thin(&scan.points_in_robot(), 0.05, 300);
         let far = Pose2::new(40.0, 40.0, 0.0);

@@ -72,7 +72,10 @@ pub fn write_time_plot(report: &CheckReport, path: &Path) -> Result<(), PlotErro
             .map_err(|e| fail(e.to_string()))?;
         for (limit, label) in [(CLOSE_M, "5 cm"), (NEAR_M, "20 cm")] {
             chart
-                .draw_series(LineSeries::new([(0.0, limit), (end_s, limit)], BLACK.mix(0.3)))
+                .draw_series(LineSeries::new(
+                    [(0.0, limit), (end_s, limit)],
+                    BLACK.mix(0.3),
+                ))
                 .map_err(|e| fail(e.to_string()))?
                 .label(label);
         }
@@ -81,7 +84,12 @@ pub fn write_time_plot(report: &CheckReport, path: &Path) -> Result<(), PlotErro
         let series: [(&str, bool, bool, RGBColor); 4] = [
             ("median, held out", true, false, RGBColor(0x1f, 0x77, 0xb4)),
             ("p90, held out", true, true, RGBColor(0xd6, 0x27, 0x28)),
-            ("median, built from", false, false, RGBColor(0x9e, 0xc5, 0xe8)),
+            (
+                "median, built from",
+                false,
+                false,
+                RGBColor(0x9e, 0xc5, 0xe8),
+            ),
             ("p90, built from", false, true, RGBColor(0xf1, 0xa3, 0xa3)),
         ];
         for (label, held_out, p90, colour) in series {
@@ -100,9 +108,15 @@ pub fn write_time_plot(report: &CheckReport, path: &Path) -> Result<(), PlotErro
                 .draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))
                 .map_err(|e| fail(e.to_string()))?
                 .label(label)
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
+                });
             chart
-                .draw_series(points.into_iter().map(|p| Circle::new(p, 3, colour.filled())))
+                .draw_series(
+                    points
+                        .into_iter()
+                        .map(|p| Circle::new(p, 3, colour.filled())),
+                )
                 .map_err(|e| fail(e.to_string()))?;
         }
         chart

@@ -47,9 +47,7 @@ impl Scan {
     /// Whether beam `range_m` hit something (not a no-return code, not too close).
     #[must_use]
     pub fn is_return(&self, range_m: f32) -> bool {
-        range_m.is_finite()
-            && range_m > MIN_RANGE_M
-            && f64::from(range_m) < self.max_range_m - 1e-3
+        range_m.is_finite() && range_m > MIN_RANGE_M && f64::from(range_m) < self.max_range_m - 1e-3
     }
 
     /// Beam `index`'s bearing in the robot frame, in rad.
@@ -312,9 +310,7 @@ fn pose_at(poses: &[(i64, Pose2)], time_ns: i64) -> Option<Pose2> {
                 wrap_angle(a.heading_rad + wrap_angle(b.heading_rad - a.heading_rad) * f),
             ))
         }
-        (Some(&(t, p)), _) | (None, Some(&(t, p))) if (time_ns - t).abs() <= POSE_GAP_NS => {
-            Some(p)
-        }
+        (Some(&(t, p)), _) | (None, Some(&(t, p))) if (time_ns - t).abs() <= POSE_GAP_NS => Some(p),
         _ => None,
     }
 }
@@ -359,26 +355,27 @@ fn read_lewis(path: &Path, files: &RecordingFiles) -> Result<Run, RunError> {
         wanted.push(t);
     }
     let mut gathered = Gathered::default();
-    let decode_error = |topic: &str, seq: u64, what: &'static str, reason: String| {
-        RunError::Decode {
+    let decode_error =
+        |topic: &str, seq: u64, what: &'static str, reason: String| RunError::Decode {
             path: path.to_owned(),
             topic: topic.to_owned(),
             seq,
             what,
             reason,
-        }
-    };
+        };
     for message in files.messages_on(&wanted)? {
         let message = message?;
         if message.topic == laser.name {
-            let scan: RangeFinder = lewis_interfaces::cdr::from_bytes(&message.data).map_err(
-                |e| decode_error(&message.topic, message.seq, "RangeFinder", e.to_string()),
-            )?;
+            let scan: RangeFinder =
+                lewis_interfaces::cdr::from_bytes(&message.data).map_err(|e| {
+                    decode_error(&message.topic, message.seq, "RangeFinder", e.to_string())
+                })?;
             gathered.scan(message.log_time_ns, &scan);
         } else if matches!(source, PoseSource::Localised(_)) {
-            let truth: GroundTruth = lewis_interfaces::cdr::from_bytes(&message.data).map_err(
-                |e| decode_error(&message.topic, message.seq, "GroundTruth", e.to_string()),
-            )?;
+            let truth: GroundTruth =
+                lewis_interfaces::cdr::from_bytes(&message.data).map_err(|e| {
+                    decode_error(&message.topic, message.seq, "GroundTruth", e.to_string())
+                })?;
             gathered.pose(message.log_time_ns, Pose2::from_msg(&truth.pose));
         } else {
             let ego: Egomotion = lewis_interfaces::cdr::from_bytes(&message.data).map_err(|e| {

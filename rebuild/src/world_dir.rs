@@ -88,7 +88,10 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> WorldDirError + '_ {
     }
 }
 
-fn save_png(path: &Path, save: impl FnOnce(&Path) -> image::ImageResult<()>) -> Result<(), WorldDirError> {
+fn save_png(
+    path: &Path,
+    save: impl FnOnce(&Path) -> image::ImageResult<()>,
+) -> Result<(), WorldDirError> {
     save(path).map_err(|source| WorldDirError::Image {
         path: path.to_owned(),
         source,
@@ -133,9 +136,10 @@ pub fn write(dir: &Path, run: &Run, built: &Built) -> Result<Written, WorldDirEr
     save_png(&moving_path, |p| moving.save(p))?;
     let origin = (lo[0] as f64 * size, lo[1] as f64 * size);
     let size_m = (f64::from(w) * size, f64::from(h) * size);
-    let name = dir
-        .file_name()
-        .map_or_else(|| "rebuilt".to_owned(), |n| n.to_string_lossy().into_owned());
+    let name = dir.file_name().map_or_else(
+        || "rebuilt".to_owned(),
+        |n| n.to_string_lossy().into_owned(),
+    );
     let start = built.placed.first().map(|p| p.pose).unwrap_or_default();
     let r = &built.report;
     let mut toml = String::new();
@@ -147,7 +151,13 @@ pub fn write(dir: &Path, run: &Run, built: &Built) -> Result<Written, WorldDirEr
         r.scans,
         run.laser
     );
-    let _ = writeln!(toml, "# Poses: {}; {} of {} scans placed by the scan matcher.", r.poses, r.matched, r.scans.saturating_sub(1));
+    let _ = writeln!(
+        toml,
+        "# Poses: {}; {} of {} scans placed by the scan matcher.",
+        r.poses,
+        r.matched,
+        r.scans.saturating_sub(1)
+    );
     let _ = writeln!(
         toml,
         "# {} wall cells; {} cells seen occupied but mostly free (things that moved) left out.",
@@ -202,9 +212,15 @@ fn write_trajectory(path: &Path, placed: &[Placed]) -> Result<(), WorldDirError>
     let mut text = String::with_capacity(placed.len() * 96);
     let _ = writeln!(text, "{TRAJECTORY_HEADER}");
     for p in placed {
-        let (rx, ry, rh) = p.recorded.map_or((String::new(), String::new(), String::new()), |r| {
-            (format!("{:.6}", r.x_m), format!("{:.6}", r.y_m), format!("{:.6}", r.heading_rad))
-        });
+        let (rx, ry, rh) = p
+            .recorded
+            .map_or((String::new(), String::new(), String::new()), |r| {
+                (
+                    format!("{:.6}", r.x_m),
+                    format!("{:.6}", r.y_m),
+                    format!("{:.6}", r.heading_rad),
+                )
+            });
         let _ = writeln!(
             text,
             "{},{},{rx},{ry},{rh},{:.6},{:.6},{:.6},{},{}",
@@ -234,7 +250,12 @@ pub fn read_trajectory(dir: &Path) -> Result<Vec<Placed>, WorldDirError> {
     };
     let mut lines = text.lines();
     if lines.next() != Some(TRAJECTORY_HEADER) {
-        return Err(bad(1, format!("the header is not `{TRAJECTORY_HEADER}`: write the world again with `lewis world from`")));
+        return Err(bad(
+            1,
+            format!(
+                "the header is not `{TRAJECTORY_HEADER}`: write the world again with `lewis world from`"
+            ),
+        ));
     }
     let mut placed = Vec::new();
     for (n, line) in lines.enumerate() {
@@ -248,7 +269,12 @@ pub fn read_trajectory(dir: &Path) -> Result<Vec<Placed>, WorldDirError> {
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| bad(line_no, format!("field {} `{}` is not a number", i + 1, fields[i])))
+                .ok_or_else(|| {
+                    bad(
+                        line_no,
+                        format!("field {} `{}` is not a number", i + 1, fields[i]),
+                    )
+                })
         };
         let recorded = if fields[2].is_empty() {
             None
@@ -317,7 +343,11 @@ fn picture(
                     }
                 }
             }
-            let pixel = if moved && luma != WALL { MOVED } else { Rgb([luma, luma, luma]) };
+            let pixel = if moved && luma != WALL {
+                MOVED
+            } else {
+                Rgb([luma, luma, luma])
+            };
             out.put_pixel(x, y, pixel);
         }
     }
@@ -336,8 +366,18 @@ fn picture(
             previous = Some(q);
         }
     };
-    path(&mut out, &mut placed.iter().filter_map(|p| p.recorded.map(Pose2::position)), RECORDED);
-    path(&mut out, &mut placed.iter().map(|p| p.pose.position()), PLACED);
+    path(
+        &mut out,
+        &mut placed
+            .iter()
+            .filter_map(|p| p.recorded.map(Pose2::position)),
+        RECORDED,
+    );
+    path(
+        &mut out,
+        &mut placed.iter().map(|p| p.pose.position()),
+        PLACED,
+    );
     for p in placed.iter().skip(1).filter(|p| !p.matched) {
         let (x, y) = to_px(p.pose.position());
         for d in -2..=2 {
@@ -357,7 +397,11 @@ fn dot(out: &mut RgbImage, x: f64, y: f64, colour: Rgb<u8>) {
 
 /// A line of pixels from `a` to `b`.
 pub(crate) fn line(out: &mut RgbImage, a: (f64, f64), b: (f64, f64), colour: Rgb<u8>) {
-    let steps = (b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil().clamp(1.0, 1e5);
+    let steps = (b.0 - a.0)
+        .abs()
+        .max((b.1 - a.1).abs())
+        .ceil()
+        .clamp(1.0, 1e5);
     // at most 1e5 steps
     let n = steps as u32;
     for i in 0..=n {

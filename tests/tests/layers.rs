@@ -209,6 +209,27 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-perception",
         ],
     ),
+    // A simulator world rebuilt from a real run's scans (`lewis world`): runs read through
+    // the recording reader and the importers, worlds loaded and ray cast by the simulator.
+    (
+        "lewis-rebuild",
+        &[
+            "lewis-stdx",
+            "lewis-interfaces",
+            "lewis-robot",
+            "lewis-mcap",
+            "lewis-runtime",
+            "lewis-recorder",
+            "lewis-recording",
+            "lewis-ros2-map",
+            "lewis-motion",
+            "lewis-perception",
+            "lewis-formats",
+            "lewis-service",
+            "lewis-geometry",
+            "lewis-sim",
+        ],
+    ),
     // The tuning workbench behind `lewis tune`.
     (
         "lewis-tune",
@@ -329,6 +350,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-bridge",
             "lewis-demo",
             "lewis-viewer",
+            "lewis-rebuild",
+            "lewis-sim",
         ],
     ),
     // A team's own kind and binary (the guide's how-to): what such a crate uses, no more.
