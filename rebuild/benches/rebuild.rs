@@ -19,6 +19,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use lewis_geometry::{Pose2, Vec2};
+use lewis_rebuild::build::between;
 use lewis_rebuild::run::{PoseSource, Run, RunFormat, Scan};
 use lewis_rebuild::{BuildOptions, build, read_run};
 use lewis_sim::laser::{LaserConfig, SimLaser};
@@ -49,13 +50,13 @@ fn building() -> World {
 
 /// Along each row of rooms through their doors, up through a door at the end, and back.
 fn pose_at(t_s: f64) -> Pose2 {
-    let rows = 10;
+    let rows = 10_u32;
     let leg = 90.0;
-    let length = rows as f64 * leg + (rows - 1) as f64 * 10.0;
+    let length = f64::from(rows) * leg + f64::from(rows - 1) * 10.0;
     let speed = length / RUN_S;
     let mut s = (t_s * speed).min(length - 1e-6);
     for row in 0..rows {
-        let y = 10.0 * row as f64 + 5.0;
+        let y = 10.0 * f64::from(row) + 5.0;
         let east = row % 2 == 0;
         if s < leg {
             let x = if east { 5.0 + s } else { 95.0 - s };
@@ -84,7 +85,7 @@ fn synthetic_run() -> Run {
         let truth = pose_at(t);
         let reading = laser.scan(&world, truth);
         // Odometry that counts 1% too far and turns a degree a minute too much.
-        let step = lewis_rebuild::build::between(previous, truth);
+        let step = between(previous, truth);
         let bias = (1.0 / 60.0 / RATE_HZ).to_radians();
         odometry = odometry.compose(Pose2::new(
             step.x_m * 1.01,

@@ -272,8 +272,8 @@ mod tests {
 
     /// A 360-degree scan from `pose` in a 6 m x 4 m room with a pillar, ray cast by hand.
     fn room_scan(pose: Pose2) -> Scan {
-        let n = 720;
-        let step = std::f64::consts::TAU / n as f64;
+        let n = 720_u32;
+        let step = std::f64::consts::TAU / f64::from(n);
         let walls = |p: Vec2, d: Vec2| -> f64 {
             let mut best = f64::INFINITY;
             // walls x = -3, x = 3, y = -2, y = 2
@@ -301,7 +301,7 @@ mod tests {
         };
         let ranges = (0..n)
             .map(|i| {
-                let bearing = -std::f64::consts::PI + step * i as f64;
+                let bearing = -std::f64::consts::PI + step * f64::from(i);
                 walls(
                     pose.position(),
                     Vec2::from_angle(pose.heading_rad + bearing),
