@@ -169,8 +169,14 @@ pub fn write(dir: &Path, run: &Run, built: &Built) -> Result<Written, WorldDirEr
     );
     let _ = writeln!(
         toml,
-        "# The run starts at ({:.3}, {:.3}) heading {:.4} rad; trajectory.csv has every scan's pose.",
-        start.x_m, start.y_m, start.heading_rad
+        "# The run starts at the pose below (a sim-base's `start` parameter); trajectory.csv has every scan's."
+    );
+    let _ = writeln!(
+        toml,
+        "#   start = {{ x_m = {:.3}, y_m = {:.3}, heading_deg = {:.1} }}",
+        start.x_m,
+        start.y_m,
+        start.heading_rad.to_degrees()
     );
     let _ = writeln!(toml);
     let _ = writeln!(toml, "name = {}", toml_string(&name));
