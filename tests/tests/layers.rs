@@ -708,7 +708,7 @@ fn a_crate_that_uses_the_test_kit_outside_its_tests_is_named() {
     assert_eq!(
         violations(&metadata),
         [
-            "lewis -> lewis-testkit: lewis may use only [\"lewis-stdx\", \"lewis-interfaces\", \"lewis-robot\", \"lewis-service\", \"lewis-runtime\", \"lewis-recorder\", \"lewis-recording\", \"lewis-replay\", \"lewis-formats\", \"lewis-tune\", \"lewis-sequencer\", \"lewis-pages\", \"lewis-geometry\", \"lewis-motion\", \"lewis-emulators\", \"lewis-kinds\", \"lewis-launch\", \"lewis-apps\", \"lewis-bridge\", \"lewis-demo\", \"lewis-viewer\"]",
+            "lewis -> lewis-testkit: lewis may use only [\"lewis-stdx\", \"lewis-interfaces\", \"lewis-robot\", \"lewis-service\", \"lewis-runtime\", \"lewis-recorder\", \"lewis-recording\", \"lewis-replay\", \"lewis-formats\", \"lewis-tune\", \"lewis-sequencer\", \"lewis-pages\", \"lewis-geometry\", \"lewis-motion\", \"lewis-emulators\", \"lewis-kinds\", \"lewis-launch\", \"lewis-apps\", \"lewis-bridge\", \"lewis-demo\", \"lewis-viewer\", \"lewis-rebuild\", \"lewis-sim\"]",
             "lewis-testkit -> lewis-sim: lewis-testkit may use only [\"lewis-stdx\", \"lewis-interfaces\", \"lewis-robot\", \"lewis-service\"]",
             "lewis -> lewis-testkit: lewis-testkit is a test-support crate: for dev-dependencies and the tests' helpers only",
             "lewis-sim -> (dev) lewis-testkit -> lewis-sim: a dependency cycle, lewis-sim's tests would build a second lewis-sim",
