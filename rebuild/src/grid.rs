@@ -46,6 +46,9 @@ const KERNEL_SIGMA_CELLS: f64 = 1.5;
 /// How far from a wall a cell must be to be left out as something that moved, in cells.
 const FRINGE_CELLS: i64 = 2;
 
+/// Neighbouring returns at most this far apart are one surface, in m.
+const SURFACE_GAP_M: f64 = 0.2;
+
 /// A cell's place in the grid: column and row from the world origin, floor(x / size).
 pub type Cell = [i64; 2];
 
@@ -256,7 +259,13 @@ impl Grid {
         if !sensor.is_finite() {
             return;
         }
-        let mut ends = Vec::with_capacity(scan.ranges_m.len());
+        let mut ends: Vec<Cell> = Vec::with_capacity(scan.ranges_m.len());
+        // Neighbouring returns close together, on a surface facing the sensor, are one
+        // surface: the cells between them are walls too. Without this, a wall seen only
+        // from far, where beams are a cell or more apart, is a dotted line that other
+        // scans' beams pass through.
+        let mut surfaces: Vec<(Cell, Cell)> = Vec::new();
+        let mut previous: Option<(usize, Vec2, Vec2)> = None;
         let start = self.cell_of(sensor);
         let (mut lo, mut hi) = (start, start);
         for (i, &r) in scan.ranges_m.iter().enumerate() {
@@ -269,11 +278,27 @@ impl Grid {
                 continue;
             }
             let cell = self.cell_of(end);
+            let dir = Vec2::from_angle(pose.heading_rad + scan.bearing_rad(i));
+            if let Some((j, p, _)) = previous
+                && j + 1 == i
+            {
+                let gap = end - p;
+                let length = gap.norm();
+                // Facing: the gap runs across the beam, not along it (an edge between a
+                // near and a far surface runs along the beams).
+                if length <= SURFACE_GAP_M && gap.dot(dir).abs() <= 0.7 * length {
+                    surfaces.push((self.cell_of(p), cell));
+                }
+            }
+            previous = Some((i, end, dir));
             lo = [lo[0].min(cell[0]), lo[1].min(cell[1])];
             hi = [hi[0].max(cell[0]), hi[1].max(cell[1])];
             ends.push(cell);
         }
         self.ensure(lo, hi);
+        for (a, b) in surfaces {
+            self.fill(a, b);
+        }
         for end in ends {
             self.trace(start, end);
             if let Some(i) = self.index(end) {
@@ -302,6 +327,30 @@ impl Grid {
             if e2 <= dx {
                 err += dx;
                 y += sy;
+            }
+        }
+    }
+
+    /// Marks the cells strictly between `a` and `b` seen occupied (a surface between two
+    /// returns). They get no kernel in the matcher's field: the matcher leans on readings.
+    fn fill(&mut self, a: Cell, b: Cell) {
+        let (dx, dy) = ((b[0] - a[0]).abs(), -(b[1] - a[1]).abs());
+        let (sx, sy) = ((b[0] - a[0]).signum(), (b[1] - a[1]).signum());
+        let (mut x, mut y, mut err) = (a[0], a[1], dx + dy);
+        while [x, y] != b {
+            let e2 = 2 * err;
+            if e2 >= dy {
+                err += dy;
+                x += sx;
+            }
+            if e2 <= dx {
+                err += dx;
+                y += sy;
+            }
+            if [x, y] != b
+                && let Some(i) = self.index([x, y])
+            {
+                self.hits[i] = self.hits[i].saturating_add(1);
             }
         }
     }
@@ -390,6 +439,30 @@ mod tests {
         assert!(!grid.is_occupied([10, 0]));
         assert!(grid.is_occupied([30, 0]));
         assert_eq!(grid.census(), (1, 1));
+    }
+
+    #[test]
+    fn neighbouring_returns_on_a_wall_close_the_gap_between_them() {
+        let mut grid = Grid::new(0.02, OccupancyRule::default());
+        let mut s = scan(vec![2.0, 2.0, 2.0]);
+        s.first_bearing_rad = -0.05;
+        s.step_rad = 0.05;
+        grid.insert(&s, Pose2::new(0.0, 0.0, 0.0));
+        // The returns are 5 cells apart; the cells between them are walls.
+        for rows in [-4..=-1, 1..=4] {
+            assert!(
+                rows.clone()
+                    .all(|r| (99..=100).any(|c| grid.is_occupied([c, r]))),
+                "rows {rows:?}"
+            );
+        }
+        // A near and a far return side by side are not one surface.
+        let mut edge = Grid::new(0.02, OccupancyRule::default());
+        let mut s = scan(vec![1.0, 1.15, 8.0]);
+        s.first_bearing_rad = 0.0;
+        s.step_rad = 0.001;
+        edge.insert(&s, Pose2::new(0.0, 0.0, 0.0));
+        assert!(!(51..=56).any(|c| edge.is_occupied([c, 0])));
     }
 
     #[test]
