@@ -152,8 +152,13 @@ pub fn build(
     let mut inserted = 0_usize;
     for (index, scan) in run.scans.iter().enumerate() {
         let used = !options.hold_out || index % 2 == 0;
+        let localised = matches!(run.poses, PoseSource::Localised(_));
         let guess = match (anchor, scan.recorded_pose, last) {
             (_, Some(recorded), None) => recorded,
+            // A localised pose is in the world's frame already: the guess is the pose
+            // itself, so that the matcher's small corrections never add up (along a
+            // corridor, which pins no position along it, they slid metres).
+            (_, Some(recorded), _) if localised => recorded,
             // The recorded motion since the last scan that had a recorded pose, from where
             // that scan was placed: a gap in the recorded poses breaks no chain.
             (Some((placed_at, recorded_at)), Some(recorded), _) => {

@@ -6,7 +6,8 @@
 //!
 //! 1. **Search**: every heading in a window around the guess, and for each every
 //!    translation on a grid of cells, scored by the sum of the likelihood field (a
-//!    Gaussian around each occupied cell, [`crate::grid`]) under the scan's points; first
+//!    Gaussian around each occupied cell, [`crate::grid`]) under the scan's points, less a
+//!    wide Gaussian prior on the distance from the guess; first
 //!    every second cell, then around the best one every cell. Exhaustive within its
 //!    window, so a bad guess within it cannot trap it in a local optimum.
 //! 2. **Refine**: Gauss-Newton on the bilinearly interpolated field, for a pose finer than
@@ -119,7 +120,17 @@ pub fn match_scan(
     let reach = (options.window_m / size).ceil() as i64;
     let turns = (options.window_rad / options.step_rad).round() as i64;
     let mut cells = vec![[0_i64; 2]; points.len()];
-    let mut best = (0_u32, 0.0_f64, 0_i64, 0_i64);
+    // A prior on the guess: a candidate pays for its distance from it, a Gaussian twice as
+    // wide as the window (an eighth of a perfect score at the window's edge). Where the
+    // scan pins nothing (along a corridor) the guess wins instead of an arbitrary tie.
+    let full = 255.0 * points.len() as f64;
+    let sigma_m = 2.0 * options.window_m;
+    let sigma_rad = 2.0 * options.window_rad;
+    let prior = |dx: i64, dy: i64, dtheta: f64| -> f64 {
+        let d2 = ((dx * dx + dy * dy) as f64) * size * size;
+        full * 0.5 * (d2 / (sigma_m * sigma_m) + dtheta * dtheta / (sigma_rad * sigma_rad))
+    };
+    let mut best = (f64::NEG_INFINITY, 0.0_f64, 0_i64, 0_i64);
     for k in -turns..=turns {
         let dtheta = k as f64 * options.step_rad;
         let (s, c) = (guess.heading_rad + dtheta).sin_cos();
@@ -127,14 +138,15 @@ pub fn match_scan(
             let w = Vec2::new(guess.x_m + c * p.x - s * p.y, guess.y_m + s * p.x + c * p.y);
             *cell = [(w.x / size).floor() as i64, (w.y / size).floor() as i64];
         }
-        let score_at = |dx: i64, dy: i64| -> u32 {
-            cells
+        let score_at = |dx: i64, dy: i64| -> f64 {
+            let sum: u32 = cells
                 .iter()
                 .map(|cell| lookup(cell[0] + dx, cell[1] + dy))
-                .sum()
+                .sum();
+            f64::from(sum) - prior(dx, dy, dtheta)
         };
         // Every second cell over the window, then every cell around the best of those.
-        let mut local = (0_u32, 0_i64, 0_i64);
+        let mut local = (f64::NEG_INFINITY, 0_i64, 0_i64);
         let mut dy = -reach;
         while dy <= reach {
             let mut dx = -reach;
@@ -156,8 +168,7 @@ pub fn match_scan(
                 }
             }
         }
-        // Ties go to the smaller turn (k runs from one side, so compare by size).
-        if local.0 > best.0 || (local.0 == best.0 && dtheta.abs() < best.1.abs()) {
+        if local.0 > best.0 {
             best = (local.0, dtheta, local.1, local.2);
         }
     }
