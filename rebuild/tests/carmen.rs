@@ -75,3 +75,23 @@ fn a_recording_without_a_laser_is_refused_naming_the_file() {
     assert!(error.contains("husky-outdoor-imu-odom-gps.mcap"), "{error}");
     assert!(error.contains("no laser"), "{error}");
 }
+
+#[test]
+fn a_run_whose_odometry_disagrees_with_its_scans_is_refused_rather_than_mapped() {
+    let mut run = read_run(&log("seattle-corrected.log.gz")).unwrap();
+    // Odometry that jumps metres and turns a radian between scans: nothing the scans saw.
+    for (i, scan) in run.scans.iter_mut().enumerate() {
+        let i = i as f64;
+        scan.recorded_pose = Some(lewis_geometry::Pose2::new(
+            (i * 7.3) % 50.0,
+            (i * 3.1) % 40.0,
+            (i * 1.3) % 6.0,
+        ));
+    }
+    let error = build(&run, &BuildOptions::default(), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("seattle-corrected.log.gz"), "{error}");
+    assert!(error.contains("does not agree with the scans"), "{error}");
+    assert!(error.contains("none is written"), "{error}");
+}
