@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use lewis_geometry::{Pose2, Vec2, wrap_angle};
+use lewis_geometry::{Pose2, wrap_angle};
 
 use crate::grid::{Grid, OccupancyRule};
 use crate::matcher::{MatchOptions, match_scan, thin};
@@ -113,6 +113,19 @@ pub enum BuildError {
     /// The options cannot work.
     #[error("a cell size of {0} m: give a positive size of at least 1 cm")]
     CellSize(f64),
+    /// The map would not fit in memory.
+    #[error(
+        "{}: at scan {index}, {source}: the poses are far off, or give a larger --metres-per-pixel",
+        path.display()
+    )]
+    TooBig {
+        /// The run.
+        path: PathBuf,
+        /// The scan that would not fit.
+        index: usize,
+        /// How big the map would be.
+        source: crate::grid::TooBig,
+    },
 }
 
 /// The fewest share of matched scans a run without trusted poses needs.
@@ -190,7 +203,12 @@ pub fn build(
         // recorded pose: a guess from the last motion alone is a guess.
         let trusted = found.is_some() || inserted == 0 || scan.recorded_pose.is_some();
         if used && trusted {
-            grid.insert(scan, pose);
+            grid.insert(scan, pose)
+                .map_err(|source| BuildError::TooBig {
+                    path: run.path.clone(),
+                    index,
+                    source,
+                })?;
             inserted += 1;
         }
         placed.push(Placed {
@@ -269,12 +287,6 @@ fn report(run: &Run, grid: &Grid, placed: &[Placed]) -> BuildReport {
         left_out_cells,
         grid_bytes: grid.bytes(),
     }
-}
-
-/// The world position of the sensor of a scan at `pose`.
-#[must_use]
-pub fn sensor_at(pose: Pose2, mount_m: Vec2) -> Vec2 {
-    pose.transform_point(mount_m)
 }
 
 #[cfg(test)]

@@ -49,6 +49,21 @@ const FRINGE_CELLS: i64 = 2;
 /// Neighbouring returns at most this far apart are one surface, in m.
 const SURFACE_GAP_M: f64 = 0.2;
 
+/// The most cells a grid may hold: 6 bytes each, 360 MB (a 380 m square at 5 cm). A run
+/// that needs more has poses far off (or wants a coarser cell), and is refused rather than
+/// let run the machine out of memory.
+pub const MAX_CELLS: i64 = 60_000_000;
+
+/// A grid that would grow beyond [`MAX_CELLS`].
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("the scans span {width_m:.0} m x {height_m:.0} m, more than a map holds at this cell size")]
+pub struct TooBig {
+    /// The width it would need, in m.
+    pub width_m: f64,
+    /// The height it would need, in m.
+    pub height_m: f64,
+}
+
 /// A cell's place in the grid: column and row from the world origin, floor(x / size).
 pub type Cell = [i64; 2];
 
@@ -204,14 +219,14 @@ impl Grid {
 
     /// Grows the storage to hold every cell from `lo` to `hi`, with a margin so that the
     /// grid is not copied for every scan.
-    fn ensure(&mut self, lo: Cell, hi: Cell) {
+    fn ensure(&mut self, lo: Cell, hi: Cell) -> Result<(), TooBig> {
         let inside = self.width > 0
             && lo[0] >= self.lo[0]
             && lo[1] >= self.lo[1]
             && hi[0] < self.lo[0] + self.width as i64
             && hi[1] < self.lo[1] + self.height as i64;
         if inside {
-            return;
+            return Ok(());
         }
         const MARGIN: i64 = 128;
         let (old_lo, old_w, old_h) = (self.lo, self.width, self.height);
@@ -226,9 +241,15 @@ impl Grid {
                 new_hi[1].max(old_lo[1] + old_h as i64 - 1),
             ];
         }
-        // the bounds come from finite points of a building; both are positive
-        let w = (new_hi[0] - new_lo[0] + 1) as usize;
-        let h = (new_hi[1] - new_lo[1] + 1) as usize;
+        let (w, h) = (new_hi[0] - new_lo[0] + 1, new_hi[1] - new_lo[1] + 1);
+        if w.saturating_mul(h) > MAX_CELLS {
+            return Err(TooBig {
+                width_m: w as f64 * self.metres_per_cell,
+                height_m: h as f64 * self.metres_per_cell,
+            });
+        }
+        // positive and below MAX_CELLS
+        let (w, h) = (w as usize, h as usize);
         let mut hits = vec![0; w * h];
         let mut misses = vec![0; w * h];
         let mut field = vec![0; w * h];
@@ -249,15 +270,19 @@ impl Grid {
         self.misses = misses;
         self.field = field;
         self.stamped = stamped;
+        Ok(())
     }
 
     /// Adds `scan` taken at robot pose `pose`: every return's end cell seen occupied, the
     /// cells its beam crossed seen free. Beams without a return say nothing (glass, a
     /// black surface, or nothing within range: free space is not certain).
-    pub fn insert(&mut self, scan: &Scan, pose: Pose2) {
+    ///
+    /// # Errors
+    /// When the grid would grow beyond [`MAX_CELLS`] (nothing is added then).
+    pub fn insert(&mut self, scan: &Scan, pose: Pose2) -> Result<(), TooBig> {
         let sensor = pose.transform_point(scan.mount_m);
         if !sensor.is_finite() {
-            return;
+            return Ok(());
         }
         let mut ends: Vec<Cell> = Vec::with_capacity(scan.ranges_m.len());
         // Neighbouring returns close together, on a surface facing the sensor, are one
@@ -295,7 +320,7 @@ impl Grid {
             hi = [hi[0].max(cell[0]), hi[1].max(cell[1])];
             ends.push(cell);
         }
-        self.ensure(lo, hi);
+        self.ensure(lo, hi)?;
         for (a, b) in surfaces {
             self.fill(a, b);
         }
@@ -308,6 +333,7 @@ impl Grid {
                 }
             }
         }
+        Ok(())
     }
 
     /// Marks the cells from `from` up to (not including) `to` seen free: Bresenham's line.
@@ -413,7 +439,7 @@ mod tests {
         // One beam straight ahead (bearing 0) of 1.05 m from (0.05, 0.05).
         let mut s = scan(vec![8.0, 1.0, 8.0]);
         s.ranges_m[1] = 1.0;
-        grid.insert(&s, Pose2::new(0.05, 0.05, 0.0));
+        grid.insert(&s, Pose2::new(0.05, 0.05, 0.0)).unwrap();
         assert!(grid.is_occupied([10, 0]));
         assert_eq!(grid.counts([10, 0]), (1, 0));
         for c in 0..10 {
@@ -429,11 +455,11 @@ mod tests {
         let mut grid = Grid::new(0.1, OccupancyRule::default());
         let mut person = scan(vec![8.0, 1.0, 8.0]);
         person.ranges_m[1] = 1.0;
-        grid.insert(&person, Pose2::new(0.05, 0.05, 0.0));
+        grid.insert(&person, Pose2::new(0.05, 0.05, 0.0)).unwrap();
         let mut wall = scan(vec![8.0, 3.0, 8.0]);
         wall.ranges_m[1] = 3.0;
         for _ in 0..9 {
-            grid.insert(&wall, Pose2::new(0.05, 0.05, 0.0));
+            grid.insert(&wall, Pose2::new(0.05, 0.05, 0.0)).unwrap();
         }
         assert!(grid.is_left_out([10, 0]));
         assert!(!grid.is_occupied([10, 0]));
@@ -447,7 +473,7 @@ mod tests {
         let mut s = scan(vec![2.0, 2.0, 2.0]);
         s.first_bearing_rad = -0.05;
         s.step_rad = 0.05;
-        grid.insert(&s, Pose2::new(0.0, 0.0, 0.0));
+        grid.insert(&s, Pose2::new(0.0, 0.0, 0.0)).unwrap();
         // The returns are 5 cells apart; the cells between them are walls.
         for rows in [-4..=-1, 1..=4] {
             assert!(
@@ -461,7 +487,7 @@ mod tests {
         let mut s = scan(vec![1.0, 1.15, 8.0]);
         s.first_bearing_rad = 0.0;
         s.step_rad = 0.001;
-        edge.insert(&s, Pose2::new(0.0, 0.0, 0.0));
+        edge.insert(&s, Pose2::new(0.0, 0.0, 0.0)).unwrap();
         assert!(!(51..=56).any(|c| edge.is_occupied([c, 0])));
     }
 
@@ -470,8 +496,8 @@ mod tests {
         let mut grid = Grid::new(0.05, OccupancyRule::default());
         let mut s = scan(vec![8.0, 2.0, 8.0]);
         s.ranges_m[1] = 2.0;
-        grid.insert(&s, Pose2::new(0.0, 0.0, 0.0));
-        grid.insert(&s, Pose2::new(-30.0, 40.0, 1.0));
+        grid.insert(&s, Pose2::new(0.0, 0.0, 0.0)).unwrap();
+        grid.insert(&s, Pose2::new(-30.0, 40.0, 1.0)).unwrap();
         assert!(grid.is_occupied(grid.cell_of(Vec2::new(2.001, 0.001))));
         let far = Pose2::new(-30.0, 40.0, 1.0).transform_point(Vec2::new(2.0, 0.0));
         assert!(grid.is_occupied(grid.cell_of(far)));

@@ -335,7 +335,8 @@ mod tests {
         grid.insert(
             &room_scan(Pose2::new(0.0, 0.0, 0.0)),
             Pose2::new(0.0, 0.0, 0.0),
-        );
+        )
+        .unwrap_or_default();
         let scan = room_scan(true_pose);
         let points = thin(&scan.points_in_robot(), 0.05, 300);
         let found = match_scan(&grid, &points, guess, options);
@@ -376,7 +377,8 @@ mod tests {
         grid.insert(
             &room_scan(Pose2::new(0.0, 0.0, 0.0)),
             Pose2::new(0.0, 0.0, 0.0),
-        );
+        )
+        .unwrap_or_default();
         let scan = room_scan(Pose2::new(0.0, 0.0, 0.0));
         let points = thin(&scan.points_in_robot(), 0.05, 300);
         let far = Pose2::new(40.0, 40.0, 0.0);

@@ -95,3 +95,21 @@ fn a_run_whose_odometry_disagrees_with_its_scans_is_refused_rather_than_mapped()
     assert!(error.contains("does not agree with the scans"), "{error}");
     assert!(error.contains("none is written"), "{error}");
 }
+
+#[test]
+fn a_run_whose_poses_span_kilometres_is_refused_rather_than_filling_the_memory() {
+    let mut run = read_run(&log("seattle-corrected.log.gz")).unwrap();
+    if let Some(last) = run.scans.last_mut() {
+        last.recorded_pose = Some(lewis_geometry::Pose2::new(5000.0, -3000.0, 0.0));
+    }
+    let options = BuildOptions {
+        match_scans: false,
+        ..BuildOptions::default()
+    };
+    let error = build(&run, &options, &mut |_| {}).unwrap_err().to_string();
+    assert!(
+        error.contains("seattle-corrected.log.gz: at scan 240"),
+        "{error}"
+    );
+    assert!(error.contains("--metres-per-pixel"), "{error}");
+}
