@@ -33,6 +33,7 @@ mod tune;
 mod up;
 #[cfg(feature = "viewer")]
 mod view;
+mod world;
 
 pub use error_text::error_text;
 
@@ -119,6 +120,10 @@ pub enum Command {
     /// long recordings for the memory of a replay.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Rebuild a simulator world from a real run's laser scans (`from`), and measure how
+    /// faithfully it makes them again (`check`).
+    #[command(subcommand)]
+    World(world::WorldCommand),
 }
 
 /// The whole `lewis` command with the service kinds of `registry`: parses the command line,
@@ -187,5 +192,6 @@ pub fn run(cli: Cli, registry: ServiceRegistry) -> anyhow::Result<ExitCode> {
         Command::Tune(command) => tune::run(command),
         Command::StressPublish(args) => stress::run(&args),
         Command::Bench(command) => bench::run(&command, registry),
+        Command::World(command) => world::run(&command),
     }
 }

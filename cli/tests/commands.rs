@@ -187,3 +187,70 @@ fn demo_pictures_only_draws_the_demo_already_there_and_runs_nothing() {
     assert!(!out.join("events.jsonl").exists());
     assert!(!out.join("replay.mcap").exists());
 }
+
+/// The real laser-only ROS 2 bag of `../shared/data/ros2/`.
+fn shared_bag(name: &str) -> PathBuf {
+    let path = repo().join("../shared/data/ros2").join(name);
+    assert!(
+        path.is_file(),
+        "{} is missing: the real ROS 2 recordings live in ../shared/data/ros2 (see its README)",
+        path.display()
+    );
+    path
+}
+
+#[test]
+fn world_from_a_laser_bag_and_its_check_on_held_out_scans_meet_the_goal() {
+    let bag = shared_bag("hokuyo-scan-matcher-demo.mcap");
+    let dir = tempfile::tempdir().unwrap();
+    let world = dir.path().join("hokuyo");
+    let (bag, world_arg) = (bag.to_str().unwrap(), world.to_str().unwrap());
+    let out = lewis(&["world", "from", bag, "-o", world_arg, "--hold-out"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}{}",
+        stdout(&out),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = stdout(&out);
+    assert!(
+        text.contains("poses: no poses (scan matching alone)"),
+        "{text}"
+    );
+    for file in [
+        "world.toml",
+        "map.png",
+        "trajectory.csv",
+        "moving.png",
+        "rebuild.png",
+    ] {
+        assert!(world.join(file).is_file(), "{file} missing: {text}");
+    }
+    let out = lewis(&["world", "check", bag, world_arg]);
+    let text = stdout(&out);
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(text.starts_with("held out (180 scans, "), "{text}");
+    assert!(text.contains("meets the goal"), "{text}");
+    assert!(world.join("check-time.png").is_file() && world.join("check-map.png").is_file());
+}
+
+#[test]
+fn world_from_a_bag_without_a_laser_exits_2_naming_the_file() {
+    let bag = shared_bag("husky-outdoor-imu-odom-gps.mcap");
+    let dir = tempfile::tempdir().unwrap();
+    let out = lewis(&[
+        "world",
+        "from",
+        bag.to_str().unwrap(),
+        "-o",
+        dir.path().join("w").to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let error = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        error.contains("husky-outdoor-imu-odom-gps.mcap: no laser scans"),
+        "{error}"
+    );
+    assert!(!dir.path().join("w").exists());
+}
