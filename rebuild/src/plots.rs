@@ -1,19 +1,15 @@
 //! The check's pictures: the beam error over the run's time (`check-time.png`) and where on
 //! the map the error lies (`check-map.png`). Drawn by plotters with the font bundled in
-//! `replay/assets/` (no system font, no C library), encoded by `image`.
+//! `components/images/assets/` ([`lewis_images::plot`]: no system font, no C library), encoded by `image`.
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use image::{Rgb, RgbImage};
+use lewis_images::plot::{FAMILY, ensure_font};
 use lewis_sim::world::World;
 use plotters::prelude::*;
-use plotters::style::{FontStyle, register_font};
 
 use crate::check::{CLOSE_M, CheckReport, ErrorMap, NEAR_M};
-
-/// DejaVu Sans, the one bundled font (`replay/assets/DejaVuSans-LICENSE.txt`).
-static FONT: &[u8] = include_bytes!("../../replay/assets/DejaVuSans.ttf");
 
 /// Why a picture was not written.
 #[derive(Debug, thiserror::Error)]
@@ -23,11 +19,6 @@ pub struct PlotError {
     pub path: PathBuf,
     /// What went wrong.
     pub reason: String,
-}
-
-fn ensure_font() -> bool {
-    static REGISTERED: OnceLock<bool> = OnceLock::new();
-    *REGISTERED.get_or_init(|| register_font("sans-serif", FontStyle::Normal, FONT).is_ok())
 }
 
 const WIDTH: u32 = 960;
@@ -43,9 +34,7 @@ pub fn write_time_plot(report: &CheckReport, path: &Path) -> Result<(), PlotErro
         path: path.to_owned(),
         reason,
     };
-    if !ensure_font() {
-        return Err(fail("the bundled font cannot be read".to_owned()));
-    }
+    ensure_font().map_err(fail)?;
     let mut pixels = vec![255_u8; (WIDTH * HEIGHT * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, HEIGHT)).into_drawing_area();
@@ -58,7 +47,7 @@ pub fn write_time_plot(report: &CheckReport, path: &Path) -> Result<(), PlotErro
             .fold(0.25_f64, f64::max)
             .min(2.0);
         let mut chart = ChartBuilder::on(&root)
-            .caption("Beam range error by part of the run", ("sans-serif", 22))
+            .caption("Beam range error by part of the run", (FAMILY, 22))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(60)

@@ -19,7 +19,6 @@ pub mod lockstep;
 pub mod mission_log;
 pub mod mission_replay;
 pub mod outcome;
-pub mod picture;
 pub mod report;
 pub mod resim;
 pub mod sweep;

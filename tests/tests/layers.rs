@@ -189,6 +189,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-sequencer",
             // The sub-task programs a mission lived again runs (`lockstep::AppPrograms`).
             "lewis-apps",
+            // The sweep plot's font and PNG encoding (`lewis_images::plot`).
+            "lewis-images",
         ],
     ),
     // Other robot software's logs in and out: above the recorder (it writes through it) and
@@ -228,6 +230,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-service",
             "lewis-geometry",
             "lewis-sim",
+            // The check's plots: their font and PNG encoding (`lewis_images::plot`).
+            "lewis-images",
         ],
     ),
     // The tuning workbench behind `lewis tune`.
@@ -301,6 +305,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-replay",
             "lewis-sequencer",
             "lewis-launch",
+            // The chaos picture's font and PNG encoding (`lewis_images::plot`).
+            "lewis-images",
         ],
     ),
     // The test kit: below the runtime, so a component's own tests, and the tests of the

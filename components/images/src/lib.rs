@@ -1,7 +1,9 @@
 //! Images as the camera drivers and perception share them: image files (PNG, JPEG) decoded to
 //! RGB8 and played as sequences ([`sequence`]), the pinhole intrinsics that travel with an
 //! image, the ImageSource message built from RGB8 pixels ([`image_source`]), and YUV 4:2:2
-//! pixels to RGB8 ([`yuv`]).
+//! pixels to RGB8 ([`yuv`]); and what every plot shares, the bundled font and the PNG
+//! encoding of plotters' pixels ([`plot`]: the sweep's, the chaos run's, a rebuilt world's
+//! check).
 //!
 //! The `camera` service (in `lewis-drivers`) publishes image files with these; perception's
 //! offline tuning (`lewis tune`) reads the same files the same way. Neither may depend on the
@@ -11,6 +13,7 @@
 //! MJPEG) is the drivers', colour segmentation is perception's.
 
 pub mod image_source;
+pub mod plot;
 pub mod sequence;
 pub mod yuv;
 

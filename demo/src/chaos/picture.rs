@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use lewis_replay::picture::{FAMILY, ensure_font, rgb_png};
+use lewis_images::plot::{FAMILY, ensure_font, rgb_png};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 

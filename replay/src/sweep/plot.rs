@@ -3,7 +3,7 @@
 //! state the fault struck in), and the recorded time to finish as a dashed line; the
 //! legend in a row of its own above the plot, where it hides no point.
 //!
-//! Drawn by plotters into a pixel buffer with the font bundled in `replay/assets/`
+//! Drawn by plotters into a pixel buffer with the font bundled in `components/images/assets/`
 //! (through ab_glyph: no system font is read, no C font library linked) and encoded by
 //! `image`: the same sweep gives the same bytes.
 
@@ -17,7 +17,7 @@ use super::table::failure_spans;
 use super::{Sweep, SweepError};
 use crate::fault::format_seconds;
 
-use crate::picture::{FAMILY, ensure_font, rgb_png};
+use lewis_images::plot::{FAMILY, ensure_font, rgb_png};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 600;

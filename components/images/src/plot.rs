@@ -1,4 +1,4 @@
-//! What every picture Lewis draws with plotters shares: the bundled font, registered once,
+//! What every plot Lewis draws with plotters shares: the bundled font, registered once,
 //! and the encoding of a pixel buffer as PNG. No system font is read and no C font library
 //! linked (plotters reads the font through ab_glyph), so the same picture gives the same
 //! bytes on every machine.
@@ -9,7 +9,7 @@ use image::ImageEncoder as _;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use plotters::style::{FontStyle, register_font};
 
-/// DejaVu Sans (`replay/assets/DejaVuSans-LICENSE.txt` has its licence).
+/// DejaVu Sans (`components/images/assets/DejaVuSans-LICENSE.txt` has its licence).
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
 /// The family every text of a picture asks for; plotters' own defaults (tick labels) ask
