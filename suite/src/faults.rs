@@ -471,9 +471,9 @@ expect = [{ before = "door", mission = "fails" }]
             Err(
                 "faults.toml:2:13: `providers` is empty: name the services that fail, like \
                  [\"laser\"]\nfaults.toml:3:9: `steps = 0`: give a number of points from 1 to \
-                 1000\nfaults.toml:4:10: an expectation names one state with one of `before`, \
+                 1000\nfaults.toml:4:11: an expectation names one state with one of `before`, \
                  `during` or `after`, like { after = \"door\", mission = \"succeeds\" }\n\
-                 faults.toml:4:82: `mission = \"wins\"`: give \"succeeds\" or \"fails\"",
+                 faults.toml:4:89: `mission = \"wins\"`: give \"succeeds\" or \"fails\"",
             ),
         );
     }
