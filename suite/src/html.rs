@@ -30,7 +30,7 @@ pub fn to_html(
          .passed{color:#1a9641}.failed,.error{color:#d7191c;font-weight:bold}\n\
          .known{color:#b07000}\n\
          code{font-size:.85em;background:#f4f4f4;padding:0 .2em}\n\
-         img{max-width:100%;border:1px solid #ddd;margin:.3em 0}\n\
+         img{max-width:min(100%,60em);border:1px solid #ddd;margin:.3em 0}\n\
          section{border-top:2px solid #ddd;margin-top:1.5em}\n\
          </style>\n</head>\n<body>\n",
     );
