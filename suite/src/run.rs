@@ -153,17 +153,38 @@ pub fn run_all(
     done: &(dyn Fn(usize) + Sync),
 ) -> Result<Vec<JobResult>, SuiteError> {
     let finished = std::sync::atomic::AtomicUsize::new(0);
-    // `run_jobs` hands out numbers in order and gives the results back in that order; the
-    // numbers here are the jobs' indexes.
-    let indexes: Vec<i64> = (0..plan.jobs.len())
-        .map(|i| i64::try_from(i).unwrap_or(i64::MAX))
+    // The longest jobs first (by their expected time, then their index): a long job
+    // handed out last would keep one thread busy while the others wait. `run_jobs` hands
+    // the numbers out in this order and gives the results back in it; they are put back
+    // in the plan's order below.
+    let mut order: Vec<&Job> = plan.jobs.iter().collect();
+    order.sort_by(|a, b| {
+        b.expected_secs
+            .total_cmp(&a.expected_secs)
+            .then(a.index.cmp(&b.index))
+    });
+    let indexes: Vec<i64> = order
+        .iter()
+        .map(|j| i64::try_from(j.index).unwrap_or(i64::MAX))
         .collect();
-    let results = run_jobs(&indexes, jobs, |index, _| {
-        let result = run_job(plan, dir, index, replayer);
+    let results = run_jobs(&indexes, jobs, |_, index| {
+        let result = usize::try_from(index)
+            .map_err(|_| SuiteError::NoSuchJob {
+                index: usize::MAX,
+                count: plan.jobs.len(),
+            })
+            .and_then(|index| run_job(plan, dir, index, replayer));
         done(finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
         result
     });
-    results.into_iter().collect()
+    let mut results: Vec<(usize, JobResult)> = order
+        .iter()
+        .map(|j| j.index)
+        .zip(results)
+        .map(|(index, result)| result.map(|r| (index, r)))
+        .collect::<Result<_, _>>()?;
+    results.sort_by_key(|(index, _)| *index);
+    Ok(results.into_iter().map(|(_, r)| r).collect())
 }
 
 fn replay_job(plan: &Plan, dir: &Path, job: &Job, replayer: Replayer<'_>) -> Outcome {
