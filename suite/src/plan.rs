@@ -94,6 +94,8 @@ pub struct RecordedMission {
     pub succeeded: bool,
     /// Why, for people.
     pub reason: String,
+    /// How long it took, from its first record to its end (`None`: it did not end).
+    pub time_to_finish_ns: Option<i64>,
     /// The states visited, in order, times from the start of the recording.
     pub states: Vec<StateSpan>,
 }
@@ -423,6 +425,7 @@ fn open_run(
         RecordedMission {
             succeeded: outcome.succeeded,
             reason: outcome.reason,
+            time_to_finish_ns: outcome.time_to_finish_ns,
             states: outcome
                 .states
                 .iter()

@@ -298,7 +298,10 @@ fn add_to_sweep(
                     steps: decl.steps,
                     duration_ns: run.duration_ns,
                     recorded_succeeded: run.mission.as_ref().map(|m| m.succeeded),
-                    recorded_time_to_finish_ns: None,
+                    recorded_time_to_finish_ns: run
+                        .mission
+                        .as_ref()
+                        .and_then(|m| m.time_to_finish_ns),
                     points: Vec::new(),
                     failed_points: Vec::new(),
                 },
