@@ -29,6 +29,7 @@ mod seq;
 mod service;
 mod status;
 mod stress;
+mod suite;
 mod tune;
 mod up;
 #[cfg(feature = "viewer")]
@@ -87,6 +88,10 @@ pub enum Command {
     /// Re-simulate a recording in lockstep: services and broker on a virtual clock, faults
     /// injected, outputs compared with the recording (a regression test with --check).
     Replay(replay::ReplayArgs),
+    /// Replay every recording under the paths as a regression suite, with the fault sweeps
+    /// of a faults file: JUnit, JSON and HTML reports; on one machine or as jobs for a
+    /// scheduler (--plan, --job, --merge).
+    Test(suite::TestArgs),
     /// Publish a recording into live IPC at its recorded pace (like `ros2 bag play`), with a
     /// clock on /lewis/clock; space pauses, `s` steps, `q` quits.
     Play(play::PlayArgs),
@@ -180,6 +185,7 @@ pub fn run(cli: Cli, registry: ServiceRegistry) -> anyhow::Result<ExitCode> {
         Command::Export(command) => export::run(command),
         Command::Play(args) => play::run(&args),
         Command::Replay(args) => replay::run(&args, &registry),
+        Command::Test(args) => suite::run(&args, &registry),
         Command::Up(args) => up::run(&args, &registry),
         Command::App(args) => app::run(&args),
         Command::Demo(args) => demo::run(&args, &registry),

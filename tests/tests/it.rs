@@ -30,6 +30,8 @@ mod record_up;
 mod replay_reference;
 mod replay_ros2;
 mod ros2_live;
+mod suite_cli;
+mod suite_slurm;
 mod tune;
 mod tune_labels;
 mod tune_open;

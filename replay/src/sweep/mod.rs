@@ -21,7 +21,7 @@ use serde::Serialize;
 use crate::fault::FaultKind;
 
 pub use jobs::run_jobs;
-pub use run::{SweepRunError, SweepSpec, sweep};
+pub use run::{SweepRunError, SweepSpec, sweep, sweep_point};
 
 /// A fault time is a whole number of these from the start when the run is long enough,
 /// so that the time printed in the table (to the millisecond) can be typed back as
@@ -65,8 +65,9 @@ pub fn fault_times(start_ns: i64, end_ns: i64, steps: u32) -> Vec<i64> {
     times
 }
 
-/// What became of the mission when the fault struck at one time.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+/// What became of the mission when the fault struck at one time (read back by `lewis test`
+/// from a job's result file).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub struct SweepPoint {
     /// When the fault struck, from the start of the recording.
     pub fault_at_ns: i64,

@@ -48,8 +48,12 @@ impl Sweep {
         })
     }
 
-    /// The PNG's bytes; `path` only names the file in errors.
-    pub(super) fn png(&self, path: &Path) -> Result<Vec<u8>, SweepError> {
+    /// The plot's PNG bytes, as [`Sweep::write_png`] writes them (`lewis test` inlines them
+    /// in its page); `path` only names the file in errors.
+    ///
+    /// # Errors
+    /// When the plot cannot be drawn or encoded.
+    pub fn png(&self, path: &Path) -> Result<Vec<u8>, SweepError> {
         let draw_error = |reason: String| SweepError::Draw {
             path: path.to_owned(),
             reason,

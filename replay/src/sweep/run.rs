@@ -72,7 +72,7 @@ pub fn sweep(
     }
     let finished = std::sync::atomic::AtomicUsize::new(0);
     let results = run_jobs(&times, spec.jobs, |_, at_ns| {
-        let point = one(options, registry, programs, spec, at_ns);
+        let point = sweep_point(options, registry, programs, spec, at_ns);
         let count = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         done(count);
         point
@@ -102,8 +102,14 @@ pub fn sweep(
     })
 }
 
-/// The replay with the sweep's fault at `at_ns` (from the start), as a point.
-fn one(
+/// The replay of `options` (whose `services` must be `All`) with `spec`'s fault at `at_ns`
+/// (from the start of the recording), as a point: one job of a sweep, which `lewis test`
+/// also runs on its own. `spec`'s `steps` and `jobs` do not matter here. No output file is
+/// written.
+///
+/// # Errors
+/// Why the replay could not run, or said nothing of the mission, for people.
+pub fn sweep_point(
     options: &ReplayOptions,
     registry: &ServiceRegistry,
     programs: &(dyn Programs + Sync),
