@@ -420,6 +420,14 @@ pub fn run_chaos(
         };
         on_mission(&result);
         missions.push(result);
+        // After every mission: a run stopped by force keeps its report so far.
+        let so_far = report_of(
+            options.seed,
+            started.elapsed().as_secs_f64(),
+            missions.clone(),
+            sampler.samples(),
+        );
+        write_report(&so_far, &options.out)?;
     }
     let samples = sampler.finish();
     let report = report_of(
@@ -428,12 +436,17 @@ pub fn run_chaos(
         missions,
         samples,
     );
-    let json =
-        serde_json::to_string_pretty(&report).map_err(|e| DemoError::Report(e.to_string()))?;
-    let path = options.out.join("chaos.json");
-    std::fs::write(&path, json + "\n").map_err(write_error(&path))?;
-    picture::write_png(&report, &options.out.join("chaos.png")).map_err(DemoError::Report)?;
+    write_report(&report, &options.out)?;
     Ok(report)
+}
+
+/// `chaos.json` and `chaos.png` in `out`.
+fn write_report(report: &ChaosReport, out: &Path) -> Result<(), DemoError> {
+    let json =
+        serde_json::to_string_pretty(report).map_err(|e| DemoError::Report(e.to_string()))?;
+    let path = out.join("chaos.json");
+    std::fs::write(&path, json + "\n").map_err(|source| DemoError::Write { path, source })?;
+    picture::write_png(report, &out.join("chaos.png")).map_err(DemoError::Report)
 }
 
 /// One mission with its chaos; `None` when it was interrupted.
@@ -632,7 +645,8 @@ struct SamplerThread {
     mission: Arc<AtomicU32>,
     active: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
-    thread: std::thread::JoinHandle<Vec<UseSample>>,
+    samples: Arc<std::sync::Mutex<Vec<UseSample>>>,
+    thread: std::thread::JoinHandle<()>,
 }
 
 impl SamplerThread {
@@ -640,16 +654,20 @@ impl SamplerThread {
         let mission = Arc::new(AtomicU32::new(0));
         let stop = Arc::new(AtomicBool::new(false));
         let active = Arc::new(AtomicBool::new(false));
+        let samples = Arc::new(std::sync::Mutex::new(Vec::new()));
         let (m, s, a) = (Arc::clone(&mission), Arc::clone(&stop), Arc::clone(&active));
+        let kept = Arc::clone(&samples);
         let thread = std::thread::spawn(move || {
             let mut sampler = UseSampler::default();
-            let mut samples = Vec::new();
             let mut next = Instant::now();
             while !s.load(Ordering::Relaxed) {
                 if Instant::now() >= next {
                     if a.load(Ordering::Relaxed) {
                         let t_s = started.elapsed().as_secs_f64();
-                        samples.push(sampler.sample(t_s, m.load(Ordering::Relaxed)));
+                        let sample = sampler.sample(t_s, m.load(Ordering::Relaxed));
+                        if let Ok(mut kept) = kept.lock() {
+                            kept.push(sample);
+                        }
                     } else {
                         sampler.pause();
                     }
@@ -658,19 +676,26 @@ impl SamplerThread {
                 // Short naps: the run's end is not kept waiting for a whole period.
                 std::thread::sleep(Duration::from_millis(100).min(every));
             }
-            samples
         });
         Self {
             mission,
             active,
             stop,
+            samples,
             thread,
         }
     }
 
+    /// The samples taken so far.
+    fn samples(&self) -> Vec<UseSample> {
+        self.samples.lock().map(|s| s.clone()).unwrap_or_default()
+    }
+
     fn finish(self) -> Vec<UseSample> {
         self.stop.store(true, Ordering::Relaxed);
-        self.thread.join().unwrap_or_default()
+        let samples = self.samples;
+        let _ = self.thread.join();
+        samples.lock().map(|s| s.clone()).unwrap_or_default()
     }
 }
 
