@@ -6,10 +6,10 @@
 //! - [`grid`]: the occupancy counts (seen occupied, seen free) and the static map drawn
 //!   from them: what moved is left out.
 //! - [`matcher`]: scan-to-map matching (correlative search, Gauss-Newton refinement).
-//! - [`build`]: the run's scans placed and added, one by one.
+//! - [`build`](mod@build): the run's scans placed and added, one by one.
 //! - [`world_dir`]: the world folder in the simulator's format, with the trajectory, the
 //!   cells left out and a picture.
-//! - [`check`]: the scans made again by the simulator's ray caster, compared beam by beam;
+//! - [`check`](mod@check): the scans made again by the simulator's ray caster, compared beam by beam;
 //!   [`plots`] draws the result.
 //!
 //! It owns no format and no ray caster: files are read by `lewis-recording` and the

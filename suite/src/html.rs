@@ -11,8 +11,8 @@ use crate::report::{SuiteReport, Verdict};
 /// Draws the picture of a run (a PNG's bytes), given its name; `None` when it cannot.
 pub type Pictures<'a> = &'a dyn Fn(&str) -> Option<Vec<u8>>;
 
-/// The page. `plots` draws a sweep's plot (see [`crate::sweep_png`]); `pictures` a run's
-/// picture.
+/// The page. `plots` draws a sweep's plot (as [`lewis_replay::sweep::Sweep::png`] does);
+/// `pictures` a run's picture.
 #[must_use]
 pub fn to_html(
     report: &SuiteReport,
