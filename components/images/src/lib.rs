@@ -13,6 +13,7 @@
 //! MJPEG) is the drivers', colour segmentation is perception's.
 
 pub mod image_source;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod sequence;
 pub mod yuv;
