@@ -125,7 +125,7 @@ impl MissionResult {
 pub struct MemoryTrend {
     /// The process (a service's name, `record`, `program`, or `lewis` for this one).
     pub name: String,
-    /// Its peak resident memory in the first mission it ran in, KiB.
+    /// Its peak memory (PSS) in the first mission it ran in, KiB.
     pub first_kib: u64,
     /// In the last, KiB.
     pub last_kib: u64,
@@ -242,7 +242,7 @@ impl ChaosReport {
         if !shown.is_empty() {
             let _ = writeln!(
                 s,
-                "  memory (peak, first -> last mission): {}",
+                "  memory (PSS, peak, first -> last mission): {}",
                 shown.join(", ")
             );
         }
@@ -723,14 +723,14 @@ fn report_of(
     };
     let mut names: Vec<String> = samples
         .iter()
-        .flat_map(|s| s.rss_kib.keys().cloned())
+        .flat_map(|s| s.pss_kib.keys().cloned())
         .collect();
     names.sort();
     names.dedup();
     let memory = names
         .into_iter()
         .filter_map(|name| {
-            let points = peak(&|s: &UseSample| s.rss_kib.get(&name).copied());
+            let points = peak(&|s: &UseSample| s.pss_kib.get(&name).copied());
             Some(MemoryTrend {
                 first_kib: points.first()?.1 as u64,
                 last_kib: points.last()?.1 as u64,

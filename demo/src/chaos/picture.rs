@@ -1,5 +1,5 @@
 //! The chaos run as a picture (PNG): across, the minutes of the run, each mission a band
-//! (green when it succeeded, red when it failed); down, three panels: the resident memory
+//! (green when it succeeded, red when it failed); down, three panels: the memory (PSS)
 //! of the biggest processes, the run's open descriptors, and the machine's entries in
 //! shared memory. A leak is a line that climbs from band to band.
 
@@ -91,7 +91,7 @@ fn draw(report: &ChaosReport, pixels: &mut [u8]) -> Result<(), String> {
             let points = report
                 .samples
                 .iter()
-                .filter_map(|s| Some((minutes(s.t_s), *s.rss_kib.get(*name)? as f64 / 1024.0)))
+                .filter_map(|s| Some((minutes(s.t_s), *s.pss_kib.get(*name)? as f64 / 1024.0)))
                 .collect();
             ((*name).clone(), colour, points)
         })
@@ -115,7 +115,7 @@ fn draw(report: &ChaosReport, pixels: &mut [u8]) -> Result<(), String> {
             .collect(),
     )];
     let bands = mission_bands(report, &minutes);
-    panel(&panels[0], "resident memory (MiB)", &memory, &bands, end)?;
+    panel(&panels[0], "memory, PSS (MiB)", &memory, &bands, end)?;
     panel(&panels[1], "open descriptors", &fds, &bands, end)?;
     panel(&panels[2], "shared-memory entries", &shm, &bands, end)?;
     root.present().map_err(show)
@@ -237,7 +237,7 @@ mod tests {
             .map(|i| UseSample {
                 t_s: f64::from(i) * 5.0,
                 mission: i / 20,
-                rss_kib: [("laser".to_owned(), 100_000 + u64::from(i) * 100)].into(),
+                pss_kib: [("laser".to_owned(), 100_000 + u64::from(i) * 100)].into(),
                 fds: 500,
                 shm_entries: 3000,
                 cpu_percent: Some(40.0),

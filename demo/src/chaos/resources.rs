@@ -1,4 +1,4 @@
-//! What a long run costs the machine, read from `/proc` and `/dev/shm`: the resident
+//! What a long run costs the machine, read from `/proc` and `/dev/shm`: the proportional
 //! memory, open descriptors and CPU of every process of the run (this one and its
 //! descendants, named by what they run), and the entries in shared memory. A leak shows as
 //! a slope over the missions ([`slope`]).
@@ -16,8 +16,11 @@ pub struct ProcessUse {
     /// What it runs: the service's name for `lewis service NAME`, else the subcommand
     /// (`record`, `program`), `lewis` for this process.
     pub name: String,
-    /// Resident memory, in KiB (`VmRSS`).
-    pub rss_kib: u64,
+    /// Its memory, in KiB: the proportional set size (`Pss` of `smaps_rollup`), each page
+    /// shared with other processes counted in part. Resident memory (`VmRSS`) counts the
+    /// shared memory of the channels in every process that maps it, and a forked
+    /// supervisor guard as big as its parent.
+    pub pss_kib: u64,
     /// Open file descriptors.
     pub fds: u64,
     /// CPU time used so far, user and system, in clock ticks.
@@ -44,6 +47,7 @@ pub fn processes_of_run() -> Vec<ProcessUse> {
             parents.insert(pid, stat);
         }
     }
+    let mine = command_line(me);
     let mut run = vec![me];
     // Descendants, generation by generation (a process's parent has a lower place here).
     let mut i = 0;
@@ -64,10 +68,13 @@ pub fn processes_of_run() -> Vec<ProcessUse> {
                 pid,
                 name: if pid == me {
                     "lewis".to_owned()
+                } else if command_line(pid) == mine {
+                    // Forked and never run anything else: a supervisor's guard.
+                    "guard".to_owned()
                 } else {
                     process_name(pid)?
                 },
-                rss_kib: rss_kib(pid)?,
+                pss_kib: pss_kib(pid)?,
                 fds: std::fs::read_dir(format!("/proc/{pid}/fd")).ok()?.count() as u64,
                 cpu_ticks: stat.cpu_ticks,
             })
@@ -101,17 +108,22 @@ fn parse_stat(text: &str) -> Option<Stat> {
     })
 }
 
-fn rss_kib(pid: i32) -> Option<u64> {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
-    status
+fn pss_kib(pid: i32) -> Option<u64> {
+    let rollup = std::fs::read_to_string(format!("/proc/{pid}/smaps_rollup")).ok()?;
+    rollup
         .lines()
-        .find_map(|line| line.strip_prefix("VmRSS:"))
+        .find_map(|line| line.strip_prefix("Pss:"))
         .and_then(|rest| rest.split_whitespace().next()?.parse().ok())
+}
+
+/// A process's command line (`None`: gone, or not ours to read).
+fn command_line(pid: i32) -> Option<Vec<u8>> {
+    std::fs::read(format!("/proc/{pid}/cmdline")).ok()
 }
 
 /// What a process of the run runs, from its command line.
 fn process_name(pid: i32) -> Option<String> {
-    let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).ok()?;
+    let cmdline = command_line(pid)?;
     let args: Vec<String> = cmdline
         .split(|&b| b == 0)
         .filter(|a| !a.is_empty())
@@ -187,8 +199,8 @@ pub struct UseSample {
     pub t_s: f64,
     /// The mission running then (0 for the first).
     pub mission: u32,
-    /// Resident memory by process name, KiB.
-    pub rss_kib: BTreeMap<String, u64>,
+    /// Memory (PSS) by process name, KiB.
+    pub pss_kib: BTreeMap<String, u64>,
     /// Open descriptors of the whole run.
     pub fds: u64,
     /// Entries in shared memory (the whole machine's).
@@ -230,14 +242,14 @@ impl UseSampler {
             }
         });
         self.last = Some((now, ticks));
-        let mut rss_kib = BTreeMap::new();
+        let mut pss_kib = BTreeMap::new();
         for p in &processes {
-            *rss_kib.entry(p.name.clone()).or_insert(0) += p.rss_kib;
+            *pss_kib.entry(p.name.clone()).or_insert(0) += p.pss_kib;
         }
         UseSample {
             t_s,
             mission,
-            rss_kib,
+            pss_kib,
             fds: processes.iter().map(|p| p.fds).sum(),
             shm_entries: shared_memory_entries(),
             cpu_percent,
@@ -306,7 +318,7 @@ mod tests {
             .iter()
             .find(|p| p.name == "lewis")
             .expect("this process");
-        assert!(me.rss_kib > 0 && me.fds > 0, "{me:?}");
+        assert!(me.pss_kib > 0 && me.fds > 0, "{me:?}");
     }
 
     #[test]
