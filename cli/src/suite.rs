@@ -91,7 +91,7 @@ pub fn run(args: &TestArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCo
     }
     let faults = match &args.faults {
         Some(path) => faults::load(path)?,
-        None => faults::Faults::default(),
+        None => faults::FaultsFile::default(),
     };
     if let Some(plan_path) = &args.plan {
         let dir = plan_path
@@ -168,7 +168,7 @@ pub fn run(args: &TestArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCo
 /// Plans the suite of `args`, imports in `dir`.
 fn make_plan(
     args: &TestArgs,
-    faults: faults::Faults,
+    faults: faults::FaultsFile,
     dir: &Path,
     replayer: Replayer<'_>,
 ) -> anyhow::Result<Plan> {

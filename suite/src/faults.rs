@@ -40,7 +40,7 @@ pub const MAX_STEPS: u32 = 1000;
 
 /// A faults file, checked.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Faults {
+pub struct FaultsFile {
     /// The sweeps, in the file's order.
     pub sweeps: Vec<SweepDecl>,
     /// The failures known for now.
@@ -206,7 +206,7 @@ struct RawKnown {
 ///
 /// # Errors
 /// When it cannot be read, or every problem of it at its place.
-pub fn load(path: &Path) -> Result<Faults, FaultsError> {
+pub fn load(path: &Path) -> Result<FaultsFile, FaultsError> {
     let text = std::fs::read_to_string(path).map_err(|source| FaultsError::Read {
         path: path.to_owned(),
         source,
@@ -218,7 +218,7 @@ pub fn load(path: &Path) -> Result<Faults, FaultsError> {
 ///
 /// # Errors
 /// Every problem, at its place.
-pub fn parse(path: &Path, text: &str) -> Result<Faults, Diagnostics> {
+pub fn parse(path: &Path, text: &str) -> Result<FaultsFile, Diagnostics> {
     let at = |offset: usize, message: String| -> Diagnostic {
         Diagnostic::plain_at_offset(path, text, offset, message)
     };
@@ -382,7 +382,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Faults, Diagnostics> {
         });
     }
     if problems.is_empty() {
-        Ok(Faults {
+        Ok(FaultsFile {
             sweeps,
             known_failures,
         })

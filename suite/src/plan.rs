@@ -26,7 +26,7 @@ use lewis_service::ServiceRegistry;
 use serde::{Deserialize, Serialize};
 
 use crate::expected::{Accepted, expected_path};
-use crate::faults::{Faults, When};
+use crate::faults::{FaultsFile, When};
 use crate::{SuiteError, write_file};
 
 /// The version of the plan's and the results' format: a job refuses a plan of another.
@@ -43,7 +43,7 @@ pub struct Plan {
     /// The runs that can be replayed, sorted by name.
     pub runs: Vec<Run>,
     /// The faults file's sweeps and known failures (none without `--faults`).
-    pub faults: Faults,
+    pub faults: FaultsFile,
     /// What was left out, and why.
     pub skipped: Vec<Skipped>,
     /// The jobs, numbered from 0 in this order.
@@ -198,7 +198,7 @@ pub struct PlanInputs<'a> {
     /// Files and folders to look in.
     pub paths: &'a [PathBuf],
     /// The faults file, checked.
-    pub faults: Faults,
+    pub faults: FaultsFile,
     /// The plan's folder, never searched.
     pub dir: &'a Path,
     /// The kinds replay can build.

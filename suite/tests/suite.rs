@@ -8,7 +8,7 @@ mod fixture;
 
 use std::path::{Path, PathBuf};
 
-use lewis_suite::faults::{self, Faults};
+use lewis_suite::faults::{self, FaultsFile};
 use lewis_suite::plan::{Plan, PlanInputs, plan};
 use lewis_suite::report::{SuiteReport, merge, read_results};
 use lewis_suite::run::{Replayer, run_all, run_job};
@@ -20,7 +20,7 @@ fn plan_in(dir: &Path, paths: &[PathBuf], faults: &str) -> Plan {
     let file = dir.join("faults.toml");
     std::fs::create_dir_all(dir).unwrap();
     std::fs::write(&file, faults).unwrap();
-    let faults: Faults = faults::load(&file).unwrap();
+    let faults: FaultsFile = faults::load(&file).unwrap();
     plan(&PlanInputs {
         paths,
         faults,
