@@ -68,11 +68,14 @@ pub fn processes_of_run() -> Vec<ProcessUse> {
                 pid,
                 name: if pid == me {
                     "lewis".to_owned()
-                } else if command_line(pid) == mine {
-                    // Forked and never run anything else: a supervisor's guard.
-                    "guard".to_owned()
                 } else {
-                    process_name(pid)?
+                    let cmdline = command_line(pid)?;
+                    if Some(&cmdline) == mine.as_ref() {
+                        // Forked and never run anything else: a supervisor's guard.
+                        "guard".to_owned()
+                    } else {
+                        process_name(&cmdline)
+                    }
                 },
                 pss_kib: pss_kib(pid)?,
                 fds: std::fs::read_dir(format!("/proc/{pid}/fd")).ok()?.count() as u64,
@@ -122,14 +125,13 @@ fn command_line(pid: i32) -> Option<Vec<u8>> {
 }
 
 /// What a process of the run runs, from its command line.
-fn process_name(pid: i32) -> Option<String> {
-    let cmdline = command_line(pid)?;
+fn process_name(cmdline: &[u8]) -> String {
     let args: Vec<String> = cmdline
         .split(|&b| b == 0)
         .filter(|a| !a.is_empty())
         .map(|a| String::from_utf8_lossy(a).into_owned())
         .collect();
-    Some(name_of_command(&args))
+    name_of_command(&args)
 }
 
 /// `lewis service laser --robot F` is `laser`; `lewis record ...` is `record`; another
