@@ -4,7 +4,9 @@
 //! jambs), the jambs at least `--door-width` apart. The program picks the doorway nearest
 //! ahead, goes to a point 0.8 m before its centre on its normal, then 1.5 m past it, and
 //! finishes (0) once the odometry is 1 m past the door line. With no doorway in sight it
-//! turns in 45 degree steps; after a full turn, or a minute, it gives up (4).
+//! turns in 45 degree steps; after a full turn it goes towards the middle of what it saw
+//! (a start in a corner sees the far side of the room at the laser's edge) and looks again,
+//! twice; after that, or a minute, it gives up (4).
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::RangeFinder;
@@ -37,6 +39,12 @@ const REACHED_M: f64 = 0.25;
 const SEARCH_TURNS: u32 = 8;
 /// Scans without a doorway before turning.
 const SCANS_BEFORE_TURN: u32 = 10;
+/// Moves to the middle of what it saw before giving up.
+const SEARCH_MOVES: u32 = 2;
+/// A move goes at most this far, in m.
+const MOVE_M: f64 = 3.0;
+/// The middle of what it saw is not worth going to when nearer than this, in m.
+const MIN_MOVE_M: f64 = 0.8;
 
 /// DoorNavigator's settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -167,8 +175,14 @@ pub fn nearest_ahead(doorways: &[Doorway]) -> Option<Doorway> {
 /// Where the program is.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
-    /// No door yet: looking, and turning after a while.
-    Search { scans_without: u32, turns: u32 },
+    /// No door yet: looking, and turning after a while; `moves` moves made.
+    Search {
+        scans_without: u32,
+        turns: u32,
+        moves: u32,
+    },
+    /// No door all around: to `goal`, the middle of what it saw, to look again from there.
+    Relocate { goal: Vec2, moves: u32 },
     /// To the point before the door (odometry frame).
     Approach { centre: Vec2, normal: Vec2 },
     /// Through it.
@@ -181,6 +195,9 @@ pub struct DoorNavigator {
     config: DoorConfig,
     driver: Driver,
     phase: Phase,
+    /// The weighted sum of the middle of each beam's area since the search last moved
+    /// (odometry), and the weight.
+    seen: (Vec2, f64),
 }
 
 impl DoorNavigator {
@@ -193,7 +210,9 @@ impl DoorNavigator {
             phase: Phase::Search {
                 scans_without: 0,
                 turns: 0,
+                moves: 0,
             },
+            seen: (Vec2::default(), 0.0),
         }
     }
 
@@ -206,10 +225,21 @@ impl DoorNavigator {
             let normal = d.normal_from(Vec2::default()).rotated(pose.heading_rad);
             (centre, normal)
         });
+        if let Phase::Search { .. } = self.phase {
+            // The centroid of the area seen: each beam a thin triangle of area r^2 / 2,
+            // whose centroid is 2/3 of the way out.
+            for (point, range, _) in beams(scan) {
+                let weight = range * range;
+                let out = pose.transform_point(point * (2.0 / 3.0));
+                self.seen.0 = self.seen.0 + out * weight;
+                self.seen.1 += weight;
+            }
+        }
         match self.phase {
             Phase::Search {
                 scans_without,
                 turns,
+                moves,
             } => {
                 if let Some((centre, normal)) = seen {
                     ctx.info(&format!(
@@ -222,6 +252,7 @@ impl DoorNavigator {
                     self.phase = Phase::Search {
                         scans_without: scans_without + 1,
                         turns,
+                        moves,
                     };
                 }
             }
@@ -237,7 +268,7 @@ impl DoorNavigator {
                     self.driver.mover.goto(ctx, centre - normal * APPROACH_M);
                 }
             }
-            Phase::Through { .. } => {}
+            Phase::Relocate { .. } | Phase::Through { .. } => {}
         }
     }
 
@@ -247,6 +278,27 @@ impl DoorNavigator {
         {
             self.on_scan(ctx, &scan);
         }
+    }
+
+    /// After a whole turn without a doorway: towards the middle of what it saw, or gives up.
+    fn search_elsewhere(&mut self, ctx: &mut Context<'_>, here: Vec2, moves: u32) {
+        let (sum, weight) = std::mem::take(&mut self.seen);
+        let off = sum * (1.0 / weight.max(1e-9)) - here;
+        if moves >= SEARCH_MOVES || weight <= 0.0 || off.norm() < MIN_MOVE_M {
+            self.driver
+                .finish(ctx, exit::GAVE_UP, "no doorway all around");
+            return;
+        }
+        let goal = here + off * (off.norm().min(MOVE_M) / off.norm());
+        ctx.info(&format!(
+            "no doorway all around: looking again from {:.2},{:.2} (odometry), nearer the middle of the room",
+            goal.x, goal.y
+        ));
+        self.phase = Phase::Relocate {
+            goal,
+            moves: moves + 1,
+        };
+        self.driver.mover.goto(ctx, goal);
     }
 
     fn step(&mut self, ctx: &mut Context<'_>) {
@@ -270,20 +322,31 @@ impl DoorNavigator {
             Phase::Search {
                 scans_without,
                 turns,
+                moves,
             } => {
                 if scans_without >= SCANS_BEFORE_TURN
                     && (self.driver.mover.wanted().is_none() || self.driver.mover.arrived())
                 {
                     if turns >= SEARCH_TURNS {
-                        self.driver
-                            .finish(ctx, exit::GAVE_UP, "no doorway all around");
+                        self.search_elsewhere(ctx, pose.position(), moves);
                         return;
                     }
                     self.driver.mover.rotate(ctx, std::f64::consts::FRAC_PI_4);
                     self.phase = Phase::Search {
                         scans_without: 0,
                         turns: turns + 1,
+                        moves,
                     };
+                }
+            }
+            Phase::Relocate { goal, moves } => {
+                if pose.position().distance(goal) < REACHED_M || self.driver.mover.arrived() {
+                    self.phase = Phase::Search {
+                        scans_without: 0,
+                        turns: 0,
+                        moves,
+                    };
+                    self.driver.mover.stop(ctx);
                 }
             }
             Phase::Approach { centre, normal } => {

@@ -1,19 +1,19 @@
 //! QueueStander: joins the queue in front of the registration desk and moves up with it.
 //!
 //! The desk is where its sign is (remembered in the odometry frame once read). The queue
-//! stands on the desk's normal, taken as the direction from the desk to the robot put on an
-//! axis of the odometry frame (the hall is square to the corridor). Each scan places the
+//! stands on the desk's normal, taken as the direction from the desk to the robot put on the
+//! nearest axis of the building, learned from the scans (see [`crate::common::axes`]; the
+//! desk is square to the hall). Each scan places the
 //! people near that line; the robot's place is 1.1 m behind the last person ahead of it
 //! (0.8 m between them), or 1 m before the desk when nobody is. It finishes (0) there, at
 //! the head. It stops whenever anything is nearer than 0.6 m in front, and gives up (4)
 //! after `--timeout`.
 
-use std::f64::consts::FRAC_PI_2;
-
 use lewis_geometry::{Vec2, range_readings, wrap_angle};
 use lewis_interfaces::msg::{RangeFinder, SignArrow, Signs};
 use lewis_service::{Context, Input};
 
+use crate::common::axes::BuildingAxes;
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
 use crate::common::watch::DEFAULT_STALE_NS;
@@ -40,6 +40,9 @@ const MIN_FRONT_M: f64 = 0.6;
 const FRONT_RAD: f64 = 0.8;
 /// The place counts as reached within this, in m.
 const REACHED_M: f64 = 0.25;
+/// How long it waits for the building's axes before it takes the queue's line as it sees
+/// it, in ns.
+const AXES_WAIT_NS: i64 = 3_000_000_000;
 
 /// QueueStander's settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,14 +72,14 @@ pub struct QueueLine {
 }
 
 impl QueueLine {
-    /// The line of a desk seen from `robot`: the direction to the robot, on an axis.
+    /// The line of a desk seen from `robot`: the direction to the robot, on the building's
+    /// nearest axis (as it is while no axis is known).
     #[must_use]
-    pub fn new(desk: Vec2, robot: Vec2) -> Self {
+    pub fn new(desk: Vec2, robot: Vec2, axes: &BuildingAxes) -> Self {
         let angle = (robot - desk).angle();
-        let axis = wrap_angle((angle / FRAC_PI_2).round() * FRAC_PI_2);
         Self {
             desk,
-            along: Vec2::from_angle(axis),
+            along: Vec2::from_angle(axes.nearest(angle).unwrap_or(angle)),
         }
     }
 
@@ -122,6 +125,7 @@ pub struct QueueStander {
     driver: Driver,
     book: SignBook,
     line: Option<QueueLine>,
+    axes: BuildingAxes,
     /// The latest scan's points (odometry).
     points: Vec<Vec2>,
     front_clear: bool,
@@ -137,6 +141,7 @@ impl QueueStander {
             config,
             book: SignBook::default(),
             line: None,
+            axes: BuildingAxes::default(),
             points: Vec::new(),
             front_clear: true,
             start_heading: None,
@@ -154,22 +159,45 @@ impl QueueStander {
                     .observe(pose.transform_point(local), SignArrow::Desk);
             }
         }
+        let waited = self
+            .driver
+            .started_ns
+            .is_some_and(|at| ctx.now() - at > AXES_WAIT_NS);
         if self.line.is_none()
+            && (self.axes.learned() || waited)
             && let Some((_, track, _)) = self.book.settled().next()
         {
-            let line = QueueLine::new(track.position, pose.position());
+            let line = QueueLine::new(track.position, pose.position(), &self.axes);
+            let axis = if self.axes.learned() {
+                "on the building's axis"
+            } else {
+                "no laser scan: on the axis of the heading it started with"
+            };
             ctx.info(&format!(
-                "the desk at {:.2},{:.2} (odometry): joining its queue",
-                line.desk.x, line.desk.y
+                "the desk at {:.2},{:.2} (odometry): joining its queue, along {:.0} deg ({axis})",
+                line.desk.x,
+                line.desk.y,
+                line.along.angle().to_degrees()
             ));
             self.line = Some(line);
         }
     }
 
-    fn on_scan(&mut self, scan: &RangeFinder) {
+    fn on_scan(&mut self, ctx: &Context<'_>, scan: &RangeFinder) {
         let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
+        if self.start_heading.is_none() {
+            self.start_heading = Some(pose.heading_rad);
+            self.axes.assume(pose.heading_rad);
+        }
+        self.axes.observe(ctx.now(), pose, scan);
+        // The queue's line follows the axis as it is learned better.
+        if let Some(line) = &mut self.line
+            && let Some(axis) = self.axes.nearest(line.along.angle())
+        {
+            line.along = Vec2::from_angle(axis);
+        }
         let readings = range_readings(scan);
         self.front_clear = !readings
             .iter()
@@ -185,7 +213,9 @@ impl QueueStander {
             "Signs" => input
                 .decode()
                 .map(|signs: Signs| self.on_signs(ctx, &signs)),
-            "RangeFinder" => input.decode().map(|scan: RangeFinder| self.on_scan(&scan)),
+            "RangeFinder" => input
+                .decode()
+                .map(|scan: RangeFinder| self.on_scan(ctx, &scan)),
             _ => Ok(()),
         };
     }
@@ -245,15 +275,25 @@ mod tests {
 
     #[test]
     fn the_queue_line_is_the_axis_nearest_the_way_the_desk_was_seen() {
-        let line = QueueLine::new(Vec2::new(15.0, 21.0), Vec2::new(23.0, 23.2));
+        let square = BuildingAxes::along(0.0);
+        let line = QueueLine::new(Vec2::new(15.0, 21.0), Vec2::new(23.0, 23.2), &square);
         assert!(line.along.distance(Vec2::new(1.0, 0.0)) < 1e-9, "{line:?}");
         let (along, off) = line.place(Vec2::new(17.0, 21.5));
         assert!((along - 2.0).abs() < 1e-9 && (off - 0.5).abs() < 1e-9);
+        // The robot started at 45 degrees to the building: the building's axis.
+        let turned = BuildingAxes::along(-45_f64.to_radians());
+        let line = QueueLine::new(Vec2::new(0.0, 0.0), Vec2::new(5.0, -1.0), &turned);
+        let expected = Vec2::from_angle(-45_f64.to_radians());
+        assert!(line.along.distance(expected) < 1e-9, "{line:?}");
     }
 
     #[test]
     fn the_robot_stands_behind_the_last_person_ahead_or_at_the_head() {
-        let line = QueueLine::new(Vec2::new(0.0, 0.0), Vec2::new(8.0, 1.0));
+        let line = QueueLine::new(
+            Vec2::new(0.0, 0.0),
+            Vec2::new(8.0, 1.0),
+            &BuildingAxes::along(0.0),
+        );
         let robot = Vec2::new(7.0, 0.5);
         // Two people at 1.0 and 1.8 along, the desk's edge at 0, someone off the line.
         let people = [

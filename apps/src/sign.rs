@@ -6,7 +6,8 @@
 //! program looks around in 45 degree turns, and goes on along the heading it started with
 //! only if a whole turn shows none. It goes 1.3 m in front of the nearest sign it reads,
 //! turns as the arrow says (up: straight on, left: +90 degrees, right: -90, down: back),
-//! and goes on.
+//! and goes on. The way it goes on is put on the building's nearest axis, learned from the
+//! range finder's scans (see [`crate::common::axes`]), when it is near one.
 //! It finishes with 0 once it reads another direction sign (more than 1.5 m from the one
 //! it followed: the next state follows that one), with 1 when it reads the registration
 //! desk's sign, and with 4 after a minute without a new sign.
@@ -15,16 +16,17 @@ use std::collections::{BTreeSet, VecDeque};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 use lewis_geometry::{Vec2, wrap_angle};
-use lewis_interfaces::msg::{Distance, SignArrow, Signs};
+use lewis_interfaces::msg::{RangeFinder, SignArrow, Signs};
 use lewis_service::{Context, Input};
 
+use crate::common::axes::BuildingAxes;
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
 use crate::common::frames::turn;
 use crate::common::watch::DEFAULT_STALE_NS;
 
 /// What SignFollower asks the broker for.
-pub const REQUIRES: &[&str] = &["Signs", "Egomotion", "Mover", "Distance"];
+pub const REQUIRES: &[&str] = &["Signs", "Egomotion", "Mover", "RangeFinder"];
 
 /// Readings less sure than this are ignored.
 const MIN_CONFIDENCE: f64 = 0.5;
@@ -42,9 +44,11 @@ const GO_ON_M: f64 = 6.0;
 const RENEW_M: f64 = 3.0;
 /// The point before the sign counts as reached within this, in m.
 const REACHED_M: f64 = 0.3;
-/// A turn target this near an axis of the odometry frame is put on it, in rad: the
-/// building's corridors are square to each other.
+/// A turn target this near an axis of the building is put on it, in rad.
 const SNAP_RAD: f64 = 0.45;
+/// While it goes on, its heading follows the building's axis as it is learned better (and
+/// as the odometry drifts from it) by up to this, in rad.
+const RESNAP_RAD: f64 = 0.12;
 /// Votes of the last readings of a sign.
 const VOTES: usize = 3;
 /// How long the robot stands and looks before (and after each turn of) its look around,
@@ -203,17 +207,12 @@ impl SignBook {
 }
 
 /// The heading to go on after a sign: the direction the robot faced the sign in (from
-/// `before` to the sign at `sign`), turned by the arrow, put on an axis when near one.
+/// `before` to the sign at `sign`), turned by the arrow, put on the building's nearest axis
+/// when near one.
 #[must_use]
-pub fn heading_after(before: Vec2, sign: Vec2, arrow: ArrowWord) -> f64 {
+pub fn heading_after(before: Vec2, sign: Vec2, arrow: ArrowWord, axes: &BuildingAxes) -> f64 {
     let facing = (sign - before).angle();
-    let heading = wrap_angle(facing + arrow.turn_rad());
-    let axis = (heading / FRAC_PI_2).round() * FRAC_PI_2;
-    if (heading - axis).abs() < SNAP_RAD {
-        wrap_angle(axis)
-    } else {
-        heading
-    }
+    axes.snap(wrap_angle(facing + arrow.turn_rad()), SNAP_RAD)
 }
 
 /// The go-on goal from `here` along `heading` past the sign at `sign`: straight on, unless
@@ -262,6 +261,7 @@ pub struct SignFollower {
     config: SignConfig,
     driver: Driver,
     book: SignBook,
+    axes: BuildingAxes,
     phase: Phase,
     start_heading: Option<f64>,
 }
@@ -271,9 +271,10 @@ impl SignFollower {
     #[must_use]
     pub fn new(config: SignConfig) -> Self {
         Self {
-            driver: Driver::new(&["Signs", "Egomotion", "Distance"], config.stale_ns),
+            driver: Driver::new(&["Signs", "Egomotion", "RangeFinder"], config.stale_ns),
             config,
             book: SignBook::default(),
+            axes: BuildingAxes::default(),
             phase: Phase::Look {
                 turns: 0,
                 still_from: None,
@@ -362,8 +363,11 @@ impl SignFollower {
             "Signs" => input
                 .decode()
                 .map(|signs: Signs| self.on_signs(ctx, &signs)),
-            // Watched only: the Mover keeps the robot off obstacles.
-            "Distance" => input.decode::<Distance>().map(|_| ()),
+            "RangeFinder" => input.decode().map(|scan: RangeFinder| {
+                if let Some(pose) = self.driver.odometry.pose() {
+                    self.axes.observe(ctx.now(), pose, &scan);
+                }
+            }),
             _ => Ok(()),
         };
     }
@@ -388,7 +392,10 @@ impl SignFollower {
         let here = pose.position();
         match self.phase {
             Phase::Look { turns, still_from } => {
-                self.start_heading.get_or_insert(pose.heading_rad);
+                if self.start_heading.is_none() {
+                    self.start_heading = Some(pose.heading_rad);
+                    self.axes.assume(pose.heading_rad);
+                }
                 let still_from = match still_from {
                     Some(at) => at,
                     None if turns == 0 => since,
@@ -438,9 +445,20 @@ impl SignFollower {
                     let Some(word) = self.book.track(track).arrow().and_then(ArrowWord::of) else {
                         return;
                     };
-                    let heading = heading_after(spot_now, position, word);
+                    let heading = heading_after(spot_now, position, word, &self.axes);
+                    let on_axis = match (self.axes.axes(), self.axes.nearest(heading)) {
+                        (Some(axes), Some(axis)) if axis == heading => format!(
+                            "on the building's axis, learned from {:.1} m of wall",
+                            axes.support * 0.1
+                        ),
+                        (None, Some(axis)) if axis == heading => {
+                            "on the axis of the heading it started with: no laser scan yet"
+                                .to_owned()
+                        }
+                        _ => "off the building's axes".to_owned(),
+                    };
                     ctx.info(&format!(
-                        "before the sign: it says {word:?}, turning to {:.0} deg (odometry)",
+                        "before the sign: it says {word:?}, turning to {:.0} deg (odometry, {on_axis})",
                         heading.to_degrees()
                     ));
                     // The timeout counts from the last sign taken.
@@ -463,6 +481,10 @@ impl SignFollower {
 
     /// Goes on along `heading`, the goal renewed as the robot nears it.
     fn go_on(&mut self, ctx: &mut Context<'_>, here: Vec2, heading: f64) {
+        let heading = self.axes.snap(heading, RESNAP_RAD);
+        if let Phase::GoOn { track, .. } = self.phase {
+            self.phase = Phase::GoOn { track, heading };
+        }
         let renew = match self.driver.mover.wanted() {
             Some(crate::common::mover::Motion::Goto(goal)) => {
                 goal.distance(here) < RENEW_M || turn((goal - here).angle(), heading).abs() > 0.6
@@ -533,24 +555,33 @@ mod tests {
     #[test]
     fn the_heading_after_a_sign_is_the_arrow_turned_from_the_way_it_was_faced() {
         let close = |a: f64, b: f64| (wrap_angle(a - b)).abs() < 1e-9;
+        let square = BuildingAxes::along(0.0);
         let before = Vec2::new(0.0, 0.0);
         // Facing a sign ahead (+x), slightly to the left.
         let sign = Vec2::new(1.3, 0.2);
-        assert!(close(heading_after(before, sign, ArrowWord::Up), 0.0));
-        assert!(close(
-            heading_after(before, sign, ArrowWord::Left),
-            FRAC_PI_2
-        ));
-        assert!(close(
-            heading_after(before, sign, ArrowWord::Right),
-            -FRAC_PI_2
-        ));
-        assert!(close(heading_after(before, sign, ArrowWord::Down), PI));
+        let after = |arrow| heading_after(before, sign, arrow, &square);
+        assert!(close(after(ArrowWord::Up), 0.0));
+        assert!(close(after(ArrowWord::Left), FRAC_PI_2));
+        assert!(close(after(ArrowWord::Right), -FRAC_PI_2));
+        assert!(close(after(ArrowWord::Down), PI));
         // Far off an axis: kept as it is.
         let diagonal = Vec2::new(1.0, 1.0);
         assert!(close(
-            heading_after(before, diagonal, ArrowWord::Up),
+            heading_after(before, diagonal, ArrowWord::Up, &square),
             FRAC_PI_4
+        ));
+        // A building at 30 degrees to the odometry frame (the robot started turned): the
+        // building's axes, not the odometry's.
+        let turned = BuildingAxes::along(30_f64.to_radians());
+        let up = heading_after(before, sign, ArrowWord::Up, &turned);
+        assert!(close(up, 30_f64.to_radians()), "{}", up.to_degrees());
+        let left = heading_after(before, sign, ArrowWord::Left, &turned);
+        assert!(close(left, 120_f64.to_radians()), "{}", left.to_degrees());
+        // Nothing learned: the way it faced, turned, as it is.
+        let blind = BuildingAxes::default();
+        assert!(close(
+            heading_after(before, sign, ArrowWord::Up, &blind),
+            sign.angle()
         ));
     }
 }

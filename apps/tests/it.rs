@@ -5,6 +5,7 @@
 //! (`robots/sim.toml`, built with `lewis_kinds::registry()`) in a
 //! [`lewis_testkit::scene::Scene`] on a virtual clock.
 
+mod anywhere;
 mod door;
 mod failsafe;
 mod queue;

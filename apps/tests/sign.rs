@@ -93,3 +93,31 @@ fn capitalised(word: &str) -> String {
 struct Idle;
 
 impl lewis_service::Service for Idle {}
+
+#[test]
+fn on_the_sonar_ring_alone_sign_follower_turns_on_the_axis_it_started_on() {
+    // The laser dead from the start: the sonar ring is the range finder, too sparse to
+    // learn the building's axes from; the heading each run starts with (on the door's
+    // normal, then on the turns the signs asked for) is the axis.
+    let robot = sim_robot((9.5, 12.5, 0.0), (320, 240));
+    let services = &[
+        "base",
+        "sonar",
+        "camera",
+        "sign_detector",
+        "vector_mover",
+        "obstacle_avoider",
+    ];
+    let mut scene = scene(&robot, services, "door", Box::new(Idle), &[]);
+    for (k, code) in [0, 0, 1].into_iter().enumerate() {
+        let name = format!("sign-{}", k + 1);
+        let (exit, said) = visit(&mut scene, &name, 70);
+        assert_eq!(exit, Some(code), "{name}: {said:#?}");
+        assert!(
+            said.iter()
+                .any(|l| l.contains("on the axis of the heading it started with")),
+            "{name}: {said:#?}"
+        );
+        assert_eq!(truth(&scene).collisions, 0, "{name}");
+    }
+}
