@@ -8,6 +8,9 @@
 //! - `lewis bench closed-loop RUN.mcap [--sweep-fault P --steps N --jobs J]`: a mission
 //!   lived again as a multiple of real time, beside its handlers' own time, its peak
 //!   memory and a sweep's time.
+//! - `lewis bench mission --seeds N [--random-start] [--people N]`: the Challenge mission live
+//!   from random start poses with people walking about, the laser failing after the door:
+//!   its success rate and each failure's state and reason.
 
 use lewis_service::ServiceRegistry;
 use std::io::Write;
@@ -34,6 +37,37 @@ pub enum BenchCommand {
     /// How fast a whole mission is lived again (`lewis replay --all`), beside its handlers'
     /// own time, its peak memory, and a fault sweep.
     ClosedLoop(ClosedLoopArgs),
+    /// The Challenge mission live again and again, from random start poses in the start room
+    /// and with people walking about, the laser failing after the door: the success rate,
+    /// and each failure's state and reason.
+    Mission(MissionArgs),
+}
+
+/// Arguments of `lewis bench mission`.
+#[derive(Debug, Args)]
+pub struct MissionArgs {
+    /// How many missions.
+    #[arg(long, default_value_t = 20)]
+    pub seeds: u32,
+    /// Mission i (from 0) draws its start, its people and its devices' noise from SEED + i.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Start anywhere in the start room (the robot file's start pose's room), at any
+    /// heading; without it, every mission starts where the robot file says.
+    #[arg(long)]
+    pub random_start: bool,
+    /// People walking back and forth across the corridors and the hall in each mission.
+    #[arg(long, default_value_t = 3)]
+    pub people: u32,
+    /// The simulated robot.
+    #[arg(long, default_value = "robots/sim.toml")]
+    pub robot: PathBuf,
+    /// The mission script.
+    #[arg(long, default_value = "robots/missions/challenge.seq")]
+    pub script: PathBuf,
+    /// Where bench.json and each failed mission's folder go.
+    #[arg(short, long, default_value = lewis_demo::mission_bench::OUT_DIR)]
+    pub out: PathBuf,
 }
 
 /// Arguments of `lewis bench closed-loop`.
@@ -146,6 +180,7 @@ pub fn run(command: &BenchCommand, registry: ServiceRegistry) -> anyhow::Result<
             print_figures(report?, &scratch, args.json)
         }
         BenchCommand::ClosedLoop(args) => closed_loop(args, registry),
+        BenchCommand::Mission(args) => mission(args, &registry),
         BenchCommand::LongRecording(args) => {
             let mut last = 0;
             let report = write_long(
@@ -174,6 +209,47 @@ pub fn run(command: &BenchCommand, registry: ServiceRegistry) -> anyhow::Result<
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// `lewis bench mission`: exit 0 when every mission succeeded.
+fn mission(args: &MissionArgs, registry: &ServiceRegistry) -> anyhow::Result<ExitCode> {
+    use lewis_demo::mission_bench::{MissionBenchOptions, mission_line, run_mission_bench};
+    let options = MissionBenchOptions {
+        robot: args.robot.clone(),
+        script: args.script.clone(),
+        seeds: args.seeds,
+        seed: args.seed,
+        random_start: args.random_start,
+        people: args.people,
+        out: args.out.clone(),
+        lewis_exe: std::env::current_exe().context("cannot find the lewis executable")?,
+        fault: lewis_demo::fault::LiveFault::laser_after_first_state(),
+    };
+    writeln!(
+        std::io::stdout().lock(),
+        "mission bench: {} missions{}, {} people walking about, the laser killed after the door; results in {}",
+        args.seeds,
+        if args.random_start {
+            " from random starts"
+        } else {
+            ""
+        },
+        args.people,
+        args.out.display()
+    )?;
+    let report = run_mission_bench(&options, registry, &mut |mission| {
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "{}", mission_line(mission));
+        let _ = out.flush();
+    })?;
+    let mut out = std::io::stdout().lock();
+    write!(out, "{}", report.summary())?;
+    writeln!(out, "report: {}", args.out.join("bench.json").display())?;
+    Ok(if report.succeeded() == report.missions.len() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }
 
 // For display only.

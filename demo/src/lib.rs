@@ -9,6 +9,7 @@
 
 pub mod chaos;
 pub mod fault;
+pub mod mission_bench;
 
 use std::fmt::Write as _;
 use std::net::SocketAddr;

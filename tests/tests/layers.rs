@@ -320,6 +320,10 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "lewis-launch",
             // The chaos picture's font and PNG encoding (`lewis_images::plot`).
             "lewis-images",
+            // The mission bench draws start poses and walking people in the simulated
+            // world.
+            "lewis-sim",
+            "lewis-geometry",
         ],
     ),
     // The test kit: below the runtime, so a component's own tests, and the tests of the
