@@ -4,20 +4,22 @@
 //! jambs), the jambs at least `--door-width` apart. The program picks the doorway nearest
 //! ahead, goes to a point 0.8 m before its centre on its normal, then 1.5 m past it, and
 //! finishes (0) once the odometry is 1 m past the door line. With no doorway in sight it
-//! turns in 45 degree steps; after a full turn it goes towards the middle of what it saw
-//! (a start in a corner sees the far side of the room at the laser's edge) and looks again,
-//! twice; after that, or a minute, it gives up (4).
+//! turns in 45 degree steps; after a full turn it goes towards a direction sign it read (the
+//! lobby's stands beside its door), else towards the middle of what it saw (a start in a
+//! corner sees the far side of the room at the laser's edge), and looks again, twice; after
+//! that, or a minute, it gives up (4).
 
 use lewis_geometry::Vec2;
-use lewis_interfaces::msg::RangeFinder;
+use lewis_interfaces::msg::{RangeFinder, SignArrow, Signs};
 use lewis_service::{Context, Input};
 
 use crate::common::driver::{Driver, moving_service};
 use crate::common::exit;
 use crate::common::watch::DEFAULT_STALE_NS;
+use crate::sign::SignBook;
 
 /// What DoorNavigator asks the broker for.
-pub const REQUIRES: &[&str] = &["RangeFinder", "Egomotion", "Mover"];
+pub const REQUIRES: &[&str] = &["RangeFinder", "Egomotion", "Mover", "Signs"];
 
 /// A beam is "much longer" than a jamb by this much, in m.
 const DEPTH_M: f64 = 0.8;
@@ -43,6 +45,8 @@ const SCANS_BEFORE_TURN: u32 = 10;
 const SEARCH_MOVES: u32 = 2;
 /// A move goes at most this far, in m.
 const MOVE_M: f64 = 3.0;
+/// A move towards a sign stops this far before it, in m.
+const BEFORE_SIGN_M: f64 = 1.5;
 /// The middle of what it saw is not worth going to when nearer than this, in m.
 const MIN_MOVE_M: f64 = 0.8;
 
@@ -195,6 +199,8 @@ pub struct DoorNavigator {
     config: DoorConfig,
     driver: Driver,
     phase: Phase,
+    /// The direction signs read (odometry): a hint of where the way out is.
+    signs: SignBook,
     /// The weighted sum of the middle of each beam's area since the search last moved
     /// (odometry), and the weight.
     seen: (Vec2, f64),
@@ -212,6 +218,7 @@ impl DoorNavigator {
                 turns: 0,
                 moves: 0,
             },
+            signs: SignBook::default(),
             seen: (Vec2::default(), 0.0),
         }
     }
@@ -273,27 +280,60 @@ impl DoorNavigator {
     }
 
     fn other_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if input.interface == "RangeFinder"
-            && let Ok(scan) = input.decode::<RangeFinder>()
-        {
-            self.on_scan(ctx, &scan);
+        match input.interface {
+            "RangeFinder" => {
+                if let Ok(scan) = input.decode::<RangeFinder>() {
+                    self.on_scan(ctx, &scan);
+                }
+            }
+            "Signs" => {
+                if let (Ok(signs), Some(pose)) =
+                    (input.decode::<Signs>(), self.driver.odometry.pose())
+                {
+                    self.signs.read(pose, &signs);
+                }
+            }
+            _ => {}
         }
     }
 
-    /// After a whole turn without a doorway: towards the middle of what it saw, or gives up.
+    /// After a whole turn without a doorway: towards the nearest direction sign read, else
+    /// the middle of what it saw; or gives up.
     fn search_elsewhere(&mut self, ctx: &mut Context<'_>, here: Vec2, moves: u32) {
         let (sum, weight) = std::mem::take(&mut self.seen);
-        let off = sum * (1.0 / weight.max(1e-9)) - here;
-        if moves >= SEARCH_MOVES || weight <= 0.0 || off.norm() < MIN_MOVE_M {
+        if moves >= SEARCH_MOVES {
             self.driver
                 .finish(ctx, exit::GAVE_UP, "no doorway all around");
             return;
         }
-        let goal = here + off * (off.norm().min(MOVE_M) / off.norm());
-        ctx.info(&format!(
-            "no doorway all around: looking again from {:.2},{:.2} (odometry), nearer the middle of the room",
-            goal.x, goal.y
-        ));
+        let sign = self
+            .signs
+            .settled()
+            .filter(|(_, _, arrow)| *arrow != SignArrow::Desk)
+            .map(|(_, track, _)| track.position)
+            .filter(|p| p.distance(here) > BEFORE_SIGN_M + MIN_MOVE_M)
+            .min_by(|a, b| a.distance(here).total_cmp(&b.distance(here)));
+        let goal = if let Some(sign) = sign {
+            let goal = sign + (here - sign) * (BEFORE_SIGN_M / here.distance(sign));
+            ctx.info(&format!(
+                "no doorway all around: looking again from {:.2},{:.2} (odometry), before the direction sign at {:.2},{:.2}",
+                goal.x, goal.y, sign.x, sign.y
+            ));
+            goal
+        } else {
+            let off = sum * (1.0 / weight.max(1e-9)) - here;
+            if weight <= 0.0 || off.norm() < MIN_MOVE_M {
+                self.driver
+                    .finish(ctx, exit::GAVE_UP, "no doorway all around");
+                return;
+            }
+            let goal = here + off * (off.norm().min(MOVE_M) / off.norm());
+            ctx.info(&format!(
+                "no doorway all around: looking again from {:.2},{:.2} (odometry), nearer the middle of the room",
+                goal.x, goal.y
+            ));
+            goal
+        };
         self.phase = Phase::Relocate {
             goal,
             moves: moves + 1,

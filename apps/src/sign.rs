@@ -15,7 +15,7 @@
 use std::collections::{BTreeSet, VecDeque};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
-use lewis_geometry::{Vec2, wrap_angle};
+use lewis_geometry::{Pose2, Vec2, wrap_angle};
 use lewis_interfaces::msg::{RangeFinder, SignArrow, Signs};
 use lewis_service::{Context, Input};
 
@@ -191,6 +191,21 @@ impl SignBook {
         index
     }
 
+    /// Takes the readings of a Signs sample seen from `pose` (odometry): the sure ones, near
+    /// enough to be read.
+    pub fn read(&mut self, pose: Pose2, signs: &Signs) {
+        for sign in &signs.signs {
+            let local = Vec2::new(sign.position.x, sign.position.y);
+            let Ok(arrow) = sign.arrow.parse::<SignArrow>() else {
+                continue;
+            };
+            if sign.confidence < MIN_CONFIDENCE || local.norm() > MAX_READ_M {
+                continue;
+            }
+            self.observe(pose.transform_point(local), arrow);
+        }
+    }
+
     /// The track `index`.
     #[must_use]
     pub fn track(&self, index: usize) -> &SignTrack {
@@ -292,16 +307,7 @@ impl SignFollower {
         let Some(pose) = self.driver.odometry.pose() else {
             return;
         };
-        for sign in &signs.signs {
-            let local = Vec2::new(sign.position.x, sign.position.y);
-            let Ok(arrow) = sign.arrow.parse::<SignArrow>() else {
-                continue;
-            };
-            if sign.confidence < MIN_CONFIDENCE || local.norm() > MAX_READ_M {
-                continue;
-            }
-            self.book.observe(pose.transform_point(local), arrow);
-        }
+        self.book.read(pose, signs);
         self.decide(ctx);
     }
 

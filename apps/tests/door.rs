@@ -78,3 +78,37 @@ fn the_same_seeds_give_the_same_ground_truth_track_bit_for_bit() {
     assert!(first.len() > 500, "{} samples", first.len());
     assert!(first == track(), "two runs differ");
 }
+
+#[test]
+fn from_the_far_corner_it_follows_the_lobby_sign_to_the_door() {
+    // The lobby's north-west corner: the door's far jamb 8.7 m off, beyond the SICK's 8.19 m;
+    // the lobby's sign, beside the door, 7.4 m off, is read by the camera. A whole turn finds
+    // no doorway; before the sign, it does.
+    let robot = sim_robot((1.0, 17.0, -90.0), (320, 240));
+    let services = &[
+        "base",
+        "laser",
+        "camera",
+        "sign_detector",
+        "vector_mover",
+        "obstacle_avoider",
+    ];
+    let program = Box::new(DoorNavigator::new(DoorConfig::default()));
+    let mut scene = scene(&robot, services, "door", program, REQUIRES);
+    scene.run_until(70 * S, |s| s.exit_code("door").is_some());
+    let said: Vec<&String> = scene
+        .harness("door")
+        .backend
+        .logs
+        .iter()
+        .map(|(_, text)| text)
+        .collect();
+    assert_eq!(scene.exit_code("door"), Some(0), "{said:#?}");
+    assert!(
+        said.iter().any(|l| l.contains("before the direction sign")),
+        "{said:#?}"
+    );
+    let truth = truth(&scene);
+    assert_eq!(truth.collisions, 0);
+    assert!(truth.pose.x > 8.9, "at {:.2}", truth.pose.x);
+}
