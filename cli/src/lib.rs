@@ -122,7 +122,7 @@ pub enum Command {
     #[command(hide = true)]
     StressPublish(stress::StressArgs),
     /// Measure: replay speed against real time and against the services called directly,
-    /// long recordings for the memory of a replay.
+    /// long recordings for the memory of a replay, the mission's success from random starts.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
     /// Rebuild a simulator world from a real run's laser scans (`from`), and measure how
