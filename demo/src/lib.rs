@@ -471,6 +471,42 @@ pub fn run_demo(
     })
 }
 
+/// The launch of a mission nobody watches (chaos, the mission bench): the robot at
+/// `robot_path` in `namespace`, recorded to `run`, the mission's records to `events`, no
+/// page, nobody asked; stopped after `duration`.
+pub(crate) fn unattended_launch(
+    (robot_path, namespace, lewis_exe): (PathBuf, &Namespace, &Path),
+    (script, mission): (&Path, &lewis_sequencer::Mission),
+    (run, events): (PathBuf, PathBuf),
+    duration: std::time::Duration,
+) -> LaunchOptions {
+    LaunchOptions {
+        up: UpOptions {
+            robot_path,
+            namespace: namespace.clone(),
+            lewis_exe: lewis_exe.to_owned(),
+            duration: Some(duration),
+            stop_grace: lewis_runtime::supervise::DEFAULT_STOP_GRACE,
+            clock: ClockSource::Wall,
+        },
+        record: Some(Some(run)),
+        companions: Some(lewis_recorder::companion::CompanionOptions::default()),
+        goal: None,
+        mission: Some(MissionPlan {
+            script: script.to_owned(),
+            mission: mission.clone(),
+            options: SessionOptions {
+                no_gui: true,
+                gui_addr: SocketAddr::from(([127, 0, 0, 1], 0)),
+                events: Some(events),
+                open_page: false,
+                echo: false,
+                unattended: true,
+            },
+        }),
+    }
+}
+
 /// The robot at `path`, checked against the kinds of `registry`.
 pub(crate) fn load_robot(path: &Path, registry: &ServiceRegistry) -> Result<Robot, DemoError> {
     let interfaces = lewis_interfaces::interface_names();

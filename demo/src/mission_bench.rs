@@ -14,17 +14,15 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use lewis_geometry::Vec2;
-use lewis_launch::{Launch, LaunchOptions, MissionPlan};
-use lewis_runtime::broker::live::UpOptions;
+use lewis_launch::Launch;
 use lewis_runtime::ipc::Namespace;
-use lewis_runtime::live::ClockSource;
-use lewis_sequencer::session::{SessionOptions, load_mission};
+use lewis_sequencer::session::load_mission;
 use lewis_service::{Rng, ServiceRegistry};
 use lewis_sim::world::{ObjectKind, World};
 use serde::Serialize;
 
 use crate::fault::{FaultThread, LiveFault};
-use crate::{DemoError, load_robot, mission_lines, with_seed};
+use crate::{DemoError, load_robot, mission_lines, unattended_launch, with_seed};
 
 /// Where the bench writes by default.
 pub const OUT_DIR: &str = "logs/bench-mission";
@@ -557,31 +555,12 @@ fn run_one(
     let namespace = Namespace::unique("bench");
     let _ = lewis_runtime::ipc::wipe_stale(&namespace);
     let fault = FaultThread::start(&namespace, options.fault.clone()).map_err(DemoError::Fault)?;
-    let launch_options = LaunchOptions {
-        up: UpOptions {
-            robot_path,
-            namespace: namespace.clone(),
-            lewis_exe: options.lewis_exe.clone(),
-            duration: Some(MISSION_LIMIT),
-            stop_grace: lewis_runtime::supervise::DEFAULT_STOP_GRACE,
-            clock: ClockSource::Wall,
-        },
-        record: Some(Some(dir.join("run.mcap"))),
-        companions: Some(lewis_recorder::companion::CompanionOptions::default()),
-        goal: None,
-        mission: Some(MissionPlan {
-            script: options.script.clone(),
-            mission: mission.clone(),
-            options: SessionOptions {
-                no_gui: true,
-                gui_addr: std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
-                events: Some(dir.join("events.jsonl")),
-                open_page: false,
-                echo: false,
-                unattended: true,
-            },
-        }),
-    };
+    let launch_options = unattended_launch(
+        (robot_path, &namespace, &options.lewis_exe),
+        (&options.script, mission),
+        (dir.join("run.mcap"), dir.join("events.jsonl")),
+        MISSION_LIMIT,
+    );
     let launched = Launch::new(robot, launch_options).and_then(Launch::run);
     let fault = fault.finish();
     let _ = lewis_runtime::ipc::wipe_ended(&namespace);

@@ -21,20 +21,18 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
-use lewis_launch::{Launch, LaunchOptions, MissionPlan};
+use lewis_launch::Launch;
 use lewis_recording::RecordingFiles;
 use lewis_recording::info::{InfoOptions, inspect};
 use lewis_replay::fault::{FaultKind, FaultSpec};
 use lewis_replay::lockstep::Programs;
 use lewis_replay::resim::{ReplayOptions, ServiceSelection, replay_with};
-use lewis_runtime::broker::live::UpOptions;
 use lewis_runtime::ipc::Namespace;
-use lewis_runtime::live::ClockSource;
-use lewis_sequencer::session::{SessionOptions, load_mission};
+use lewis_sequencer::session::load_mission;
 use lewis_service::ServiceRegistry;
 use serde::Serialize;
 
-use crate::{DemoError, load_robot, with_seed};
+use crate::{DemoError, load_robot, unattended_launch, with_seed};
 use resources::{UseSample, UseSampler, entries_with_prefix, slope};
 use schedule::{ChaosFault, ChaosPlan};
 use striker::{BrokerCounts, Striker, Struck};
@@ -496,32 +494,13 @@ fn run_mission(
     let namespace = Namespace::unique("chaos");
     let _ = lewis_runtime::ipc::wipe_stale(&namespace);
     let striker = Striker::start(&namespace, faults).map_err(DemoError::Fault)?;
-    let launch_options = LaunchOptions {
-        up: UpOptions {
-            robot_path,
-            namespace: namespace.clone(),
-            lewis_exe: options.lewis_exe.clone(),
-            // The run's end stops the mission running then.
-            duration: Some(left),
-            stop_grace: lewis_runtime::supervise::DEFAULT_STOP_GRACE,
-            clock: ClockSource::Wall,
-        },
-        record: Some(Some(run.clone())),
-        companions: Some(lewis_recorder::companion::CompanionOptions::default()),
-        goal: None,
-        mission: Some(MissionPlan {
-            script: options.script.clone(),
-            mission: mission.clone(),
-            options: SessionOptions {
-                no_gui: true,
-                gui_addr: std::net::SocketAddr::from(([127, 0, 0, 1], 0)),
-                events: Some(dir.join("events.jsonl")),
-                open_page: false,
-                echo: false,
-                unattended: true,
-            },
-        }),
-    };
+    // The run's end stops the mission running then.
+    let launch_options = unattended_launch(
+        (robot_path, &namespace, &options.lewis_exe),
+        (&options.script, mission),
+        (run.clone(), dir.join("events.jsonl")),
+        left,
+    );
     // The machine's use is read while the robot runs; a replay's afterwards is not the
     // run's.
     sampling.store(true, Ordering::Relaxed);
