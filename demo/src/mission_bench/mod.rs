@@ -7,7 +7,10 @@
 //! and forth between two points of the building outside the start room, at their own pace,
 //! from their own time) and the noise of its devices. Its world (the robot file's, its
 //! people added) and robot file are written to its folder, so a failed mission is run again
-//! by `lewis up` on them; a mission that succeeds leaves only its line.
+//! by `lewis up` on them; a mission that succeeds leaves only its line. [`picture`] draws
+//! the starts on the map.
+
+pub mod picture;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -186,8 +189,8 @@ pub fn mission_line(m: &BenchMission) -> String {
     line
 }
 
-/// Runs the bench; `on_mission` hears each mission as it ends. `bench.json` in the output
-/// folder is rewritten after every mission.
+/// Runs the bench; `on_mission` hears each mission as it ends. `bench.json` and `bench.png`
+/// in the output folder are rewritten after every mission.
 ///
 /// # Errors
 /// When the robot, its world or the mission cannot be read, or a mission cannot start.
@@ -255,6 +258,8 @@ pub fn run_mission_bench(
         let text =
             serde_json::to_string_pretty(&report).map_err(|e| DemoError::Report(e.to_string()))?;
         std::fs::write(&path, text + "\n").map_err(|source| DemoError::Write { path, source })?;
+        picture::write_png(&report, &world, &options.out.join("bench.png"))
+            .map_err(DemoError::Report)?;
     }
     Ok(report)
 }
@@ -640,6 +645,52 @@ mod tests {
         }
         // The same seed, the same people.
         assert_eq!(walkers, draw_walkers(&mut Rng::new(3), &ways, 4));
+    }
+
+    #[test]
+    fn the_picture_shows_each_start_coloured_by_its_outcome() {
+        let world = conference();
+        let mission = |number, succeeded, x_m, y_m| BenchMission {
+            number,
+            seed: u64::from(number),
+            start: StartPose {
+                x_m,
+                y_m,
+                heading_deg: 45.0,
+            },
+            walkers: vec![Walker {
+                name: "walker-1".into(),
+                from: [12.0, 12.5],
+                to: [20.0, 12.5],
+                speed_mps: 0.5,
+                starts_at_s: 1.0,
+            }],
+            succeeded,
+            reason: String::new(),
+            states: Vec::new(),
+            failed_in: None,
+            fault: String::new(),
+            kept: None,
+        };
+        let report = MissionBenchReport {
+            seed: 1,
+            random_start: true,
+            people: 1,
+            missions: vec![mission(1, true, 3.0, 12.5), mission(2, false, 5.0, 15.0)],
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bench.png");
+        picture::write_png(&report, &world, &path).unwrap();
+        let image = image::open(&path).unwrap().to_rgb8();
+        // 40 m across in 1080 px: 27 px/m; the failed start at (5, 15) is red, the other
+        // green.
+        let at = |x: f64, y: f64| {
+            let px = 10.0 + x * 27.0;
+            let py = f64::from(image.height()) - 10.0 - y * 27.0;
+            image.get_pixel(px.round() as u32, py.round() as u32).0
+        };
+        assert_eq!(at(5.0, 15.0), [0xd7, 0x19, 0x1c]);
+        assert_eq!(at(3.0, 12.5), [0x1a, 0x96, 0x41]);
     }
 
     #[test]
