@@ -76,6 +76,15 @@ pub struct ObstacleAvoiderConfig {
     pub reflex_lookahead_m: f64,
     /// How long obstacles are remembered, in ns.
     pub memory_ns: i64,
+    /// When the way to a goal is shut (the way round is longer than the straight line by
+    /// `detour_margin_m` and a tenth), the robot stands and waits this long before it goes
+    /// round, in ns (0: it goes round at once). A person across a corridor walks on; and
+    /// with only a few seconds of memory, the way round may lead back through what the
+    /// avoider has forgotten (unknown space counts as free).
+    pub detour_wait_ns: i64,
+    /// How much longer than the straight line the way round must be for the way to count
+    /// as shut, in m (besides a tenth of the straight line, for the grid's steps).
+    pub detour_margin_m: f64,
     /// At most this many readings are remembered (the bound of the memory).
     pub memory_readings: usize,
     /// Obstacle points along a reading's arc are at most this far apart, in m.
@@ -112,6 +121,8 @@ impl Default for ObstacleAvoiderConfig {
             translate_lookahead_m: 0.3,
             reflex_lookahead_m: 0.6,
             memory_ns: 5_000_000_000,
+            detour_wait_ns: 8_000_000_000,
+            detour_margin_m: 1.5,
             memory_readings: 64,
             arc_point_spacing_m: 0.05,
             max_points_per_beam: 24,
@@ -141,6 +152,14 @@ impl ObstacleAvoiderConfig {
         require_positive("candidate_spacing_m", self.candidate_spacing_m)?;
         require_positive("cost_cell_m", self.cost_cell_m)?;
         require_non_negative("cost_margin_m", self.cost_margin_m)?;
+        require_non_negative("detour_margin_m", self.detour_margin_m)?;
+        if self.detour_wait_ns < 0 {
+            return Err(ConfigError {
+                field: "detour_wait_ns",
+                value: self.detour_wait_ns as f64,
+                expected: ">= 0 ns",
+            });
+        }
         require_non_negative(
             "non_uniform_half_width_rad",
             self.non_uniform_half_width_rad,
@@ -290,6 +309,9 @@ pub struct ObstacleAvoider {
     sent: Option<MoverRequest>,
     best_distance_m: f64,
     progress_since_ns: Option<i64>,
+    /// When the goal's way was first seen shut (see
+    /// [`ObstacleAvoiderConfig::detour_wait_ns`]).
+    shut_since_ns: Option<i64>,
     distance_to_goal_m: f64,
 }
 
@@ -319,6 +341,7 @@ impl ObstacleAvoider {
             sent: None,
             best_distance_m: f64::INFINITY,
             progress_since_ns: None,
+            shut_since_ns: None,
             distance_to_goal_m: 0.0,
         })
     }
@@ -420,6 +443,7 @@ impl ObstacleAvoider {
         self.sent = None;
         self.best_distance_m = f64::INFINITY;
         self.progress_since_ns = None;
+        self.shut_since_ns = None;
         id
     }
 
@@ -838,6 +862,19 @@ impl ObstacleAvoider {
             config.candidate_spacing_m,
             &cost,
         );
+        if best.goal_distance_m > 0.0
+            && waits_for_the_way(
+                &mut self.shut_since_ns,
+                &self.config,
+                (distance, cost(here)),
+                now_ns,
+            )
+        {
+            // Waiting is not a lack of progress.
+            self.progress_since_ns = Some(now_ns);
+            self.waypoint = None;
+            return Some(MoverRequest::Stop);
+        }
         if distance < self.best_distance_m - self.config.progress_m
             || self.progress_since_ns.is_none()
         {
@@ -1010,6 +1047,23 @@ impl ObstacleAvoider {
 /// The cell of `cell_m` that holds `p`.
 fn cell_of(p: Vec2, cell_m: f64) -> Cell {
     ((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64)
+}
+
+/// Whether the robot should stand and wait for the way to its goal to open: the way is
+/// shut (the cost map's way round, `around`, is much longer than the `straight` line), and
+/// less than [`ObstacleAvoiderConfig::detour_wait_ns`] has passed since the goal's way was
+/// first seen shut (`shut_since`): a goal waits once, however often its way shuts.
+fn waits_for_the_way(
+    shut_since: &mut Option<i64>,
+    config: &ObstacleAvoiderConfig,
+    (straight, around): (f64, f64),
+    now_ns: i64,
+) -> bool {
+    if around <= straight * 1.1 + config.detour_margin_m {
+        return false;
+    }
+    let since = *shut_since.get_or_insert(now_ns);
+    now_ns - since < config.detour_wait_ns
 }
 
 #[cfg(test)]

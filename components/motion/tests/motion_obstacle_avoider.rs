@@ -239,7 +239,8 @@ fn a_goal_behind_a_wall_is_reached_on_a_coarse_noisy_sonar_ring() {
             &wall_world(),
             Robot::at(Pose2D::default()),
             &|_| Sensor::Sonar,
-            900,
+            // The way is shut by the wall: 8 s of waiting before going round it.
+            1000,
             seed,
         );
         check_arrival(&outcome, (4.0, 0.0), &format!("sonar, noise seed {seed}"));
@@ -354,6 +355,61 @@ fn readings_older_than_the_limit_stop_the_robot_and_then_fail_the_goal() {
     assert_eq!(d.publication().status, "failed");
 }
 
+/// A corridor 2.4 m wide along x, closed at both ends further than the laser reaches, with
+/// a person across it at x = 2.5 (a short wall) while `shut`.
+fn corridor(shut: bool) -> World {
+    let world = World::default()
+        .wall(p(-12.0, -1.2), p(20.0, -1.2))
+        .wall(p(-12.0, 1.2), p(20.0, 1.2));
+    if shut {
+        world.wall(p(2.5, -1.2), p(2.5, 1.2))
+    } else {
+        world
+    }
+}
+
+/// Drives to (8, 0) in the corridor, shut for the first `shut_steps`: the lowest x the
+/// robot went to, and the status at the end.
+fn through_the_corridor(detour_wait_ns: i64, shut_steps: usize) -> (f64, MoverStatus) {
+    let config = ObstacleAvoiderConfig {
+        detour_wait_ns,
+        ..ObstacleAvoiderConfig::default()
+    };
+    let mut d = AvoiderDrive::new(config, VectorMoverConfig::default()).unwrap();
+    d.goto(8.0, 0.0).unwrap();
+    let mut robot = Robot::at(Pose2D::default());
+    let mut sensors = Sensors::new(4);
+    let (shut, open) = (corridor(true), corridor(false));
+    let mut lowest_x = 0.0_f64;
+    for step in 0..400 {
+        let world = if step < shut_steps { &shut } else { &open };
+        // The sonar ring, every other step, as after the laser's failure.
+        if step % 2 == 0 {
+            d.observe(Sensor::Sonar, world, &robot, &mut sensors);
+        }
+        let command = d.step(&robot.odom_pose(), robot.now_ns);
+        robot.drive(world, command);
+        lowest_x = lowest_x.min(robot.world_pose.x);
+        if d.status() == MoverStatus::Arrived {
+            break;
+        }
+    }
+    assert_eq!(robot.collisions(), 0);
+    (lowest_x, d.status())
+}
+
+#[test]
+fn a_person_across_the_way_is_waited_for_not_gone_round_through_the_unknown() {
+    // The person stands 6 s: the robot waits before them, and goes on when they have gone.
+    let (lowest_x, status) = through_the_corridor(8_000_000_000, 60);
+    assert_eq!(status, MoverStatus::Arrived);
+    assert!(lowest_x > -0.3, "went back to x {lowest_x:.2}");
+    // Without the wait, the way round the person is back through the corridor the
+    // avoider has forgotten (unknown counts as free): the robot turns back.
+    let (lowest_x, _) = through_the_corridor(0, 60);
+    assert!(lowest_x < -0.5, "went back only to x {lowest_x:.2}");
+}
+
 #[test]
 fn a_goal_that_cannot_be_reached_is_reported_blocked_without_touching_anything() {
     // The goal is inside a closed box: wherever the robot goes around it, it gets no closer.
@@ -367,7 +423,8 @@ fn a_goal_that_cannot_be_reached_is_reported_blocked_without_touching_anything()
     let mut robot = Robot::at(Pose2D::default());
     let mut sensors = Sensors::new(8);
     let mut blocked_at = None;
-    for step in 0..500 {
+    // 8 s waiting for the way to open, then the way round, then 15 s without progress.
+    for step in 0..700 {
         d.observe(Sensor::Laser, &world, &robot, &mut sensors);
         let command = d.step(&robot.odom_pose(), robot.now_ns);
         robot.drive(&world, command);

@@ -43,6 +43,7 @@
 //! fail_after_ms = 30000
 //! no_progress_timeout_ms = 15000
 //! memory_ms = 5000
+//! detour_wait_ms = 8000             # a shut way is waited for before it is gone round
 //! position_tolerance_m = 0.07
 //! heading_tolerance_rad = 0.03
 //! goal = { x_m = 12.0, y_m = 13.0 } # a goto taken at start, in the odometry frame
@@ -93,6 +94,8 @@ pub struct Params {
     pub no_progress_timeout_ms: Option<u64>,
     /// How long obstacles are remembered, in ms.
     pub memory_ms: Option<u64>,
+    /// How long a shut way is waited for before it is gone round, in ms (0: at once).
+    pub detour_wait_ms: Option<u64>,
     /// A goto or translate is reached within this distance, in m.
     pub position_tolerance_m: Option<f64>,
     /// A rotate is reached within this angle, in rad.
@@ -125,6 +128,7 @@ impl Default for Params {
             fail_after_ms: None,
             no_progress_timeout_ms: None,
             memory_ms: None,
+            detour_wait_ms: None,
             position_tolerance_m: None,
             heading_tolerance_rad: None,
             seed: None,
@@ -147,6 +151,7 @@ impl Params {
             fail_after_ns: ns(self.fail_after_ms, d.fail_after_ns),
             no_progress_timeout_ns: ns(self.no_progress_timeout_ms, d.no_progress_timeout_ns),
             memory_ns: ns(self.memory_ms, d.memory_ns),
+            detour_wait_ns: ns(self.detour_wait_ms, d.detour_wait_ns),
             position_tolerance_m: self.position_tolerance_m.unwrap_or(d.position_tolerance_m),
             heading_tolerance_rad: self
                 .heading_tolerance_rad
