@@ -1,7 +1,10 @@
 //! The Mover client every moving program uses: it sends the program's latest wish (a goal,
 //! a rotation, a stop) to whichever provider serves Mover now, keeps the goal id it got,
 //! and sends it again when the broker moved Mover to another provider or the provider no
-//! longer pursues it (it restarted). Time comes from the context only.
+//! longer pursues it (it restarted). A goal the Mover has been blocked on for 3 s is sent
+//! again as a new goal: the obstacle avoider holds a goal it made no progress on, and a
+//! person who walked by and left the way free would otherwise hold the robot for good.
+//! Time comes from the context only.
 
 use lewis_geometry::Vec2;
 use lewis_interfaces::msg::{Mover, MoverGoto, MoverRotate, MoverStatus, MoverStop};
@@ -12,6 +15,9 @@ const RETRY_NS: i64 = 250_000_000;
 
 /// Goals closer than this to the one asked for already are the same goal.
 const SAME_GOAL_M: f64 = 0.05;
+
+/// A goal blocked this long is sent again, in ns.
+const BLOCKED_RETRY_NS: i64 = 3_000_000_000;
 
 /// What the program wants of the Mover.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,6 +48,8 @@ pub struct MoverClient {
     sent: Option<Sent>,
     status: Option<Mover>,
     retry_at_ns: Option<i64>,
+    /// Since when the goal asked for has been blocked.
+    blocked_since_ns: Option<i64>,
 }
 
 impl MoverClient {
@@ -172,8 +180,20 @@ impl MoverClient {
         true
     }
 
-    /// The periodic look: retries a command that could not be sent.
+    /// The periodic look: retries a command that could not be sent, and a goal blocked for
+    /// `BLOCKED_RETRY_NS`.
     pub fn tick(&mut self, ctx: &mut Context<'_>) {
+        let now = ctx.now();
+        match (self.wanted, self.state()) {
+            (Some(Motion::Goto(goal)), Some(MoverStatus::Blocked)) => {
+                let since = *self.blocked_since_ns.get_or_insert(now);
+                if now - since >= BLOCKED_RETRY_NS {
+                    self.blocked_since_ns = None;
+                    self.want(ctx, Motion::Goto(goal));
+                }
+            }
+            _ => self.blocked_since_ns = None,
+        }
         if self.retry_at_ns.is_some_and(|at| ctx.now() >= at) {
             self.retry_at_ns = None;
             self.send(ctx);
