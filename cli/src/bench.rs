@@ -56,7 +56,8 @@ pub struct MissionArgs {
     /// heading; without it, every mission starts where the robot file says.
     #[arg(long)]
     pub random_start: bool,
-    /// People walking back and forth across the corridors and the hall in each mission.
+    /// People who each walk a straight way across the corridors and the hall once, in each
+    /// mission.
     #[arg(long, default_value_t = 3)]
     pub people: u32,
     /// The simulated robot.

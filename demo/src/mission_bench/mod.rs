@@ -3,9 +3,10 @@
 //! way, and the demo's live fault (the laser killed beyond its restart limit once the robot
 //! is through the door): the success rate, and each failure's state and reason.
 //!
-//! Mission `i` draws everything from `seed + i`: its start pose, its people (each walks back
-//! and forth between two points of the building outside the start room, at their own pace,
-//! from their own time) and the noise of its devices. Its world (the robot file's, its
+//! Mission `i` draws everything from `seed + i`: its start pose, its people (each walks a
+//! straight way between two points of the building outside the start room, once, at their
+//! own pace, setting off within the mission's first minute, then leaves) and the noise of
+//! its devices. Its world (the robot file's, its
 //! people added) and robot file are written to its folder, so a failed mission is run again
 //! by `lewis up` on them; a mission that succeeds leaves only its line. [`picture`] draws
 //! the starts on the map.
@@ -39,8 +40,10 @@ const START_CLEARANCE_M: f64 = 0.6;
 const WALK_CLEARANCE_M: f64 = 0.5;
 /// Walkers keep this far from the start room (and so out of its doorways), in m.
 const ROOM_MARGIN_M: f64 = 1.0;
-/// A walker's route is this long, in m.
-const WALK_LENGTH_M: (f64, f64) = (3.0, 9.0);
+/// A walker's way is this long, in m.
+const WALK_LENGTH_M: (f64, f64) = (4.0, 12.0);
+/// Walkers set off within this of the mission's start, in s.
+const WALK_START_S: f64 = 60.0;
 /// Walkers stay this far from the people already in the world (the queue, the clerk, the
 /// guide), in m: they walk past the queue, not through it.
 const CROWD_M: f64 = 2.0;
@@ -82,7 +85,7 @@ pub struct StartPose {
     pub heading_deg: f64,
 }
 
-/// A person who walks back and forth.
+/// A person who walks a straight way once, and leaves.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Walker {
     /// Their name in the world.
@@ -418,7 +421,7 @@ fn key(p: Vec2) -> (i64, i64) {
     ((p.x / CELL_M).floor() as i64, (p.y / CELL_M).floor() as i64)
 }
 
-/// `n` people, each walking back and forth on a straight way between two points of `ways`.
+/// `n` people, each walking a straight way between two points of `ways`, once.
 fn draw_walkers(rng: &mut Rng, ways: &[Vec2], n: u32) -> Vec<Walker> {
     let mut walkers = Vec::new();
     if ways.is_empty() {
@@ -447,7 +450,7 @@ fn draw_walkers(rng: &mut Rng, ways: &[Vec2], n: u32) -> Vec<Walker> {
                     from: [round2(from.x), round2(from.y)],
                     to: [round2(to.x), round2(to.y)],
                     speed_mps: round2(rng.uniform(0.4, 1.1)),
-                    starts_at_s: round2(rng.uniform(0.0, 30.0)),
+                    starts_at_s: round2(rng.uniform(0.0, WALK_START_S)),
                 });
                 break;
             }
@@ -482,7 +485,7 @@ fn write_world(world_dir: &Path, walkers: &[Walker], out: &Path) -> Result<(), D
     for (k, w) in walkers.iter().enumerate() {
         let _ = write!(
             text,
-            "\n[[objects]]\nkind = \"person\"\nname = \"{}\"\ncentre = [{}, {}]\nshirt_colour = \"{}\"\n\n[[walks]]\nperson = \"{}\"\nroute = [[{}, {}]]\nspeed_mps = {}\nstarts_at_s = {}\nback_and_forth = true\n",
+            "\n[[objects]]\nkind = \"person\"\nname = \"{}\"\ncentre = [{}, {}]\nshirt_colour = \"{}\"\n\n[[walks]]\nperson = \"{}\"\nroute = [[{}, {}]]\nspeed_mps = {}\nstarts_at_s = {}\nleaves = true\n",
             w.name,
             w.from[0],
             w.from[1],
@@ -641,7 +644,7 @@ mod tests {
         assert_eq!(walkers.len(), 4);
         for w in &walkers {
             let length = Vec2::new(w.from[0], w.from[1]).distance(Vec2::new(w.to[0], w.to[1]));
-            assert!((2.9..9.1).contains(&length), "{w:?}");
+            assert!((3.9..12.1).contains(&length), "{w:?}");
         }
         // The same seed, the same people.
         assert_eq!(walkers, draw_walkers(&mut Rng::new(3), &ways, 4));
