@@ -8,6 +8,7 @@
 mod anywhere;
 mod door;
 mod failsafe;
+mod mover;
 mod queue;
 mod recovery;
 mod register;
