@@ -171,7 +171,7 @@ impl QueueStander {
             let axis = if self.axes.learned() {
                 "on the building's axis"
             } else {
-                "no laser scan: on the axis of the heading it started with"
+                "no axis learned from the scans yet: on the axis of the heading it started with"
             };
             ctx.info(&format!(
                 "the desk at {:.2},{:.2} (odometry): joining its queue, along {:.0} deg ({axis})",

@@ -458,7 +458,7 @@ impl SignFollower {
                             axes.support * 0.1
                         ),
                         (None, Some(axis)) if axis == heading => {
-                            "on the axis of the heading it started with: no laser scan yet"
+                            "on the axis of the heading it started with: none learned from the scans yet"
                                 .to_owned()
                         }
                         _ => "off the building's axes".to_owned(),
