@@ -223,12 +223,26 @@ impl SignBook {
 
 /// The heading to go on after a sign: the direction the robot faced the sign in (from
 /// `before` to the sign at `sign`), turned by the arrow, put on the building's nearest axis
-/// when near one.
+/// when near one. A sign's arrow is meant for someone facing its board squarely: when the
+/// range finder saw a straight wall behind the sign, the facing is square to that wall (a
+/// sign seen at 45 degrees still says "left" of its own face).
 #[must_use]
 pub fn heading_after(before: Vec2, sign: Vec2, arrow: ArrowWord, axes: &BuildingAxes) -> f64 {
-    let facing = (sign - before).angle();
+    let seen = (sign - before).angle();
+    let facing = axes.wall_near(sign, WALL_NEAR_M).map_or(seen, |wall| {
+        let normal = wall + FRAC_PI_2;
+        // The normal pointing away from the robot, into the wall.
+        if wrap_angle(normal - seen).abs() <= FRAC_PI_2 {
+            wrap_angle(normal)
+        } else {
+            wrap_angle(normal + PI)
+        }
+    });
     axes.snap(wrap_angle(facing + arrow.turn_rad()), SNAP_RAD)
 }
+
+/// A wall this near a sign is the wall it hangs on, in m.
+const WALL_NEAR_M: f64 = 0.6;
 
 /// The go-on goal from `here` along `heading` past the sign at `sign`: straight on, unless
 /// the sign stands in the way (a sign saying "straight on" does): then a point just past
@@ -570,12 +584,21 @@ mod tests {
         assert!(close(after(ArrowWord::Left), FRAC_PI_2));
         assert!(close(after(ArrowWord::Right), -FRAC_PI_2));
         assert!(close(after(ArrowWord::Down), PI));
-        // Far off an axis: kept as it is.
-        let diagonal = Vec2::new(1.0, 1.0);
+        // Seen from well off its face (50 degrees), on a wall along x: square to the wall,
+        // turned.
+        let aside = Vec2::from_angle(50_f64.to_radians()) * 4.0;
+        let mut walled = BuildingAxes::along(0.0);
+        let wall: Vec<Vec2> = (-10..=10)
+            .map(|k| aside + Vec2::new(f64::from(k) * 0.05, 0.0))
+            .collect();
+        walled.observe_points(0, before, &wall);
         assert!(close(
-            heading_after(before, diagonal, ArrowWord::Up, &square),
-            FRAC_PI_4
+            heading_after(before, aside, ArrowWord::Left, &walled),
+            PI
         ));
+        // With no wall seen behind it: the line of sight, turned, kept off the axes.
+        let off = heading_after(before, aside, ArrowWord::Left, &square);
+        assert!(close(off, 140_f64.to_radians()), "{}", off.to_degrees());
         // A building at 30 degrees to the odometry frame (the robot started turned): the
         // building's axes, not the odometry's.
         let turned = BuildingAxes::along(30_f64.to_radians());
@@ -588,6 +611,11 @@ mod tests {
         assert!(close(
             heading_after(before, sign, ArrowWord::Up, &blind),
             sign.angle()
+        ));
+        let diagonal = Vec2::new(1.0, 1.0);
+        assert!(close(
+            heading_after(before, diagonal, ArrowWord::Up, &blind),
+            FRAC_PI_4
         ));
     }
 }

@@ -121,3 +121,17 @@ fn on_the_sonar_ring_alone_sign_follower_turns_on_the_axis_it_started_on() {
         assert_eq!(truth(&scene).collisions, 0, "{name}");
     }
 }
+
+#[test]
+fn in_the_hall_at_any_heading_the_hall_sign_is_read_square_to_its_wall() {
+    // Where Recovery may leave the robot, at any heading: the hall sign (on the hall's
+    // north wall, facing south) is seen 50 degrees off its face; its "left" is west, to
+    // the desk, whatever the line of sight.
+    for heading in [0.0, 45.0, 100.0, 200.0, 260.0, 330.0] {
+        let robot = sim_robot((23.4, 18.9, heading), (320, 240));
+        let mut scene = scene(&robot, SERVICES, "recovery", Box::new(Idle), &[]);
+        let (exit, said) = visit(&mut scene, "sign", 70);
+        assert_eq!(exit, Some(1), "from {heading} deg: {said:#?}");
+        assert_eq!(truth(&scene).collisions, 0);
+    }
+}

@@ -202,6 +202,27 @@ impl BuildingAxes {
         self.angle().map(|a| nearest_axis(a, heading))
     }
 
+    /// The direction (modulo 180 degrees) of the straight wall within `radius_m` of `p`
+    /// (odometry), from the cells kept: where a sign on a wall faces.
+    #[must_use]
+    pub fn wall_near(&self, p: Vec2, radius_m: f64) -> Option<f64> {
+        let (ci, cj) = key(p);
+        let reach = (radius_m / CELL_M).ceil() as i32;
+        let (mut c, mut s, mut n) = (0.0, 0.0, 0);
+        for i in ci - reach..=ci + reach {
+            for (&(a, b), _) in self.cells.range((i, cj - reach)..=(i, cj + reach)) {
+                if centre(a, b).distance(p) <= radius_m
+                    && let Some(angle) = self.line_at(a, b)
+                {
+                    c += (2.0 * angle).cos();
+                    s += (2.0 * angle).sin();
+                    n += 1;
+                }
+            }
+        }
+        (n >= MIN_NEIGHBOURS).then(|| s.atan2(c) / 2.0)
+    }
+
     /// The axes from the cells now: the strongest direction of the straight neighbourhoods.
     fn estimate(&self) -> Option<Axes> {
         let mut votes: Vec<(f64, f64)> = Vec::new();
