@@ -6,46 +6,14 @@
 use lewis_apps::door::{self, DoorConfig, DoorNavigator};
 use lewis_apps::queue::{self, QueueConfig, QueueStander};
 use lewis_apps::sign::{self, SignConfig, SignFollower};
-use lewis_service::{Level, Service};
 use lewis_testkit::scene::Scene;
 
-use crate::support::{S, scene, sim_robot, truth};
-
-const SERVICES: &[&str] = &[
-    "base",
-    "laser",
-    "camera",
-    "sign_detector",
-    "vector_mover",
-    "obstacle_avoider",
-];
-
-/// Runs one program to its end (or `limit_s`): its exit code, and what it said.
-fn run(
-    scene: &mut Scene,
-    name: &str,
-    program: Box<dyn Service>,
-    requires: &[&str],
-    limit_s: i64,
-) -> (Option<i32>, Vec<String>) {
-    scene.add_program(name, program, requires, 7);
-    let limit = scene.now_ns() + limit_s * S;
-    scene.run_until(limit, |s| s.exit_code(name).is_some());
-    let said = scene
-        .harness(name)
-        .backend
-        .logs
-        .iter()
-        .filter(|(level, _)| *level == Level::Info)
-        .map(|(_, text)| text.clone())
-        .collect();
-    (scene.exit_code(name), said)
-}
+use crate::support::{Idle, SEEING, run_program as run, scene, sim_robot, truth};
 
 /// The states from `start` to the queue's head: the states run, each with its exit code.
 fn mission_from(start: (f64, f64, f64)) -> (Vec<(String, Option<i32>)>, Scene) {
     let robot = sim_robot(start, (320, 240));
-    let mut scene = scene(&robot, SERVICES, "idle", Box::new(Idle), &[]);
+    let mut scene = scene(&robot, SEEING, "idle", Box::new(Idle), &[]);
     let mut states = Vec::new();
     let (code, said) = run(
         &mut scene,
@@ -110,8 +78,3 @@ fn from_starts_at_30_45_and_135_degrees_the_robot_reaches_the_head_of_the_queue(
         );
     }
 }
-
-/// A program that does nothing, for a scene's first member name.
-struct Idle;
-
-impl Service for Idle {}

@@ -3,7 +3,7 @@
 
 use lewis_apps::door::{DoorConfig, DoorNavigator, REQUIRES};
 
-use crate::support::{S, scene, sim_robot, truth};
+use crate::support::{S, SEEING, said, scene, sim_robot, truth};
 
 const SERVICES: &[&str] = &["base", "laser", "vector_mover", "obstacle_avoider"];
 
@@ -44,13 +44,7 @@ fn from_a_corner_where_the_door_is_at_the_lasers_edge_it_moves_and_looks_again()
     let program = Box::new(DoorNavigator::new(DoorConfig::default()));
     let mut scene = scene(&robot, SERVICES, "door", program, REQUIRES);
     scene.run_until(70 * S, |s| s.exit_code("door").is_some());
-    let said: Vec<&String> = scene
-        .harness("door")
-        .backend
-        .logs
-        .iter()
-        .map(|(_, text)| text)
-        .collect();
+    let said = said(&scene, "door");
     assert_eq!(scene.exit_code("door"), Some(0), "{said:#?}");
     assert!(
         said.iter().any(|l| l.contains("looking again")),
@@ -85,24 +79,10 @@ fn from_the_far_corner_it_follows_the_lobby_sign_to_the_door() {
     // the lobby's sign, beside the door, 7.4 m off, is read by the camera. A whole turn finds
     // no doorway; before the sign, it does.
     let robot = sim_robot((1.0, 17.0, -90.0), (320, 240));
-    let services = &[
-        "base",
-        "laser",
-        "camera",
-        "sign_detector",
-        "vector_mover",
-        "obstacle_avoider",
-    ];
     let program = Box::new(DoorNavigator::new(DoorConfig::default()));
-    let mut scene = scene(&robot, services, "door", program, REQUIRES);
+    let mut scene = scene(&robot, SEEING, "door", program, REQUIRES);
     scene.run_until(70 * S, |s| s.exit_code("door").is_some());
-    let said: Vec<&String> = scene
-        .harness("door")
-        .backend
-        .logs
-        .iter()
-        .map(|(_, text)| text)
-        .collect();
+    let said = said(&scene, "door");
     assert_eq!(scene.exit_code("door"), Some(0), "{said:#?}");
     assert!(
         said.iter().any(|l| l.contains("before the direction sign")),

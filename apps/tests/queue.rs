@@ -4,23 +4,14 @@
 use lewis_apps::queue::{QueueConfig, QueueStander, REQUIRES};
 use lewis_interfaces::msg::WorldState;
 
-use crate::support::{S, scene, sim_robot, truth};
-
-const SERVICES: &[&str] = &[
-    "base",
-    "laser",
-    "camera",
-    "sign_detector",
-    "vector_mover",
-    "obstacle_avoider",
-];
+use crate::support::{S, SEEING, scene, sim_robot, truth};
 
 #[test]
 fn queue_stander_waits_its_turn_and_ends_at_the_head_of_the_queue() {
     // Where SignFollower leaves it: west along the hall, the desk's sign in sight.
     let robot = sim_robot((23.0, 23.2, 180.0), (320, 240));
     let program = Box::new(QueueStander::new(QueueConfig::default()));
-    let mut scene = scene(&robot, SERVICES, "queue", program, REQUIRES);
+    let mut scene = scene(&robot, SEEING, "queue", program, REQUIRES);
     scene.tap("WorldState");
     scene.run_until(120 * S, |s| s.exit_code("queue").is_some());
     let end = truth(&scene);

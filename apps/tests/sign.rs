@@ -2,47 +2,22 @@
 //! after another from the same robot, each reading its sign and turning as it says.
 
 use lewis_apps::sign::{REQUIRES, SignConfig, SignFollower};
-use lewis_service::Level;
 use lewis_testkit::scene::Scene;
 
-use crate::support::{S, scene, sim_robot, truth};
-
-const SERVICES: &[&str] = &[
-    "base",
-    "laser",
-    "camera",
-    "sign_detector",
-    "vector_mover",
-    "obstacle_avoider",
-];
+use crate::support::{Idle, SEEING, run_program, scene, sim_robot, truth};
 
 /// Runs one SignFollower named `name` to its end (or `limit_s`): its exit code and what
 /// it said.
 fn visit(scene: &mut Scene, name: &str, limit_s: i64) -> (Option<i32>, Vec<String>) {
-    scene.add_program(
-        name,
-        Box::new(SignFollower::new(SignConfig::default())),
-        REQUIRES,
-        7,
-    );
-    let limit = scene.now_ns() + limit_s * S;
-    scene.run_until(limit, |s| s.exit_code(name).is_some());
-    let said = scene
-        .harness(name)
-        .backend
-        .logs
-        .iter()
-        .filter(|(level, _)| *level == Level::Info)
-        .map(|(_, text)| text.clone())
-        .collect();
-    (scene.exit_code(name), said)
+    let program = Box::new(SignFollower::new(SignConfig::default()));
+    run_program(scene, name, program, REQUIRES, limit_s)
 }
 
 #[test]
 fn sign_follower_reads_the_corridor_signs_and_turns_as_they_say() {
     // Just past the entrance door, facing east along the corridor.
     let robot = sim_robot((9.5, 12.5, 0.0), (320, 240));
-    let mut scene = scene(&robot, SERVICES, "door", Box::new(Idle), &[]);
+    let mut scene = scene(&robot, SEEING, "door", Box::new(Idle), &[]);
     // The corridor's sign says straight on, the corner's left, the hall's left, and then
     // the desk's sign is in sight (exit 1).
     let expected = [("up", 0), ("left", 0), ("left", 1)];
@@ -71,7 +46,7 @@ fn sign_follower_looks_around_for_a_sign_out_of_view_when_it_starts() {
     // (15.03, 22.1) is 40 degrees to the right, out of the camera's view, and nothing is
     // ahead but the hall's wall. Looking around finds the desk's sign (exit 1).
     let robot = sim_robot((20.5, 18.9, 190.0), (320, 240));
-    let mut scene = scene(&robot, SERVICES, "recovery", Box::new(Idle), &[]);
+    let mut scene = scene(&robot, SEEING, "recovery", Box::new(Idle), &[]);
     let (exit, said) = visit(&mut scene, "sign", 70);
     assert_eq!(exit, Some(1), "{said:#?}");
     assert!(
@@ -88,11 +63,6 @@ fn capitalised(word: &str) -> String {
         .map(|c| c.to_ascii_uppercase().to_string() + chars.as_str())
         .unwrap_or_default()
 }
-
-/// A program that does nothing, for a scene's first member name.
-struct Idle;
-
-impl lewis_service::Service for Idle {}
 
 #[test]
 fn on_the_sonar_ring_alone_sign_follower_turns_on_the_axis_it_started_on() {
@@ -129,7 +99,7 @@ fn in_the_hall_at_any_heading_the_hall_sign_is_read_square_to_its_wall() {
     // the desk, whatever the line of sight.
     for heading in [0.0, 45.0, 100.0, 200.0, 260.0, 330.0] {
         let robot = sim_robot((23.4, 18.9, heading), (320, 240));
-        let mut scene = scene(&robot, SERVICES, "recovery", Box::new(Idle), &[]);
+        let mut scene = scene(&robot, SEEING, "recovery", Box::new(Idle), &[]);
         let (exit, said) = visit(&mut scene, "sign", 70);
         assert_eq!(exit, Some(1), "from {heading} deg: {said:#?}");
         assert_eq!(truth(&scene).collisions, 0);

@@ -4,7 +4,7 @@
 
 use lewis_interfaces::msg::{GroundTruth, INTERFACES};
 use lewis_robot::Robot;
-use lewis_service::Service;
+use lewis_service::{Level, Service};
 use lewis_testkit::repository_path;
 use lewis_testkit::scene::Scene;
 
@@ -75,3 +75,46 @@ pub fn truth(scene: &Scene) -> GroundTruth {
         .map(|t| t.publication.decode())
         .unwrap_or_default()
 }
+
+/// The services a program that reads signs needs: the base, the laser, the camera and its
+/// sign detector, and the movers.
+pub const SEEING: &[&str] = &[
+    "base",
+    "laser",
+    "camera",
+    "sign_detector",
+    "vector_mover",
+    "obstacle_avoider",
+];
+
+/// Adds `program` to `scene` as `name` (asking for `requires`) and runs it to its end, or
+/// `limit_s` more: its exit code, and its Info lines.
+pub fn run_program(
+    scene: &mut Scene,
+    name: &str,
+    program: Box<dyn Service>,
+    requires: &[&str],
+    limit_s: i64,
+) -> (Option<i32>, Vec<String>) {
+    scene.add_program(name, program, requires, 7);
+    let limit = scene.now_ns() + limit_s * S;
+    scene.run_until(limit, |s| s.exit_code(name).is_some());
+    (scene.exit_code(name), said(scene, name))
+}
+
+/// The Info lines member `name` of `scene` logged, in order.
+pub fn said(scene: &Scene, name: &str) -> Vec<String> {
+    scene
+        .harness(name)
+        .backend
+        .logs
+        .iter()
+        .filter(|(level, _)| *level == Level::Info)
+        .map(|(_, text)| text.clone())
+        .collect()
+}
+
+/// A program that does nothing, for a scene's first member name.
+pub struct Idle;
+
+impl Service for Idle {}

@@ -507,6 +507,22 @@ pub(crate) fn unattended_launch(
     }
 }
 
+/// Turns an I/O error on `path` into a [`DemoError::Write`] naming it.
+pub(crate) fn write_error(path: &Path) -> impl FnOnce(std::io::Error) -> DemoError {
+    let path = path.to_owned();
+    move |source| DemoError::Write { path, source }
+}
+
+/// `dir`, emptied of an earlier run's files (a mission's folder).
+pub(crate) fn fresh_dir(dir: &Path) -> Result<(), DemoError> {
+    match std::fs::remove_dir_all(dir) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(source) => return Err(write_error(dir)(source)),
+    }
+    std::fs::create_dir_all(dir).map_err(write_error(dir))
+}
+
 /// The robot at `path`, checked against the kinds of `registry`.
 pub(crate) fn load_robot(path: &Path, registry: &ServiceRegistry) -> Result<Robot, DemoError> {
     let interfaces = lewis_interfaces::interface_names();

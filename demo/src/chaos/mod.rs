@@ -32,7 +32,7 @@ use lewis_sequencer::session::load_mission;
 use lewis_service::ServiceRegistry;
 use serde::Serialize;
 
-use crate::{DemoError, load_robot, unattended_launch, with_seed};
+use crate::{DemoError, fresh_dir, load_robot, unattended_launch, with_seed, write_error};
 use resources::{UseSample, UseSampler, entries_with_prefix, slope};
 use schedule::{ChaosFault, ChaosPlan};
 use striker::{BrokerCounts, Striker, Struck};
@@ -377,10 +377,6 @@ pub fn run_chaos(
             return Err(DemoError::NotInRepository { path: path.clone() });
         }
     }
-    let write_error = |path: &Path| {
-        let path = path.to_owned();
-        move |source| DemoError::Write { path, source }
-    };
     std::fs::create_dir_all(&options.out).map_err(write_error(&options.out))?;
     let robot_text = std::fs::read_to_string(&options.robot)
         .map_err(|e| DemoError::Robot(format!("cannot read {}: {e}", options.robot.display())))?;
@@ -457,21 +453,7 @@ fn run_mission(
     (dir, left): (&Path, Duration),
     sampling: &AtomicBool,
 ) -> Result<Option<MissionResult>, DemoError> {
-    let write_error = |path: &Path| {
-        let path = path.to_owned();
-        move |source| DemoError::Write { path, source }
-    };
-    match std::fs::remove_dir_all(dir) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(source) => {
-            return Err(DemoError::Write {
-                path: dir.to_owned(),
-                source,
-            });
-        }
-    }
-    std::fs::create_dir_all(dir).map_err(write_error(dir))?;
+    fresh_dir(dir)?;
     let device_seed = options.seed.wrapping_add(100 * u64::from(number));
     let robot_path = dir.join("robot.toml");
     let seeded = with_seed(robot_text, device_seed).map_err(DemoError::Robot)?;

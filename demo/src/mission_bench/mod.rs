@@ -26,7 +26,9 @@ use lewis_sim::world::{ObjectKind, World};
 use serde::Serialize;
 
 use crate::fault::{FaultThread, LiveFault};
-use crate::{DemoError, load_robot, mission_lines, unattended_launch, with_seed};
+use crate::{
+    DemoError, fresh_dir, load_robot, mission_lines, unattended_launch, with_seed, write_error,
+};
 
 /// Where the bench writes by default.
 pub const OUT_DIR: &str = "logs/bench-mission";
@@ -465,10 +467,6 @@ fn round2(x: f64) -> f64 {
 
 /// The world of `world_dir` with `walkers` added, written to `out`.
 fn write_world(world_dir: &Path, walkers: &[Walker], out: &Path) -> Result<(), DemoError> {
-    let write_error = |path: &Path| {
-        let path = path.to_owned();
-        move |source| DemoError::Write { path, source }
-    };
     std::fs::create_dir_all(out).map_err(write_error(out))?;
     let entries = std::fs::read_dir(world_dir).map_err(write_error(world_dir))?;
     for entry in entries {
@@ -542,16 +540,7 @@ fn run_one(
     (number, seed, start, walkers): (u32, u64, StartPose, Vec<Walker>),
     dir: &Path,
 ) -> Result<BenchMission, DemoError> {
-    let write_error = |path: &Path| {
-        let path = path.to_owned();
-        move |source| DemoError::Write { path, source }
-    };
-    match std::fs::remove_dir_all(dir) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(source) => return Err(write_error(dir)(source)),
-    }
-    std::fs::create_dir_all(dir).map_err(write_error(dir))?;
+    fresh_dir(dir)?;
     let dir = std::path::absolute(dir).map_err(write_error(dir))?;
     let world = dir.join("world");
     write_world(world_dir, &walkers, &world)?;
