@@ -224,25 +224,29 @@ impl SignBook {
 /// The heading to go on after a sign: the direction the robot faced the sign in (from
 /// `before` to the sign at `sign`), turned by the arrow, put on the building's nearest axis
 /// when near one. A sign's arrow is meant for someone facing its board squarely: when the
-/// range finder saw a straight wall behind the sign, the facing is square to that wall (a
-/// sign seen at 45 degrees still says "left" of its own face).
+/// range finder saw a straight wall just behind the sign, the facing is square to that wall
+/// (a sign seen at 45 degrees still says "left" of its own face). A wall beside the sign
+/// (a sign on a post near a corridor's wall) is not behind it and does not count.
 #[must_use]
 pub fn heading_after(before: Vec2, sign: Vec2, arrow: ArrowWord, axes: &BuildingAxes) -> f64 {
     let seen = (sign - before).angle();
-    let facing = axes.wall_near(sign, WALL_NEAR_M).map_or(seen, |wall| {
-        let normal = wall + FRAC_PI_2;
-        // The normal pointing away from the robot, into the wall.
-        if wrap_angle(normal - seen).abs() <= FRAC_PI_2 {
-            wrap_angle(normal)
-        } else {
-            wrap_angle(normal + PI)
-        }
-    });
+    let facing = axes
+        .wall_behind(before, sign, WALL_BEHIND_M)
+        .map_or(seen, |wall| {
+            let normal = wall + FRAC_PI_2;
+            // The normal pointing away from the robot, into the wall.
+            if wrap_angle(normal - seen).abs() <= FRAC_PI_2 {
+                wrap_angle(normal)
+            } else {
+                wrap_angle(normal + PI)
+            }
+        });
     axes.snap(wrap_angle(facing + arrow.turn_rad()), SNAP_RAD)
 }
 
-/// A wall this near a sign is the wall it hangs on, in m.
-const WALL_NEAR_M: f64 = 0.6;
+/// A wall met this near behind a sign, along the line of sight, is the wall it hangs on,
+/// in m.
+const WALL_BEHIND_M: f64 = 0.6;
 
 /// The go-on goal from `here` along `heading` past the sign at `sign`: straight on, unless
 /// the sign stands in the way (a sign saying "straight on" does): then a point just past
@@ -596,6 +600,16 @@ mod tests {
             heading_after(before, aside, ArrowWord::Left, &walled),
             PI
         ));
+        // A sign on a post 0.5 m from a corridor's side wall, seen from 3 m down the
+        // corridor: the side wall is not behind it, and straight on is down the corridor.
+        let post = Vec2::new(3.0, 0.7);
+        let mut corridor = BuildingAxes::along(0.0);
+        let side: Vec<Vec2> = (0..=120)
+            .map(|k| Vec2::new(f64::from(k) * 0.05, 1.2))
+            .collect();
+        corridor.observe_points(0, before, &side);
+        let on = heading_after(before, post, ArrowWord::Up, &corridor);
+        assert!(close(on, 0.0), "{}", on.to_degrees());
         // With no wall seen behind it: the line of sight, turned, kept off the axes.
         let off = heading_after(before, aside, ArrowWord::Left, &square);
         assert!(close(off, 140_f64.to_radians()), "{}", off.to_degrees());

@@ -54,6 +54,8 @@ const MIN_BEAMS: usize = 60;
 /// sonar ring draws arcs, which are locally straight in the wrong directions (and a scan's
 /// points are placed with a pose that is a little late).
 const MAX_TURN_RATE: f64 = 0.15;
+/// The wall met behind a point is fitted over the cells this near where it was met, in m.
+const WALL_FIT_M: f64 = 0.3;
 /// How often the axes are estimated again, in ns.
 const ESTIMATE_EVERY_NS: i64 = 500_000_000;
 
@@ -202,10 +204,34 @@ impl BuildingAxes {
         self.angle().map(|a| nearest_axis(a, heading))
     }
 
-    /// The direction (modulo 180 degrees) of the straight wall within `radius_m` of `p`
-    /// (odometry), from the cells kept: where a sign on a wall faces.
+    /// The direction (modulo 180 degrees) of the straight wall just behind `p` as seen from
+    /// `from` (both odometry): the first wall the line of sight meets within `reach_m` past
+    /// `p`, from the cells kept. That is the wall a sign at `p` hangs on; a sign on a post
+    /// beside a wall has none behind it (the side wall is met far beyond, if at all).
     #[must_use]
-    pub fn wall_near(&self, p: Vec2, radius_m: f64) -> Option<f64> {
+    pub fn wall_behind(&self, from: Vec2, p: Vec2, reach_m: f64) -> Option<f64> {
+        let seen = p - from;
+        let length = seen.norm();
+        if length.is_nan() || length <= 1e-6 {
+            return None;
+        }
+        let dir = seen * (1.0 / length);
+        // Half-cell steps, each looking at its cell's 3 x 3 block, so that a ray slipping
+        // between two cells of a wall still meets it.
+        let step = CELL_M / 2.0;
+        let steps = (reach_m / step).ceil() as i32;
+        let hit = (0..=steps)
+            .map(|k| p + dir * (f64::from(k) * step))
+            .find(|&q| {
+                let (i, j) = key(q);
+                (i - 1..=i + 1).any(|a| (j - 1..=j + 1).any(|b| self.cells.contains_key(&(a, b))))
+            })?;
+        self.wall_at(hit, WALL_FIT_M)
+    }
+
+    /// The direction (modulo 180 degrees) of the straight wall round `p`: the mean of the
+    /// lines fitted at the cells within `radius_m`.
+    fn wall_at(&self, p: Vec2, radius_m: f64) -> Option<f64> {
         let (ci, cj) = key(p);
         let reach = (radius_m / CELL_M).ceil() as i32;
         let (mut c, mut s, mut n) = (0.0, 0.0, 0);
