@@ -4,3 +4,4 @@
 mod carmen;
 mod carmen_never_panics;
 mod ros2_never_panics;
+mod ros2_type_hash;

@@ -62,6 +62,25 @@ pub fn dds_type_name(type_name: &str) -> Option<String> {
     (word(package) && word(kind) && word(name)).then(|| format!("{package}::{kind}::dds_::{name}_"))
 }
 
+/// The ROS 2 name of a DDS type name (`sensor_msgs::msg::dds_::LaserScan_` is
+/// `sensor_msgs/msg/LaserScan`), for messages; `None` for a type ROS 2 did not name.
+#[must_use]
+pub fn ros_type_name(dds_type: &str) -> Option<String> {
+    let mut parts = dds_type.split("::");
+    let (Some(package), Some(kind), Some("dds_"), Some(name), None) = (
+        parts.next(),
+        parts.next(),
+        parts.next(),
+        parts.next(),
+        parts.next(),
+    ) else {
+        return None;
+    };
+    let name = name.strip_suffix('_')?;
+    let ros = format!("{package}/{kind}/{name}");
+    (dds_type_name(&ros).as_deref() == Some(dds_type)).then_some(ros)
+}
+
 fn with_dependencies(main: &str, dependencies: &[(&str, &str)]) -> String {
     let mut text = main.to_owned();
     for (name, body) in dependencies {
@@ -388,6 +407,13 @@ mod tests {
         assert_eq!(dds_type_name("sensor_msgs/LaserScan"), None);
         assert_eq!(dds_type_name("a/msg/B/c"), None);
         assert_eq!(dds_type_name("a/msg/B c"), None);
+        assert_eq!(
+            ros_type_name("std_msgs::msg::dds_::String_").as_deref(),
+            Some("std_msgs/msg/String")
+        );
+        assert_eq!(ros_type_name("std_msgs::msg::String_"), None);
+        assert_eq!(ros_type_name("std_msgs::msg::dds_::String"), None);
+        assert_eq!(ros_type_name("DDS::String"), None);
     }
 
     #[test]

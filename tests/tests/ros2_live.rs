@@ -12,8 +12,10 @@
 //! - `/scan` stops: the laser gateway goes out of service and the broker moves the avoider
 //!   to the IR ring (decided on `/lewis/broker`) while the base keeps being commanded;
 //!   `/scan` resumes: the avoider moves back;
-//! - `/scan` carries something else under its type name (undecodable samples): counted,
-//!   said once, the same failover and return, no crash;
+//! - `/scan` carries something else under its type name, from a writer that announces
+//!   another type hash than LaserScan's (as Jazzy's writers announce theirs): its samples
+//!   counted and left out, said once, the same failover and return, no crash;
+//! - a writer of another type (std_msgs/String) on `/scan` all along: said once;
 //! - `/scan` floods at ten times its rate: the excess dropped and said once, nobody moved;
 //! - the base gateway killed outright: the broker restarts it and the restarted process
 //!   holds the robot still (a zero twist) before any new command;
@@ -355,9 +357,9 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
             && d.to_service == "laser"
     });
 
-    // A publisher of something else under /scan's type name: every sample is undecodable,
-    // counted and said once, the laser out of service again and the avoider on the IR
-    // ring; never a crash, and back when real scans return.
+    // A publisher of something else under /scan's type name, announcing its own type hash:
+    // every sample is left out, counted and said once, the laser out of service again and
+    // the avoider on the IR ring; never a crash, and back when real scans return.
     peer.send("scan garbage");
     let moved = decisions.wait_for("the avoider moved away from garbage", |d| {
         d.action == "rebind"
@@ -366,7 +368,7 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
             && d.to_service == "ir"
     });
     assert!(
-        moved.reason.contains("undecodable"),
+        moved.reason.contains("type hash differs"),
         "the reason counts the bad samples: {}",
         moved.reason
     );
@@ -378,12 +380,20 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
             && d.to_service == "laser"
     });
     up.drain();
-    let said = up
-        .seen
-        .iter()
-        .filter(|l| l.contains("/scan: undecodable"))
-        .count();
-    assert_eq!(said, 1, "undecodable scans are said once:\n{}", up.log());
+    let said = |what: &str| up.seen.iter().filter(|l| l.contains(what)).count();
+    assert_eq!(
+        said("/scan: type hash differs"),
+        1,
+        "samples of another type hash are said once:\n{}",
+        up.log()
+    );
+    // The stranger's String writer on /scan, never delivered by DDS, is said once.
+    assert_eq!(
+        said("/scan: wrong type: a writer publishes it as std_msgs/msg/String"),
+        1,
+        "a writer of the wrong type is said once:\n{}",
+        up.log()
+    );
 
     // Ten times the rate: the excess is dropped and said once, the laser keeps serving.
     peer.send("scan flood");

@@ -12,7 +12,10 @@ at the rate they were recorded, as /scan, and makes the rest of a TurtleBot 4 fi
 - /ir_intensity (irobot_create_msgs/IrIntensityVector, --ir-rate-hz): the Create 3's seven
   IR sensors, each the intensity `k / d^p` of the laser's range at its bearing (d from the
   bumper, k = 1, p = 2: lewis-ros2's default model), plus noise of a few counts;
-- /hazard_detection (10 Hz, empty: no bump) and /battery_state (1 Hz).
+- /hazard_detection (10 Hz, empty: no bump) and /battery_state (1 Hz);
+- from another participant, all along, a std_msgs/String writer on /scan (the wrong type).
+
+/scan's writer announces LaserScan's type hash in its USER_DATA, as a Jazzy driver does.
 
 The scans' own stamps are kept, shifted by one constant so that they read the present
 time (and, when the file is played again from its start, go on increasing).
@@ -26,7 +29,7 @@ reader exist, {"event": "scan", "mode": "off" | "on" | "garbage" | "flood"} when
 Commands on standard input, one a line: `scan off` (stop publishing /scan: the lidar went
 silent), `scan garbage` (publish, in place of each scan, a message of the same type name
 that is no LaserScan, from a participant of its own), `scan flood` (each scan ten times, with noise),
-`scan on`, `quit`. It ends on `quit`, at the end of its input, or after
+`scan on`, `quit`. The `garbage` writer announces the type hash of its own definition. It ends on `quit`, at the end of its input, or after
 --max-seconds.
 
 Usage:
@@ -60,6 +63,8 @@ from ros2_types import (  # noqa: E402
     Header,
     IrIntensity,
     IrIntensityVector,
+    LASER_SCAN_HASH,
+    NOT_A_LASER_SCAN_HASH,
     LaserScan,
     NotALaserScan,
     Odometry,
@@ -74,6 +79,8 @@ from ros2_types import (  # noqa: E402
     Twist,
     TwistWithCovariance,
     Vector3,
+    WrongType,
+    announcing,
 )
 
 # The Create 3's IR sensors (frame, bearing in degrees), from its /tf_static.
@@ -169,7 +176,9 @@ def main():
     def writer(name, kind, qos):
         return DataWriter(dp, Topic(dp, "rt" + name, kind), qos=qos)
 
-    scan_w = writer("/scan", LaserScan, SENSOR_DATA)
+    # /scan announces its type hash as a Jazzy driver's does (the other topics announce
+    # none, as Humble's do).
+    scan_w = writer("/scan", LaserScan, announcing(SENSOR_DATA, LASER_SCAN_HASH))
     odom_w = writer("/odom", Odometry, SENSOR_DATA)
     tf_w = writer("/tf", TFMessage, DEFAULT)
     tf_static_w = writer("/tf_static", TFMessage, LATCHED)
@@ -177,9 +186,18 @@ def main():
     hazard_w = writer("/hazard_detection", HazardDetectionVector, SENSOR_DATA)
     battery_w = writer("/battery_state", BatteryState, SENSOR_DATA)
     cmd_r = DataReader(dp, Topic(dp, "rt/cmd_vel", Twist), qos=DEFAULT)
-    # Another participant: one may not have one topic name with two types.
+    # Another participant: one may not have one topic name with two types. It announces
+    # the hash of its own definition, as a Jazzy publisher would.
     liar = DomainParticipant(args.domain)
-    garbage_w = DataWriter(liar, Topic(liar, "rt/scan", NotALaserScan), qos=SENSOR_DATA)
+    garbage_w = DataWriter(
+        liar,
+        Topic(liar, "rt/scan", NotALaserScan),
+        qos=announcing(SENSOR_DATA, NOT_A_LASER_SCAN_HASH),
+    )
+    # And one more: a std_msgs/String writer on /scan for the whole session.
+    stranger = DomainParticipant(args.domain)
+    wrong_w = DataWriter(stranger, Topic(stranger, "rt/scan", WrongType), qos=SENSOR_DATA)
+    wrong_w.write(WrongType(data="not a scan"))
 
     start = time.monotonic()
     wall_ns = time.time_ns

@@ -5,6 +5,8 @@ code: the `rosidl` DDS names (`sensor_msgs::msg::dds_::LaserScan_`), fields in .
 TurtleBot 4-shaped session.
 """
 
+import hashlib
+import json
 from dataclasses import dataclass, field
 
 import cyclonedds.idl.annotations as annotate
@@ -197,6 +199,88 @@ class NotALaserScan(IdlStruct, typename="sensor_msgs::msg::dds_::LaserScan_"):
 
     header: Header = field(default_factory=Header)
     value: int16 = 0
+
+
+@dataclass
+@annotate.final
+class WrongType(IdlStruct, typename="std_msgs::msg::dds_::String_"):
+    """Bad input from the network: a std_msgs/String published under a topic name that
+    carries LaserScans elsewhere (DDS never matches it with a LaserScan reader)."""
+
+    data: str = ""
+
+
+def type_hash(type_name, fields, referenced=()):
+    """ROS 2's type hash (REP 2011) of a message, as rosidl computes it on Iron and later:
+    SHA-256 over the JSON of its type description (each field a name, a type id, capacity,
+    string capacity and nested type name), the referenced types sorted by name.
+    `fields` and each referenced `(name, fields)` are `(field name, type id, nested)`."""
+
+    def describe(name, fields):
+        return {
+            "type_name": name,
+            "fields": [
+                {
+                    "name": field_name,
+                    "type": {
+                        "type_id": type_id,
+                        "capacity": 0,
+                        "string_capacity": 0,
+                        "nested_type_name": nested,
+                    },
+                }
+                for field_name, type_id, nested in fields
+            ],
+        }
+
+    description = {
+        "type_description": describe(type_name, fields),
+        "referenced_type_descriptions": [
+            describe(name, f) for name, f in sorted(referenced, key=lambda r: r[0])
+        ],
+    }
+    text = json.dumps(description, separators=(", ", ": "))
+    return "RIHS01_" + hashlib.sha256(text.encode()).hexdigest()
+
+
+# rosidl's field type ids.
+NESTED, INT16, INT32, UINT32, FLOAT32, STRING, FLOAT32_SEQUENCE = 1, 4, 6, 7, 10, 17, 154
+HEADER_TYPES = [
+    ("builtin_interfaces/msg/Time", [("sec", INT32, ""), ("nanosec", UINT32, "")]),
+    (
+        "std_msgs/msg/Header",
+        [("stamp", NESTED, "builtin_interfaces/msg/Time"), ("frame_id", STRING, "")],
+    ),
+]
+HEADER_FIELD = ("header", NESTED, "std_msgs/msg/Header")
+# sensor_msgs/msg/LaserScan's hash, which a Jazzy publisher of /scan announces.
+LASER_SCAN_HASH = type_hash(
+    "sensor_msgs/msg/LaserScan",
+    [HEADER_FIELD]
+    + [
+        (name, FLOAT32, "")
+        for name in (
+            "angle_min",
+            "angle_max",
+            "angle_increment",
+            "time_increment",
+            "scan_time",
+            "range_min",
+            "range_max",
+        )
+    ]
+    + [("ranges", FLOAT32_SEQUENCE, ""), ("intensities", FLOAT32_SEQUENCE, "")],
+    HEADER_TYPES,
+)
+# NotALaserScan's hash: what a Jazzy publisher of that other definition announces.
+NOT_A_LASER_SCAN_HASH = type_hash(
+    "sensor_msgs/msg/LaserScan", [HEADER_FIELD, ("value", INT16, "")], HEADER_TYPES
+)
+
+
+def announcing(qos, hash_):
+    """`qos` with the type hash in USER_DATA, as rmw_dds_common puts it there."""
+    return Qos(*qos, Policy.Userdata(data=f"typehash={hash_};".encode()))
 
 
 # The QoS profiles of rclcpp, as rmw_cyclonedds sets them, with plain CDR (XCDR1).

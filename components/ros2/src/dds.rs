@@ -23,7 +23,7 @@ use rustdds::no_key::{
 };
 use rustdds::policy::{Durability, History, Reliability};
 use rustdds::{
-    DomainParticipant, DomainParticipantBuilder, QosPolicies, QosPolicyBuilder,
+    DomainParticipant, DomainParticipantBuilder, GUID, QosPolicies, QosPolicyBuilder,
     RepresentationIdentifier, TopicKind,
 };
 
@@ -224,6 +224,22 @@ impl Participant {
             .map_err(|e| format!("cannot read DDS topic {topic}: {e}"))
     }
 
+    /// Every writer discovered on `topic` (its DDS name), of any type: ours do not match a
+    /// writer of another type name, so only discovery shows it.
+    #[must_use]
+    pub fn writers_on(&self, topic: &str) -> Vec<SeenWriter> {
+        self.participant
+            .discovered_writers()
+            .into_iter()
+            .filter(|w| w.publication_topic_data.topic_name == topic)
+            .map(|w| SeenWriter {
+                guid: w.publication_topic_data.key,
+                dds_type: w.publication_topic_data.type_name.clone(),
+                type_hash: type_hash_in(&w.user_data),
+            })
+            .collect()
+    }
+
     /// A writer of `topic` (its DDS name) of type `dds_type`.
     ///
     /// # Errors
@@ -241,11 +257,44 @@ impl Participant {
     }
 }
 
-/// A sample taken from one of the [`Readers`]: which reader, and its bytes.
+/// A writer another participant announced, as discovery saw it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SeenWriter {
+    /// Its endpoint GUID (a sample's [`Taken::writer`]).
+    pub guid: GUID,
+    /// The type it writes, as DDS names it (`sensor_msgs::msg::dds_::LaserScan_`).
+    pub dds_type: String,
+    /// The ROS 2 type hash it announced (`RIHS01_...`): Iron and later put
+    /// `typehash=RIHS01_...;` in every endpoint's USER_DATA; Humble announces none.
+    pub type_hash: Option<String>,
+}
+
+/// The type hash in an endpoint's USER_DATA (`key=value;` pairs, as `rmw_dds_common` writes
+/// them), if it has one. rustdds hands the parameter's value as it came, the octet
+/// sequence's length and padding included, so the pair is looked for in the bytes.
+#[must_use]
+pub fn type_hash_in(user_data: &[u8]) -> Option<String> {
+    const KEY: &[u8] = b"typehash=";
+    let start = user_data
+        .windows(KEY.len())
+        .position(|window| window == KEY)?
+        + KEY.len();
+    let hash: String = user_data[start..]
+        .iter()
+        .take_while(|b| b.is_ascii_alphanumeric() || **b == b'_')
+        .map(|&b| char::from(b))
+        .collect();
+    (!hash.is_empty()).then_some(hash)
+}
+
+/// A sample taken from one of the [`Readers`]: which reader, from which writer, and its
+/// bytes.
 #[derive(Debug)]
 pub struct Taken {
     /// The reader's index, in the order they were added.
     pub reader: usize,
+    /// The writer that sent it.
+    pub writer: GUID,
     /// The bytes.
     pub sample: RawCdr,
 }
@@ -304,6 +353,7 @@ impl Readers {
                 match reader.take_next_sample() {
                     Ok(Some(sample)) => out.push(Taken {
                         reader: index,
+                        writer: sample.sample_info().writer_guid(),
                         sample: sample.into_value(),
                     }),
                     Ok(None) | Err(_) => break,
@@ -332,6 +382,31 @@ mod tests {
             dds_topic("robot1/", "/oakd/rgb/image"),
             "rt/robot1/oakd/rgb/image"
         );
+    }
+
+    #[test]
+    fn the_type_hash_is_read_from_user_data() {
+        let hash = "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828";
+        assert_eq!(
+            type_hash_in(format!("typehash={hash};").as_bytes()).as_deref(),
+            Some(hash)
+        );
+        assert_eq!(
+            type_hash_in(format!("enclave=/;typehash={hash};").as_bytes()).as_deref(),
+            Some(hash)
+        );
+        // As rustdds hands it: the sequence's length first, padding after.
+        let mut framed = u32::try_from(hash.len() + 10)
+            .unwrap()
+            .to_le_bytes()
+            .to_vec();
+        framed.extend_from_slice(format!("typehash={hash};").as_bytes());
+        framed.extend_from_slice(&[0, 0]);
+        assert_eq!(type_hash_in(&framed).as_deref(), Some(hash));
+        assert_eq!(type_hash_in(b""), None);
+        assert_eq!(type_hash_in(b"enclave=/;"), None);
+        assert_eq!(type_hash_in(b"typehash=;"), None);
+        assert_eq!(type_hash_in(&[0xff, 0xfe]), None);
     }
 
     #[test]

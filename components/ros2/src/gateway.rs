@@ -7,14 +7,15 @@ use std::net::IpAddr;
 use std::os::fd::BorrowedFd;
 use std::time::{Duration, Instant};
 
-use lewis_interfaces::dynamic::{Decoder, Value};
+use lewis_interfaces::dynamic::{Decoder, MessageSchema, Value, type_hash};
 use lewis_ros2_map::from_ros2::stamp_ns;
-use lewis_ros2_map::robot::{dds_type_name, schema_texts};
+use lewis_ros2_map::robot::{dds_type_name, ros_type_name, schema_texts};
 use lewis_service::{Context, Health};
 use serde::Deserialize;
 
-use crate::dds::{MAX_DOMAIN_ID, Participant, RawCdr, Readers, Taken, dds_topic};
+use crate::dds::{MAX_DOMAIN_ID, Participant, RawCdr, Readers, SeenWriter, Taken, dds_topic};
 use lewis_ros2_map::qos::QosProfile;
+use rustdds::GUID;
 
 /// The variable ROS 2 reads its domain from.
 pub const DOMAIN_ENV: &str = "ROS_DOMAIN_ID";
@@ -117,6 +118,9 @@ pub struct Intake {
     pub topic: String,
     type_name: String,
     decoders: Vec<Decoder>,
+    /// The type hash of each definition Lewis reads the type with (the distributions'
+    /// definitions differ for some types: each has its hash).
+    type_hashes: Vec<String>,
     /// Bad samples by what was wrong.
     pub bad: BTreeMap<&'static str, u64>,
     /// Good samples.
@@ -126,10 +130,13 @@ pub struct Intake {
 
 impl Intake {
     fn new(topic: &str, type_name: &str) -> Result<Self, String> {
-        let decoders = schema_texts(type_name)
-            .iter()
-            .map(|text| Decoder::new(type_name, text).map_err(|e| e.to_string()))
-            .collect::<Result<Vec<_>, _>>()?;
+        let mut decoders = Vec::new();
+        let mut type_hashes = Vec::new();
+        for text in schema_texts(type_name) {
+            let schema = MessageSchema::parse(type_name, &text).map_err(|e| e.to_string())?;
+            type_hashes.extend(type_hash(&schema));
+            decoders.push(Decoder::from_schema(&schema).map_err(|e| e.to_string())?);
+        }
         if decoders.is_empty() {
             return Err(format!("no schema of {type_name} is known"));
         }
@@ -137,6 +144,7 @@ impl Intake {
             topic: topic.to_owned(),
             type_name: type_name.to_owned(),
             decoders,
+            type_hashes,
             bad: BTreeMap::new(),
             good: 0,
             last_stamp_ns: None,
@@ -228,6 +236,10 @@ pub struct Gateway {
     pub intakes: Vec<Intake>,
     namespace: String,
     taken: Vec<Taken>,
+    /// What each writer seen on a topic of ours is, by its GUID.
+    writers: BTreeMap<GUID, Writer>,
+    /// When discovery was last looked through for writers of the wrong type.
+    writers_checked: Option<Instant>,
     /// The participant (writers are made from it; drop them before the gateway).
     pub participant: Participant,
 }
@@ -258,6 +270,8 @@ impl Gateway {
             intakes,
             namespace: link.namespace.clone(),
             taken: Vec::new(),
+            writers: BTreeMap::new(),
+            writers_checked: None,
         })
     }
 
@@ -274,18 +288,58 @@ impl Gateway {
     }
 
     /// Every sample waiting, decoded (bad ones counted and left out): `(reader, value)`.
+    /// A sample from a writer that announced another type hash than the type Lewis reads
+    /// is left out too (the same bytes would be read as other fields); writers of another
+    /// type name, which DDS never matches with ours, are said from discovery.
     pub fn take(&mut self, ctx: &mut Context<'_>) -> Vec<(usize, Value)> {
+        if self
+            .writers_checked
+            .is_none_or(|at| at.elapsed() >= WRITERS_CHECK_EVERY)
+        {
+            self.check_writers(ctx);
+        }
         self.taken.clear();
         self.readers.drain(DRAIN_LIMIT, &mut self.taken);
         let mut values = Vec::with_capacity(self.taken.len());
-        for taken in self.taken.drain(..) {
-            if let Some(intake) = self.intakes.get_mut(taken.reader)
-                && let Some(value) = intake.decode(ctx, &taken.sample)
-            {
-                values.push((taken.reader, value));
+        let mut taken = std::mem::take(&mut self.taken);
+        for sample in taken.drain(..) {
+            if !self.writers.contains_key(&sample.writer) {
+                // Matched before this process looked: discovery has it by now.
+                self.check_writers(ctx);
+            }
+            let Some(intake) = self.intakes.get_mut(sample.reader) else {
+                continue;
+            };
+            if let Some(Writer::HashDiffers(detail)) = self.writers.get(&sample.writer) {
+                intake.bad(ctx, "type hash differs", detail);
+                continue;
+            }
+            if let Some(value) = intake.decode(ctx, &sample.sample) {
+                values.push((sample.reader, value));
             }
         }
+        self.taken = taken;
         values
+    }
+
+    /// Judges every writer discovery shows on the topics read that was not judged yet:
+    /// another type name (counted once, as `wrong type`), or the type's name with another
+    /// hash (its samples are counted as they come).
+    fn check_writers(&mut self, ctx: &mut Context<'_>) {
+        self.writers_checked = Some(Instant::now());
+        for intake in &mut self.intakes {
+            let topic = dds_topic(&self.namespace, &intake.topic);
+            for seen in self.participant.writers_on(&topic) {
+                if self.writers.contains_key(&seen.guid) {
+                    continue;
+                }
+                let writer = judge(intake, &seen);
+                if let Writer::WrongType(detail) = &writer {
+                    intake.bad(ctx, "wrong type", detail);
+                }
+                self.writers.insert(seen.guid, writer);
+            }
+        }
     }
 
     /// Blocks (at most `limit`) until reader `reader` has a good sample; returns every
@@ -315,6 +369,43 @@ impl Gateway {
             let wait_ms = u16::try_from(left.as_millis().min(100)).unwrap_or(100);
             let _ = nix::poll::poll(&mut fds, wait_ms);
         }
+    }
+}
+
+/// How often discovery is looked through for writers of the wrong type.
+const WRITERS_CHECK_EVERY: Duration = Duration::from_secs(1);
+
+/// What a writer on a topic of ours is.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Writer {
+    /// Of the type read, with its hash or none announced (Humble announces none).
+    Trusted,
+    /// Of the type's name but another hash: why, to say.
+    HashDiffers(String),
+    /// Of another type name: why, to say.
+    WrongType(String),
+}
+
+/// What `seen`, a writer on `intake`'s topic, is.
+fn judge(intake: &Intake, seen: &SeenWriter) -> Writer {
+    let ours = dds_type_name(&intake.type_name).unwrap_or_default();
+    if seen.dds_type != ours {
+        let theirs = ros_type_name(&seen.dds_type).unwrap_or_else(|| seen.dds_type.clone());
+        return Writer::WrongType(format!(
+            "a writer publishes it as {theirs}, not {}: DDS never delivers its samples",
+            intake.type_name
+        ));
+    }
+    match &seen.type_hash {
+        Some(hash) if !intake.type_hashes.iter().any(|ours| ours == hash) => {
+            Writer::HashDiffers(format!(
+                "a writer announces {} with type hash {hash}, which is none of the \
+                 definitions Lewis reads it with ({}): its samples are not read",
+                intake.type_name,
+                intake.type_hashes.join(", ")
+            ))
+        }
+        _ => Writer::Trusted,
     }
 }
 
@@ -404,6 +495,31 @@ mod tests {
             ranges: vec![1.0, 2.0, 3.0, 4.0, 5.0],
             intensities: vec![],
         })
+    }
+
+    #[test]
+    fn writers_of_another_type_or_type_hash_are_told_apart() {
+        let intake = Intake::new("/scan", LASER_SCAN).unwrap();
+        let writer = |dds_type: &str, type_hash: Option<&str>| SeenWriter {
+            guid: GUID::GUID_UNKNOWN,
+            dds_type: dds_type.to_owned(),
+            type_hash: type_hash.map(str::to_owned),
+        };
+        let laser = "sensor_msgs::msg::dds_::LaserScan_";
+        // Humble announces no hash; Jazzy announces the LaserScan's.
+        assert_eq!(judge(&intake, &writer(laser, None)), Writer::Trusted);
+        let jazzy = "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828";
+        assert_eq!(judge(&intake, &writer(laser, Some(jazzy))), Writer::Trusted);
+        let other = "RIHS01_00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff";
+        let Writer::HashDiffers(why) = judge(&intake, &writer(laser, Some(other))) else {
+            panic!("another hash is not the LaserScan Lewis reads");
+        };
+        assert!(why.contains(other) && why.contains(jazzy), "{why}");
+        let Writer::WrongType(why) = judge(&intake, &writer("std_msgs::msg::dds_::String_", None))
+        else {
+            panic!("a String on /scan is the wrong type");
+        };
+        assert!(why.contains("std_msgs/msg/String"), "{why}");
     }
 
     #[test]

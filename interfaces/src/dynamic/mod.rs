@@ -30,6 +30,7 @@ mod error;
 mod literal;
 mod plan;
 mod schema;
+mod type_hash;
 mod types;
 mod value;
 
@@ -40,6 +41,7 @@ pub use diff::{CompareOptions, LargestDifference};
 pub use error::{DecodeError, DecodeErrorKind, SchemaError, SchemaErrorKind};
 pub use plan::{Decoder, MAX_NESTING_DEPTH};
 pub use schema::MessageSchema;
+pub use type_hash::type_hash;
 pub use types::{
     ArrayKind, BaseType, ConstantDef, FieldDef, FieldType, MessageDefinition, Primitive, TypeName,
 };
