@@ -20,7 +20,9 @@
 //! - the base gateway killed outright: the broker restarts it and the restarted process
 //!   holds the robot still (a zero twist) before any new command;
 //! - `lewis up` stopped: the last twist the peer receives is zero; its recording replays
-//!   with `lewis replay --check` (the gateways fed from it, the avoider run again).
+//!   with `lewis replay --check` (the gateways fed from it, the avoider run again), and
+//!   with the lidar's death injected gives the same bytes twice, whatever the output is
+//!   called.
 //!
 //! Isolation: everything DDS runs in a network namespace of its own with only a loopback
 //! device (no packet leaves it, parallel tests never meet), in a DDS domain of its own too.
@@ -485,4 +487,23 @@ fn a_ros2_robot_is_driven_over_dds_and_its_lidar_fails_over_to_the_ir_ring() {
         let copied = std::fs::copy(&recording, &kept).map(|_| kept.display().to_string());
         panic!("{replay}\nthe recording, kept: {copied:?}");
     }
+
+    // The lidar's death injected into the live session's recording, twice into files of
+    // other names: the same bytes (the avoider re-run on the IR ring, open loop).
+    let faulted = |name: &str| {
+        let out = up.path(name);
+        let _ = lewis_testkit::run_ok(
+            Command::new(&lewis)
+                .arg("replay")
+                .arg(&recording)
+                .args(["--inject-fault", "laser@10s", "-o"])
+                .arg(&out)
+                .current_dir(up.path("")),
+        );
+        std::fs::read(&out).unwrap()
+    };
+    assert!(
+        faulted("faulted.mcap") == faulted("again-with-another-name.mcap"),
+        "two replays of the live session with the laser dead at 10 s differ"
+    );
 }
