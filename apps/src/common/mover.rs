@@ -1,7 +1,10 @@
 //! The Mover client every moving program uses: it sends the program's latest wish (a goal,
 //! a rotation, a stop) to whichever provider serves Mover now, keeps the goal id it got,
 //! and sends it again when the broker moved Mover to another provider or the provider no
-//! longer pursues it (it restarted). A goal the Mover has been blocked on for 3 s is sent
+//! longer pursues it before it was done (it restarted, or another client of the same
+//! provider, such as a restarted obstacle avoider stopping it, took its place: a rotation
+//! is then sent again whole, which beats waiting for it for ever). A motion once seen done
+//! stays done. A goal the Mover has been blocked on for 3 s is sent
 //! again as a new goal: the obstacle avoider holds a goal it made no progress on, and a
 //! person who walked by and left the way free would otherwise hold the robot for good.
 //! Time comes from the context only.
@@ -37,6 +40,8 @@ struct Sent {
     provider: String,
     goal_id: i32,
     replied_ns: i64,
+    /// Whether the provider said it had arrived with it.
+    arrived: bool,
 }
 
 /// The program's side of the Mover (see the module documentation).
@@ -124,12 +129,20 @@ impl MoverClient {
 
     /// A Mover sample from `provider`: sends the motion again when it is no longer pursued.
     pub fn on_status(&mut self, ctx: &mut Context<'_>, provider: &str, status: Mover) {
-        let resend = match (&self.sent, self.wanted) {
-            (Some(sent), Some(motion)) if sent.generation == self.generation => {
+        let generation = self.generation;
+        let resend = match (&mut self.sent, self.wanted) {
+            (Some(sent), Some(motion)) if sent.generation == generation => {
+                let newer = status.header.publish_time_ns >= sent.replied_ns;
                 if sent.provider != provider {
-                    true
+                    // A motion done is not done again by the next provider (a rotation
+                    // would turn again); a stop is said to it all the same.
+                    !sent.arrived || matches!(motion, Motion::Stop)
+                } else if newer && status.goal_id == sent.goal_id {
+                    sent.arrived |= status.status.parse() == Ok(MoverStatus::Arrived);
+                    false
                 } else {
-                    matches!(motion, Motion::Goto(_))
+                    !matches!(motion, Motion::Stop)
+                        && !sent.arrived
                         && status.header.publish_time_ns > sent.replied_ns
                         && status.goal_id != sent.goal_id
                 }
@@ -170,6 +183,7 @@ impl MoverClient {
                     provider,
                     goal_id,
                     replied_ns,
+                    arrived: false,
                 });
                 if generation != self.generation {
                     self.send(ctx);
@@ -218,7 +232,10 @@ impl MoverClient {
     /// Whether the motion asked for last is done.
     #[must_use]
     pub fn arrived(&self) -> bool {
-        self.state() == Some(MoverStatus::Arrived)
+        self.sent
+            .as_ref()
+            .is_some_and(|sent| sent.generation == self.generation && sent.arrived)
+            || self.state() == Some(MoverStatus::Arrived)
     }
 
     /// The latest Mover sample.
