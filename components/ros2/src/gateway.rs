@@ -304,8 +304,11 @@ impl Gateway {
         let mut taken = std::mem::take(&mut self.taken);
         for sample in taken.drain(..) {
             if !self.writers.contains_key(&sample.writer) {
-                // Matched before this process looked: discovery has it by now.
+                // Matched before this process looked: discovery has it by now. Once looked
+                // for, a writer discovery does not show is trusted (and not looked for
+                // again at every sample).
                 self.check_writers(ctx);
+                self.writers.entry(sample.writer).or_insert(Writer::Trusted);
             }
             let Some(intake) = self.intakes.get_mut(sample.reader) else {
                 continue;
