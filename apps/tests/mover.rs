@@ -11,18 +11,29 @@ use lewis_testkit::scene::calls_of;
 
 use crate::support::{S, scene, sim_robot};
 
-/// Asks once for a point 3 m ahead (odometry), and keeps its client ticking.
-struct IntoTheWall {
+/// A program that asks its Mover client for one motion at its start, then keeps the client
+/// fed (statuses, replies) and ticking.
+struct Asking {
     mover: MoverClient,
+    ask: fn(&mut MoverClient, &mut Context<'_>),
 }
 
-impl Service for IntoTheWall {
+impl Asking {
+    fn new(ask: fn(&mut MoverClient, &mut Context<'_>)) -> Self {
+        Self {
+            mover: MoverClient::default(),
+            ask,
+        }
+    }
+}
+
+impl Service for Asking {
     fn tick_period_ns(&self) -> Option<i64> {
         Some(100_000_000)
     }
 
     fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.mover.goto(ctx, Vec2::new(3.0, 0.0));
+        (self.ask)(&mut self.mover, ctx);
         Ok(())
     }
 
@@ -46,9 +57,10 @@ fn a_goal_the_avoider_is_blocked_on_is_sent_again_after_3_s() {
     // 2.5 m east of the lobby's west wall, facing it: the goal 3 m ahead is inside it.
     let robot = sim_robot((3.0, 12.5, 180.0), (320, 240));
     let services = ["base", "laser", "vector_mover", "obstacle_avoider"];
-    let program = Box::new(IntoTheWall {
-        mover: MoverClient::default(),
-    });
+    // A point 3 m ahead (odometry).
+    let program = Box::new(Asking::new(|mover, ctx| {
+        mover.goto(ctx, Vec2::new(3.0, 0.0));
+    }));
     let mut scene = scene(&robot, &services, "wall", program, &["Mover"]);
     scene.tap("Mover");
     scene.run_until(60 * S, |_| false);
@@ -72,28 +84,6 @@ fn a_goal_the_avoider_is_blocked_on_is_sent_again_after_3_s() {
     );
 }
 
-/// Turns 45 degrees at its start; keeps its client.
-struct Turner {
-    mover: MoverClient,
-}
-
-impl Service for Turner {
-    fn on_start(&mut self, ctx: &mut Context<'_>) -> Result<(), String> {
-        self.mover.rotate(ctx, std::f64::consts::FRAC_PI_4);
-        Ok(())
-    }
-
-    fn on_input(&mut self, ctx: &mut Context<'_>, input: &Input<'_>) {
-        if let Ok(status) = input.decode::<Mover>() {
-            self.mover.on_status(ctx, input.provider, status);
-        }
-    }
-
-    fn on_reply(&mut self, ctx: &mut Context<'_>, reply: &ReplyEvent<'_>) {
-        self.mover.on_reply(ctx, reply);
-    }
-}
-
 /// The vector mover's status at `at_ns`: goal `goal_id`, `status`.
 fn status(at_ns: i64, goal_id: i32, status: &str) -> Mover {
     let mut mover = Mover {
@@ -108,13 +98,9 @@ fn status(at_ns: i64, goal_id: i32, status: &str) -> Mover {
 
 /// A turner whose rotation the vector mover took as goal 8 at 1 s.
 fn turning() -> Harness {
-    let mut turner = Harness::from_service(
-        "turner",
-        Box::new(Turner {
-            mover: MoverClient::default(),
-        }),
-        1,
-    );
+    // 45 degrees.
+    let turn = Asking::new(|mover, ctx| mover.rotate(ctx, std::f64::consts::FRAC_PI_4));
+    let mut turner = Harness::from_service("turner", Box::new(turn), 1);
     if let Err(e) = turner.start(0) {
         panic!("the turner starts: {e}");
     }
